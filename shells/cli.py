@@ -1,0 +1,270 @@
+"""Command-line interface: ``shells <subcommand>``; ``main(argv=None) -> int``.
+
+Conventions for every analysis subcommand: human-readable output on rank 0 only; with ``--json``
+the last line of stdout is one JSON object; bad input is one line on stderr and exit status 2,
+never a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import math
+import sys
+from typing import Any, Callable, Sequence
+
+from shells import __version__
+from shells.errors import InputError
+
+__all__ = ["main"]
+
+log = logging.getLogger("shells")
+
+
+class _Parser(argparse.ArgumentParser):
+    """ArgumentParser whose usage errors are a single line on stderr (exit 2)."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        raise InputError(f"{self.prog}: {message} (see {self.prog} --help)")
+
+
+def _rank() -> int:
+    try:
+        from mpi4py import MPI
+
+        return MPI.COMM_WORLD.rank
+    except ImportError:  # pragma: no cover - the stack always has mpi4py
+        return 0
+
+
+def _setup_logging(verbose: bool) -> None:
+    """Progress and logs go to stderr on rank 0 only."""
+    handler: logging.Handler = logging.StreamHandler(sys.stderr)
+    if _rank() != 0:
+        handler = logging.NullHandler()
+    logging.basicConfig(format="%(message)s", handlers=[handler], force=True)
+    log.setLevel(logging.DEBUG if verbose else logging.INFO)
+
+
+def emit(result: dict[str, Any], args: argparse.Namespace, human: Callable[[], None]) -> None:
+    """Print a result on rank 0: the human summary, then (with --json) the JSON last line."""
+    if _rank() != 0:
+        return
+    if not getattr(args, "json", False):
+        human()
+    else:
+        print(json.dumps(result, default=_json_default), flush=True)
+
+
+def _json_default(o: Any) -> Any:
+    try:
+        import numpy as np
+
+        if isinstance(o, np.generic):
+            return o.item()
+        if isinstance(o, np.ndarray):
+            return o.tolist()
+    except ImportError:  # pragma: no cover
+        pass
+    raise TypeError(f"not JSON serialisable: {type(o).__name__}")
+
+
+def _positive_float(name: str) -> Callable[[str], float]:
+    def conv(text: str) -> float:
+        try:
+            v = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} must be a number, got {text!r}") from None
+        if not (math.isfinite(v) and v > 0):
+            raise argparse.ArgumentTypeError(f"{name} must be positive, got {text}")
+        return v
+
+    return conv
+
+
+def _add_shape_args(p: argparse.ArgumentParser, positional: bool) -> None:
+    from shells.geometry import SHAPES
+
+    if positional:
+        p.add_argument("shape", metavar="SHAPE", help=f"one of: {', '.join(SHAPES)}")
+    else:
+        p.add_argument("--shape", required=True, help=f"one of: {', '.join(SHAPES)}")
+    p.add_argument("--radius", type=_positive_float("radius"), default=1.0,
+                   help="sphere/cap radius R, ellipsoid semi-axes r1 = r2, disk radius (default 1)")
+    p.add_argument("--theta-deg", type=float, default=None,
+                   help="half opening angle theta from the pole to the rim, degrees (0, 180]")
+    p.add_argument("--r3", type=_positive_float("r3"), default=None,
+                   help="ellipsoid semi-axis along the symmetry axis (default 1.5 R)")
+
+
+def _shape_from_args(args: argparse.Namespace):
+    from shells.geometry import make_shape
+
+    theta = None
+    if args.theta_deg is not None:
+        if not math.isfinite(args.theta_deg) or not 0 < args.theta_deg <= 180:
+            raise InputError(f"--theta-deg must lie in (0, 180], got {args.theta_deg:g}")
+        theta = math.radians(args.theta_deg)
+    return make_shape(args.shape, radius=args.radius, theta=theta, r3=args.r3)
+
+
+# --------------------------------------------------------------------------------------------
+# shells mesh
+# --------------------------------------------------------------------------------------------
+def _cmd_mesh(args: argparse.Namespace) -> int:
+    from mpi4py import MPI
+
+    from shells.mesh import MeshSpec, generate, load_mesh
+
+    if args.spec is not None:
+        spec = _load_spec(args.spec)
+    else:
+        if args.shape is None:
+            raise InputError("shells mesh: give a SHAPE or --spec FILE")
+        shape = _shape_from_args(args)
+        h = None if args.h_over_r is None else args.h_over_r * shape.characteristic_size()
+        spec = MeshSpec(shape, h=h, size=args.size, layer_elements=args.layer_elements,
+                        order=args.order)
+    if args.output is not None and not str(args.output).endswith(".msh"):
+        raise InputError(f"-o must name a gmsh .msh file, got {args.output!r}")
+    log.info("meshing %s ...", spec.shape.describe())
+    sm = generate(spec, MPI.COMM_WORLD, msh_path=args.output)
+    if args.output is not None:
+        sm = load_mesh(args.output, MPI.COMM_WORLD)  # prove the file reads back
+    summary = sm.summary()
+    summary["file"] = args.output
+    if args.png:
+        from shells.render import render_mesh
+
+        render_mesh(sm, args.png)
+        summary["png"] = args.png
+
+    def human() -> None:
+        print(f"{spec.shape.kind}: {summary['cells']} cells, {summary['nodes']} nodes "
+              f"(order {spec.order})")
+        print(f"  area   {summary['area']:.10g}  exact {summary['area_exact']:.10g}  "
+              f"rel. error {summary['area_rel_error']:.2e}")
+        if summary.get("rim_length_exact"):
+            print(f"  rim    {summary['rim_length']:.10g}  exact {summary['rim_length_exact']:.10g}"
+                  f"  rel. error {summary['rim_rel_error']:.2e}")
+        if args.output:
+            print(f"  wrote {args.output} (+ {args.output}.json)")
+        if args.png:
+            print(f"  wrote {args.png}")
+
+    emit(summary, args, human)
+    return 0
+
+
+def _load_spec(path: str):
+    from pathlib import Path
+
+    from shells.mesh import MeshSpec
+
+    p = Path(path)
+    if not p.is_file():
+        raise InputError(f"mesh parameter file not found: {path!r}")
+    try:
+        d = json.loads(p.read_text())
+        return MeshSpec.from_description(d.get("spec", d))
+    except (json.JSONDecodeError, KeyError, TypeError) as e:
+        raise InputError(f"{path!r} is not a valid mesh parameter file: {e}") from None
+
+
+# --------------------------------------------------------------------------------------------
+# shells info / render
+# --------------------------------------------------------------------------------------------
+def _cmd_info(args: argparse.Namespace) -> int:
+    from mpi4py import MPI
+
+    from shells.mesh import load_mesh
+
+    sm = load_mesh(args.mesh, MPI.COMM_WORLD)
+    summary = sm.summary()
+    summary["file"] = args.mesh
+
+    def human() -> None:
+        for k, v in summary.items():
+            print(f"{k:18s} {v}")
+
+    emit(summary, args, human)
+    return 0
+
+
+def _cmd_render(args: argparse.Namespace) -> int:
+    from mpi4py import MPI
+
+    from shells.mesh import load_mesh
+    from shells.render import render_mesh
+
+    sm = load_mesh(args.mesh, MPI.COMM_WORLD)
+    render_mesh(sm, args.output)
+    emit({"png": args.output}, args, lambda: print(f"wrote {args.output}"))
+    return 0
+
+
+def _build_parser() -> argparse.ArgumentParser:
+    p = _Parser(prog="shells", description="Thin elastic shells with natural curvature "
+                "(FEniCSx): meshes, branches, buckling and snap-through.")
+    p.add_argument("--version", action="version", version=f"shells {__version__}")
+    p.add_argument("-v", "--verbose", action="store_true", help="more log output (rank 0)")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+
+    m = sub.add_parser("mesh", help="mesh a sphere, cap, ellipsoidal cap or disk with gmsh",
+                       description="Mesh a shape with gmsh (second-order geometry, refined in the "
+                       "rim boundary layer of width sqrt(R h)) and report area and rim errors.")
+    m.add_argument("shape", metavar="SHAPE", nargs="?", help="sphere, cap, ellipsoid or disk")
+    m.add_argument("--radius", type=_positive_float("radius"), default=1.0,
+                   help="R (sphere, cap), r1 = r2 (ellipsoid), disk radius (default 1)")
+    m.add_argument("--theta-deg", type=float, default=None,
+                   help="half opening angle, pole to rim, in degrees (0, 180]")
+    m.add_argument("--r3", type=_positive_float("r3"), default=None,
+                   help="ellipsoid semi-axis along z (default 1.5 R)")
+    m.add_argument("--h-over-r", type=_positive_float("h/R"), default=None,
+                   help="thickness h/R: refines the rim layer of width sqrt(R h)")
+    m.add_argument("--size", type=_positive_float("size"), default=0.1,
+                   help="bulk element size relative to R (default 0.1)")
+    m.add_argument("--layer-elements", type=_positive_float("layer-elements"), default=4.0,
+                   help="elements across sqrt(R h) at the rim (default 4)")
+    m.add_argument("--order", type=int, default=2, choices=(1, 2), help="geometric order")
+    m.add_argument("--spec", default=None, help="read the parameters from a JSON file (meshes/)")
+    m.add_argument("-o", "--output", default=None, help="write a gmsh .msh file (+ .msh.json)")
+    m.add_argument("--png", default=None, help="render the mesh to a PNG")
+    m.add_argument("--json", action="store_true", help="print a JSON object as the last line")
+    m.set_defaults(func=_cmd_mesh)
+
+    i = sub.add_parser("info", help="read a .msh file and report its size, area, rim")
+    i.add_argument("mesh", help="gmsh .msh file")
+    i.add_argument("--json", action="store_true", help="print a JSON object as the last line")
+    i.set_defaults(func=_cmd_info)
+
+    r = sub.add_parser("render", help="render a .msh surface to PNG (off-screen)")
+    r.add_argument("mesh", help="gmsh .msh file")
+    r.add_argument("-o", "--output", required=True, help="PNG file")
+    r.add_argument("--json", action="store_true", help="print a JSON object as the last line")
+    r.set_defaults(func=_cmd_render)
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the CLI; returns the exit status (0 ok, 2 bad input, 1 failure)."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    parser = _build_parser()
+    try:
+        args = parser.parse_args(argv)
+        _setup_logging(args.verbose)
+        if args.command is None:
+            if _rank() == 0:
+                parser.print_help()
+            return 0
+        return int(args.func(args) or 0)
+    except InputError as e:
+        msg = str(e)
+        if _rank() == 0:
+            print(msg if msg.startswith("shells") else f"shells: error: {msg}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        if _rank() == 0:
+            print("shells: interrupted", file=sys.stderr)
+        return 130

@@ -1,0 +1,352 @@
+"""Analytic shell geometries: sphere, spherical cap, ellipsoidal cap and flat disk.
+
+Each shape is a frozen, validated dataclass that knows its exact reference quantities (area, rim
+length), its meridian parametrisation (for the axisymmetric model) and its outward unit normal and
+second fundamental form, both as NumPy functions of points and as UFL expressions of the spatial
+coordinate (for the surface model). All shapes are surfaces of revolution about the z axis with the
+pole at the top, ``t`` being the meridian parameter measured from the pole:
+
+* sphere / spherical cap of radius ``R``: x = R (sin t cos phi, sin t sin phi, cos t), t in [0, theta]
+* ellipsoidal cap, semi-axes (R, R, r3): x = (R sin t cos phi, R sin t sin phi, r3 cos t)
+* disk of radius ``radius``: x = (t cos phi, t sin phi, 0), t in [0, radius]
+
+Sign convention (the paper's): the normal points outward (+z at the pole) and
+b_ab = n . a_{a,b}, so that a sphere has b0 = -a0 / R.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from scipy import integrate
+
+from shells.errors import InputError
+
+__all__ = ["Shape", "Sphere", "SphericalCap", "EllipsoidalCap", "Disk", "make_shape", "SHAPES"]
+
+
+def _positive(name: str, value: float) -> None:
+    if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+        raise InputError(f"{name} must be a positive number, got {value!r}")
+
+
+def _check_theta(theta: float) -> None:
+    if not (isinstance(theta, (int, float)) and math.isfinite(theta)):
+        raise InputError(f"theta must be a number, got {theta!r}")
+    if not 0.0 < theta <= math.pi * (1 + 1e-12):
+        raise InputError(
+            f"theta must lie in (0, pi] (0 to 180 degrees), got {theta:.6g} rad "
+            f"= {math.degrees(theta):.6g} deg"
+        )
+
+
+@dataclass(frozen=True)
+class Shape:
+    """Base class of the analytic shapes (surfaces of revolution about z, pole on top)."""
+
+    kind = "shape"
+
+    # -- reference quantities -------------------------------------------------------------------
+    @property
+    def closed(self) -> bool:
+        return False
+
+    @property
+    def t_max(self) -> float:
+        """Meridian parameter at the rim (or at the south pole of a closed surface)."""
+        raise NotImplementedError
+
+    @property
+    def R(self) -> float:  # noqa: N802 - the paper's symbol
+        """Reference radius of curvature at the pole (the length scale of kappa R)."""
+        raise NotImplementedError
+
+    def meridian(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Distance from the axis r(t) and height z(t) of the meridian."""
+        raise NotImplementedError
+
+    def meridian_derivative(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """dr/dt and dz/dt."""
+        raise NotImplementedError
+
+    def area(self) -> float:
+        """Exact area: 2 pi int r(t) |x'(t)| dt (closed form where one exists)."""
+        def integrand(t: float) -> float:
+            r, _ = self.meridian(np.array(t))
+            dr, dz = self.meridian_derivative(np.array(t))
+            return float(r * math.hypot(dr, dz))
+
+        val, _ = integrate.quad(integrand, 0.0, self.t_max, epsabs=0, epsrel=1e-13, limit=200)
+        return 2 * math.pi * val
+
+    def rim_length(self) -> float:
+        """Length of the free boundary (0 for a closed surface)."""
+        if self.closed:
+            return 0.0
+        r, _ = self.meridian(np.array(self.t_max))
+        return float(2 * math.pi * r)
+
+    def rim_height(self) -> float:
+        """z coordinate of the rim plane."""
+        return float(self.meridian(np.array(self.t_max))[1])
+
+    # -- differential geometry (NumPy) ---------------------------------------------------------
+    def normal(self, x: np.ndarray) -> np.ndarray:
+        """Outward unit normal at points x (shape (3, N) or (3,))."""
+        raise NotImplementedError
+
+    def principal_curvatures(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(meridional, azimuthal) eigenvalues of b (paper's sign: negative on a sphere)."""
+        raise NotImplementedError
+
+    # -- differential geometry (UFL) -----------------------------------------------------------
+    def normal_ufl(self, x: Any) -> Any:
+        """Outward unit normal as a UFL expression of the spatial coordinate x."""
+        raise NotImplementedError
+
+    def curvature_tensor_ufl(self, x: Any) -> Any:
+        """Second fundamental form b0 as a 3x3 tangential tensor: b0 = -P grad(n) P."""
+        import ufl
+
+        n = self.normal_ufl(x)
+        P = ufl.Identity(3) - ufl.outer(n, n)
+        return -P * ufl.grad(n) * P
+
+    def describe(self) -> dict[str, Any]:
+        """JSON-ready parameters (also the mesh sidecar contents)."""
+        raise NotImplementedError
+
+    def characteristic_size(self) -> float:
+        """A length scale of the whole shape, for mesh sizes."""
+        return self.R
+
+
+@dataclass(frozen=True)
+class SphericalCap(Shape):
+    """Spherical cap of radius ``radius`` and half opening angle ``theta`` (pole to rim)."""
+
+    radius: float = 1.0
+    theta: float = math.pi / 4
+    kind = "cap"
+
+    def __post_init__(self) -> None:
+        _positive("radius", self.radius)
+        _check_theta(self.theta)
+
+    @property
+    def closed(self) -> bool:
+        return self.theta >= math.pi * (1 - 1e-12)
+
+    @property
+    def t_max(self) -> float:
+        return self.theta
+
+    @property
+    def R(self) -> float:  # noqa: N802
+        return self.radius
+
+    def meridian(self, t):
+        return self.radius * np.sin(t), self.radius * np.cos(t)
+
+    def meridian_derivative(self, t):
+        return self.radius * np.cos(t), -self.radius * np.sin(t)
+
+    def area(self) -> float:
+        return 2 * math.pi * self.radius**2 * (1 - math.cos(self.theta))
+
+    def normal(self, x):
+        x = np.asarray(x, dtype=float)
+        return x / np.linalg.norm(x, axis=0)
+
+    def principal_curvatures(self, x):
+        x = np.asarray(x, dtype=float)
+        k = -np.ones(x.shape[1:]) / self.radius
+        return k, k.copy()
+
+    def normal_ufl(self, x):
+        import ufl
+
+        return x / ufl.sqrt(ufl.dot(x, x))
+
+    def describe(self) -> dict[str, Any]:
+        return {"shape": self.kind, "R": self.radius, "theta": self.theta,
+                "theta_deg": math.degrees(self.theta)}
+
+
+@dataclass(frozen=True)
+class Sphere(SphericalCap):
+    """Closed sphere of radius ``radius``."""
+
+    theta: float = math.pi
+    kind = "sphere"
+
+    def __post_init__(self) -> None:
+        _positive("radius", self.radius)
+        if abs(self.theta - math.pi) > 1e-12:
+            raise InputError("a closed sphere has theta = pi; use the cap shape for open shells")
+
+    @property
+    def closed(self) -> bool:
+        return True
+
+    def describe(self) -> dict[str, Any]:
+        return {"shape": self.kind, "R": self.radius}
+
+
+@dataclass(frozen=True)
+class EllipsoidalCap(Shape):
+    """Cap of the spheroid x^2/R^2 + y^2/R^2 + z^2/r3^2 = 1 down to parametric colatitude theta."""
+
+    radius: float = 1.0
+    r3: float = 1.5
+    theta: float = math.pi / 2
+    kind = "ellipsoid"
+
+    def __post_init__(self) -> None:
+        _positive("radius", self.radius)
+        _positive("r3", self.r3)
+        _check_theta(self.theta)
+
+    @property
+    def closed(self) -> bool:
+        return self.theta >= math.pi * (1 - 1e-12)
+
+    @property
+    def t_max(self) -> float:
+        return self.theta
+
+    @property
+    def R(self) -> float:  # noqa: N802
+        """Radius of curvature at the pole: R^2 / r3."""
+        return self.radius**2 / self.r3
+
+    def characteristic_size(self) -> float:
+        return min(self.radius, self.r3)
+
+    def meridian(self, t):
+        return self.radius * np.sin(t), self.r3 * np.cos(t)
+
+    def meridian_derivative(self, t):
+        return self.radius * np.cos(t), -self.r3 * np.sin(t)
+
+    def _grad_f(self, x):
+        a2, c2 = self.radius**2, self.r3**2
+        return np.stack([x[0] / a2, x[1] / a2, x[2] / c2])
+
+    def normal(self, x):
+        x = np.asarray(x, dtype=float)
+        g = self._grad_f(x)
+        return g / np.linalg.norm(g, axis=0)
+
+    def principal_curvatures(self, x):
+        # Spheroid with semi-axes (a, a, c): at parametric colatitude t, with
+        # D = a^2 cos^2 t + c^2 sin^2 t: k_meridian = -a c / D^(3/2), k_azimuth = -c / (a sqrt(D)).
+        x = np.asarray(x, dtype=float)
+        a, c = self.radius, self.r3
+        cos_t = np.clip(x[2] / c, -1.0, 1.0)
+        sin2 = 1 - cos_t**2
+        D = a**2 * cos_t**2 + c**2 * sin2
+        return -a * c / D**1.5, -c / (a * np.sqrt(D))
+
+    def normal_ufl(self, x):
+        import ufl
+
+        g = ufl.as_vector([x[0] / self.radius**2, x[1] / self.radius**2, x[2] / self.r3**2])
+        return g / ufl.sqrt(ufl.dot(g, g))
+
+    def describe(self) -> dict[str, Any]:
+        return {"shape": self.kind, "R": self.radius, "r3": self.r3, "theta": self.theta,
+                "theta_deg": math.degrees(self.theta), "R_pole": self.R}
+
+
+@dataclass(frozen=True)
+class Disk(Shape):
+    """Flat disk of radius ``radius`` in the plane z = 0, normal +z."""
+
+    radius: float = 1.0
+    kind = "disk"
+
+    def __post_init__(self) -> None:
+        _positive("radius", self.radius)
+
+    @property
+    def t_max(self) -> float:
+        return self.radius
+
+    @property
+    def R(self) -> float:  # noqa: N802
+        return math.inf
+
+    def characteristic_size(self) -> float:
+        return self.radius
+
+    def meridian(self, t):
+        t = np.asarray(t, dtype=float)
+        return t, np.zeros_like(t)
+
+    def meridian_derivative(self, t):
+        t = np.asarray(t, dtype=float)
+        return np.ones_like(t), np.zeros_like(t)
+
+    def area(self) -> float:
+        return math.pi * self.radius**2
+
+    def normal(self, x):
+        x = np.asarray(x, dtype=float)
+        n = np.zeros_like(x)
+        n[2] = 1.0
+        return n
+
+    def principal_curvatures(self, x):
+        z = np.zeros(np.asarray(x).shape[1:])
+        return z, z.copy()
+
+    def normal_ufl(self, x):
+        import ufl
+
+        return ufl.as_vector([0.0, 0.0, 1.0])
+
+    def curvature_tensor_ufl(self, x):
+        import ufl
+
+        return ufl.zero((3, 3))
+
+    def describe(self) -> dict[str, Any]:
+        return {"shape": self.kind, "radius": self.radius}
+
+
+SHAPES = ("sphere", "cap", "ellipsoid", "disk")
+
+
+def make_shape(kind: str, *, radius: float = 1.0, theta: float | None = None,
+               r3: float | None = None) -> Shape:
+    """Build a shape from its name and parameters (the CLI and the mesh sidecar use this)."""
+    if kind == "sphere":
+        return Sphere(radius=radius)
+    if kind == "cap":
+        if theta is None:
+            raise InputError("the cap shape needs an opening angle (--theta-deg)")
+        return SphericalCap(radius=radius, theta=theta)
+    if kind == "ellipsoid":
+        return EllipsoidalCap(radius=radius, r3=1.5 * radius if r3 is None else r3,
+                              theta=math.pi / 2 if theta is None else theta)
+    if kind == "disk":
+        return Disk(radius=radius)
+    raise InputError(f"unknown shape {kind!r}: choose one of {', '.join(SHAPES)}")
+
+
+def shape_from_description(d: dict[str, Any]) -> Shape:
+    """Inverse of ``Shape.describe``."""
+    kind = d.get("shape")
+    if kind == "disk":
+        return Disk(radius=float(d["radius"]))
+    if kind == "sphere":
+        return Sphere(radius=float(d["R"]))
+    if kind == "cap":
+        return SphericalCap(radius=float(d["R"]), theta=float(d["theta"]))
+    if kind == "ellipsoid":
+        return EllipsoidalCap(radius=float(d["R"]), r3=float(d["r3"]), theta=float(d["theta"]))
+    raise InputError(f"unknown shape {kind!r} in mesh description")

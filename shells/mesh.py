@@ -1,0 +1,372 @@
+"""gmsh meshes of the analytic shapes, graded in the rim boundary layer, read in parallel by dolfinx.
+
+``MeshSpec`` says what to mesh; ``generate`` builds the gmsh model on rank 0 and distributes it with
+``dolfinx.io.gmshio``; ``write_msh``/``load_mesh`` store and read a mesh (a ``.msh`` file plus a
+``.msh.json`` sidecar holding the shape, so the analytic normal and curvature travel with it).
+
+Element size: ``size`` (bulk, relative to the shape's size) away from the rim, and
+``sqrt(R h) / layer_elements`` within ``layer_widths * sqrt(R h)`` of the rim, where the boundary
+layer of width sqrt(R h) lives. Geometry is second order by default, with nodes on the exact
+surface. Physical tags: surface = 1 (cells), rim = 1 (facets).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import math
+import os
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Iterator
+
+from shells.errors import InputError
+from shells.geometry import Disk, EllipsoidalCap, Shape, Sphere, shape_from_description
+
+if TYPE_CHECKING:
+    import dolfinx.mesh
+    from mpi4py import MPI
+
+__all__ = ["MeshSpec", "ShellMesh", "generate", "write_msh", "load_mesh", "SURFACE_TAG", "RIM_TAG"]
+
+SURFACE_TAG = 1
+RIM_TAG = 1
+
+
+@dataclass(frozen=True)
+class MeshSpec:
+    """What to mesh and how finely.
+
+    Attributes:
+        shape: the analytic surface.
+        h: shell thickness (same units as the shape); sets the boundary-layer width sqrt(R h).
+            ``None`` meshes uniformly.
+        size: bulk element size relative to the shape's characteristic size.
+        layer_elements: elements across one boundary-layer width sqrt(R h) at the rim.
+        layer_widths: extent of the refined band, in boundary-layer widths.
+        order: geometric order (1 or 2).
+    """
+
+    shape: Shape
+    h: float | None = None
+    size: float = 0.1
+    layer_elements: float = 4.0
+    layer_widths: float = 3.0
+    order: int = 2
+
+    def __post_init__(self) -> None:
+        if self.h is not None and not (math.isfinite(self.h) and self.h > 0):
+            raise InputError(f"thickness h must be positive, got {self.h!r}")
+        if not (math.isfinite(self.size) and 0 < self.size <= 2):
+            raise InputError(f"element size must lie in (0, 2] (relative), got {self.size!r}")
+        if not (math.isfinite(self.layer_elements) and self.layer_elements > 0):
+            raise InputError(f"layer_elements must be positive, got {self.layer_elements!r}")
+        if not self.layer_widths > 0:
+            raise InputError(f"layer_widths must be positive, got {self.layer_widths!r}")
+        if self.order not in (1, 2):
+            raise InputError(f"geometric order must be 1 or 2, got {self.order!r}")
+
+    @property
+    def bulk_size(self) -> float:
+        return self.size * self.shape.characteristic_size()
+
+    @property
+    def layer_width(self) -> float | None:
+        """Boundary-layer width sqrt(R h) (R: the rim's scale), or None without thickness."""
+        if self.h is None or self.shape.closed:
+            return None
+        return math.sqrt(self.shape.characteristic_size() * self.h)
+
+    @property
+    def layer_size(self) -> float:
+        w = self.layer_width
+        return self.bulk_size if w is None else min(self.bulk_size, w / self.layer_elements)
+
+    def describe(self) -> dict[str, Any]:
+        d = {k: v for k, v in asdict(self).items() if k != "shape"}
+        d["shape"] = self.shape.describe()
+        return d
+
+    @classmethod
+    def from_description(cls, d: dict[str, Any]) -> MeshSpec:
+        kw = {k: d[k] for k in ("h", "size", "layer_elements", "layer_widths", "order") if k in d}
+        return cls(shape=shape_from_description(d["shape"]), **kw)
+
+
+@dataclass
+class ShellMesh:
+    """A distributed dolfinx surface mesh with its tags and (when known) its analytic shape."""
+
+    mesh: dolfinx.mesh.Mesh
+    cell_tags: dolfinx.mesh.MeshTags | None
+    facet_tags: dolfinx.mesh.MeshTags | None
+    shape: Shape | None = None
+    spec: MeshSpec | None = None
+    info: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def comm(self) -> MPI.Comm:
+        return self.mesh.comm
+
+    def num_cells(self) -> int:
+        imap = self.mesh.topology.index_map(self.mesh.topology.dim)
+        return int(imap.size_global)
+
+    def area(self) -> float:
+        """Area of the discrete surface, summed over all ranks."""
+        import ufl
+        from dolfinx import fem
+        from mpi4py import MPI
+
+        one = fem.Constant(self.mesh, 1.0)
+        local = fem.assemble_scalar(fem.form(one * ufl.dx(domain=self.mesh)))
+        return float(self.comm.allreduce(local, op=MPI.SUM))
+
+    def rim_length(self) -> float:
+        """Length of the tagged rim, summed over all ranks (0 for closed surfaces)."""
+        import ufl
+        from dolfinx import fem
+        from mpi4py import MPI
+
+        if self.facet_tags is None:
+            return 0.0
+        ds = ufl.Measure("ds", domain=self.mesh, subdomain_data=self.facet_tags)
+        one = fem.Constant(self.mesh, 1.0)
+        local = fem.assemble_scalar(fem.form(one * ds(RIM_TAG)))
+        return float(self.comm.allreduce(local, op=MPI.SUM))
+
+    def summary(self) -> dict[str, Any]:
+        """Sizes and the area/rim errors against the exact shape."""
+        out: dict[str, Any] = {"cells": self.num_cells(),
+                               "nodes": int(self.mesh.geometry.index_map().size_global),
+                               "area": self.area(), "rim_length": self.rim_length()}
+        if self.shape is not None:
+            out["area_exact"] = self.shape.area()
+            out["rim_length_exact"] = self.shape.rim_length()
+            out["area_rel_error"] = abs(out["area"] / out["area_exact"] - 1)
+            if out["rim_length_exact"] > 0:
+                out["rim_rel_error"] = abs(out["rim_length"] / out["rim_length_exact"] - 1)
+        if self.spec is not None:
+            out["spec"] = self.spec.describe()
+        return out
+
+
+@contextlib.contextmanager
+def _gmsh_model(name: str) -> Iterator[Any]:
+    """A fresh gmsh model; gmsh is initialised once per process, quietly, not grabbing SIGINT."""
+    import gmsh
+
+    if not gmsh.isInitialized():
+        try:
+            gmsh.initialize(interruptible=False)
+        except TypeError:  # older gmsh
+            gmsh.initialize()
+    gmsh.option.setNumber("General.Terminal", 0)
+    gmsh.option.setNumber("General.Verbosity", 1)
+    gmsh.model.add(name)
+    try:
+        yield gmsh
+    finally:
+        gmsh.model.remove()
+
+
+def _spherical_cap_volume(gmsh: Any, R: float, theta: float) -> int:
+    """OCC solid of the ball sector above colatitude theta; returns its tag."""
+    occ = gmsh.model.occ
+    lat_min = max(-math.pi / 2, math.pi / 2 - theta)
+    return occ.addSphere(0, 0, 0, R, -1, lat_min, math.pi / 2, 2 * math.pi)
+
+
+def _build_geometry(gmsh: Any, shape: Shape) -> tuple[list[int], list[int]]:
+    """Create the OCC surface of ``shape``; return (surface tags, rim curve tags)."""
+    occ = gmsh.model.occ
+    if isinstance(shape, Disk):
+        s = occ.addDisk(0, 0, 0, shape.radius, shape.radius)
+        occ.synchronize()
+        rim = [c for _, c in gmsh.model.getBoundary([(2, s)], oriented=False)]
+        return [s], rim
+
+    R = shape.radius  # both SphericalCap/Sphere and EllipsoidalCap have .radius
+    v = _spherical_cap_volume(gmsh, R, math.pi if shape.closed else shape.t_max)
+    if isinstance(shape, EllipsoidalCap):
+        occ.dilate([(3, v)], 0, 0, 0, 1, 1, shape.r3 / R)
+    occ.synchronize()
+    faces = [t for _, t in gmsh.model.getBoundary([(3, v)], oriented=False)]
+    # the ball sector's flat base (absent for a closed sphere) is not part of the shell
+    drop = [] if shape.closed else [f for f in faces if _is_flat(gmsh, f, R)]
+    keep = [f for f in faces if f not in drop]
+    occ.remove([(3, v)])
+    if drop:
+        occ.remove([(2, f) for f in drop])
+    occ.synchronize()
+    rim: list[int] = []
+    if not shape.closed:
+        bnd = gmsh.model.getBoundary([(2, f) for f in keep], combined=True, oriented=False)
+        # drop OCC's degenerate pole edge and the seam: the rim is the boundary of positive
+        # length lying in the plane z = z_rim
+        z_rim = shape.rim_height()
+        rim = [c for d, c in bnd if d == 1 and occ.getMass(1, c) > 1e-9 * R
+               and _on_plane(gmsh, 1, c, z_rim, R)]
+    return keep, rim
+
+
+def _is_flat(gmsh: Any, face: int, R: float) -> bool:
+    _, _, zmin, _, _, zmax = gmsh.model.getBoundingBox(2, face)
+    return abs(zmax - zmin) < 1e-6 * R
+
+
+def _on_plane(gmsh: Any, dim: int, tag: int, z: float, R: float) -> bool:
+    _, _, zmin, _, _, zmax = gmsh.model.getBoundingBox(dim, tag)
+    return abs(zmax - z) < 1e-6 * R and abs(zmin - z) < 1e-6 * R
+
+
+def _set_sizes(gmsh: Any, spec: MeshSpec, rim: list[int]) -> None:
+    field_ = gmsh.model.mesh.field
+    gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
+    gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
+    gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
+    gmsh.option.setNumber("Mesh.MeshSizeMax", spec.bulk_size)
+    width = spec.layer_width
+    if not rim or width is None or spec.layer_size >= spec.bulk_size:
+        gmsh.option.setNumber("Mesh.MeshSizeMin", spec.bulk_size)
+        return
+    gmsh.option.setNumber("Mesh.MeshSizeMin", spec.layer_size)
+    dist = field_.add("Distance")
+    field_.setNumbers(dist, "CurvesList", rim)
+    length = sum(gmsh.model.occ.getMass(1, c) for c in rim)
+    field_.setNumber(dist, "Sampling", int(min(20000, max(200, 4 * length / spec.layer_size))))
+    thr = field_.add("Threshold")
+    field_.setNumber(thr, "InField", dist)
+    field_.setNumber(thr, "SizeMin", spec.layer_size)
+    field_.setNumber(thr, "SizeMax", spec.bulk_size)
+    field_.setNumber(thr, "DistMin", spec.layer_widths * width)
+    # grow at most ~ 20 % per element from the layer to the bulk
+    grow = max(spec.bulk_size - spec.layer_size, 0.0) / 0.2
+    field_.setNumber(thr, "DistMax", spec.layer_widths * width + grow)
+    field_.setAsBackgroundMesh(thr)
+
+
+def _build_model(gmsh: Any, spec: MeshSpec) -> None:
+    surfaces, rim = _build_geometry(gmsh, spec.shape)
+    gmsh.model.addPhysicalGroup(2, surfaces, SURFACE_TAG, name="surface")
+    if rim:
+        gmsh.model.addPhysicalGroup(1, rim, RIM_TAG, name="rim")
+    _set_sizes(gmsh, spec, rim)
+    gmsh.option.setNumber("Mesh.Algorithm", 6)
+    gmsh.model.mesh.generate(2)
+    if spec.order > 1:
+        gmsh.model.mesh.setOrder(spec.order)
+
+
+def generate(spec: MeshSpec, comm: MPI.Comm | None = None, msh_path: str | os.PathLike | None = None
+             ) -> ShellMesh:
+    """Mesh ``spec`` with gmsh on rank 0 of ``comm`` and distribute it over ``comm``.
+
+    If ``msh_path`` is given, rank 0 also writes the gmsh file and its JSON sidecar.
+    """
+    from dolfinx.io import gmshio
+    from mpi4py import MPI as _MPI
+
+    comm = _MPI.COMM_WORLD if comm is None else comm
+    with _gmsh_model(f"shells-{spec.shape.kind}") as gmsh:
+        if comm.rank == 0:
+            _build_model(gmsh, spec)
+            if msh_path is not None:
+                _write_current(gmsh, spec, Path(msh_path))
+        mesh, cell_tags, facet_tags = gmshio.model_to_mesh(gmsh.model, comm, 0, gdim=3)[:3]
+    mesh.name = f"shells-{spec.shape.kind}"
+    return ShellMesh(mesh, cell_tags, facet_tags, spec.shape, spec)
+
+
+def _write_current(gmsh: Any, spec: MeshSpec, path: Path) -> None:
+    if path.suffix != ".msh":
+        raise InputError(f"mesh output must be a gmsh .msh file, got {str(path)!r}")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
+    gmsh.option.setNumber("Mesh.Binary", 0)
+    gmsh.write(str(path))
+    sidecar = {"shells_mesh": 1, "spec": spec.describe()}
+    Path(str(path) + ".json").write_text(json.dumps(sidecar, indent=2) + "\n")
+
+
+def write_msh(spec: MeshSpec, path: str | os.PathLike, comm: MPI.Comm | None = None) -> None:
+    """Mesh ``spec`` on rank 0 of ``comm`` and write ``path`` (.msh) plus ``path``.json."""
+    from mpi4py import MPI as _MPI
+
+    comm = _MPI.COMM_WORLD if comm is None else comm
+    err = None
+    if comm.rank == 0:
+        try:
+            with _gmsh_model(f"shells-{spec.shape.kind}") as gmsh:
+                _build_model(gmsh, spec)
+                _write_current(gmsh, spec, Path(path))
+        except InputError as e:
+            err = str(e)
+    err = comm.bcast(err, root=0)
+    if err:
+        raise InputError(err)
+
+
+def _check_msh(path: Path) -> None:
+    if not path.exists():
+        raise InputError(f"mesh file not found: {str(path)!r}")
+    if path.is_dir():
+        raise InputError(f"mesh path is a directory, not a gmsh .msh file: {str(path)!r}")
+    try:
+        with open(path, "rb") as f:
+            head = f.read(64)
+    except OSError as e:
+        raise InputError(f"cannot read mesh file {str(path)!r}: {e.strerror}") from None
+    if not head.lstrip().startswith(b"$MeshFormat"):
+        raise InputError(f"{str(path)!r} is not a gmsh .msh mesh file (no $MeshFormat header)")
+
+
+def load_mesh(path: str | os.PathLike, comm: MPI.Comm | None = None) -> ShellMesh:
+    """Read a gmsh ``.msh`` surface mesh in parallel; the shape comes from its JSON sidecar."""
+    from dolfinx.io import gmshio
+    from mpi4py import MPI as _MPI
+
+    comm = _MPI.COMM_WORLD if comm is None else comm
+    path = Path(path)
+    err = None
+    if comm.rank == 0:
+        try:
+            _check_msh(path)
+        except InputError as e:
+            err = str(e)
+    err = comm.bcast(err, root=0)
+    if err:
+        raise InputError(err)
+
+    spec = shape = None
+    sidecar = Path(str(path) + ".json")
+    if sidecar.exists():
+        try:
+            spec = MeshSpec.from_description(json.loads(sidecar.read_text())["spec"])
+            shape = spec.shape
+        except (KeyError, ValueError, TypeError) as e:
+            raise InputError(f"mesh sidecar {str(sidecar)!r} is not valid: {e}") from None
+
+    with _gmsh_model("shells-read") as gmsh:
+        err = None
+        if comm.rank == 0:
+            try:
+                gmsh.merge(str(path))
+                if not gmsh.model.getEntities(2) or not gmsh.model.getPhysicalGroups(2):
+                    err = (f"{str(path)!r} holds no tagged surface (a shells mesh has a 2D "
+                           "physical group)")
+            except Exception as e:  # gmsh raises a bare Exception on malformed files
+                err = f"{str(path)!r} could not be read as a gmsh mesh: {e}"
+        err = comm.bcast(err, root=0)
+        if err:
+            raise InputError(err)
+        mesh, cell_tags, facet_tags = gmshio.model_to_mesh(gmsh.model, comm, 0, gdim=3)[:3]
+    if mesh.topology.dim != 2:
+        raise InputError(f"{str(path)!r} is not a surface mesh (topological dimension "
+                         f"{mesh.topology.dim}, expected 2)")
+    return ShellMesh(mesh, cell_tags, facet_tags, shape, spec)
+
+
+def sphere_spec(h_over_r: float, size: float = 0.1, order: int = 2) -> MeshSpec:
+    """Convenience: unit sphere of thickness h/R."""
+    return MeshSpec(Sphere(1.0), h=h_over_r, size=size, order=order)

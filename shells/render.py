@@ -1,0 +1,105 @@
+"""Off-screen pictures of surface meshes and fields with pyvista (PNG).
+
+VTK needs an X display for OpenGL here; without one, a private Xvfb is started once per process
+(``xvfb`` is in the package list). Rendering happens on rank 0 from data gathered to it.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import time
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from shells.mesh import ShellMesh
+
+__all__ = ["ensure_display", "gather_vtk_mesh", "render_mesh"]
+
+_xvfb: subprocess.Popen | None = None
+
+
+def ensure_display() -> None:
+    """Make sure VTK has a display: keep $DISPLAY, else start a private Xvfb."""
+    global _xvfb
+    if os.environ.get("DISPLAY") or _xvfb is not None:
+        return
+    exe = shutil.which("Xvfb")
+    if exe is None:
+        return  # let VTK try its own off-screen path
+    for num in range(99, 140):
+        if os.path.exists(f"/tmp/.X{num}-lock"):
+            continue
+        proc = subprocess.Popen([exe, f":{num}", "-screen", "0", "1280x1024x24", "-nolisten",
+                                 "tcp"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        for _ in range(50):
+            if os.path.exists(f"/tmp/.X11-unix/X{num}") or proc.poll() is not None:
+                break
+            time.sleep(0.05)
+        if proc.poll() is None:
+            _xvfb = proc
+            os.environ["DISPLAY"] = f":{num}"
+            import atexit
+
+            atexit.register(proc.terminate)
+            return
+
+
+def gather_vtk_mesh(mesh: Any, values: np.ndarray | None = None
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None] | None:
+    """(cells, cell types, points, point values) of the whole mesh on rank 0, None elsewhere.
+
+    ``values`` are per geometry node (local, owned + ghost) as from ``dolfinx.plot.vtk_mesh``.
+    """
+    from dolfinx import plot
+
+    topology, cell_types, x = plot.vtk_mesh(mesh)
+    comm = mesh.comm
+    num_cells_local = mesh.topology.index_map(mesh.topology.dim).size_local
+    # keep owned cells only; their point indices are local: offset them per rank
+    npc = topology[0]
+    topo = topology.reshape(-1, npc + 1)[:num_cells_local]
+    parts = comm.gather((topo, cell_types[:num_cells_local], x, values), root=0)
+    if comm.rank != 0:
+        return None
+    cells, types, pts, vals, offset = [], [], [], [], 0
+    for t, ct, xx, vv in parts:
+        t = t.copy()
+        t[:, 1:] += offset
+        cells.append(t)
+        types.append(ct)
+        pts.append(xx)
+        if vv is not None:
+            vals.append(vv)
+        offset += xx.shape[0]
+    return (np.concatenate(cells).ravel(), np.concatenate(types), np.concatenate(pts),
+            np.concatenate(vals) if vals else None)
+
+
+def render_mesh(sm: ShellMesh, png: str | os.PathLike, *, title: str | None = None) -> None:
+    """Render the surface with its edges to ``png`` (rank 0 writes)."""
+    data = gather_vtk_mesh(sm.mesh)
+    if data is None:
+        return
+    import pyvista
+
+    ensure_display()
+    pyvista.OFF_SCREEN = True
+    cells, types, pts, _ = data
+    grid = pyvista.UnstructuredGrid(cells, types, pts)
+    surf = grid.extract_surface(nonlinear_subdivision=2)
+    Path(png).parent.mkdir(parents=True, exist_ok=True)
+    pl = pyvista.Plotter(off_screen=True, window_size=(900, 700))
+    pl.set_background("white")
+    pl.add_mesh(surf, color="#8fb8de", show_edges=False, smooth_shading=True)
+    pl.add_mesh(grid.extract_all_edges(), color="#203040", line_width=0.5)
+    if title:
+        pl.add_text(title, font_size=10, color="black")
+    pl.camera_position = "iso"
+    pl.camera.elevation = 15
+    pl.screenshot(str(png))
+    pl.close()

@@ -182,7 +182,9 @@ def _build_geometry(gmsh: Any, shape: Shape) -> tuple[list[int], list[int]]:
     occ = gmsh.model.occ
     if isinstance(shape, Disk):
         s = occ.addDisk(0, 0, 0, shape.radius, shape.radius)
+        centre = occ.addPoint(0, 0, 0)
         occ.synchronize()
+        gmsh.model.mesh.embed(0, [centre], 2, s)  # a node at the centre (the model's gauge)
         rim = [c for _, c in gmsh.model.getBoundary([(2, s)], oriented=False)]
         return [s], rim
 

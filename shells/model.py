@@ -1,0 +1,348 @@
+"""The non-Euclidean shell energy of the paper on a surface mesh (Eq. 1 / S-energy), in UFL.
+
+Energy (dimensionless as in the paper: Young's modulus scaled out, per reference area dω)::
+
+    U = ∫ (1-ν) |a - a°|² + ν tr²(a - a°)
+      + (h²/3) ∫ (1-ν) |b - b̄|² + ν tr²(b - b̄)          b̄ = b° + κ a°
+      + ∫ c_s |γ|²                                           (Kirchhoff-Love penalty)
+      + 8 (1-ν²) (p/E) / h ∫ u·n°                            (optional dead pressure, Eq. 5)
+
+Up to the constant (h²/3) 2(1+ν) κ² A this is U_s^K + (h²/3) U_b^K + P_κ with the curvature
+potential P_κ = -(2(1+ν)/3) h² κ ∫ tr(b - b°), the paper's Eq. (1).
+
+Discretisation (frame-free, valid on closed surfaces): the unknown is w = (u, θ) in a blocked P2⁶
+Lagrange space on the (second-order) surface mesh: u the Cartesian displacement, θ a Cartesian
+director increment. Deformation gradient F = P° + ∇u (P° = J J⁺ the tangential projector), metric
+a = Fᵀ F, director d = normalize(n° + (I - n°⊗n°) θ) with n° the analytic outward normal,
+curvature b = -sym(Fᵀ ∇d P°), shear γ = Fᵀ d. Reference quantities (a°, b°, γ°) use the same
+formulas at w = 0, so the reference state is exactly stress-free. The normal part of θ does not
+enter d; a unit-weight term ∫ (θ·n°)² removes that null direction.
+
+Kirchhoff-Love limit: the shear term is c_s = shear_penalty · (10/3)(1-ν), i.e. ``shear_penalty``
+times the natural Naghdi shear stiffness (shear factor 5/6). A shear-flexible Naghdi model with
+natural curvature loses ellipticity at κh = √3 (1-ν)/(1+ν); a stiff penalty pushes this far
+beyond the closed sphere's buckling at κh ≈ 1.5 (see docs/model.md and tests/test_model.py).
+
+Rigid motions are removed by a statically determinate 3-2-1 point support (6 scalar constraints on
+three mesh nodes, chosen to make the rigid-mode matrix well conditioned). Under self-equilibrated
+loads (natural curvature, pressure on a closed surface) its reactions vanish, so it constrains no
+deformation. Every reported scalar is invariant to rigid motions.
+
+Residual and Hessian are ``ufl.derivative`` of this one energy; κ, h, ν, p are ``fem.Constant``
+so continuation never recompiles a form.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from shells.errors import InputError
+from shells.geometry import Shape
+from shells.mesh import RIM_TAG, ShellMesh
+
+__all__ = ["ModelParameters", "ShellModel"]
+
+
+@dataclass(frozen=True)
+class ModelParameters:
+    """Material and discretisation parameters of the surface model.
+
+    Attributes:
+        h: shell thickness (absolute, in the mesh's length unit).
+        nu: Poisson ratio, in (-1, 1/2].
+        shear_penalty: multiple of the natural Naghdi shear stiffness (Kirchhoff-Love limit).
+        degree: polynomial degree of u and θ.
+        quadrature_degree: quadrature degree of the energy (full integration).
+    """
+
+    h: float
+    nu: float = 0.5
+    shear_penalty: float = 1.0e3
+    degree: int = 2
+    quadrature_degree: int = 4
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.h, (int, float)) and math.isfinite(self.h) and self.h > 0):
+            raise InputError(f"thickness h must be positive, got {self.h!r}")
+        if not (-1.0 < self.nu <= 0.5):
+            raise InputError(f"Poisson ratio nu must lie in (-1, 0.5], got {self.nu!r}")
+        if not self.shear_penalty > 0:
+            raise InputError(f"shear_penalty must be positive, got {self.shear_penalty!r}")
+        if self.degree not in (1, 2, 3):
+            raise InputError(f"degree must be 1, 2 or 3, got {self.degree!r}")
+
+
+@dataclass
+class ShellModel:
+    """Surface shell model: spaces, the energy and its derivatives, supports and functionals."""
+
+    shell: ShellMesh
+    params: ModelParameters
+    kappa: Any = field(init=False)
+    pressure: Any = field(init=False)
+
+    def __post_init__(self) -> None:
+        import basix.ufl
+        import ufl
+        from dolfinx import default_scalar_type, fem
+
+        if self.shell.shape is None:
+            raise InputError("the surface model needs the mesh's analytic shape (a mesh made by "
+                             "`shells mesh`, with its .msh.json sidecar)")
+        mesh = self.shell.mesh
+        self.shape: Shape = self.shell.shape
+        p = self.params
+        el = basix.ufl.element("Lagrange", mesh.basix_cell(), p.degree, shape=(6,))
+        self.W = fem.functionspace(mesh, el)
+        self.w = fem.Function(self.W, name="state")
+        self.kappa = fem.Constant(mesh, default_scalar_type(0.0))
+        self.pressure = fem.Constant(mesh, default_scalar_type(0.0))
+        self.h = fem.Constant(mesh, default_scalar_type(p.h))
+        self.nu = fem.Constant(mesh, default_scalar_type(p.nu))
+        self.c_shear = fem.Constant(mesh, default_scalar_type(p.shear_penalty * 10.0 / 3.0
+                                                              * (1.0 - p.nu)))
+        self.dx = ufl.Measure("dx", domain=mesh, metadata={"quadrature_degree":
+                                                            p.quadrature_degree})
+        ft = self.shell.facet_tags
+        self.ds = ufl.Measure("ds", domain=mesh, subdomain_data=ft,
+                              metadata={"quadrature_degree": p.quadrature_degree})
+        self._x = ufl.SpatialCoordinate(mesh)
+        self.n0 = self.shape.normal_ufl(self._x)
+        J = ufl.Jacobian(mesh)
+        self.P0 = J * ufl.JacobianInverse(mesh)
+        self._build_forms()
+        self.bcs = self._supports()
+
+    # ------------------------------------------------------------------------------------------
+    # kinematics
+    # ------------------------------------------------------------------------------------------
+    @staticmethod
+    def split(w: Any) -> tuple[Any, Any]:
+        import ufl
+
+        return ufl.as_vector([w[0], w[1], w[2]]), ufl.as_vector([w[3], w[4], w[5]])
+
+    def kinematics(self, w: Any) -> dict[str, Any]:
+        """Metric a, curvature b, shear γ, director d of the state w (UFL)."""
+        import ufl
+
+        u, th = self.split(w)
+        n0, P0 = self.n0, self.P0
+        F = P0 + ufl.grad(u)
+        v = n0 + th - ufl.dot(th, n0) * n0
+        d = v / ufl.sqrt(ufl.dot(v, v))
+        grad_d = ufl.grad(d) * P0
+        b = -0.5 * (F.T * grad_d + grad_d.T * F)
+        return {"u": u, "theta": th, "F": F, "a": F.T * F, "b": b, "gamma": F.T * d, "d": d}
+
+    def reference(self) -> dict[str, Any]:
+        """a°, b°, γ° from the same formulas at w = 0."""
+        import ufl
+
+        n0, P0 = self.n0, self.P0
+        grad_n = ufl.grad(n0) * P0
+        b0 = -0.5 * (P0.T * grad_n + grad_n.T * P0)
+        return {"a": P0.T * P0, "b": b0, "gamma": P0.T * n0}
+
+    def _quad(self, A: Any) -> Any:
+        """(1-ν) tr(A²) + ν tr²(A) for a symmetric tangential tensor A."""
+        import ufl
+
+        return (1 - self.nu) * ufl.inner(A, A) + self.nu * ufl.tr(A) ** 2
+
+    def energy_density(self, w: Any) -> dict[str, Any]:
+        """Densities of every energy term (UFL); ``total`` is what is minimised."""
+        import ufl
+
+        k, r = self.kinematics(w), self.reference()
+        Ea = k["a"] - r["a"]
+        Eb = k["b"] - r["b"]
+        bbar_gap = Eb - self.kappa * self.P0  # b - b̄
+        u, th = k["u"], k["theta"]
+        stretch = self._quad(Ea)
+        bend_nat = self.h**2 / 3 * self._quad(bbar_gap)
+        shear = self.c_shear * ufl.dot(k["gamma"] - r["gamma"], k["gamma"] - r["gamma"])
+        gauge = ufl.dot(th, self.n0) ** 2
+        load = 8 * (1 - self.nu**2) * self.pressure / self.h * ufl.dot(u, self.n0)
+        return {
+            "total": stretch + bend_nat + shear + gauge + load,
+            "stretching": stretch,
+            "bending": self.h**2 / 3 * self._quad(Eb),              # (h²/3) U_b^K density
+            "curvature_potential": -2 * (1 + self.nu) / 3 * self.h**2 * self.kappa * ufl.tr(Eb),
+            "shear": shear,
+            "pressure_work": load,
+        }
+
+    # ------------------------------------------------------------------------------------------
+    # forms
+    # ------------------------------------------------------------------------------------------
+    def _build_forms(self) -> None:
+        import ufl
+        from dolfinx import fem
+
+        dens = self.energy_density(self.w)
+        self.energy_ufl = dens["total"] * self.dx
+        dw, w_ = ufl.TestFunction(self.W), ufl.TrialFunction(self.W)
+        self.residual_ufl = ufl.derivative(self.energy_ufl, self.w, dw)
+        self.hessian_ufl = ufl.derivative(self.residual_ufl, self.w, w_)
+        # d(residual)/dκ, for pseudo-arclength continuation: the energy is quadratic in κ with a
+        # state-independent κ² term, so the residual is affine in κ and R(κ=1) - R(κ=0) is exact
+        self.dres_dkappa_ufl = (ufl.replace(self.residual_ufl, {self.kappa: ufl.as_ufl(1.0)})
+                                - ufl.replace(self.residual_ufl, {self.kappa: ufl.as_ufl(0.0)}))
+        self.residual = fem.form(self.residual_ufl)
+        self.hessian = fem.form(self.hessian_ufl)
+        self.dres_dkappa = fem.form(self.dres_dkappa_ufl)
+        self._scalar_forms = {k: fem.form(v * self.dx) for k, v in dens.items()}
+        u, _ = self.split(self.w)
+        self._scalar_forms["psi3_integral"] = fem.form(ufl.dot(u, self.n0) * self.dx)
+        for i in range(3):
+            self._scalar_forms[f"u{i}_integral"] = fem.form(u[i] * self.dx)
+            self._scalar_forms[f"n{i}_integral"] = fem.form(self.n0[i] * self.dx)
+        self._scalar_forms["area"] = fem.form(fem.Constant(self.shell.mesh, 1.0) * self.dx)
+        self._scalar_forms.update(self._work_forms())
+        # metric for eigenproblems: L2 mass of u and θ (SPD)
+        self.mass = fem.form(ufl.inner(w_, dw) * self.dx)
+
+    def _work_forms(self) -> dict[str, Any]:
+        """Edge and bulk works of Eqs. (2a, 2b), linearised, on spherical surfaces."""
+        import ufl
+        from dolfinx import fem
+
+        from shells.geometry import SphericalCap
+
+        if not isinstance(self.shape, SphericalCap):
+            return {}
+        R = self.shape.R
+        u, _ = self.split(self.w)
+        n0 = self.n0
+        psi3 = ufl.dot(u, n0)
+        psi_t = u - psi3 * n0
+        out = {"W_bulk": fem.form(-4 * (1 + self.nu) / 3 * (self.h / R) ** 2 * self.kappa
+                                  * psi3 * self.dx)}
+        if not self.shape.closed and self.shell.facet_tags is not None:
+            x = self._x
+            rho = ufl.sqrt(x[0] ** 2 + x[1] ** 2)
+            # outward conormal at the rim of a cap centred on z: e_theta
+            t = ufl.as_vector([x[0] * x[2] / (rho * R), x[1] * x[2] / (rho * R), -rho / R])
+            grad_psi3 = ufl.grad(psi3)
+            q_minus = ufl.dot(grad_psi3, t) - 2 * ufl.dot(psi_t, t) / R  # (q - Ψ̌/R)·t
+            out["W_edge"] = fem.form(2 * (1 + self.nu) / 3 * self.h**2 * self.kappa * q_minus
+                                     * self.ds(RIM_TAG))
+        return out
+
+    # ------------------------------------------------------------------------------------------
+    # supports
+    # ------------------------------------------------------------------------------------------
+    def _supports(self) -> list[Any]:
+        """Six scalar constraints fixing the rigid motion exactly (a gauge, not a support).
+
+        At the pole/apex/centre A: u = 0 (translations) and θ_x = θ_y = 0, so the director there
+        is e_z (rotations about x and y); at the node B of the φ = 0 meridian farthest from the
+        axis: u_y = 0 (rotation about z). Any deformed state can be brought to this gauge by a
+        finite rigid motion, so no deformation is constrained and no reaction arises; in
+        particular an axisymmetric state satisfies it with a translation only. (Point supports
+        that meet a state by an infinitesimal rotation u = ω × x are not neutral in a
+        geometrically exact model: they cost O(ω²) strain.)
+        """
+        from dolfinx import fem
+        from mpi4py import MPI
+
+        comm = self.shell.comm
+        n_owned = self.W.dofmap.index_map.size_local
+        x = self.W.tabulate_dof_coordinates()[:n_owned]
+        L = self.shape.characteristic_size()
+        tol = 1e-9 * L
+        top = np.array([0.0, 0.0, float(self.shape.meridian(np.array(0.0))[1])])
+        hit = np.linalg.norm(x - top, axis=1) < tol
+        if comm.allreduce(int(hit.sum()), op=MPI.SUM) != 1:
+            raise RuntimeError("the mesh has no node at the pole/centre (needed for the gauge)")
+        seam = (np.abs(x[:, 1]) < tol) & (x[:, 0] > tol)
+        xb = float(x[seam, 0].max()) if seam.any() else -1.0
+        xb_glob = comm.allreduce(xb, op=MPI.MAX)
+        if xb_glob <= 0:
+            raise RuntimeError("the mesh has no node on the meridian y = 0 (needed for the gauge)")
+        owner = comm.allreduce(comm.rank if xb == xb_glob else comm.size, op=MPI.MIN)
+        B = comm.bcast(x[seam][np.argmax(x[seam, 0])] if comm.rank == owner else None,
+                       root=owner)
+        self.support_points = [top, np.asarray(B)]
+        constraints = [(top, 0), (top, 1), (top, 2), (top, 3), (top, 4), (np.asarray(B), 1)]
+        bcs = []
+        for pt, comp in constraints:
+            sub = self.W.sub(comp)
+            Vc, _ = sub.collapse()
+            dofs = fem.locate_dofs_geometrical(
+                (sub, Vc), lambda xx, pt=pt: np.linalg.norm(xx.T - pt, axis=1) < tol)
+            bcs.append(fem.dirichletbc(fem.Function(Vc), dofs, sub))
+        return bcs
+
+    # ------------------------------------------------------------------------------------------
+    # scalars
+    # ------------------------------------------------------------------------------------------
+    def assemble(self, name: str) -> float:
+        from dolfinx import fem
+        from mpi4py import MPI
+
+        local = fem.assemble_scalar(self._scalar_forms[name])
+        return float(self.shell.comm.allreduce(local, op=MPI.SUM))
+
+    def scalars(self) -> dict[str, float]:
+        """Rigid-motion-free scalar indicators of the current state."""
+        out = {k: self.assemble(k) for k in ("total", "stretching", "bending",
+                                             "curvature_potential", "shear")}
+        out["energy"] = out.pop("total")
+        area = self.assemble("area")
+        # mean normal displacement with the mean translation removed (rigid-motion free; on a
+        # closed surface the translation integrates to zero anyway)
+        mean_u = np.array([self.assemble(f"u{i}_integral") for i in range(3)]) / area
+        mean_n = np.array([self.assemble(f"n{i}_integral") for i in range(3)]) / area
+        psi3 = self.assemble("psi3_integral") / area - float(mean_u @ mean_n)
+        h = float(self.h.value)
+        out["psi3_over_h"] = psi3 / h
+        out.update(self._apex())
+        for k in ("W_bulk", "W_edge"):
+            if k in self._scalar_forms:
+                out[k] = self.assemble(k)
+        return out
+
+    def _apex(self) -> dict[str, float]:
+        """Apex displacement along z, free of rigid motion.
+
+        Closed surfaces: half the change of the pole-to-pole distance. Open shells: apex u_z
+        minus the mean u_z of the rim nodes.
+        """
+        from mpi4py import MPI
+
+        comm = self.shell.comm
+        n_owned = self.W.dofmap.index_map.size_local
+        x = self.W.tabulate_dof_coordinates()[:n_owned]
+        arr = self.w.x.array.reshape(-1, 6)[:n_owned]
+        top = np.array([0.0, 0.0, float(self.shape.meridian(np.array(0.0))[1])])
+        tol = 1e-8 * self.shape.characteristic_size()
+
+        def value_at(pt: np.ndarray) -> float:
+            hit = np.linalg.norm(x - pt, axis=1) < tol
+            val = float(arr[hit, 2][0]) if hit.any() else 0.0
+            cnt = int(hit.any())
+            val, cnt = comm.allreduce(val, op=MPI.SUM), comm.allreduce(cnt, op=MPI.SUM)
+            return val / cnt if cnt else math.nan
+
+        uz_top = value_at(top)
+        if self.shape.closed:
+            bottom = np.array([0.0, 0.0, float(self.shape.meridian(np.array(math.pi))[1])])
+            disp = 0.5 * (uz_top - value_at(bottom))
+        else:
+            r_rim, z_rim = self.shape.meridian(np.array(self.shape.t_max))
+            rho = np.hypot(x[:, 0], x[:, 1])
+            on_rim = (np.abs(rho - float(r_rim)) < 1e-6) & (np.abs(x[:, 2] - float(z_rim)) < 1e-6)
+            s = comm.allreduce(float(arr[on_rim, 2].sum()), op=MPI.SUM)
+            c = comm.allreduce(int(on_rim.sum()), op=MPI.SUM)
+            disp = uz_top - (s / c if c else 0.0)
+        return {"apex_uz_over_h": disp / float(self.h.value)}
+
+    def num_dofs(self) -> int:
+        im = self.W.dofmap.index_map
+        return int(im.size_global * self.W.dofmap.index_map_bs)

@@ -1,0 +1,148 @@
+"""PETSc solvers for the shell model: SNES Newton and a reusable LU for bordered systems.
+
+Options are passed as a dict under a unique prefix per solver instance (``shells_snes_<n>_``),
+set only for the duration of ``setFromOptions`` and removed afterwards, so the global PETSc
+options database is left as it was. Defaults: Newton with a basic line search, MUMPS LU.
+"""
+
+from __future__ import annotations
+
+import itertools
+from typing import Any
+
+__all__ = ["DEFAULT_SNES_OPTIONS", "NewtonSolver", "apply_options"]
+
+_counter = itertools.count()
+
+DEFAULT_SNES_OPTIONS: dict[str, Any] = {
+    "snes_type": "newtonls",
+    "snes_linesearch_type": "basic",
+    "snes_rtol": 1.0e-9,
+    "snes_atol": 1.0e-12,
+    "snes_stol": 0.0,
+    "snes_max_it": 20,
+    "snes_divergence_tolerance": -1,
+    "ksp_type": "preonly",
+    "pc_type": "lu",
+    "pc_factor_mat_solver_type": "mumps",
+    "mat_mumps_icntl_14": 200,
+}
+
+
+def apply_options(obj: Any, prefix: str, options: dict[str, Any]) -> None:
+    """Set ``options`` under ``prefix``, call ``obj.setFromOptions()``, then remove them again."""
+    from petsc4py import PETSc
+
+    opts = PETSc.Options()
+    obj.setOptionsPrefix(prefix)
+    for k, v in options.items():
+        opts[prefix + k] = v
+    try:
+        obj.setFromOptions()
+    finally:
+        for k in options:
+            opts.delValue(prefix + k)
+
+
+class NewtonSolver:
+    """SNES Newton on the model's residual/Hessian with homogeneous point supports.
+
+    Also exposes the assembled Jacobian and a KSP on it for bordered (arclength) solves.
+    """
+
+    def __init__(self, model: Any, options: dict[str, Any] | None = None,
+                 prefix: str | None = None) -> None:
+        from dolfinx.fem.petsc import create_matrix, create_vector
+        from petsc4py import PETSc
+
+        self.model = model
+        self.options = {**DEFAULT_SNES_OPTIONS, **(options or {})}
+        self.prefix = prefix or f"shells_snes_{next(_counter)}_"
+        comm = model.shell.comm
+        self.b = create_vector(model.residual)
+        self.A = create_matrix(model.hessian)
+        self.x = model.w.x.petsc_vec.duplicate()
+        self.snes = PETSc.SNES().create(comm)
+        self.snes.setFunction(self._F, self.b)
+        self.snes.setJacobian(self._J, self.A)
+        apply_options(self.snes, self.prefix, self.options)
+        self.ksp = self.snes.getKSP()
+        # a second KSP for bordered solves with its own prefix
+        self.lin = PETSc.KSP().create(comm)
+        apply_options(self.lin, self.prefix + "lin_",
+                      {k: v for k, v in self.options.items()
+                       if k.startswith(("ksp_", "pc_", "mat_"))})
+
+    # -- callbacks ---------------------------------------------------------------------------
+    def _set_state(self, x: Any) -> None:
+        from petsc4py import PETSc
+
+        x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        x.copy(self.model.w.x.petsc_vec)
+        self.model.w.x.scatter_forward()
+
+    def _F(self, snes: Any, x: Any, b: Any) -> None:
+        self._set_state(x)
+        self.assemble_residual(b)
+
+    def _J(self, snes: Any, x: Any, A: Any, P: Any) -> None:
+        self._set_state(x)
+        self.assemble_jacobian(A)
+
+    # -- assembly ----------------------------------------------------------------------------
+    def assemble_residual(self, b: Any) -> None:
+        from dolfinx.fem.petsc import apply_lifting, assemble_vector, set_bc
+        from petsc4py import PETSc
+
+        m = self.model
+        with b.localForm() as bl:
+            bl.set(0.0)
+        assemble_vector(b, m.residual)
+        apply_lifting(b, [m.hessian], bcs=[m.bcs], x0=[m.w.x.petsc_vec], alpha=-1.0)
+        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        set_bc(b, m.bcs, m.w.x.petsc_vec, -1.0)
+
+    def assemble_jacobian(self, A: Any) -> None:
+        from dolfinx.fem.petsc import assemble_matrix
+
+        A.zeroEntries()
+        assemble_matrix(A, self.model.hessian, bcs=self.model.bcs)
+        A.assemble()
+
+    def assemble_dkappa(self, v: Any) -> None:
+        """dR/dκ at the current state, zero on the supports."""
+        from dolfinx.fem.petsc import assemble_vector, set_bc
+        from petsc4py import PETSc
+
+        with v.localForm() as vl:
+            vl.set(0.0)
+        assemble_vector(v, self.model.dres_dkappa)
+        v.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        set_bc(v, self.model.bcs, alpha=0.0)
+
+    # -- solves ------------------------------------------------------------------------------
+    def solve(self) -> tuple[bool, int]:
+        """Newton from the current state at the current κ. Returns (converged, iterations)."""
+        self.model.w.x.petsc_vec.copy(self.x)
+        self.snes.solve(None, self.x)
+        reason = self.snes.getConvergedReason()
+        its = self.snes.getIterationNumber()
+        self._set_state(self.x)
+        return reason > 0, its
+
+    def residual_norm(self) -> float:
+        self.assemble_residual(self.b)
+        return float(self.b.norm())
+
+    def factor(self) -> None:
+        """Assemble and factor the Jacobian at the current state for ``lin_solve``."""
+        self.assemble_jacobian(self.A)
+        self.lin.setOperators(self.A)
+        self.lin.setUp()
+
+    def lin_solve(self, rhs: Any, out: Any) -> None:
+        self.lin.solve(rhs, out)
+
+    def destroy(self) -> None:
+        for o in (self.snes, self.lin, self.A, self.b, self.x):
+            o.destroy()

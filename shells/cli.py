@@ -204,6 +204,51 @@ def _cmd_render(args: argparse.Namespace) -> int:
     return 0
 
 
+# --------------------------------------------------------------------------------------------
+# shells branch
+# --------------------------------------------------------------------------------------------
+def _cmd_branch(args: argparse.Namespace) -> int:
+    from shells.branch import BranchConfig, run_branch
+    from shells.continuation import ContinuationSettings
+
+    if args.model != "surface":
+        raise InputError(f"--model {args.model}: only the surface model is available so far")
+    shape = _shape_from_args(args)
+    L = shape.characteristic_size()
+    h = args.h_over_r * L
+    if (args.kappa_h_max is None) == (args.kappa_r_max is None):
+        raise InputError("give exactly one of --kappa-h-max and --kappa-r-max")
+    kappa_end = args.kappa_h_max / h if args.kappa_h_max is not None else args.kappa_r_max / (
+        shape.R if math.isfinite(shape.R) else L)
+    cont = ContinuationSettings(method=args.method, ds=args.ds, ds_max=max(args.ds, args.ds_max))
+    cfg = BranchConfig(shape=shape, h_over_r=args.h_over_r, nu=args.nu, kappa_end=kappa_end,
+                       size=args.size, layer_elements=args.layer_elements,
+                       shear_penalty=args.shear_penalty, continuation=cont)
+    outdir = args.output or "results/branch"
+    from shells.branch import read_branch
+
+    points = list(run_branch(cfg, outdir, fields=args.fields, resume=not args.restart))
+    header, _ = read_branch(f"{outdir}/branch.jsonl")
+    folds = [p for a, p in zip(points, points[1:]) if a["dkappa_ds"] * p["dkappa_ds"] < 0]
+    result = {"config": cfg.describe(), "dofs": header.get("dofs"), "branch_file": f"{outdir}/branch.jsonl",
+              "points": points, "folds": [{"kappa_R": f["kappa_R"], "kappa_h": f["kappa_h"],
+                                           "index": f["index"]} for f in folds]}
+
+    def human() -> None:
+        print(f"{shape.kind} h/L = {args.h_over_r}, nu = {args.nu}: {len(points)} points "
+              f"-> {outdir}/branch.jsonl")
+        print(f"{'kappa R':>10} {'kappa h':>10} {'Psi3/h':>12} {'apex/h':>10} {'energy':>12} its")
+        step = max(1, len(points) // 25)
+        for p in points[::step] + ([points[-1]] if (len(points) - 1) % step else []):
+            print(f"{p['kappa_R']:10.4f} {p['kappa_h']:10.4f} {p['psi3_over_h']:12.4e} "
+                  f"{p['apex_uz_over_h']:10.4f} {p['energy']:12.5e} {p['newton_its']:3d}")
+        for f in folds:
+            print(f"fold (turning point in kappa) near kappa R = {f['kappa_R']:.4f}")
+
+    emit(result, args, human)
+    return 0
+
+
 def _build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog="shells", description="Thin elastic shells with natural curvature "
                 "(FEniCSx): meshes, branches, buckling and snap-through.")
@@ -238,6 +283,34 @@ def _build_parser() -> argparse.ArgumentParser:
     i.add_argument("mesh", help="gmsh .msh file")
     i.add_argument("--json", action="store_true", help="print a JSON object as the last line")
     i.set_defaults(func=_cmd_info)
+
+    b = sub.add_parser("branch", help="follow the equilibrium branch in kappa (continuation)",
+                       description="Follow a shell from kappa = 0 to a final natural curvature "
+                       "with pseudo-arclength (through folds) or natural continuation; each point "
+                       "is appended to DIR/branch.jsonl as it is computed and a rerun resumes.")
+    _add_shape_args(b, positional=False)
+    b.add_argument("--h-over-r", type=_positive_float("h/R"), required=True,
+                   help="thickness over R (disk: over its radius)")
+    b.add_argument("--nu", type=float, default=0.5, help="Poisson ratio (default 0.5)")
+    g = b.add_mutually_exclusive_group()
+    g.add_argument("--kappa-h-max", type=float, default=None, help="final kappa h (sign: direction)")
+    g.add_argument("--kappa-r-max", type=float, default=None, help="final kappa R (sign: direction)")
+    b.add_argument("--model", default="surface", help="shell model (surface)")
+    b.add_argument("--method", default="arclength", choices=("arclength", "natural"))
+    b.add_argument("--ds", type=_positive_float("ds"), default=0.1, help="initial step")
+    b.add_argument("--ds-max", type=_positive_float("ds-max"), default=1.0, help="largest step")
+    b.add_argument("--size", type=_positive_float("size"), default=0.1,
+                   help="bulk element size / R (default 0.1)")
+    b.add_argument("--layer-elements", type=_positive_float("layer-elements"), default=4.0,
+                   help="elements across sqrt(R h) at the rim (default 4)")
+    b.add_argument("--shear-penalty", type=_positive_float("shear-penalty"), default=1.0e3,
+                   help="Kirchhoff-Love penalty, times the Naghdi shear stiffness (default 1e3)")
+    b.add_argument("--fields", default="none", choices=("none", "last", "all"),
+                   help="write VTX fields (DIR/fields.bp) for ParaView")
+    b.add_argument("--restart", action="store_true", help="ignore an existing branch file")
+    b.add_argument("-o", "--output", default=None, help="output directory (results/branch)")
+    b.add_argument("--json", action="store_true", help="print a JSON object as the last line")
+    b.set_defaults(func=_cmd_branch)
 
     r = sub.add_parser("render", help="render a .msh surface to PNG (off-screen)")
     r.add_argument("mesh", help="gmsh .msh file")

@@ -20,6 +20,8 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Iterator
 
+import numpy as np
+
 from shells.errors import InputError
 from shells.geometry import Disk, EllipsoidalCap, Shape, Sphere, shape_from_description
 
@@ -248,8 +250,31 @@ def _set_sizes(gmsh: Any, spec: MeshSpec, rim: list[int]) -> None:
     field_.setAsBackgroundMesh(thr)
 
 
+def gauge_points(shape: Shape) -> list[tuple[float, float, float]]:
+    """Points the surface model's rigid-motion gauge uses; meshes have nodes there.
+
+    On curved shells: three points of the parallel t = t_max / 2 at azimuth 0, pi/2, pi.
+    """
+    if isinstance(shape, Disk):
+        return []
+    t = 0.5 * (math.pi if shape.closed else shape.t_max)
+    r, z = (float(v) for v in shape.meridian(np.array(t)))
+    return [(r, 0.0, z), (0.0, r, z), (-r, 0.0, z)]
+
+
+def _embed_gauge_points(gmsh: Any, shape: Shape, surfaces: list[int]) -> None:
+    occ = gmsh.model.occ
+    pts = []
+    for x, y, z in gauge_points(shape)[1:]:  # azimuth 0 lies on the OCC seam, which has nodes
+        pts.append(occ.addPoint(x, y, z))
+    occ.synchronize()
+    if pts:
+        gmsh.model.mesh.embed(0, pts, 2, surfaces[0])
+
+
 def _build_model(gmsh: Any, spec: MeshSpec) -> None:
     surfaces, rim = _build_geometry(gmsh, spec.shape)
+    _embed_gauge_points(gmsh, spec.shape, surfaces)
     gmsh.model.addPhysicalGroup(2, surfaces, SURFACE_TAG, name="surface")
     if rim:
         gmsh.model.addPhysicalGroup(1, rim, RIM_TAG, name="rim")

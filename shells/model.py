@@ -240,36 +240,48 @@ class ShellModel:
     def _supports(self) -> list[Any]:
         """Six scalar constraints fixing the rigid motion exactly (a gauge, not a support).
 
-        At the pole/apex/centre A: u = 0 (translations) and θ_x = θ_y = 0, so the director there
-        is e_z (rotations about x and y); at the node B of the φ = 0 meridian farthest from the
-        axis: u_y = 0 (rotation about z). Any deformed state can be brought to this gauge by a
-        finite rigid motion, so no deformation is constrained and no reaction arises; in
-        particular an axisymmetric state satisfies it with a translation only. (Point supports
-        that meet a state by an infinitesimal rotation u = ω × x are not neutral in a
-        geometrically exact model: they cost O(ω²) strain.)
+        Translations: u = 0 at the pole/apex/centre A. Rotations, on curved shells: u_y = 0 at
+        the points B (azimuth 0) and D (azimuth pi) and u_x = 0 at C (azimuth pi/2) of the
+        parallel t = t_max/2 (``mesh.gauge_points``); on the flat disk: θ_x = θ_y = 0 at A (the
+        director there stays e_z) and u_y = 0 at the rim node of azimuth 0.
+
+        An axisymmetric state meets these with a translation only, so they constrain no
+        deformation and no reaction arises. (Constraints met by an infinitesimal rotation
+        u = ω × x would not be neutral in a geometrically exact model: they cost O(ω²) strain.)
+        Displacement constraints are preferred to the director one because u carries membrane
+        stiffness: a pointwise constraint on θ alone leaves the rotations nearly free (a point
+        has no capacity in 2D), with spurious near-zero eigenvalues that fall as the mesh refines.
         """
         from dolfinx import fem
         from mpi4py import MPI
+
+        from shells.geometry import Disk
+        from shells.mesh import gauge_points
 
         comm = self.shell.comm
         n_owned = self.W.dofmap.index_map.size_local
         x = self.W.tabulate_dof_coordinates()[:n_owned]
         L = self.shape.characteristic_size()
         tol = 1e-9 * L
-        top = np.array([0.0, 0.0, float(self.shape.meridian(np.array(0.0))[1])])
-        hit = np.linalg.norm(x - top, axis=1) < tol
-        if comm.allreduce(int(hit.sum()), op=MPI.SUM) != 1:
-            raise RuntimeError("the mesh has no node at the pole/centre (needed for the gauge)")
-        seam = (np.abs(x[:, 1]) < tol) & (x[:, 0] > tol)
-        xb = float(x[seam, 0].max()) if seam.any() else -1.0
-        xb_glob = comm.allreduce(xb, op=MPI.MAX)
-        if xb_glob <= 0:
-            raise RuntimeError("the mesh has no node on the meridian y = 0 (needed for the gauge)")
-        owner = comm.allreduce(comm.rank if xb == xb_glob else comm.size, op=MPI.MIN)
-        B = comm.bcast(x[seam][np.argmax(x[seam, 0])] if comm.rank == owner else None,
-                       root=owner)
-        self.support_points = [top, np.asarray(B)]
-        constraints = [(top, 0), (top, 1), (top, 2), (top, 3), (top, 4), (np.asarray(B), 1)]
+
+        def node(pt: np.ndarray, what: str) -> np.ndarray:
+            hit = np.linalg.norm(x - pt, axis=1) < 1e-7 * L
+            if comm.allreduce(int(hit.any()), op=MPI.SUM) < 1:
+                raise RuntimeError(f"the mesh has no node at the {what} {pt} (needed for the "
+                                   "rigid-motion gauge; mesh it with `shells mesh`)")
+            owner = comm.allreduce(comm.rank if hit.any() else comm.size, op=MPI.MIN)
+            return np.asarray(comm.bcast(x[hit][0] if comm.rank == owner else None, root=owner))
+
+        top = node(np.array([0.0, 0.0, float(self.shape.meridian(np.array(0.0))[1])]), "pole")
+        constraints = [(top, 0), (top, 1), (top, 2)]
+        if isinstance(self.shape, Disk):
+            rim_b = node(np.array([self.shape.radius, 0.0, 0.0]), "rim point")
+            constraints += [(top, 3), (top, 4), (rim_b, 1)]
+            self.support_points = [top, rim_b]
+        else:
+            B, C, D = (node(np.array(p), "gauge point") for p in gauge_points(self.shape))
+            constraints += [(B, 1), (D, 1), (C, 0)]
+            self.support_points = [top, B, C, D]
         bcs = []
         for pt, comp in constraints:
             sub = self.W.sub(comp)

@@ -10,7 +10,7 @@ from __future__ import annotations
 import itertools
 from typing import Any
 
-__all__ = ["DEFAULT_SNES_OPTIONS", "NewtonSolver", "apply_options"]
+__all__ = ["DEFAULT_SNES_OPTIONS", "NewtonSolver", "apply_options", "configure_factor"]
 
 _counter = itertools.count()
 
@@ -44,6 +44,25 @@ def apply_options(obj: Any, prefix: str, options: dict[str, Any]) -> None:
             opts.delValue(prefix + k)
 
 
+def configure_factor(ksp: Any, A: Any, options: dict[str, Any]) -> None:
+    """Give ``ksp`` the operator ``A`` and set the MUMPS controls of ``options`` on its factor.
+
+    MUMPS reads ICNTL/CNTL when the factor matrix is created (at PC set-up), by which time the
+    prefixed options are gone from the database, so they are set here through the API.
+    """
+    ksp.setOperators(A)
+    pc = ksp.getPC()
+    if pc.getType() not in ("lu", "cholesky") or pc.getFactorSolverType() != "mumps":
+        return
+    pc.setFactorSetUpSolverType()
+    F = pc.getFactorMatrix()
+    for k, v in options.items():
+        if k.startswith("mat_mumps_icntl_"):
+            F.setMumpsIcntl(int(k.rsplit("_", 1)[1]), int(v))
+        elif k.startswith("mat_mumps_cntl_"):
+            F.setMumpsCntl(int(k.rsplit("_", 1)[1]), float(v))
+
+
 class NewtonSolver:
     """SNES Newton on the model's residual/Hessian with homogeneous point supports.
 
@@ -67,11 +86,12 @@ class NewtonSolver:
         self.snes.setJacobian(self._J, self.A)
         apply_options(self.snes, self.prefix, self.options)
         self.ksp = self.snes.getKSP()
+        configure_factor(self.ksp, self.A, self.options)
         # a second KSP for bordered solves with its own prefix
         self.lin = PETSc.KSP().create(comm)
-        apply_options(self.lin, self.prefix + "lin_",
-                      {k: v for k, v in self.options.items()
-                       if k.startswith(("ksp_", "pc_", "mat_"))})
+        lin_opts = {k: v for k, v in self.options.items() if k.startswith(("ksp_", "pc_", "mat_"))}
+        apply_options(self.lin, self.prefix + "lin_", lin_opts)
+        configure_factor(self.lin, self.A, lin_opts)
 
     # -- callbacks ---------------------------------------------------------------------------
     def _set_state(self, x: Any) -> None:
@@ -137,7 +157,7 @@ class NewtonSolver:
     def factor(self) -> None:
         """Assemble and factor the Jacobian at the current state for ``lin_solve``."""
         self.assemble_jacobian(self.A)
-        self.lin.setOperators(self.A)
+        self.lin.setOperators(self.A)  # same matrix object: the configured factor is kept
         self.lin.setUp()
 
     def lin_solve(self, rhs: Any, out: Any) -> None:

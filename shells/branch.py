@@ -1,0 +1,320 @@
+"""Branch driver: follow a shell in κ, append each point to a branch file, resume after a crash.
+
+Files in the output directory:
+
+* ``branch.jsonl`` — line 1 is a header (``{"header": {...config...}}``), then one JSON object per
+  converged point, appended and flushed as soon as it exists (a crash loses nothing computed).
+* ``checkpoint/`` — the state at the last point, one ``.npz`` per MPI rank (same rank count and
+  mesh needed to resume; otherwise the run restarts and says so).
+* ``fields.bp`` — with ``fields`` other than "none": displacement ``displacement``, director
+  ``director`` and curvature fields ``mean_curvature_change`` = ½ tr(b - b°) and
+  ``natural_curvature_mismatch`` = ½ tr(b - b̄), as VTX (ADIOS2) for ParaView, one step per point.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+import os
+import sys
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any, Iterator
+
+import numpy as np
+
+from shells.continuation import ContinuationSettings, Point, continuation
+from shells.errors import InputError
+from shells.geometry import Shape, shape_from_description
+from shells.mesh import MeshSpec, ShellMesh, generate
+
+__all__ = ["BranchConfig", "run_branch", "read_branch", "FieldWriter"]
+
+log = logging.getLogger("shells")
+
+
+@dataclass(frozen=True)
+class BranchConfig:
+    """What a branch run computes (everything that decides its numbers).
+
+    Attributes:
+        shape: the analytic shape.
+        h_over_r: thickness over the shape's length scale L (R; the disk's radius).
+        nu: Poisson ratio.
+        kappa_end: final natural curvature κ (absolute, 1/length); its sign is the direction.
+        size, layer_elements: mesh parameters (see ``MeshSpec``).
+        shear_penalty: Kirchhoff-Love penalty factor of the surface model.
+        continuation: continuation settings.
+    """
+
+    shape: Shape
+    h_over_r: float
+    nu: float = 0.5
+    kappa_end: float = 1.0
+    size: float = 0.1
+    layer_elements: float = 4.0
+    shear_penalty: float = 1.0e3
+    continuation: ContinuationSettings = field(default_factory=ContinuationSettings)
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.h_over_r) and 0 < self.h_over_r < 1):
+            raise InputError(f"h/R must lie in (0, 1), got {self.h_over_r!r}")
+        if not (-1.0 < self.nu <= 0.5):
+            raise InputError(f"nu must lie in (-1, 0.5], got {self.nu!r}")
+        if not (math.isfinite(self.kappa_end) and self.kappa_end != 0):
+            raise InputError("the final kappa must be a nonzero number")
+
+    @property
+    def L(self) -> float:  # noqa: N802
+        return self.shape.characteristic_size()
+
+    @property
+    def h(self) -> float:
+        return self.h_over_r * self.L
+
+    def mesh_spec(self) -> MeshSpec:
+        return MeshSpec(self.shape, h=self.h, size=self.size, layer_elements=self.layer_elements)
+
+    def describe(self) -> dict[str, Any]:
+        d = asdict(self)
+        d["shape"] = self.shape.describe()
+        d["continuation"] = self.continuation.describe()
+        d["continuation"]["kappa_stops"] = list(self.continuation.kappa_stops)
+        d["model"] = "surface"
+        return d
+
+    @classmethod
+    def from_description(cls, d: dict[str, Any]) -> BranchConfig:
+        c = dict(d["continuation"])
+        c["kappa_stops"] = tuple(c.get("kappa_stops", ()))
+        return cls(shape=shape_from_description(d["shape"]), h_over_r=d["h_over_r"], nu=d["nu"],
+                   kappa_end=d["kappa_end"], size=d["size"], layer_elements=d["layer_elements"],
+                   shear_penalty=d["shear_penalty"], continuation=ContinuationSettings(**c))
+
+
+def point_record(p: Point, cfg: BranchConfig) -> dict[str, Any]:
+    """The JSON record of a point; public keys: kappa_R, kappa_h, psi3_over_h, energy, ..."""
+    d = p.as_dict()
+    R = cfg.shape.R
+    d["kappa_R"] = p.kappa * (R if math.isfinite(R) else cfg.L)
+    d["kappa_h"] = p.kappa * cfg.h
+    return d
+
+
+class FieldWriter:
+    """VTX (ADIOS2) output of displacement, director and curvature fields for ParaView."""
+
+    def __init__(self, model: Any, path: str | os.PathLike) -> None:
+        import basix.ufl
+        from dolfinx import fem, io
+
+        mesh = model.shell.mesh
+        deg = mesh.geometry.cmap.degree
+        Vv = fem.functionspace(mesh, basix.ufl.element("Lagrange", mesh.basix_cell(), deg,
+                                                       shape=(3,)))
+        Vs = fem.functionspace(mesh, basix.ufl.element("Lagrange", mesh.basix_cell(), deg))
+        self.model = model
+        self.u = fem.Function(Vv, name="displacement")
+        self.d = fem.Function(Vv, name="director")
+        self.H = fem.Function(Vs, name="mean_curvature_change")
+        self.Hbar = fem.Function(Vs, name="natural_curvature_mismatch")
+        k, r = model.kinematics(model.w), model.reference()
+        import ufl
+
+        pts = Vv.element.interpolation_points()
+        self._exprs = [
+            (self.u, fem.Expression(k["u"], pts)),
+            (self.d, fem.Expression(k["d"], pts)),
+            (self.H, fem.Expression(0.5 * ufl.tr(k["b"] - r["b"]), Vs.element.interpolation_points())),
+            (self.Hbar, fem.Expression(0.5 * ufl.tr(k["b"] - r["b"] - model.kappa * model.P0),
+                                       Vs.element.interpolation_points())),
+        ]
+        Path(path).parent.mkdir(parents=True, exist_ok=True)
+        self.writer = io.VTXWriter(mesh.comm, str(path), [self.u, self.d, self.H, self.Hbar],
+                                   engine="BP4")
+
+    def write(self, t: float) -> None:
+        for f, e in self._exprs:
+            f.interpolate(e)
+        self.writer.write(t)
+
+    def close(self) -> None:
+        self.writer.close()
+
+
+class _Progress:
+    """One status line on rank 0: rewritten in place on a terminal, else a line every 10 s."""
+
+    def __init__(self, comm: Any, label: str) -> None:
+        self.on = comm.rank == 0
+        self.tty = self.on and sys.stderr.isatty()
+        self.label = label
+        self.last = 0.0
+
+    def update(self, rec: dict[str, Any]) -> None:
+        if not self.on:
+            return
+        msg = (f"{self.label}: point {rec['index']}  kappa R = {rec['kappa_R']:+.4f}  "
+               f"kappa h = {rec['kappa_h']:+.4f}  Psi3/h = {rec['psi3_over_h']:+.4e}  "
+               f"Newton {rec['newton_its']}  {rec['wall_time']:.0f} s")
+        now = time.monotonic()
+        if self.tty:
+            sys.stderr.write("\r" + msg[:150].ljust(150))
+            sys.stderr.flush()
+        elif now - self.last > 10.0:
+            log.info(msg)
+            self.last = now
+
+    def done(self) -> None:
+        if self.tty:
+            sys.stderr.write("\n")
+
+
+def read_branch(path: str | os.PathLike) -> tuple[dict[str, Any], list[dict[str, Any]]]:
+    """Header and points of a branch file (a torn last line from a crash is ignored)."""
+    header: dict[str, Any] = {}
+    points: list[dict[str, Any]] = []
+    with open(path) as f:
+        for line in f:
+            line = line.strip()
+            if not line:
+                continue
+            try:
+                rec = json.loads(line)
+            except json.JSONDecodeError:
+                continue
+            if "header" in rec:
+                header = rec["header"]
+            else:
+                points.append(rec)
+    return header, points
+
+
+def _checkpoint_paths(outdir: Path, comm: Any) -> Path:
+    return outdir / "checkpoint" / f"state-{comm.rank}-of-{comm.size}.npz"
+
+
+def _save_checkpoint(outdir: Path, model: Any, rec: dict[str, Any],
+                     prev: tuple[np.ndarray, float] | None) -> None:
+    """State of this point (and of the previous one, whose secant orients a resumed run)."""
+    comm = model.shell.comm
+    p = _checkpoint_paths(outdir, comm)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    tmp = p.with_name(p.stem + ".tmp.npz")
+    w = model.w.x.array
+    w_prev, k_prev = prev if prev is not None else (w, float(model.kappa.value))
+    np.savez(tmp, w=w, kappa=float(model.kappa.value), index=rec["index"], w_prev=w_prev,
+             kappa_prev=k_prev, x=model.W.tabulate_dof_coordinates()[:5])
+    os.replace(tmp, p)
+
+
+def _load_checkpoint(outdir: Path, model: Any
+                     ) -> tuple[float, int, np.ndarray, float] | None:
+    comm = model.shell.comm
+    p = _checkpoint_paths(outdir, comm)
+    ok = p.exists()
+    data = None
+    if ok:
+        data = np.load(p)
+        ok = (data["w"].shape == model.w.x.array.shape and
+              np.allclose(data["x"], model.W.tabulate_dof_coordinates()[:5]))
+    from mpi4py import MPI
+
+    if not comm.allreduce(ok, op=MPI.LAND):
+        return None
+    model.w.x.array[:] = data["w"]
+    model.w.x.scatter_forward()
+    return (float(data["kappa"]), int(data["index"]), data["w"] - data["w_prev"],
+            float(data["kappa"]) - float(data["kappa_prev"]))
+
+
+def run_branch(cfg: BranchConfig, outdir: str | os.PathLike, *, comm: Any = None,
+               fields: str = "none", resume: bool = True, shell: ShellMesh | None = None,
+               label: str = "branch") -> Iterator[dict[str, Any]]:
+    """Compute the branch of ``cfg`` and yield each point's record as it is written.
+
+    On resume, the records already in the branch file are yielded first (without recomputing),
+    then the run continues from the checkpoint.
+    """
+    from mpi4py import MPI
+
+    from shells.model import ModelParameters, ShellModel
+    from shells.solvers import NewtonSolver
+
+    if fields not in ("none", "last", "all"):
+        raise InputError(f"fields must be none, last or all, got {fields!r}")
+    comm = MPI.COMM_WORLD if comm is None else comm
+    outdir = Path(outdir)
+    if comm.rank == 0:
+        outdir.mkdir(parents=True, exist_ok=True)
+    comm.barrier()
+    bfile = outdir / "branch.jsonl"
+    header = cfg.describe()
+
+    t0 = time.perf_counter()
+    shell = shell or generate(cfg.mesh_spec(), comm)
+    model = ShellModel(shell, ModelParameters(h=cfg.h, nu=cfg.nu,
+                                              shear_penalty=cfg.shear_penalty))
+    header["dofs"] = model.num_dofs()
+    log.info("%s: %s, %d DOFs on %d rank(s), set-up %.1f s", label, cfg.shape.describe(),
+             header["dofs"], comm.size, time.perf_counter() - t0)
+
+    done: list[dict[str, Any]] = []
+    start = None
+    if resume and bfile.exists():
+        old_header, done = read_branch(bfile)
+        old_header.pop("dofs", None)
+        same = {k: v for k, v in header.items() if k != "dofs"} == old_header
+        start = _load_checkpoint(outdir, model) if same and done else None
+        if start is None:
+            log.info("%s: existing branch file does not match this run or has no usable "
+                     "checkpoint; starting afresh", label)
+            done = []
+        else:
+            # keep only the points up to the checkpoint
+            done = [d for d in done if d["index"] <= start[1]]
+            log.info("%s: resuming after point %d at kappa = %.6g", label, start[1], start[0])
+    if comm.rank == 0:
+        with open(bfile, "w") as f:
+            f.write(json.dumps({"header": header}) + "\n")
+            for d in done:
+                f.write(json.dumps(d) + "\n")
+    yield from done
+
+    writer = FieldWriter(model, outdir / "fields.bp") if fields != "none" else None
+    ns = NewtonSolver(model)
+    progress = _Progress(comm, label)
+    kappa0, index0 = (0.0, 0) if start is None else (start[0], start[1] + 1)
+    if start is not None and abs(kappa0 - cfg.kappa_end) < 1e-14 * abs(cfg.kappa_end):
+        return
+    tangent = None
+    if start is not None and (np.any(start[2]) or start[3] != 0):
+        tangent = (start[2], start[3] * cfg.L)  # secant of the last two points orients the run
+    it = continuation(model, cfg.continuation, kappa_start=kappa0, kappa_end=cfg.kappa_end,
+                      solver=ns, start_index=index0, skip_first=start is not None,
+                      initial_tangent=tangent)
+    last = None
+    prev = None
+    try:
+        for p in it:
+            rec = point_record(p, cfg)
+            if comm.rank == 0:
+                with open(bfile, "a") as f:
+                    f.write(json.dumps(rec) + "\n")
+                    f.flush()
+            _save_checkpoint(outdir, model, rec, prev)
+            prev = (model.w.x.array.copy(), float(model.kappa.value))
+            if writer is not None and fields == "all":
+                writer.write(float(rec["index"]))
+            progress.update(rec)
+            last = rec
+            yield rec
+    finally:
+        progress.done()
+        if writer is not None:
+            if fields == "last" and last is not None:
+                writer.write(float(last["index"]))
+            writer.close()
+        ns.destroy()

@@ -1,0 +1,329 @@
+"""Continuation in the natural curvature κ: natural-parameter (SNES) and pseudo-arclength.
+
+``continuation(model, settings, ...)`` is a generator: it yields one ``Point`` per converged step
+(scalar indicators only: κ, energy split, Ψ3, Newton iterations, the κ-component of the unit
+tangent whose sign change marks a fold). The model's Function holds the current state, so a
+consumer can write fields or check stability between two ``next()`` calls.
+
+The parameter is λ = κ L (L: the shape's length scale R, the disk's radius). Pseudo-arclength uses
+the norm ||(δw, δλ)||² = ξ² |δw|²/(N h²) + δλ² (N: number of DOFs, h: the thickness, so the state
+is measured in thicknesses; ξ = ``state_weight``), a
+predictor along the unit tangent and Keller's bordered Newton corrector on the hyperplane
+orthogonal to it; two solves per iteration share one LU factorisation. The tangent orientation is
+kept consistent (positive inner product with the previous one), which carries the branch around
+folds (snap-through).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import asdict, dataclass, field
+from typing import Any, Iterator
+
+import numpy as np
+
+from shells.errors import InputError
+from shells.solvers import NewtonSolver
+
+__all__ = ["ContinuationSettings", "Point", "continuation"]
+
+
+@dataclass(frozen=True)
+class ContinuationSettings:
+    """All continuation settings, validated on construction.
+
+    Attributes:
+        method: "arclength" (pseudo-arclength, passes folds) or "natural" (steps in κ, SNES).
+        ds: initial step: in λ = κL for "natural", in arclength for "arclength".
+        ds_min, ds_max: bounds of the adaptive step; below ds_min the run stops.
+        target_newton_its: the step grows when Newton needs fewer, shrinks when more.
+        max_newton_its: a corrector needing more counts as failed (step halved, retried).
+        newton_tol: convergence: relative Newton increment (state RMS / L and |δλ|).
+        residual_tol: and residual norm below this absolute value.
+        state_weight: ξ in the arclength norm.
+        max_steps: safety limit on the number of points.
+        kappa_stops: values of κL (natural method) the run lands on exactly.
+    """
+
+    method: str = "arclength"
+    ds: float = 0.1
+    ds_min: float = 1.0e-6
+    ds_max: float = 2.0
+    target_newton_its: int = 4
+    max_newton_its: int = 12
+    newton_tol: float = 1.0e-10
+    residual_tol: float = 1.0e-8
+    state_weight: float = 1.0
+    max_steps: int = 10000
+    kappa_stops: tuple[float, ...] = ()
+
+    def __post_init__(self) -> None:
+        if self.method not in ("arclength", "natural"):
+            raise InputError(f"continuation method must be 'arclength' or 'natural', "
+                             f"got {self.method!r}")
+        if not (0 < self.ds_min <= self.ds <= self.ds_max):
+            raise InputError(f"steps must satisfy 0 < ds_min <= ds <= ds_max, got "
+                             f"{self.ds_min}, {self.ds}, {self.ds_max}")
+        if self.target_newton_its < 1 or self.max_newton_its < self.target_newton_its:
+            raise InputError("need 1 <= target_newton_its <= max_newton_its")
+        if not self.state_weight > 0:
+            raise InputError("state_weight must be positive")
+
+    def describe(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+@dataclass
+class Point:
+    """One converged point of a branch (scalars only)."""
+
+    index: int
+    kappa: float
+    kappa_L: float  # noqa: N815
+    newton_its: int
+    step: float
+    dkappa_ds: float
+    wall_time: float
+    scalars: dict[str, float] = field(default_factory=dict)
+
+    def as_dict(self) -> dict[str, Any]:
+        d = {k: v for k, v in asdict(self).items() if k != "scalars"}
+        d.update(self.scalars)
+        return d
+
+
+class _Arclength:
+    """Vectors and norms for the bordered system."""
+
+    def __init__(self, ns: NewtonSolver, L: float, xi: float) -> None:
+        self.ns = ns
+        self.model = ns.model
+        self.L = L
+        self.w = self.model.w.x.petsc_vec
+        N = self.w.getSize()
+        h = float(self.model.h.value)
+        self.cw = xi**2 / (N * h**2)
+        self.Fl = self.w.duplicate()  # dR/dλ
+        self.a = self.w.duplicate()
+        self.b = self.w.duplicate()
+        self.tw = self.w.duplicate()  # tangent, state part
+        self.tl = 0.0                 # tangent, λ part
+        self.wp = self.w.duplicate()  # predictor
+        self.w_old = self.w.duplicate()
+
+    def set_lambda(self, lam: float) -> None:
+        self.model.kappa.value = lam / self.L
+
+    def get_lambda(self) -> float:
+        return float(self.model.kappa.value) * self.L
+
+    def sync(self) -> None:
+        self.model.w.x.scatter_forward()
+
+    def dres_dlambda(self) -> None:
+        self.ns.assemble_dkappa(self.Fl)
+        self.Fl.scale(1.0 / self.L)
+
+    def tangent(self, sign_ref: tuple[Any, float] | None, direction: float) -> None:
+        """Unit tangent at the current (converged) point: J z = -R_λ, τ ∝ (z, 1)."""
+        self.ns.factor()
+        self.dres_dlambda()
+        self.Fl.scale(-1.0)
+        self.ns.lin_solve(self.Fl, self.b)
+        nz2 = self.cw * self.b.dot(self.b)
+        norm = math.sqrt(nz2 + 1.0)
+        self.b.copy(self.tw)
+        self.tw.scale(1.0 / norm)
+        tl = 1.0 / norm
+        if sign_ref is None:
+            s = 1.0 if direction >= 0 else -1.0
+        else:
+            tw_old, tl_old = sign_ref
+            s = 1.0 if self.cw * self.tw.dot(tw_old) + tl * tl_old >= 0 else -1.0
+        self.tw.scale(s)
+        self.tl = s * tl
+
+
+def continuation(model: Any, settings: ContinuationSettings, *, kappa_start: float = 0.0,
+                 kappa_end: float, solver: NewtonSolver | None = None, start_index: int = 0,
+                 initial_tangent: tuple[np.ndarray, float] | None = None,
+                 skip_first: bool = False) -> Iterator[Point]:
+    """Follow the branch from the model's current state at ``kappa_start`` to ``kappa_end``.
+
+    The first point is the (re-converged) start; the run ends on the point at ``kappa_end``
+    exactly, or when the step falls below ``ds_min``, or after ``max_steps`` points.
+    ``initial_tangent`` (local state array, λ part) resumes an arclength run in its direction.
+    """
+    ns = solver or NewtonSolver(model)
+    L = model.shape.characteristic_size()
+    lam0, lam_end = kappa_start * L, kappa_end * L
+    direction = 1.0 if lam_end >= lam0 else -1.0
+    t_start = time.perf_counter()
+    model.kappa.value = kappa_start
+    ok, its = ns.solve()
+    if not ok:
+        raise RuntimeError(f"Newton did not converge at the start kappa = {kappa_start}")
+    index = start_index
+
+    def point(its: int, step: float, tl: float) -> Point:
+        nonlocal index
+        p = Point(index=index, kappa=float(model.kappa.value),
+                  kappa_L=float(model.kappa.value) * L, newton_its=its, step=step,
+                  dkappa_ds=tl, wall_time=time.perf_counter() - t_start,
+                  scalars=model.scalars())
+        index += 1
+        return p
+
+    if settings.method == "natural":
+        yield from _natural(model, ns, settings, lam0, lam_end, L, point, its, skip_first)
+    else:
+        yield from _arclength(model, ns, settings, lam0, lam_end, L, point, its, direction,
+                              initial_tangent, skip_first)
+
+
+def _natural(model, ns, st, lam0, lam_end, L, point, its0, skip_first) -> Iterator[Point]:
+    direction = 1.0 if lam_end >= lam0 else -1.0
+    stops = sorted({s for s in st.kappa_stops if (s - lam0) * direction > 0
+                    and (lam_end - s) * direction > 0} | {lam_end}, key=lambda s: s * direction)
+    if not skip_first:
+        yield point(its0, 0.0, direction)
+    lam, ds = lam0, st.ds
+    w = model.w.x.petsc_vec
+    w_old, dw = w.duplicate(), w.duplicate()
+    dw.set(0.0)
+    n = 0
+    while stops and n < st.max_steps:
+        target = stops[0]
+        step = min(ds, abs(target - lam))
+        new_lam = lam + direction * step
+        w.copy(w_old)
+        w.axpy(direction * step, dw)  # secant predictor
+        model.w.x.scatter_forward()
+        model.kappa.value = new_lam / L
+        ok, its = ns.solve()
+        if not ok or its > st.max_newton_its:
+            w_old.copy(w)
+            model.w.x.scatter_forward()
+            model.kappa.value = lam / L
+            ds *= 0.5
+            if ds < st.ds_min:
+                return
+            continue
+        # secant slope for the next predictor
+        w.copy(dw)
+        dw.axpy(-1.0, w_old)
+        dw.scale(1.0 / step)
+        lam = new_lam
+        if abs(lam - target) <= 1e-14 * max(1.0, abs(target)):
+            lam = target
+            stops.pop(0)
+        n += 1
+        yield point(its, step, direction)
+        ds = min(st.ds_max, max(st.ds_min, ds * _growth(its, st.target_newton_its)))
+
+
+def _growth(its: int, target: int) -> float:
+    return min(2.0, max(0.5, target / max(its, 1)))
+
+
+def _arclength(model, ns, st, lam0, lam_end, L, point, its0, direction, initial_tangent,
+               skip_first) -> Iterator[Point]:
+    ar = _Arclength(ns, L, st.state_weight)
+    ar.tangent(None, direction)
+    if initial_tangent is not None:
+        tw_arr, tl = initial_tangent
+        ref = ar.tw.duplicate()
+        ref.array_w[:] = tw_arr[: ref.getLocalSize()]
+        ar.tangent((ref, tl), direction)
+    if not skip_first:
+        yield point(its0, 0.0, ar.tl)
+    w = ar.w
+    ds = st.ds
+    lam = lam0
+    n = 0
+    tw_prev = ar.tw.duplicate()
+    while n < st.max_steps:
+        # predictor
+        w.copy(ar.w_old)
+        lam_old = lam
+        w.axpy(ds, ar.tw)
+        lam_p = lam + ds * ar.tl
+        crossing = (lam_p - lam_end) * direction >= 0
+        if crossing:
+            # land exactly on the end: a natural step at κ_end from the interpolated predictor
+            frac = (lam_end - lam) / (lam_p - lam) if lam_p != lam else 1.0
+            ar.w_old.copy(w)
+            w.axpy(frac * ds, ar.tw)
+            ar.sync()
+            ar.set_lambda(lam_end)
+            ok, its = ns.solve()
+            if ok and its <= st.max_newton_its:
+                yield point(its, frac * ds, ar.tl)
+                return
+            ar.w_old.copy(w)
+            ar.sync()
+            ar.set_lambda(lam)
+            ds *= 0.5
+            if ds < st.ds_min:
+                return
+            continue
+        w.copy(ar.wp)
+        ar.sync()
+        ar.set_lambda(lam_p)
+        ok, its, lam_new = _bordered_newton(ar, st, lam_p)
+        if not ok:
+            ar.w_old.copy(w)
+            ar.sync()
+            ar.set_lambda(lam_old)
+            ds *= 0.5
+            if ds < st.ds_min:
+                return
+            continue
+        lam = lam_new
+        ar.tw.copy(tw_prev)
+        tl_prev = ar.tl
+        ar.tangent((tw_prev, tl_prev), direction)
+        n += 1
+        yield point(its, ds, ar.tl)
+        ds = min(st.ds_max, max(st.ds_min, ds * _growth(its, st.target_newton_its)))
+
+
+def _bordered_newton(ar: _Arclength, st: ContinuationSettings, lam_p: float
+                     ) -> tuple[bool, int, float]:
+    """Keller's bordered Newton on R(w, λ) = 0, τ·(w - w_p, λ - λ_p) = 0."""
+    ns, w = ar.ns, ar.w
+    lam = lam_p
+    F = ns.b
+    for it in range(1, st.max_newton_its + 1):
+        ns.assemble_residual(F)
+        if not np.isfinite(F.norm()):
+            return False, it, lam
+        ns.factor()
+        F.scale(-1.0)
+        ns.lin_solve(F, ar.a)
+        ar.dres_dlambda()
+        ar.Fl.scale(-1.0)
+        ns.lin_solve(ar.Fl, ar.b)
+        # hyperplane constraint N = cw τw·(w - wp) + τl (λ - λp)
+        w.copy(ar.Fl)
+        ar.Fl.axpy(-1.0, ar.wp)
+        Nc = ar.cw * ar.tw.dot(ar.Fl) + ar.tl * (lam - lam_p)
+        denom = ar.tl + ar.cw * ar.tw.dot(ar.b)
+        if denom == 0 or not math.isfinite(denom):
+            return False, it, lam
+        dlam = -(Nc + ar.cw * ar.tw.dot(ar.a)) / denom
+        w.axpy(1.0, ar.a)
+        w.axpy(dlam, ar.b)
+        lam += dlam
+        ar.sync()
+        ar.set_lambda(lam)
+        ar.a.axpy(dlam, ar.b)  # the full state increment
+        rms = ar.a.norm() / math.sqrt(w.getSize()) / ar.L
+        if not (math.isfinite(rms) and math.isfinite(lam)):
+            return False, it, lam
+        if rms < st.newton_tol and abs(dlam) < st.newton_tol * max(1.0, abs(lam)):
+            ns.assemble_residual(F)
+            if F.norm() < st.residual_tol:
+                return True, it, lam
+    return False, st.max_newton_its, lam

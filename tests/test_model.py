@@ -1,0 +1,146 @@
+"""Surface shell model with natural curvature: closed-sphere laws, pressure analogy, edge/bulk works.
+
+All on 1 and 2 ranks (scalars are reduced over the communicator before asserting).
+"""
+
+import math
+
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+
+from shells.continuation import ContinuationSettings, continuation
+from shells.geometry import Sphere, SphericalCap
+from shells.mesh import MeshSpec, generate
+from shells.model import ModelParameters, ShellModel
+from shells.solvers import NewtonSolver
+
+from conftest import fitted_rate
+
+H = 0.05  # h/R of the paper's closed-sphere checks
+
+
+def exact_sphere_psi3_over_h(kh: float, h: float = H, R: float = 1.0) -> float:
+    """Uniformly shrunk sphere: lambda (lambda^2 - 1) = (h^2 / 6R) ((1 - lambda)/R - kappa)."""
+    kappa = kh / h
+    lam = brentq(lambda l: l * (l * l - 1) - h * h / (6 * R) * ((1 - l) / R - kappa), 0.5, 1.5,
+                 xtol=1e-15)
+    return (lam - 1) * R / h
+
+
+@pytest.fixture(scope="module")
+def sphere_model():
+    sm = generate(MeshSpec(Sphere(1.0), size=0.25))
+    return ShellModel(sm, ModelParameters(h=H, nu=0.5))
+
+
+@pytest.fixture(scope="module")
+def sphere_solver(sphere_model):
+    return NewtonSolver(sphere_model)
+
+
+def _solve_at(model, ns, kappa, pressure=0.0):
+    model.w.x.array[:] = 0.0
+    model.w.x.scatter_forward()
+    model.kappa.value = kappa
+    model.pressure.value = pressure
+    ok, its = ns.solve()
+    assert ok
+    return model.scalars()
+
+
+@pytest.mark.parametrize("kh", [0.25, 1.0])
+def test_sphere_psi3_matches_uniform_shrink(sphere_model, sphere_solver, kh):
+    s = _solve_at(sphere_model, sphere_solver, kh / H)
+    exact = exact_sphere_psi3_over_h(kh)
+    assert s["psi3_over_h"] == pytest.approx(exact, rel=1e-3)
+    # the pole-to-pole measure agrees: the state is uniform, not just on average
+    assert s["apex_uz_over_h"] == pytest.approx(exact, rel=1e-3)
+    # the paper's first-order law, -kappa h / 12, holds to O(kappa h^2 ...) here
+    assert s["psi3_over_h"] == pytest.approx(-kh / 12, rel=0.02)
+
+
+def test_sphere_linear_law_small_kappa(sphere_model, sphere_solver):
+    """Psi3/h -> -(kappa h/12) / (1 + (h/R)^2/12) as kappa -> 0 (the supplement's Eq. S-Psi3)."""
+    slopes = []
+    for kh in (1e-3, 1e-2):
+        s = _solve_at(sphere_model, sphere_solver, kh / H)
+        slopes.append(s["psi3_over_h"] / kh)
+    linear = -(1 / 12) / (1 + H**2 / 12)
+    assert slopes[0] == pytest.approx(linear, rel=2e-4)
+    # the nonlinear correction is first order in kappa h: ten times larger at kappa h = 1e-2
+    assert abs(slopes[1] / linear - 1) > abs(slopes[0] / linear - 1)
+
+
+def test_pressure_analogy_eq5(sphere_model, sphere_solver):
+    """Dead pressure p with kappa h = 6 (1 - nu) (R/h)^2 p / E gives the same Psi3 to first order."""
+    nu = 0.5
+    for kh in (1e-3, 1e-2):
+        p_over_e = kh / (6 * (1 - nu)) * H**2
+        s_p = _solve_at(sphere_model, sphere_solver, 0.0, pressure=p_over_e)
+        s_k = _solve_at(sphere_model, sphere_solver, kh / H)
+        # identical linear response; the difference is the (different) nonlinear correction
+        assert s_p["psi3_over_h"] == pytest.approx(s_k["psi3_over_h"], rel=5 * kh)
+        assert s_p["psi3_over_h"] < 0  # external pressure compresses, like kappa > 0
+
+
+def test_energy_split_and_curvature_potential(sphere_model, sphere_solver):
+    """Energy = U_s + (h^2/3) U_b + P_kappa + (h^2/3) 2 (1 + nu) kappa^2 A (the dropped constant)."""
+    kappa = 0.5 / H
+    s = _solve_at(sphere_model, sphere_solver, kappa)
+    area = sphere_model.assemble("area")  # the discrete surface area
+    const = H**2 / 3 * 2 * 1.5 * kappa**2 * area
+    total = s["stretching"] + s["bending"] + s["curvature_potential"] + s["shear"] + const
+    assert s["energy"] == pytest.approx(total, rel=1e-6)
+    assert s["curvature_potential"] < 0  # the stimulus does work
+
+
+def _cap_works(h, theta_deg=30.0, kappa_R=0.05):
+    cap = SphericalCap(1.0, math.radians(theta_deg))
+    sm = generate(MeshSpec(cap, h=h, size=0.2, layer_elements=3))
+    model = ShellModel(sm, ModelParameters(h=h, nu=0.5))
+    ns = NewtonSolver(model)
+    model.kappa.value = kappa_R
+    ok, _ = ns.solve()
+    assert ok
+    s = model.scalars()
+    ns.destroy()
+    return s
+
+
+def test_edge_work_dominates_and_scales():
+    """Eqs. (2a, 2b): |W_edge| >> |W_bulk|, ratio ~ (R/h)^(3/2) / tan(theta/2)."""
+    hs = [0.04, 0.02, 0.01]
+    ratios = []
+    for h in hs:
+        s = _cap_works(h)
+        # first order: P_kappa = -(W_bulk + W_edge) in the linear regime
+        assert s["curvature_potential"] == pytest.approx(-(s["W_bulk"] + s["W_edge"]), rel=0.05)
+        ratios.append(abs(s["W_edge"] / s["W_bulk"]))
+    assert min(ratios) > 20
+    exponent = -fitted_rate(hs, ratios)  # ratio ~ h^-exponent
+    assert 1.2 < exponent < 1.8, (ratios, exponent)
+
+
+def test_cap_snaps_through_a_fold():
+    """A cap with thetabar > 2.09 snaps: the arclength branch turns back in kappa (a fold)."""
+    h, theta = 0.04, math.radians(30.0)  # thetabar = 2.62
+    sm = generate(MeshSpec(SphericalCap(1.0, theta), h=h, size=0.2, layer_elements=3))
+    model = ShellModel(sm, ModelParameters(h=h, nu=0.5))
+    st = ContinuationSettings(ds=0.3, ds_max=0.6)
+    pts = []
+    for p in continuation(model, st, kappa_end=3.0):
+        pts.append(p)
+        if len(pts) > 2 and pts[-3].dkappa_ds < 0:  # two points past the fold
+            break
+    i = next(i for i, (a, b) in enumerate(zip(pts, pts[1:])) if a.dkappa_ds > 0 > b.dkappa_ds)
+    kappa_fold = max(pts[i].kappa_L, pts[i + 1].kappa_L)
+    # paper: kappa_s R = 0.85 thetabar - 0.67 = 1.555; independent codes find ~7 % lower, and
+    # this coarse mesh is lower still (benchmarks quantify it): a broad but failing-capable window
+    assert 1.2 < kappa_fold < 1.7
+    # kappa rises monotonically up to the fold and falls after it: the branch turned around
+    ks = [p.kappa_L for p in pts]
+    assert np.all(np.diff(ks[: i + 1]) > 0) and ks[-1] < kappa_fold
+    # the apex keeps moving down through the fold (snap-through direction)
+    apex = [p.scalars["apex_uz_over_h"] for p in pts]
+    assert np.all(np.diff(apex) < 0)

@@ -42,7 +42,7 @@ def main(out: str = "results/edge_bulk_scaling.json") -> None:
     rows = []
     hs = [0.04, 0.02, 0.01, 0.005, 0.0025]
     for theta in (30.0, 60.0, 90.0):
-        for le, size in ((3.0, 0.2), (5.0, 0.1)):
+        for le, size in ((3.0, 0.2), (5.0, 0.15)):
             for h in hs:
                 t = time.perf_counter()
                 r = works(h, theta, le, size)

@@ -217,7 +217,10 @@ class ShellModel:
         if not isinstance(self.shape, SphericalCap):
             return {}
         R = self.shape.R
-        u, _ = self.split(self.w)
+        # W_bulk and W_edge separately change under a rigid translation of an open cap (only
+        # their sum -P_kappa does not): they are evaluated on u minus its mean (set in scalars())
+        self._u_shift = fem.Constant(self.shell.mesh, np.zeros(3))
+        u = self.split(self.w)[0] - self._u_shift
         n0 = self.n0
         psi3 = ufl.dot(u, n0)
         psi_t = u - psi3 * n0
@@ -279,7 +282,14 @@ class ShellModel:
             constraints += [(top, 3), (top, 4), (rim_b, 1)]
             self.support_points = [top, rim_b]
         else:
-            B, C, D = (node(np.array(p), "gauge point") for p in gauge_points(self.shape))
+            pb, pc, pd = (np.array(p) for p in gauge_points(self.shape))
+            C, D = node(pc, "gauge point"), node(pd, "gauge point")
+            # B: any node of the azimuth-0 meridian (the OCC seam) will do; take the nearest
+            seam = (np.abs(x[:, 1]) < tol) & (x[:, 0] > 1e-3 * L)
+            dist = np.linalg.norm(x[seam] - pb, axis=1) if seam.any() else np.array([np.inf])
+            best = comm.allreduce((float(dist.min()), comm.rank), op=MPI.MINLOC)
+            B = np.asarray(comm.bcast(x[seam][np.argmin(dist)] if comm.rank == best[1]
+                                      else None, root=best[1]))
             constraints += [(B, 1), (D, 1), (C, 0)]
             self.support_points = [top, B, C, D]
         bcs = []
@@ -315,9 +325,11 @@ class ShellModel:
         h = float(self.h.value)
         out["psi3_over_h"] = psi3 / h
         out.update(self._apex())
-        for k in ("W_bulk", "W_edge"):
-            if k in self._scalar_forms:
-                out[k] = self.assemble(k)
+        if "W_bulk" in self._scalar_forms:
+            self._u_shift.value[:] = mean_u
+            for k in ("W_bulk", "W_edge"):
+                if k in self._scalar_forms:
+                    out[k] = self.assemble(k)
         return out
 
     def _apex(self) -> dict[str, float]:

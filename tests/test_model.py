@@ -54,8 +54,10 @@ def test_sphere_psi3_matches_uniform_shrink(sphere_model, sphere_solver, kh):
     s = _solve_at(sphere_model, sphere_solver, kh / H)
     exact = exact_sphere_psi3_over_h(kh)
     assert s["psi3_over_h"] == pytest.approx(exact, rel=1e-3)
-    # the pole-to-pole measure agrees: the state is uniform, not just on average
-    assert s["apex_uz_over_h"] == pytest.approx(exact, rel=1e-3)
+    # the pole-to-pole measure agrees: the state is uniform, not just on average. It is a
+    # pointwise value at the mesh's most distorted triangles (the OCC pole), measured within
+    # 2e-4 to 1.1e-3 on sizes 0.2 to 0.3, hence the looser pointwise bound
+    assert s["apex_uz_over_h"] == pytest.approx(exact, rel=3e-3)
     # the paper's first-order law, -kappa h / 12, holds to O(kappa h^2 ...) here
     assert s["psi3_over_h"] == pytest.approx(-kh / 12, rel=0.02)
 
@@ -109,17 +111,27 @@ def _cap_works(h, theta_deg=30.0, kappa_R=0.05):
 
 
 def test_edge_work_dominates_and_scales():
-    """Eqs. (2a, 2b): |W_edge| >> |W_bulk|, ratio ~ (R/h)^(3/2) / tan(theta/2)."""
-    hs = [0.04, 0.02, 0.01]
+    """Eqs. (2a, 2b): |W_edge| >> |W_bulk|, ratio ~ (R/h)^(3/2) / tan(theta/2).
+
+    Measured (benchmarks/edge_bulk_scaling.py, mesh-converged): the ratio is ~1.0 times the
+    paper's scale; its local exponent rises with thetabar (1.19, 1.30, 1.35, 1.39 from h/R = 0.04
+    to 0.0025 at 30 deg), approaching 3/2 from below. The works are evaluated on u minus its mean
+    translation: separately they are not translation invariant on an open cap.
+    """
+    theta = math.radians(30.0)
+    hs = [0.02, 0.01, 0.005]
     ratios = []
     for h in hs:
         s = _cap_works(h)
         # first order: P_kappa = -(W_bulk + W_edge) in the linear regime
-        assert s["curvature_potential"] == pytest.approx(-(s["W_bulk"] + s["W_edge"]), rel=0.05)
-        ratios.append(abs(s["W_edge"] / s["W_bulk"]))
-    assert min(ratios) > 20
+        assert s["curvature_potential"] == pytest.approx(-(s["W_bulk"] + s["W_edge"]), rel=2e-3)
+        ratio = abs(s["W_edge"] / s["W_bulk"])
+        assert 0.5 < ratio / ((1 / h) ** 1.5 / math.tan(theta / 2)) < 2.0  # O(1) prefactor
+        ratios.append(ratio)
     exponent = -fitted_rate(hs, ratios)  # ratio ~ h^-exponent
-    assert 1.2 < exponent < 1.8, (ratios, exponent)
+    assert 1.2 < exponent < 1.6, (ratios, exponent)
+    local = [math.log(ratios[i + 1] / ratios[i]) / math.log(2) for i in range(2)]
+    assert local[1] > local[0]  # pre-asymptotic: the exponent grows towards 3/2
 
 
 def test_cap_snaps_through_a_fold():

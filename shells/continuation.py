@@ -121,6 +121,12 @@ class _Arclength:
     def sync(self) -> None:
         self.model.w.x.scatter_forward()
 
+    def restore(self, lam: float) -> None:
+        """Back to the last converged point (after a failed step)."""
+        self.w_old.copy(self.w)
+        self.sync()
+        self.set_lambda(lam)
+
     def dres_dlambda(self) -> None:
         self.ns.assemble_dkappa(self.Fl)
         self.Fl.scale(1.0 / self.L)
@@ -261,9 +267,7 @@ def _arclength(model, ns, st, lam0, lam_end, L, point, its0, direction, initial_
             if ok and its <= st.max_newton_its:
                 yield point(its, frac * ds, ar.tl)
                 return
-            ar.w_old.copy(w)
-            ar.sync()
-            ar.set_lambda(lam)
+            ar.restore(lam)
             ds *= 0.5
             if ds < st.ds_min:
                 return
@@ -273,9 +277,7 @@ def _arclength(model, ns, st, lam0, lam_end, L, point, its0, direction, initial_
         ar.set_lambda(lam_p)
         ok, its, lam_new = _bordered_newton(ar, st, lam_p)
         if not ok:
-            ar.w_old.copy(w)
-            ar.sync()
-            ar.set_lambda(lam_old)
+            ar.restore(lam_old)
             ds *= 0.5
             if ds < st.ds_min:
                 return

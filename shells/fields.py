@@ -1,0 +1,53 @@
+"""Fields for ParaView: displacement, director and curvature quantities of a shell state.
+
+``FieldWriter`` interpolates onto the mesh's own (P2) Lagrange space and writes one time step per
+call; the time value is the natural curvature κL of the point.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+__all__ = ["FieldWriter"]
+
+
+class FieldWriter:
+    """VTX (ADIOS2) output of displacement, director and curvature fields for ParaView."""
+
+    def __init__(self, model: Any, path: str | os.PathLike) -> None:
+        import basix.ufl
+        import ufl
+        from dolfinx import fem, io
+
+        mesh = model.shell.mesh
+        deg = mesh.geometry.cmap.degree
+        Vv = fem.functionspace(mesh, basix.ufl.element("Lagrange", mesh.basix_cell(), deg,
+                                                       shape=(3,)))
+        Vs = fem.functionspace(mesh, basix.ufl.element("Lagrange", mesh.basix_cell(), deg))
+        self.model = model
+        self.u = fem.Function(Vv, name="displacement")
+        self.d = fem.Function(Vv, name="director")
+        self.H = fem.Function(Vs, name="mean_curvature_change")
+        self.Hbar = fem.Function(Vs, name="natural_curvature_mismatch")
+        k, r = model.kinematics(model.w), model.reference()
+        pts = Vv.element.interpolation_points()
+        self._exprs = [
+            (self.u, fem.Expression(k["u"], pts)),
+            (self.d, fem.Expression(k["d"], pts)),
+            (self.H, fem.Expression(0.5 * ufl.tr(k["b"] - r["b"]), Vs.element.interpolation_points())),
+            (self.Hbar, fem.Expression(0.5 * ufl.tr(k["b"] - r["b"] - model.kappa * model.P0),
+                                       Vs.element.interpolation_points())),
+        ]
+        Path(path).parent.mkdir(parents=True, exist_ok=True)
+        self.writer = io.VTXWriter(mesh.comm, str(path), [self.u, self.d, self.H, self.Hbar],
+                                   engine="BP4")
+
+    def write(self, t: float) -> None:
+        for f, e in self._exprs:
+            f.interpolate(e)
+        self.writer.write(t)
+
+    def close(self) -> None:
+        self.writer.close()

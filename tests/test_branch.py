@@ -1,0 +1,70 @@
+"""shells branch: the JSON contract, the branch file, resume after an interruption.
+
+The field files are checked in real ParaView by the ParaView check of the test command."""
+
+import json
+
+import pytest
+from mpi4py import MPI
+
+from shells.branch import BranchConfig, read_branch, run_branch
+from shells.cli import main
+from shells.continuation import ContinuationSettings
+from shells.geometry import Sphere
+
+
+def _last_json(out):
+    return json.loads(out.strip().splitlines()[-1])
+
+
+def test_branch_cli_json_contract(capsys, shared_tmp):
+    out = shared_tmp / "b"
+    rc = main(["branch", "--shape", "sphere", "--h-over-r", "0.05", "--nu", "0.5",
+               "--kappa-h-max", "0.5", "--size", "0.3", "--method", "natural", "--ds", "5",
+               "--ds-max", "5", "-o", str(out), "--json"])
+    assert rc == 0
+    if MPI.COMM_WORLD.rank == 0:
+        d = _last_json(capsys.readouterr().out)
+        pts = d["points"]
+        for key in ("kappa_R", "kappa_h", "psi3_over_h", "energy", "newton_its"):
+            assert all(key in p for p in pts), key
+        assert pts[0]["kappa_h"] == 0 and pts[-1]["kappa_h"] == pytest.approx(0.5, rel=1e-12)
+        # landed on kappa R = 5 and 10 exactly, the sphere's linear law holds along the way
+        for p in pts[1:]:
+            assert p["psi3_over_h"] == pytest.approx(-p["kappa_h"] / 12, rel=0.01)
+        header, recs = read_branch(out / "branch.jsonl")
+        assert header["dofs"] == d["dofs"] > 1000 and len(recs) == len(pts)
+
+
+@pytest.mark.parametrize("argv, needle", [
+    (["branch", "--shape", "cap", "--h-over-r", "0.05", "--kappa-r-max", "1"], "opening angle"),
+    (["branch", "--shape", "cap", "--theta-deg", "190", "--h-over-r", "0.05",
+      "--kappa-r-max", "1"], "(0, 180]"),
+    (["branch", "--shape", "sphere", "--h-over-r", "-0.05", "--kappa-h-max", "1"], "positive"),
+    (["branch", "--shape", "sphere", "--h-over-r", "0.05"], "exactly one of"),
+    (["branch", "--shape", "sphere", "--h-over-r", "0.05", "--kappa-h-max", "1", "--nu", "0.7"],
+     "nu must lie"),
+])
+def test_branch_bad_input(capsys, argv, needle):
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    if MPI.COMM_WORLD.rank == 0:
+        assert len(err.strip().splitlines()) == 1 and needle in err
+
+
+def test_resume_after_interruption(shared_tmp):
+    """A run stopped after 3 points resumes from its checkpoint and ends where a full run does."""
+    cfg = BranchConfig(shape=Sphere(1.0), h_over_r=0.05, kappa_end=20.0, size=0.3,
+                       continuation=ContinuationSettings(method="natural", ds=4.0, ds_max=4.0))
+    full = list(run_branch(cfg, shared_tmp / "full"))
+    gen = run_branch(cfg, shared_tmp / "cut")
+    first = [next(gen) for _ in range(3)]
+    gen.close()  # the "crash": points 0..2 are on disk
+    _, on_disk = read_branch(shared_tmp / "cut" / "branch.jsonl")
+    assert [p["index"] for p in on_disk] == [0, 1, 2]
+    resumed = list(run_branch(cfg, shared_tmp / "cut"))
+    assert [p["index"] for p in resumed] == [p["index"] for p in full]
+    # the first three came from the file, not recomputed (same wall times as written)
+    assert [p["wall_time"] for p in resumed[:3]] == [p["wall_time"] for p in first]
+    assert resumed[-1]["psi3_over_h"] == pytest.approx(full[-1]["psi3_over_h"], rel=1e-9)
+    assert resumed[-1]["kappa_R"] == pytest.approx(20.0, rel=1e-12)

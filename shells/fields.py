@@ -1,7 +1,10 @@
 """Fields for ParaView: displacement, director and curvature quantities of a shell state.
 
 ``FieldWriter`` interpolates onto the mesh's own (P2) Lagrange space and writes one time step per
-call; the time value is the natural curvature κL of the point.
+call (the caller's time value: ``shells branch`` uses the point's index). The format is VTX
+(ADIOS2 BP4, a ``.bp`` directory): ParaView opens it with its ADIOS2VTXReader ("ADIOS2 VTX
+Reader"), including Debian 13's ParaView 5.13 (`pvbatch`), which ``scripts/pv-check`` proves by
+opening a real run's fields and checking the arrays against dolfinx.
 """
 
 from __future__ import annotations
@@ -44,9 +47,14 @@ class FieldWriter:
         self.writer = io.VTXWriter(mesh.comm, str(path), [self.u, self.d, self.H, self.Hbar],
                                    engine="BP4")
 
-    def write(self, t: float) -> None:
+    def update(self) -> dict[str, Any]:
+        """Interpolate the fields of the model's current state; returns name -> dolfinx Function."""
         for f, e in self._exprs:
             f.interpolate(e)
+        return {f.name: f for f, _ in self._exprs}
+
+    def write(self, t: float) -> None:
+        self.update()
         self.writer.write(t)
 
     def close(self) -> None:

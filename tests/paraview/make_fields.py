@@ -1,0 +1,86 @@
+"""Main env, serial: a short real branch run with fields, and the expected content of its fields.
+
+    python3 tests/paraview/make_fields.py DIR
+
+runs ``shells branch`` (the CLI, ``--fields last``) into DIR/run, then rebuilds the model from the
+run's header and checkpoint (the state at the last point), interpolates the fields with the same
+``FieldWriter`` and writes DIR/expected.json: the file to open, its time value, point and cell
+counts, and for each array its component count and per-component and magnitude ranges — what
+tests/paraview/pv_check.py, in ParaView, must find in the file.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+RUN = ["branch", "--shape", "sphere", "--h-over-r", "0.05", "--nu", "0.5", "--kappa-h-max", "0.5",
+       "--fields", "last", "--restart"]
+ARRAYS = ("displacement", "director", "mean_curvature_change", "natural_curvature_mismatch")
+
+
+def main(out: Path) -> None:
+    from mpi4py import MPI
+
+    from shells.branch import BranchConfig, read_branch
+    from shells.fields import FieldWriter
+    from shells.mesh import generate
+    from shells.model import ModelParameters, ShellModel
+
+    comm = MPI.COMM_WORLD
+    assert comm.size == 1, "run serially: the expected point count is that of one rank"
+    run = out / "run"
+    subprocess.run([sys.executable, "-m", "shells", *RUN, "-o", str(run)], check=True)
+
+    header, points = read_branch(run / "branch.jsonl")
+    last = points[-1]
+    cfg = BranchConfig.from_description(header)
+    model = ShellModel(generate(cfg.mesh_spec(), comm),
+                       ModelParameters(h=cfg.h, nu=cfg.nu, shear_penalty=cfg.shear_penalty))
+    ck = np.load(run / "checkpoint" / "state-0-of-1.npz")
+    assert int(ck["index"]) == last["index"], "checkpoint is not the last point"
+    assert ck["w"].shape == model.w.x.array.shape
+    model.w.x.array[:] = ck["w"]
+    model.w.x.scatter_forward()
+    model.kappa.value = float(ck["kappa"])
+
+    writer = FieldWriter(model, out / "expected-scratch.bp")  # only for its interpolation
+    funcs = writer.update()
+    writer.close()
+    shutil.rmtree(out / "expected-scratch.bp", ignore_errors=True)
+    mesh = model.shell.mesh
+    arrays = {}
+    for name in ARRAYS:
+        f = funcs[name]
+        bs = f.function_space.dofmap.index_map_bs
+        n = f.function_space.dofmap.index_map.size_local
+        a = f.x.array[: n * bs].reshape(n, bs)
+        arrays[name] = {
+            "components": bs,
+            "ranges": [[float(a[:, i].min()), float(a[:, i].max())] for i in range(bs)],
+            "magnitude": [float(np.linalg.norm(a, axis=1).min()),
+                          float(np.linalg.norm(a, axis=1).max())],
+        }
+    V = funcs["displacement"].function_space
+    expected = {
+        "file": str((run / "fields.bp").resolve()),
+        "time": float(last["index"]),
+        "kappa_h": last["kappa_h"],
+        "points": V.dofmap.index_map.size_local,
+        "cells": mesh.topology.index_map(mesh.topology.dim).size_local,
+        "arrays": arrays,
+    }
+    (out / "expected.json").write_text(json.dumps(expected, indent=1) + "\n")
+    print(f"make_fields: {expected['file']}: {expected['points']} points, {expected['cells']} "
+          f"cells, kappa h = {last['kappa_h']:.3g}; expected ranges in {out / 'expected.json'}")
+
+
+if __name__ == "__main__":
+    if len(sys.argv) != 2:
+        sys.exit("usage: make_fields.py DIR")
+    main(Path(sys.argv[1]))

@@ -1,6 +1,19 @@
 # shells on Debian 13: the FEniCSx stack from the same package list as the host set-up.
 #   scripts/docker-check   builds this daemonlessly with buildah and runs the test suite in it
-FROM debian:trixie-slim
+# Two stages, as the host set-up has two envs: `paraview` (deps/paraview-packages.txt; ParaView's
+# python3-paraview conflicts with python3-vtk9) only opens the field output in ParaView for the
+# tests (scripts/docker-check builds it with --target paraview); the last stage is the image.
+
+FROM debian:trixie-slim AS paraview
+COPY deps/paraview-packages.txt /tmp/paraview-packages.txt
+RUN apt-get update \
+ && sed -e 's/#.*//' /tmp/paraview-packages.txt | xargs apt-get install -y --no-install-recommends \
+ && rm -rf /var/lib/apt/lists/*
+ENV SHELLS_IN_ENV=paraview
+COPY . /opt/shells
+WORKDIR /opt/shells
+
+FROM debian:trixie-slim AS shells
 COPY deps/debian-packages.txt /tmp/debian-packages.txt
 RUN apt-get update \
  && sed -e 's/#.*//' /tmp/debian-packages.txt | xargs apt-get install -y --no-install-recommends \
@@ -8,7 +21,8 @@ RUN apt-get update \
 ENV OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 \
     OMPI_MCA_btl_vader_single_copy_mechanism=none OMPI_MCA_rmaps_base_oversubscribe=1 \
     PRTE_MCA_rmaps_default_mapping_policy=:oversubscribe \
-    OMP_NUM_THREADS=1 MPLBACKEND=Agg PYVISTA_OFF_SCREEN=true
+    OMP_NUM_THREADS=1 MPLBACKEND=Agg PYVISTA_OFF_SCREEN=true \
+    SHELLS_IN_ENV=1
 COPY . /opt/shells
 WORKDIR /opt/shells
 RUN pip install --break-system-packages --no-deps --no-build-isolation --no-cache-dir . \

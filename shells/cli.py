@@ -249,6 +249,157 @@ def _cmd_branch(args: argparse.Namespace) -> int:
     return 0
 
 
+# --------------------------------------------------------------------------------------------
+# shells critical
+# --------------------------------------------------------------------------------------------
+def default_kappa_range(shape: Any, h_over_r: float, nu: float, direction: str) -> float:
+    """A κ range (absolute, signed) that contains the first critical point with a margin.
+
+    Built from the paper's laws (sphere: κ_b h; caps: the snap line, the mirrored Eq. (4) and
+    Eq. (4); disk: the plate limit), widened by 60 %.
+    """
+    from shells import theory
+    from shells.geometry import Disk, Sphere, SphericalCap
+
+    sign = 1.0 if direction == "up" else -1.0
+    L = shape.characteristic_size()
+    h = h_over_r * L
+    if isinstance(shape, Sphere):
+        return sign * 1.6 * theory.sphere_kappa_b_h(nu) / h
+    if isinstance(shape, Disk):
+        return sign * 1.6 * theory.plate_a() * h / L**2
+    if isinstance(shape, SphericalCap):
+        tb = shape.theta / math.sqrt(h_over_r)
+        if direction == "up":
+            kr = max(theory.snap_kappa_R(tb), theory.mirrored_buckling_kappa_R(tb, h_over_r))
+            return (1.6 * max(kr, 1.0) + 0.5) / shape.R
+        return (1.6 * min(theory.buckling_kappa_R(tb, h_over_r), -1.0) - 0.5) / shape.R
+    return sign * 8.0 / shape.R
+
+
+def _cmd_critical(args: argparse.Namespace) -> int:
+    import time
+    from pathlib import Path
+
+    shape = _shape_from_args(args)
+    L = shape.characteristic_size()
+    h = args.h_over_r * L
+    if not (0 < args.h_over_r < 1):
+        raise InputError(f"h/R must lie in (0, 1), got {args.h_over_r:g}")
+    if not (-1.0 < args.nu <= 0.5):
+        raise InputError(f"nu must lie in (-1, 0.5], got {args.nu:g}")
+    sign = 1.0 if args.direction == "up" else -1.0
+    R_or_L = shape.R if math.isfinite(shape.R) else L
+    if args.kappa_h_max is not None:
+        kappa_end = sign * abs(args.kappa_h_max) / h
+    elif args.kappa_r_max is not None:
+        kappa_end = sign * abs(args.kappa_r_max) / R_or_L
+    else:
+        kappa_end = default_kappa_range(shape, args.h_over_r, args.nu, args.direction)
+    theta_deg = math.degrees(shape.theta) if hasattr(shape, "theta") and not shape.closed \
+        else None
+    base = {"h_over_R": args.h_over_r, "nu": args.nu, "theta_deg": theta_deg,
+            "model": args.model, "shape": shape.describe(), "direction": args.direction,
+            "kappa_R_end": kappa_end * R_or_L, "kappa_h_end": kappa_end * h}
+    if args.model == "axisym":
+        try:
+            from shells import axisym
+        except ImportError as e:
+            raise InputError("--model axisym is not available in this installation") from e
+        result = {**base, **axisym.critical(shape, args.h_over_r, args.nu,
+                                            direction=args.direction,
+                                            kappa_max=abs(kappa_end) * R_or_L)}
+    elif args.model == "surface":
+        result = {**base, **_critical_surface(args, shape, h, kappa_end, R_or_L)}
+    else:
+        raise InputError(f"--model must be surface or axisym, got {args.model!r}")
+    if args.output and _rank() == 0:
+        Path(args.output).mkdir(parents=True, exist_ok=True)
+        (Path(args.output) / "critical.json").write_text(
+            json.dumps(result, indent=1, default=_json_default))
+    _ = time
+
+    def human() -> None:
+        print(f"{shape.kind}, h/L = {args.h_over_r}, nu = {args.nu}, {args.direction}, "
+              f"model {args.model}, {result.get('dofs')} DOFs")
+        cps = result["critical_points"]
+        if not cps:
+            print(f"no critical point up to kappa R = {kappa_end * R_or_L:.4f} "
+                  f"(kappa h = {kappa_end * h:.4f})")
+        for c in cps:
+            mode = (f"n = {c['mode_n']}" if c.get("mode_n") is not None
+                    else f"m = {c.get('mode_m')}")
+            print(f"{c['kind']:>12} at kappa R = {c['kappa_R']:.6f}, kappa h = "
+                  f"{c['kappa_h']:.6f}  ({mode})")
+
+    emit(result, args, human)
+    return 0
+
+
+def _critical_surface(args: argparse.Namespace, shape: Any, h: float, kappa_end: float,
+                      R_or_L: float) -> dict[str, Any]:
+    from pathlib import Path
+
+    from mpi4py import MPI
+
+    from shells.continuation import ContinuationSettings
+    from shells.critical import CriticalSettings, follow
+    from shells.mesh import MeshSpec, generate
+    from shells.model import ModelParameters, ShellModel
+
+    comm = MPI.COMM_WORLD
+    sm = generate(MeshSpec(shape, h=h, size=args.size, layer_elements=args.layer_elements), comm)
+    model = ShellModel(sm, ModelParameters(h=h, nu=args.nu, shear_penalty=args.shear_penalty))
+    L = shape.characteristic_size()
+    lam_end = abs(kappa_end) * L
+    ds = args.ds if args.ds is not None else lam_end / 16
+    ds_max = args.ds_max if args.ds_max is not None else max(ds, lam_end / 10)
+    st = ContinuationSettings(ds=ds, ds_max=max(ds, ds_max), ds_min=1e-7 * lam_end,
+                              ds_unit="kappa")
+    crit = CriticalSettings(stop_at_first=args.first_only)
+    log.info("critical: %s, %d DOFs, following kappa up to kappa R = %.4f", shape.describe(),
+             model.num_dofs(), kappa_end * R_or_L)
+    out = Path(args.output) if args.output else None
+    bfile = None
+    if out is not None and comm.rank == 0:
+        out.mkdir(parents=True, exist_ok=True)
+        bfile = out / "branch.jsonl"
+        bfile.write_text("")
+    cps = []
+    t0 = time_now()
+    for p, res, found in follow(model, st, kappa_end, crit):
+        rec = {"index": p.index, "kappa_R": p.kappa * R_or_L, "kappa_h": p.kappa * h,
+               "negative_count": res.negative_count, "dkappa_ds": p.dkappa_ds,
+               "newton_its": p.newton_its, **p.scalars}
+        if bfile is not None:
+            with open(bfile, "a") as f:
+                f.write(json.dumps(rec) + "\n")
+        log.info("  kappa R = %+.5f  kappa h = %+.5f  negative = %d  (%.0f s)", rec["kappa_R"],
+                 rec["kappa_h"], res.negative_count, time_now() - t0)
+        for c in found:
+            d = c.as_dict()
+            d.update(kappa_R=c.kappa * R_or_L, kappa_h=c.kappa * h,
+                     kappa_R_bracket=[c.kappa_lo * R_or_L, c.kappa_hi * R_or_L])
+            cps.append(d)
+            log.info("  %s at kappa R = %.6f (kappa h = %.6f), m = %s, n = %s", c.kind,
+                     d["kappa_R"], d["kappa_h"], c.mode_m, c.mode_n)
+    first = cps[0] if cps else None
+    return {"kind": first["kind"] if first else "none",
+            "kappa_R": first["kappa_R"] if first else None,
+            "kappa_h": first["kappa_h"] if first else None,
+            "mode_m": first["mode_m"] if first else None,
+            "mode_n": first["mode_n"] if first else None,
+            "dofs": model.num_dofs(), "critical_points": cps,
+            "mesh": {"size": args.size, "layer_elements": args.layer_elements},
+            "wall_time": time_now() - t0}
+
+
+def time_now() -> float:
+    import time
+
+    return time.perf_counter()
+
+
 def _build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog="shells", description="Thin elastic shells with natural curvature "
                 "(FEniCSx): meshes, branches, buckling and snap-through.")
@@ -311,6 +462,38 @@ def _build_parser() -> argparse.ArgumentParser:
     b.add_argument("-o", "--output", default=None, help="output directory (results/branch)")
     b.add_argument("--json", action="store_true", help="print a JSON object as the last line")
     b.set_defaults(func=_cmd_branch)
+
+    c = sub.add_parser("critical", help="first critical point (fold or bifurcation) along the "
+                       "fundamental branch", description="Follow the fundamental branch from "
+                       "kappa = 0 with the Hessian inertia at every point; locate every critical "
+                       "point (to 1e-4 in kappa) up to the first fold or the end of the range, "
+                       "classify it (fold/bifurcation) and its mode (n on spheres, m otherwise).")
+    _add_shape_args(c, positional=False)
+    c.add_argument("--h-over-r", type=_positive_float("h/R"), required=True,
+                   help="thickness over R (disk: over its radius)")
+    c.add_argument("--nu", type=float, default=0.5, help="Poisson ratio (default 0.5)")
+    c.add_argument("--direction", default="up", choices=("up", "down"),
+                   help="up: kappa > 0 (default), down: kappa < 0")
+    c.add_argument("--model", default="surface", choices=("surface", "axisym"),
+                   help="surface (2D mesh, default) or axisym (shell of revolution)")
+    g = c.add_mutually_exclusive_group()
+    g.add_argument("--kappa-h-max", type=float, default=None, help="end of the range, |kappa h|")
+    g.add_argument("--kappa-r-max", type=float, default=None, help="end of the range, |kappa R|")
+    c.add_argument("--first-only", action="store_true", help="stop at the first critical point")
+    c.add_argument("--size", type=_positive_float("size"), default=0.1,
+                   help="bulk element size / R (default 0.1)")
+    c.add_argument("--layer-elements", type=_positive_float("layer-elements"), default=4.0,
+                   help="elements across sqrt(R h) at the rim (default 4)")
+    c.add_argument("--shear-penalty", type=_positive_float("shear-penalty"), default=1.0e3,
+                   help="Kirchhoff-Love penalty, times the Naghdi shear stiffness (default 1e3)")
+    c.add_argument("--ds", type=_positive_float("ds"), default=None,
+                   help="initial step, in kappa L (default: range/16)")
+    c.add_argument("--ds-max", type=_positive_float("ds-max"), default=None,
+                   help="largest step, in kappa L (default: range/10)")
+    c.add_argument("-o", "--output", default=None,
+                   help="directory for branch.jsonl (points as computed) and critical.json")
+    c.add_argument("--json", action="store_true", help="print a JSON object as the last line")
+    c.set_defaults(func=_cmd_critical)
 
     r = sub.add_parser("render", help="render a .msh surface to PNG (off-screen)")
     r.add_argument("mesh", help="gmsh .msh file")

@@ -144,7 +144,10 @@ class ShellModel:
         import ufl
 
         n0, P0 = self.n0, self.P0
-        grad_n = ufl.grad(n0) * P0
+        if self.shape.closed or np.isfinite(self.shape.R) or self.shape.kind != "disk":
+            grad_n = ufl.grad(n0) * P0
+        else:  # the disk's constant normal carries no mesh for ufl.grad
+            grad_n = ufl.as_matrix([[0.0] * 3] * 3) * P0
         b0 = -0.5 * (P0.T * grad_n + grad_n.T * P0)
         return {"a": P0.T * P0, "b": b0, "gamma": P0.T * n0}
 

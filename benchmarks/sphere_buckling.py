@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import logging
 import math
 import time
 from pathlib import Path
@@ -80,8 +81,12 @@ def main() -> None:
     ap.add_argument("--nu", type=float, nargs="+", default=[0.5, 0.3])
     ap.add_argument("--sizes", type=float, nargs="+", default=[0.2, 0.14, 0.1, 0.07])
     ap.add_argument("-o", default="benchmarks/results/sphere_buckling.json")
+    ap.add_argument("-v", "--verbose", action="store_true", help="log every locate evaluation")
     a = ap.parse_args()
     comm = MPI.COMM_WORLD
+    if comm.rank == 0:
+        logging.basicConfig(format="%(message)s")
+        logging.getLogger("shells").setLevel(logging.DEBUG if a.verbose else logging.INFO)
     out = Path(a.o)
     results = json.loads(out.read_text())["runs"] if out.exists() else []
     for nu in a.nu:

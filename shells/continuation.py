@@ -18,8 +18,9 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Iterator
 from dataclasses import asdict, dataclass, field
-from typing import Any, Iterator
+from typing import Any
 
 import numpy as np
 
@@ -311,7 +312,7 @@ def _bordered_newton(ar: _Arclength, st: ContinuationSettings, lam_p: float,
     Starts from the model's current state and ``lam_start`` (default: the predictor λ_p).
     ``singular_ok``: next to a bifurcation the Jacobian is nearly singular and round-off is
     amplified along the critical mode, so the increment stalls above ``newton_tol`` although the
-    residual is converged; then a residual below ``residual_tol``/100 is accepted as convergence.
+    residual is converged; then a residual below ``residual_tol`` after 3 iterations is accepted.
     """
     ns, w = ar.ns, ar.w
     lam = lam_p if lam_start is None else lam_start
@@ -350,6 +351,6 @@ def _bordered_newton(ar: _Arclength, st: ContinuationSettings, lam_p: float,
                 return True, it, lam
         elif singular_ok and it >= 3:
             ns.assemble_residual(F)
-            if F.norm() < 0.01 * st.residual_tol:
+            if F.norm() < st.residual_tol:
                 return True, it, lam
     return False, st.max_newton_its, lam

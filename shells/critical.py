@@ -25,18 +25,27 @@ wavenumber m).
 
 from __future__ import annotations
 
+import logging
 import math
 import time
+from collections.abc import Iterator
 from dataclasses import asdict, dataclass, field
-from typing import Any, Iterator
+from typing import Any
 
 import numpy as np
 
-from shells.continuation import (ContinuationSettings, Point, _Arclength, _bordered_newton,
-                                 continuation)
+from shells.continuation import (
+    ContinuationSettings,
+    Point,
+    _Arclength,
+    _bordered_newton,
+    continuation,
+)
 from shells.errors import InputError
 from shells.solvers import NewtonSolver
 from shells.stability import Stability, StabilityResult
+
+log = logging.getLogger("shells")
 
 __all__ = ["CriticalSettings", "CriticalPoint", "ModeAnalysis", "follow", "locate",
            "switch_branch"]
@@ -84,6 +93,7 @@ class CriticalPoint:
     mode_n: int | None = None
     mode_rayleigh: dict[str, float] = field(default_factory=dict)
     evaluations: int = 0
+    accuracy: float = math.nan
     after_point: int = 0
     wall_time: float = 0.0
     state: np.ndarray | None = field(default=None, repr=False)
@@ -102,6 +112,7 @@ class _Eval:
     tl: float
     eig: float
     state: Any = None
+    eigs: tuple[float, ...] = ()
 
 
 class ModeAnalysis:
@@ -206,17 +217,22 @@ class _Locator:
         st = self.st
         st = ContinuationSettings(**{**st.describe(), "kappa_stops": st.kappa_stops,
                                      "max_newton_its": max(st.max_newton_its, 30)})
-        ok, _, lam = _bordered_newton(ar, st, self.lam0 + sigma * ar.tl, lam_start=lam_p,
-                                      singular_ok=True)
+        t0 = time.perf_counter()
+        ok, its, lam = _bordered_newton(ar, st, self.lam0 + sigma * ar.tl, lam_start=lam_p,
+                                        singular_ok=True)
+        log.debug("locate: sigma = %.6g  kappa L = %.8g  converged %s in %d its (%.1f s)",
+                  sigma, lam, ok, its, time.perf_counter() - t0)
         if not ok:
             raise RuntimeError(f"corrector failed at sigma = {sigma:.3e}")
         count = self.stab.inertia()[0]
         vals, vecs = self.stab.eigenpairs(nev, modes=modes, assemble=False)
         eig = min(vals, key=abs) if vals else math.nan
         tl = self._signed_tl()
+        log.debug("locate:   negative %d, eigenvalue nearest 0 %.3e, dkappa/ds %.3e (%.1f s)",
+                  count, eig, tl, time.perf_counter() - t0)
         vecs_near = [vecs[int(np.argmin(np.abs(vals)))]] if modes and vals else []
         state = w.array_r.copy()
-        return _Eval(sigma, lam, count, tl, eig, state), vecs_near
+        return _Eval(sigma, lam, count, tl, eig, state, tuple(sorted(vals))), vecs_near
 
 
 def locate(loc: _Locator, p0: Point, w0: np.ndarray, c0: int, p1: Point, c1: int,
@@ -233,6 +249,10 @@ def locate(loc: _Locator, p0: Point, w0: np.ndarray, c0: int, p1: Point, c1: int
     hi = _Eval(p1.step, p1.kappa_L, c1, p1.dkappa_ds, math.nan, w1[: loc.w0.getLocalSize()])
     evals = 0
     side_lo_prev = None
+    nev = max(nev, max(c0, c1) + 3)
+    track = min(c0, c1)  # the eigenvalue that crosses: the (track+1)-th smallest
+    samples: list[_Eval] = []
+    interpolated: tuple[float, float] | None = None
 
     def low_side(e: _Eval) -> bool:
         if fold:
@@ -240,7 +260,29 @@ def locate(loc: _Locator, p0: Point, w0: np.ndarray, c0: int, p1: Point, c1: int
         return e.count == c0
 
     def value(e: _Eval) -> float:
-        return e.tl if fold else e.eig
+        if fold:
+            return e.tl
+        return e.eigs[track] if len(e.eigs) > track else math.nan
+
+    def eig_root() -> tuple[float, float] | None:
+        """Root of the crossing eigenvalue in κL: linear in the bracket, quadratic through the
+        three samples nearest it; their difference estimates the error."""
+        fl, fh = value(lo), value(hi)
+        if not (math.isfinite(fl) and math.isfinite(fh) and fl * fh < 0):
+            return None
+        lin = lo.lam + fl * (hi.lam - lo.lam) / (fl - fh)
+        pts = sorted((q for q in samples if math.isfinite(value(q))),
+                     key=lambda q: abs(q.lam - lin))[:3]
+        if len(pts) < 3 or len({q.lam for q in pts}) < 3:
+            return None
+        c = np.polyfit([q.lam - lin for q in pts], [value(q) for q in pts], 2)
+        roots = np.roots(c)
+        roots = roots[np.abs(roots.imag) < 1e-14].real + lin
+        roots = roots[(roots - min(lo.lam, hi.lam)) * (roots - max(lo.lam, hi.lam)) <= 0]
+        if roots.size == 0:
+            return None
+        quad = float(roots[np.argmin(np.abs(roots - lin))])
+        return quad, abs(quad - lin)
 
     best = lo
     while evals < crit.max_evaluations:
@@ -249,8 +291,13 @@ def locate(loc: _Locator, p0: Point, w0: np.ndarray, c0: int, p1: Point, c1: int
             err = max(abs(lo.tl), abs(hi.tl)) * width / 2
             if err <= crit.rel_tol * abs(best.lam) * 0.5 and evals >= 2:
                 break
-        elif abs(hi.lam - lo.lam) <= crit.rel_tol * abs(lo.lam) * 0.5 and evals >= 1:
-            break
+        else:
+            if abs(hi.lam - lo.lam) <= crit.rel_tol * abs(lo.lam) * 0.5 and evals >= 1:
+                break
+            r = eig_root()
+            if r is not None and r[1] <= 0.25 * crit.rel_tol * abs(r[0]):
+                interpolated = r
+                break
         # secant (regula falsi with the Illinois modification) when both ends have values
         s = 0.5 * (lo.sigma + hi.sigma)
         fl, fh = value(lo), value(hi)
@@ -272,9 +319,16 @@ def locate(loc: _Locator, p0: Point, w0: np.ndarray, c0: int, p1: Point, c1: int
             except RuntimeError:
                 continue
         if e is None:
+            # right next to a bifurcation (a nearby bifurcated branch, a nearly singular
+            # Jacobian) Newton may not converge; the eigenvalue samples may still pin it down
+            r = None if fold else eig_root()
+            if r is not None and r[1] <= crit.rel_tol * abs(r[0]):
+                interpolated = r
+                break
             raise RuntimeError(f"corrector failed while locating a critical point between "
                                f"kappa L = {lo.lam:.6g} and {hi.lam:.6g}")
         evals += 1
+        samples.append(e)
         if low_side(e):
             lo, side_lo_prev = e, True
         else:
@@ -297,12 +351,17 @@ def locate(loc: _Locator, p0: Point, w0: np.ndarray, c0: int, p1: Point, c1: int
         lam_star = min(max(lam_star * sgn, best.lam * sgn), (best.lam + sgn * err) * sgn) * sgn
         bracket = (best.lam, best.lam + sgn * err)
         kind = "fold"
+        accuracy = err
     else:
-        fl, fh = lo.eig, hi.eig
-        if math.isfinite(fl) and math.isfinite(fh) and (fl > 0 > fh or fl < 0 < fh):
+        fl, fh = value(lo), value(hi)
+        if interpolated is not None:
+            lam_star, accuracy = interpolated
+        elif math.isfinite(fl) and math.isfinite(fh) and fl * fh < 0:
             lam_star = lo.lam + fl * (hi.lam - lo.lam) / (fl - fh)
+            accuracy = abs(hi.lam - lo.lam)
         else:
             lam_star = 0.5 * (lo.lam + hi.lam)
+            accuracy = abs(hi.lam - lo.lam) / 2
         bracket = (lo.lam, hi.lam)
         kind = "bifurcation"
     # mode at the trial point nearest the critical point (on the near side)
@@ -315,6 +374,7 @@ def locate(loc: _Locator, p0: Point, w0: np.ndarray, c0: int, p1: Point, c1: int
                          kappa_hi=k_hi, negative_before=c0, negative_after=c1,
                          multiplicity=abs(c1 - c0), eigenvalue=e.eig, mode_m=m, mode_n=n,
                          mode_rayleigh=q, evaluations=evals + 1, after_point=p0.index,
+                         accuracy=accuracy / max(abs(lam_star), 1e-300),
                          wall_time=time.perf_counter() - t0, state=e.state,
                          mode=vecs[0].array_r.copy() if vecs else None)
 

@@ -3,13 +3,12 @@
 import math
 
 import pytest
+from conftest import fitted_rate
 from mpi4py import MPI
 
 from shells.errors import InputError
 from shells.geometry import Disk, EllipsoidalCap, Sphere, SphericalCap
 from shells.mesh import MeshSpec, generate, load_mesh, write_msh
-
-from conftest import fitted_rate
 
 SHAPES = {
     "sphere": Sphere(1.0),

@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 import pytest
+from conftest import fitted_rate
 from scipy.optimize import brentq
 
 from shells.continuation import ContinuationSettings, continuation
@@ -14,8 +15,6 @@ from shells.geometry import Sphere, SphericalCap
 from shells.mesh import MeshSpec, generate
 from shells.model import ModelParameters, ShellModel
 from shells.solvers import NewtonSolver
-
-from conftest import fitted_rate
 
 H = 0.05  # h/R of the paper's closed-sphere checks
 

@@ -918,9 +918,6 @@ class RunConfig:
                                 layer_cells=self.layer_cells, grading=self.grading,
                                 penalty=self.penalty)
 
-    def continuation_settings(self) -> Any:
-        return self.settings or default_settings(self.shape, self.h_over_r)
-
 
 @dataclass
 class _Run:
@@ -1049,7 +1046,6 @@ def _locate_fold(run: _Run, chord: _Chord, rel_tol: float) -> tuple[float, float
     near = [lams[s] for s in lams if lo - 1e-12 <= s <= hi + 1e-12]
     mid = 0.5 * (lo + hi)
     near.append(_solve_at(chord, mid))
-    lam = max(near) if s0 * (chord.lB - chord.lA) >= 0 and s0 > 0 else min(near)
     lam = max(near) if s0 > 0 else min(near)
     return lo, hi, lam
 
@@ -1170,7 +1166,7 @@ def critical(shape: Shape, h_over_r: float, nu: float = 0.5, direction: str = "u
         InputError: bad parameters.
     """
     numerics = dict(_numerics(numerics))
-    if _is_sphere(shape) if isinstance(shape, Shape) else False:
+    if isinstance(shape, Shape) and _is_sphere(shape):
         numerics.setdefault("max_critical", 1)
     cfg = RunConfig(shape=shape, h_over_r=h_over_r, nu=nu, direction=direction, m_max=m_max,
                     kappa_max=kappa_max, **numerics)

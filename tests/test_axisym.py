@@ -31,9 +31,10 @@ from shells.solvers import NewtonSolver
 
 def same_on_all_ranks(*values: float) -> None:
     """The computation is replicated per rank: the results must agree bit for bit."""
-    arr = np.array(values, dtype=float)
-    lo = MPI.COMM_WORLD.allreduce(arr, op=MPI.MIN)
-    hi = MPI.COMM_WORLD.allreduce(arr, op=MPI.MAX)
+    arr = np.array([np.nan if v is None else v for v in values], dtype=float)
+    lo, hi = np.empty_like(arr), np.empty_like(arr)
+    MPI.COMM_WORLD.Allreduce(arr, lo, op=MPI.MIN)
+    MPI.COMM_WORLD.Allreduce(arr, hi, op=MPI.MAX)
     assert np.array_equal(lo, hi, equal_nan=True)
 
 

@@ -61,8 +61,8 @@ import numpy as np
 from shells.errors import InputError
 from shells.geometry import Disk, EllipsoidalCap, Shape, SphericalCap
 
-__all__ = ["AxisymParameters", "AxisymModel", "ModeStability", "branch", "critical",
-           "default_settings", "make_meridian_nodes"]
+__all__ = ["AxisymParameters", "AxisymModel", "ModeStability", "RunConfig", "branch", "critical",
+           "default_settings", "make_meridian_nodes", "sphere_kappa_b_h", "sphere_mode_n"]
 
 _counter = itertools.count()
 
@@ -387,8 +387,7 @@ class AxisymModel:
     def _axis_conditions(self) -> list[Any]:
         """u_r = 0 and p_z = 0 on the axis (each pole); u_z = 0 at the top pole (gauge)."""
         W = self.W
-        ur, uz, pr, pz = W.sub(0).sub(0), W.sub(0).sub(1), W.sub(1).sub(0), W.sub(1).sub(1)
-        _ = pr
+        ur, uz, pz = W.sub(0).sub(0), W.sub(0).sub(1), W.sub(1).sub(1)
         poles = self.axis_vertices()
         top = self.vertices_at(0.0)
         return (_dirichlet(ur, poles) + _dirichlet(pz, poles) + _dirichlet(uz, top))
@@ -683,6 +682,7 @@ class _Chord:
         self.C2 = self.cw * self.cw_vec @ self.cw_vec + self.cl**2
         self.tol, self.max_its = newton_tol, max_its
         self.ftol, self.accept = 1e-7, 1e-5
+        self.deflate = True
         self._b = model.w.x.petsc_vec.duplicate()
         self._x = model.w.x.petsc_vec.duplicate()
         self.anchors: dict[float, tuple[np.ndarray, float, np.ndarray, float]] = {}
@@ -739,9 +739,11 @@ class _Chord:
         """Put the branch point at σ into the model (state and κ); False if that fails.
 
         Bordered Newton from the predictor whose steps omit the components along the four
-        eigenvectors of J nearest 0 when such a component is more than 10 times the rest of
+        eigenvectors v of J nearest 0 when such a component is more than 10 times the rest of
         the step: that is round-off amplified by 1/μ, or the start of a switch to a branch
-        bifurcating close by. The residual keeps its (tiny) components there, so convergence is
+        bifurcating close by. Only with ``deflate`` (off in a step that contains a fold: there
+        the branch turns into the null vector and the bordered system resolves it). The
+        residual keeps its (tiny) components along the omitted directions, so convergence is
         judged on the step, or on a stagnating residual below ``accept`` times the κ-load.
         """
         import scipy.sparse as sp
@@ -774,19 +776,20 @@ class _Chord:
             f_prev = fn
             self.ns.factor()
             a, b = self._lin(-F), self._lin(-Fl)
-            ai, aj, av = self.ns.A.getValuesCSR()
-            J = sp.csr_matrix((av, aj, ai), shape=self.ns.A.getSize())
-            try:
-                mu, V = eigsh(J, k=4, sigma=0.0, which="LM")
-            except Exception:  # noqa: BLE001 - ARPACK trouble: plain Newton steps
-                mu, V = np.zeros(0), np.zeros((a.size, 0))
+            mu, V = np.zeros(0), np.zeros((a.size, 0))
+            if self.deflate:
+                ai, aj, av = self.ns.A.getValuesCSR()
+                J = sp.csr_matrix((av, aj, ai), shape=self.ns.A.getSize())
+                try:
+                    mu, V = eigsh(J, k=4, sigma=0.0, which="LM")
+                except Exception:  # noqa: BLE001 - ARPACK trouble: plain Newton steps
+                    pass
             ca, cb = V.T @ a, V.T @ b
             a_reg = float(np.linalg.norm(a - V @ ca))
             b_reg = float(np.linalg.norm(b - V @ cb))
             for i in range(len(mu)):
-                if abs(ca[i]) > 10.0 * a_reg + tiny:
+                if abs(ca[i]) > 10.0 * a_reg + tiny or abs(cb[i]) > 10.0 * b_reg + tiny:
                     a -= ca[i] * V[:, i]
-                if abs(cb[i]) > 10.0 * b_reg + tiny:
                     b -= cb[i] * V[:, i]
             N = self.cw * self.cw_vec @ (m.w.x.array - wp) + self.cl * (lam - lp)
             den = self.cl + self.cw * self.cw_vec @ b
@@ -959,12 +962,16 @@ class _Run:
 
 
 def _follow(run: _Run) -> Iterator[tuple[Any, dict[int, int]]]:
+    """The continuation's points with the negative count of every H_m. At κ = 0 the state is
+    the stress-free reference, the energy's minimum: every H_m is positive definite there (see
+    tests/test_axisym.py), so its counts are zero without factorising."""
     from shells.continuation import continuation
 
     cfg = run.cfg
-    yield from ((p, run.stab.negative_counts(cfg.modes)) for p in
-                continuation(run.model, run.settings, kappa_start=0.0,
-                             kappa_end=cfg.kappa_end, solver=run.ns))
+    for p in continuation(run.model, run.settings, kappa_start=0.0, kappa_end=cfg.kappa_end,
+                          solver=run.ns):
+        rest = p.kappa == 0.0 and not np.any(run.model.w.x.array)
+        yield p, ({m: 0 for m in cfg.modes} if rest else run.stab.negative_counts(cfg.modes))
 
 
 def branch(shape: Shape, h_over_r: float, nu: float = 0.5, direction: str = "up",
@@ -1081,6 +1088,7 @@ def _locate_interval(run: _Run, A: _Snap, B: _Snap, rel_tol: float,
     try:
         end, end_counts = 1.0, dict(B.counts)
         fold = A.dkds * B.dkds < 0
+        chord.deflate = not fold
         if fold:
             lo, hi, lam_f = _locate_fold(run, chord, rel_tol)
             _solve_at(chord, lo)  # the fundamental side of the fold

@@ -64,7 +64,7 @@ class CriticalSettings:
     """
 
     rel_tol: float = 1.0e-4
-    max_evaluations: int = 40
+    max_evaluations: int = 25
     stop_at_fold: bool = True
     stop_at_first: bool = False
     nev: int = 4
@@ -294,6 +294,11 @@ def locate(loc: _Locator, p0: Point, w0: np.ndarray, c0: int, p1: Point, c1: int
         else:
             if abs(hi.lam - lo.lam) <= crit.rel_tol * abs(lo.lam) * 0.5 and evals >= 1:
                 break
+            if width <= 1e-7 * max(hi.sigma, 1e-300):
+                # κ jumps across a vanishing arclength interval: the path turns sharply, as
+                # at a bifurcation made imperfect by the mesh's broken rotational symmetry;
+                # the crossing cannot be pinned closer than this jump (reported as accuracy)
+                break
             r = eig_root()
             if r is not None and r[1] <= 0.25 * crit.rel_tol * abs(r[0]):
                 interpolated = r
@@ -310,11 +315,15 @@ def locate(loc: _Locator, p0: Point, w0: np.ndarray, c0: int, p1: Point, c1: int
             if lo.sigma + 0.05 * width < cand < hi.sigma - 0.05 * width:
                 s = cand
         e = None
-        for shift in (0.0, 0.1, -0.1, 0.25):  # Newton can stall right at a singular point
+        # Start from the step's own predictor w0 + σ τ, which has no component along the
+        # critical mode: a start taken from an earlier trial solution carries round-off that
+        # the nearly singular Jacobian has amplified along that mode, and Newton then lands on
+        # the bifurcated branch, which the hyperplane also cuts. Nearby starts are a fallback.
+        for shift, near in ((0.0, False), (0.0, True), (0.1, True), (-0.1, True)):
             s_try = s + shift * width
             try:
-                e, _ = loc.evaluate(s_try, nev,
-                                    near=lo if s_try - lo.sigma <= hi.sigma - s_try else hi)
+                e, _ = loc.evaluate(s_try, nev, near=(
+                    (lo if s_try - lo.sigma <= hi.sigma - s_try else hi) if near else None))
                 break
             except RuntimeError:
                 continue
@@ -366,7 +375,7 @@ def locate(loc: _Locator, p0: Point, w0: np.ndarray, c0: int, p1: Point, c1: int
         kind = "bifurcation"
     # mode at the trial point nearest the critical point (on the near side)
     near = lo if lo.sigma > 0 else hi
-    e, vecs = loc.evaluate(near.sigma, nev, modes=True, near=near)
+    e, vecs = loc.evaluate(near.sigma, nev, modes=True)
     q = loc.modes(vecs[0]) if vecs else {}
     m, n = loc.modes.classify(q) if q else (None, None)
     k_lo, k_hi = sorted((bracket[0] / L, bracket[1] / L))

@@ -53,6 +53,9 @@ log = logging.getLogger("shells")
 
 #: Caps closer to a closed sphere than this (θ > THETA_MAX) are left out of a diagram.
 THETA_MAX = 0.9 * math.pi
+#: The snapping line is fitted over caps up to a hemisphere: the paper derives it for θ ≤ π/2
+#: (the rim's tangent plane horizontal at the snap); deeper caps bend the fold curve upwards.
+SNAP_FIT_THETA_MAX_DEG = 90.0
 
 
 # ------------------------------------------------------------------------------------------------
@@ -353,7 +356,7 @@ def _trace_axisym(task: Task, cfg: PhaseDiagramConfig) -> dict[str, Any]:
     if task.direction == "up":
         bound = 1.6 * max(snap_kappa_R(tb), mirrored_buckling_kappa_R(tb, h), 1.0) + 0.5
     else:
-        bound = -(1.6 * min(buckling_kappa_R(tb, h), -1.0) - 0.5)
+        bound = 2.5 * max(-buckling_kappa_R(tb, h), 1.0) + 1.0
     br = _Branch(task.theta, h, cfg.nu, cfg)
     out: dict[str, Any] = {"fold": None, "bifurcation": None, "inverted_at_bifurcation": None,
                            "kappa_R_end": sign * bound, "branch_points": 0,
@@ -818,19 +821,25 @@ def _thetabar_c_from_lines(alpha: float, beta: float, b: float, c: float, h: flo
 
 
 def fit_all(points: list[dict[str, Any]], nu: float = 0.5) -> dict[str, Any]:
-    """α, β (snap line over every point with a fold), b, c (Eq. 4 over the κ < 0 points), θ̄_s
-    (per h/R: the bracket between the last no-snap and the first snap θ̄; its midpoint, error
-    half its width; pooled: mean over h/R), θ̄_c (per h/R: where the computed snap line crosses
-    the computed everted loss of symmetry 2 - κ_b; pooled: mean), with standard errors."""
+    """Fits of the paper's laws with standard errors.
+
+    α, β: the snapping line over the folds of caps with θ ≤ 90° (the domain of the paper's
+    argument; over all folds in ``extra["snap_fit_all_folds"]``); b, c: Eq. (4) over the κ < 0
+    points; θ̄_s: per h/R the bracket between the last no-snap and the first snap θ̄, its midpoint
+    (error: half its width), pooled: mean over h/R; θ̄_c: per h/R where the computed fold crosses
+    the computed everted loss of symmetry 2 - κ_b, pooled: mean.
+    """
     fits: dict[str, Any] = {k: None for k in ("alpha", "beta", "b", "c", "thetabar_s",
                                               "thetabar_c")}
     err: dict[str, Any] = dict(fits)
     extra: dict[str, Any] = {}
-    snap = _fit_snap(points)
+    snap = _fit_snap([p for p in points if math.degrees(p["thetabar"] * math.sqrt(
+        p["h_over_R"])) <= SNAP_FIT_THETA_MAX_DEG])
     if snap:
         fits.update(alpha=snap["alpha"], beta=snap["beta"])
         err.update(alpha=snap["alpha_err"], beta=snap["beta_err"])
         extra["snap_fit"] = snap
+    extra["snap_fit_all_folds"] = _fit_snap(points)
     buck = _fit_buckling(points)
     if buck:
         fits.update(b=buck["b"], c=buck["c"])
@@ -885,12 +894,20 @@ def fit_all(points: list[dict[str, Any]], nu: float = 0.5) -> dict[str, Any]:
         # linear interpolation over one grid step: its error is a fraction of the step
         err["thetabar_c"] = float(math.hypot(0.25 * float(spacing), spread))
     extra["per_h_over_R"] = per_h
-    b11 = [(p["b11_rim_snap_R"], (1 + nu) * (-1.0 + p["kappa_snap_R"]))
+    # the rim's meridional curvature at the snap against the paper's (1 + ν)(-1/R + κ_s): the
+    # proportionality factor (least squares through 0) and the relative differences where
+    # (1 + ν)(κ_s R - 1) > 0.5 (near θ̄_s the snap sits at κ_s R ≈ 1, where it vanishes)
+    b11 = [(p["b11_rim_snap_R"], (1 + nu) * (-1.0 + p["kappa_snap_R"]), p["thetabar"])
            for p in points if p.get("b11_rim_snap_R") is not None]
     if b11:
-        rel = [a / b - 1 for a, b in b11 if b != 0]
-        extra["b11_rim_at_snap"] = {"n": len(b11), "mean_rel_diff": float(np.mean(rel)),
-                                    "max_abs_rel_diff": float(np.max(np.abs(rel)))}
+        ours, law, _ = (np.array(v) for v in zip(*b11, strict=True))
+        keep = law > 0.5
+        rel = ours[keep] / law[keep] - 1
+        extra["b11_rim_at_snap"] = {
+            "n": int(len(ours)), "factor": float(ours @ law / (law @ law)),
+            "n_compared": int(keep.sum()),
+            "median_rel_diff": float(np.median(rel)) if rel.size else None,
+            "max_abs_rel_diff": float(np.max(np.abs(rel))) if rel.size else None}
     return {"fits": fits, "fits_error": err, "extra": extra}
 
 
@@ -922,15 +939,14 @@ def make_figure(result: dict[str, Any], stem: Path) -> list[str]:
     snap = be * x - al
     ylo = min(-6.0, float(np.nanmin([p.get("kappa_down_R") or 0 for p in pts] + [0])) - 0.5)
     yhi = max(8.0, 1.1 * float(np.nanmax([p.get("kappa_snap_R") or 0 for p in pts] + [0])))
-    fig, ax = plt.subplots(figsize=(7.0, 5.2))
+    fig, ax = plt.subplots(figsize=(7.5, 7.2))
     blue, green = "#bcd3ee", "#c9e8c0"
     ax.fill_between(x, ylo, down, color=blue, lw=0)
-    upper = np.where(x >= ts, np.minimum(snap, mirror), np.minimum(1.0, mirror))
+    # white: symmetric, original orientation, up to the snap (θ̄ ≥ θ̄_s) or κR = 1 (smooth
+    # inversion); green: symmetric everted, up to the mirrored line; blue: broken symmetry
+    upper = np.where(x >= ts, snap, 1.0)
     ax.fill_between(x, upper, mirror, where=mirror > upper, color=green, lw=0)
-    ax.fill_between(x, np.maximum(mirror, np.where(x >= ts, np.minimum(snap, mirror), 1.0)),
-                    yhi, color=blue, lw=0)
-    ax.fill_between(x, np.minimum(snap, mirror), yhi, where=(x >= ts) & (snap > mirror),
-                    color=blue, lw=0)
+    ax.fill_between(x, np.maximum(upper, mirror), yhi, color=blue, lw=0)
     ax.plot(x, down, "k-", lw=1.2, label="fits: Eq. (4), mirrored, snap line")
     ax.plot(x, mirror, "k-", lw=1.2)
     xs = x[x >= ts]
@@ -971,7 +987,8 @@ def make_figure(result: dict[str, Any], stem: Path) -> list[str]:
     ax.set_ylabel(r"$\kappa R$")
     ax.set_title(f"Curvature-induced instabilities of open caps (shaded from the fits, "
                  f"h/R = {h0:g})", fontsize=9)
-    ax.legend(fontsize=6, loc="upper left", ncol=1, framealpha=0.85)
+    ax.legend(fontsize=6.5, loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=2,
+              frameon=False)
     fig.tight_layout()
     files = []
     for ext in ("png", "pdf"):

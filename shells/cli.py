@@ -212,9 +212,11 @@ def _cmd_branch(args: argparse.Namespace) -> int:
     from shells.branch import BranchConfig, run_branch
     from shells.continuation import ContinuationSettings
 
-    if args.model != "surface":
-        raise InputError(f"--model {args.model}: only the surface model is available so far")
+    if args.model not in ("surface", "axisym"):
+        raise InputError(f"--model must be surface or axisym, got {args.model!r}")
     shape = _shape_from_args(args)
+    if args.model == "axisym":
+        return _branch_axisym(args, shape)
     L = shape.characteristic_size()
     h = args.h_over_r * L
     if (args.kappa_h_max is None) == (args.kappa_r_max is None):
@@ -230,7 +232,7 @@ def _cmd_branch(args: argparse.Namespace) -> int:
 
     points = list(run_branch(cfg, outdir, fields=args.fields, resume=not args.restart))
     header, _ = read_branch(f"{outdir}/branch.jsonl")
-    folds = [p for a, p in zip(points, points[1:]) if a["dkappa_ds"] * p["dkappa_ds"] < 0]
+    folds = [p for a, p in zip(points, points[1:], strict=False) if a["dkappa_ds"] * p["dkappa_ds"] < 0]
     result = {"config": cfg.describe(), "dofs": header.get("dofs"), "branch_file": f"{outdir}/branch.jsonl",
               "points": points, "folds": [{"kappa_R": f["kappa_R"], "kappa_h": f["kappa_h"],
                                            "index": f["index"]} for f in folds]}
@@ -243,6 +245,54 @@ def _cmd_branch(args: argparse.Namespace) -> int:
         for p in points[::step] + ([points[-1]] if (len(points) - 1) % step else []):
             print(f"{p['kappa_R']:10.4f} {p['kappa_h']:10.4f} {p['psi3_over_h']:12.4e} "
                   f"{p['apex_uz_over_h']:10.4f} {p['energy']:12.5e} {p['newton_its']:3d}")
+        for f in folds:
+            print(f"fold (turning point in kappa) near kappa R = {f['kappa_R']:.4f}")
+
+    emit(result, args, human)
+    return 0
+
+
+def _branch_axisym(args: argparse.Namespace, shape: Any) -> int:
+    """``shells branch --model axisym``: the shell-of-revolution model, same JSON contract."""
+    from pathlib import Path
+
+    from shells import axisym
+
+    L = shape.characteristic_size()
+    R_or_L = shape.R if math.isfinite(shape.R) else L
+    h = args.h_over_r * L
+    if (args.kappa_h_max is None) == (args.kappa_r_max is None):
+        raise InputError("give exactly one of --kappa-h-max and --kappa-r-max")
+    kr = args.kappa_h_max * R_or_L / h if args.kappa_h_max is not None else args.kappa_r_max
+    outdir = Path(args.output or "results/branch")
+    points = []
+    if _rank() == 0:
+        outdir.mkdir(parents=True, exist_ok=True)
+        (outdir / "branch.jsonl").write_text(json.dumps({"header": {
+            "model": "axisym", "shape": shape.describe(), "h_over_r": args.h_over_r,
+            "nu": args.nu, "kappa_R_end": kr}}) + "\n")
+    for i, p in enumerate(axisym.branch(shape, args.h_over_r, args.nu,
+                                        direction="up" if kr > 0 else "down",
+                                        kappa_max=abs(kr))):
+        rec = {"index": i, **p}
+        points.append(rec)
+        if _rank() == 0:
+            with open(outdir / "branch.jsonl", "a") as f:
+                f.write(json.dumps(rec, default=_json_default) + "\n")
+    folds = [p for a, p in zip(points, points[1:], strict=False)
+             if a["dkappa_ds"] * p["dkappa_ds"] < 0]
+    result = {"model": "axisym", "branch_file": str(outdir / "branch.jsonl"), "points": points,
+              "folds": [{"kappa_R": f["kappa_R"], "kappa_h": f["kappa_h"], "index": f["index"]}
+                        for f in folds]}
+
+    def human() -> None:
+        print(f"{shape.kind} h/L = {args.h_over_r}, nu = {args.nu}, axisym: {len(points)} "
+              f"points -> {outdir}/branch.jsonl")
+        print(f"{'kappa R':>10} {'kappa h':>10} {'Psi3/h':>12} {'energy':>12} its unstable m")
+        step = max(1, len(points) // 25)
+        for p in points[::step]:
+            print(f"{p['kappa_R']:10.4f} {p['kappa_h']:10.4f} {p['psi3_over_h']:12.4e} "
+                  f"{p['energy']:12.5e} {p['newton_its']:3d} {p.get('unstable_modes')}")
         for f in folds:
             print(f"fold (turning point in kappa) near kappa R = {f['kappa_R']:.4f}")
 
@@ -307,9 +357,10 @@ def _cmd_critical(args: argparse.Namespace) -> int:
             from shells import axisym
         except ImportError as e:
             raise InputError("--model axisym is not available in this installation") from e
-        result = {**base, **axisym.critical(shape, args.h_over_r, args.nu,
-                                            direction=args.direction,
-                                            kappa_max=abs(kappa_end) * R_or_L)}
+        user_range = args.kappa_h_max is not None or args.kappa_r_max is not None
+        result = {**base, **axisym.critical(
+            shape, args.h_over_r, args.nu, direction=args.direction,
+            kappa_max=abs(kappa_end) * R_or_L if user_range else None)}
     elif args.model == "surface":
         result = {**base, **_critical_surface(args, shape, h, kappa_end, R_or_L)}
     else:
@@ -447,7 +498,8 @@ def _build_parser() -> argparse.ArgumentParser:
     g = b.add_mutually_exclusive_group()
     g.add_argument("--kappa-h-max", type=float, default=None, help="final kappa h (sign: direction)")
     g.add_argument("--kappa-r-max", type=float, default=None, help="final kappa R (sign: direction)")
-    b.add_argument("--model", default="surface", help="shell model (surface)")
+    b.add_argument("--model", default="surface", choices=("surface", "axisym"),
+                   help="surface (2D mesh, default) or axisym (shell of revolution, 1D)")
     b.add_argument("--method", default="arclength", choices=("arclength", "natural"))
     b.add_argument("--ds", type=_positive_float("ds"), default=0.1, help="initial step")
     b.add_argument("--ds-max", type=_positive_float("ds-max"), default=1.0, help="largest step")

@@ -572,7 +572,8 @@ def _run_tasks(tasks: list[Task], cfg: PhaseDiagramConfig, outdir: Path, comm: A
     claims = outdir / ".claims" / run_id
     todo = [t for t in tasks if t.key(sig) not in done]
     mine = 0
-    seen = 0
+    seen = base = len(read_records(points)) if comm.rank == 0 else 0
+    total = len(todo) + len(done)
     for i, t in enumerate(todo):
         if limit is not None and mine >= limit:
             break
@@ -588,14 +589,14 @@ def _run_tasks(tasks: list[Task], cfg: PhaseDiagramConfig, outdir: Path, comm: A
         mine += 1
         if comm.rank == 0:  # progress: everything in the file so far (all ranks)
             recs = read_records(points)
-            for r in recs[seen:]:
-                progress(_progress_line(r, len(recs), len(todo) + len(done)))
+            for k, r in enumerate(recs[seen:], start=seen + 1):
+                progress(_progress_line(r, len(done) + k - base, total))
             seen = len(recs)
     comm.Barrier()
     if comm.rank == 0:
         recs = read_records(points)
-        for r in recs[seen:]:
-            progress(_progress_line(r, len(recs), len(todo) + len(done)))
+        for k, r in enumerate(recs[seen:], start=seen + 1):
+            progress(_progress_line(r, len(done) + k - base, total))
         for f in claims.iterdir():
             f.unlink()
         claims.rmdir()

@@ -556,7 +556,7 @@ def explanations(pts: list[dict[str, Any]], fit: dict[str, Any],
                      "(tests/test_critical.py: θ = 30°, h/R = 0.04, κR ≈ 1.39; ours 1.40 at "
                      "θ̄ = 2.63), so the -12 % is not a general 2D/1D offset. The mode of the 2D "
                      "turn was not resolved on this mesh; a converged 2D study is left "
-                     "open.)\n")
+                     "open.\n")
     return "\n".join(t)
 
 

@@ -458,6 +458,7 @@ def _build_parser() -> argparse.ArgumentParser:
     p.add_argument("--version", action="version", version=f"shells {__version__}")
     p.add_argument("-v", "--verbose", action="store_true", help="more log output (rank 0)")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    from shells.phase_diagram import add_subcommand as _add_phase_diagram
 
     m = sub.add_parser("mesh", help="mesh a sphere, cap, ellipsoidal cap or disk with gmsh",
                        description="Mesh a shape with gmsh (second-order geometry, refined in the "
@@ -547,6 +548,8 @@ def _build_parser() -> argparse.ArgumentParser:
                    help="directory for branch.jsonl (points as computed) and critical.json")
     c.add_argument("--json", action="store_true", help="print a JSON object as the last line")
     c.set_defaults(func=_cmd_critical)
+
+    _add_phase_diagram(sub)
 
     r = sub.add_parser("render", help="render a .msh surface to PNG (off-screen)")
     r.add_argument("mesh", help="gmsh .msh file")

@@ -329,13 +329,14 @@ def locate(loc: _Locator, p0: Point, w0: np.ndarray, c0: int, p1: Point, c1: int
                 continue
         if e is None:
             # right next to a bifurcation (a nearby bifurcated branch, a nearly singular
-            # Jacobian) Newton may not converge; the eigenvalue samples may still pin it down
+            # Jacobian) Newton may not converge: keep what is known, the bracket (and the
+            # eigenvalue interpolation), and report its width as the accuracy
             r = None if fold else eig_root()
-            if r is not None and r[1] <= crit.rel_tol * abs(r[0]):
+            if r is not None:
                 interpolated = r
-                break
-            raise RuntimeError(f"corrector failed while locating a critical point between "
-                               f"kappa L = {lo.lam:.6g} and {hi.lam:.6g}")
+            log.info("critical point located to the bracket kappa L in [%.6g, %.6g] only: "
+                     "the corrector does not converge closer to it", lo.lam, hi.lam)
+            break
         evals += 1
         samples.append(e)
         if low_side(e):
@@ -375,7 +376,10 @@ def locate(loc: _Locator, p0: Point, w0: np.ndarray, c0: int, p1: Point, c1: int
         kind = "bifurcation"
     # mode at the trial point nearest the critical point (on the near side)
     near = lo if lo.sigma > 0 else hi
-    e, vecs = loc.evaluate(near.sigma, nev, modes=True)
+    try:
+        e, vecs = loc.evaluate(near.sigma, nev, modes=True)
+    except RuntimeError:
+        e, vecs = loc.evaluate(near.sigma, nev, modes=True, near=near)
     q = loc.modes(vecs[0]) if vecs else {}
     m, n = loc.modes.classify(q) if q else (None, None)
     k_lo, k_hi = sorted((bracket[0] / L, bracket[1] / L))

@@ -1,0 +1,52 @@
+"""Cross-validation: the 2D surface model and the 1D axisymmetric model find the same critical
+points (kind, κ within 2 %, mode m) on spherical caps, both directions of κ.
+
+The surface meshes are coarse (bulk size 0.2 R, 3 elements across the rim layer); the cap
+folds and the m = 2 bifurcations they give agree with the converged 1D values to ~0.1-1 % (mesh studies in
+benchmarks/). The closed sphere is compared in benchmarks/sphere_buckling.py: its surface mesh
+must resolve degree n ≈ 8-9 modes, too slow for a test.
+"""
+
+import math
+
+import pytest
+from mpi4py import MPI
+
+from shells import axisym
+from shells.continuation import ContinuationSettings
+from shells.critical import CriticalSettings, follow
+from shells.geometry import SphericalCap
+from shells.mesh import MeshSpec, generate
+from shells.model import ModelParameters, ShellModel
+
+H = 0.04
+
+
+def _surface_first(theta_deg: float, direction: str):
+    shape = SphericalCap(1.0, math.radians(theta_deg))
+    sm = generate(MeshSpec(shape, h=H, size=0.2, layer_elements=3.0), MPI.COMM_WORLD)
+    model = ShellModel(sm, ModelParameters(h=H, nu=0.5))
+    end = 4.0 if direction == "up" else -2.0
+    st = ContinuationSettings(ds=0.2, ds_max=0.25, ds_unit="kappa")
+    # 2 % comparisons need no 1e-4 location: a few evaluations per critical point suffice (the
+    # m = 2 bifurcations are imperfect on a mesh, where the last digits cost many evaluations)
+    crit = CriticalSettings(stop_at_first=True, rel_tol=1e-3, max_evaluations=8)
+    for _, _, found in follow(model, st, end, crit):
+        if found:
+            return found[0]
+    return None
+
+
+# (30°, up) is checked in tests/test_critical.py on the same mesh
+@pytest.mark.parametrize("theta_deg, direction", [(30, "down"), (45, "up"), (45, "down")])
+def test_surface_and_axisym_agree_on_caps(theta_deg, direction):
+    one_d = axisym.critical(SphericalCap(1.0, math.radians(theta_deg)), H, 0.5,
+                            direction=direction)
+    two_d = _surface_first(theta_deg, direction)
+    assert two_d is not None
+    assert two_d.kind == one_d["kind"]
+    assert two_d.mode_m == one_d["mode_m"]
+    assert two_d.kappa == pytest.approx(one_d["kappa_R"], rel=0.02)
+    # every rank saw the same result
+    assert MPI.COMM_WORLD.allreduce(two_d.kappa, op=MPI.MAX) == pytest.approx(
+        MPI.COMM_WORLD.allreduce(two_d.kappa, op=MPI.MIN), rel=1e-12)

@@ -60,6 +60,7 @@ import numpy as np
 
 from shells.errors import InputError
 from shells.geometry import Disk, EllipsoidalCap, Shape, SphericalCap
+from shells.stability import INERTIA_OPTIONS as _SURFACE_INERTIA_OPTIONS
 
 __all__ = ["AxisymParameters", "AxisymModel", "ModeStability", "RunConfig", "branch", "critical",
            "default_settings", "make_meridian_nodes", "sphere_kappa_b_h", "sphere_mode_n"]
@@ -69,15 +70,8 @@ _counter = itertools.count()
 #: the mode Hessian's kernel is long (the second variation of the whole density at two phases)
 JIT_OPTIONS: dict[str, Any] = {"timeout": 300}
 
-#: MUMPS LDLᵀ with null-pivot detection (``getInertia`` needs ICNTL(24) = 1), serial root
-INERTIA_OPTIONS: dict[str, Any] = {
-    "ksp_type": "preonly",
-    "pc_type": "cholesky",
-    "pc_factor_mat_solver_type": "mumps",
-    "mat_mumps_icntl_24": 1,
-    "mat_mumps_icntl_13": 1,
-    "mat_mumps_icntl_14": 200,
-}
+#: MUMPS LDLᵀ with null-pivot detection: the same options as the surface model's inertia
+INERTIA_OPTIONS: dict[str, Any] = dict(_SURFACE_INERTIA_OPTIONS)
 
 
 # ------------------------------------------------------------------------------------------------

@@ -1004,16 +1004,10 @@ def make_figure(result: dict[str, Any], stem: Path) -> list[str]:
 # command line
 # ------------------------------------------------------------------------------------------------
 def _positive(name: str) -> Callable[[str], float]:
-    def conv(text: str) -> float:
-        try:
-            v = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} must be a number, got {text!r}") from None
-        if not (math.isfinite(v) and v > 0):
-            raise argparse.ArgumentTypeError(f"{name} must be positive, got {text}")
-        return v
+    """The CLI's positive-number argument type (one definition, in shells.cli)."""
+    from shells.cli import _positive_float
 
-    return conv
+    return _positive_float(name)
 
 
 def add_subcommand(subparsers: Any) -> argparse.ArgumentParser:

@@ -418,6 +418,7 @@ def _critical_surface(args: argparse.Namespace, shape: Any, h: float, kappa_end:
         bfile = out / "branch.jsonl"
         bfile.write_text("")
     cps = []
+    found_points: list[Any] = []
     t0 = time_now()
     for p, res, found in follow(model, st, kappa_end, crit):
         rec = {"index": p.index, "kappa_R": p.kappa * R_or_L, "kappa_h": p.kappa * h,
@@ -429,6 +430,7 @@ def _critical_surface(args: argparse.Namespace, shape: Any, h: float, kappa_end:
         log.info("  kappa R = %+.5f  kappa h = %+.5f  negative = %d  (%.0f s)", rec["kappa_R"],
                  rec["kappa_h"], res.negative_count, time_now() - t0)
         for c in found:
+            found_points.append(c)
             d = c.as_dict()
             d.update(kappa_R=c.kappa * R_or_L, kappa_h=c.kappa * h,
                      kappa_R_bracket=[c.kappa_lo * R_or_L, c.kappa_hi * R_or_L])
@@ -436,6 +438,13 @@ def _critical_surface(args: argparse.Namespace, shape: Any, h: float, kappa_end:
             log.info("  %s at kappa R = %.6f (kappa h = %.6f), m = %s, n = %s", c.kind,
                      d["kappa_R"], d["kappa_h"], c.mode_m, c.mode_n)
     first = cps[0] if cps else None
+    if out is not None and found_points:
+        from shells.fields import write_modes
+
+        first_cp = found_points[0]  # its state and critical mode
+        if first_cp.mode is not None:
+            write_modes(model, first_cp.state, [first_cp.mode], out / "modes.bp")
+            log.info("critical mode (ParaView, ADIOS2 VTX Reader): %s", out / "modes.bp")
     return {"kind": first["kind"] if first else "none",
             "kappa_R": first["kappa_R"] if first else None,
             "kappa_h": first["kappa_h"] if first else None,
@@ -545,7 +554,8 @@ def _build_parser() -> argparse.ArgumentParser:
     c.add_argument("--ds-max", type=_positive_float("ds-max"), default=None,
                    help="largest step, in kappa L (default: range/10)")
     c.add_argument("-o", "--output", default=None,
-                   help="directory for branch.jsonl (points as computed) and critical.json")
+                   help="directory for branch.jsonl (points as computed), critical.json and "
+                   "the critical modes for ParaView (modes.bp)")
     c.add_argument("--json", action="store_true", help="print a JSON object as the last line")
     c.set_defaults(func=_cmd_critical)
 

@@ -59,3 +59,36 @@ class FieldWriter:
 
     def close(self) -> None:
         self.writer.close()
+
+
+def write_modes(model: Any, state: Any, modes: list[Any], path: str | os.PathLike) -> None:
+    """Eigen/critical modes for ParaView (VTX): ``state_displacement`` (the equilibrium) and
+    ``mode_displacement`` (the displacement part of each mode, scaled to a maximum of 1), one
+    time step per mode. ``state`` and ``modes`` are local arrays of the model's space."""
+    import basix.ufl
+    import numpy as np
+    from dolfinx import fem, io
+    from mpi4py import MPI
+
+    mesh = model.shell.mesh
+    Vv = fem.functionspace(mesh, basix.ufl.element("Lagrange", mesh.basix_cell(),
+                                                   mesh.geometry.cmap.degree, shape=(3,)))
+    w = fem.Function(model.W)
+    u_state = fem.Function(Vv, name="state_displacement")
+    u_mode = fem.Function(Vv, name="mode_displacement")
+    expr = fem.Expression(model.split(w)[0], Vv.element.interpolation_points())
+    n = model.W.dofmap.index_map.size_local * model.W.dofmap.index_map_bs
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    writer = io.VTXWriter(mesh.comm, str(path), [u_state, u_mode], engine="BP4")
+    w.x.array[:n] = np.asarray(state)[:n]
+    w.x.scatter_forward()
+    u_state.interpolate(expr)
+    for k, mode in enumerate(modes):
+        w.x.array[:n] = np.asarray(mode)[:n]
+        w.x.scatter_forward()
+        u_mode.interpolate(expr)
+        big = mesh.comm.allreduce(float(np.abs(u_mode.x.array).max(initial=0.0)), op=MPI.MAX)
+        if big > 0:
+            u_mode.x.array[:] /= big
+        writer.write(float(k))
+    writer.close()

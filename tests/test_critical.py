@@ -102,6 +102,7 @@ def test_critical_cli_json_contract(capsys, shared_tmp):
         assert d["critical_points"][-1]["kind"] == "fold"
         on_disk = json.loads((shared_tmp / "crit" / "critical.json").read_text())
         assert on_disk["kappa_R"] == d["kappa_R"]
+        assert (shared_tmp / "crit" / "modes.bp").is_dir()  # the critical mode for ParaView
 
 
 @pytest.mark.parametrize("argv, needle", [

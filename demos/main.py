@@ -7,9 +7,10 @@
 2. A small phase diagram of open caps (h/R = 0.04, θ̄ from 1.5 to 7): smooth inversion, snap
    (fold) or loss of symmetry going up, buckling going down; figure OUTDIR/phase/phase_diagram.png.
 3. Shapes for ParaView on the 2D surface model (cap θ = 30°, h/R = 0.04, coarse mesh): the shell
-   just before its snap-through fold (κR = 1.35) and a buckled one at κR = -1.2, past the m = 2
-   loss of symmetry: OUTDIR/snap_onset/fields.bp and OUTDIR/buckled/fields.bp (ADIOS2 VTX
-   Reader; Warp By Vector on `displacement`).
+   just before its snap-through fold (κR = 1.35), the snapped (everted) shell at κR = 2 (Newton
+   from the cap mirrored through its rim plane) and a buckled one at κR = -1.2, past the m = 2
+   loss of symmetry: OUTDIR/{snap_onset,snapped,buckled}/fields.bp (ADIOS2 VTX Reader; Warp By
+   Vector on `displacement`).
 
 ``quick=True`` (the test suite) uses fewer points and a coarser mesh. Ends with asserts.
 """
@@ -37,6 +38,33 @@ def say(msg: str) -> None:
 
 def _f(v: float | None) -> str:
     return f"{v:7.3f}" if v is not None else "   none"
+
+
+def snapped_shape(cap: SphericalCap, h_over_r: float, kappa_r: float, size: float,
+                  path: Path) -> dict:
+    """The everted (snapped) cap at κR: Newton from the cap mirrored through its rim plane."""
+    from shells.fields import FieldWriter
+    from shells.mesh import MeshSpec, generate
+    from shells.model import ModelParameters, ShellModel
+    from shells.solvers import NewtonSolver
+    from shells.stability import Stability
+
+    h = h_over_r * cap.R
+    model = ShellModel(generate(MeshSpec(cap, h=h, size=size), MPI.COMM_WORLD),
+                       ModelParameters(h=h, nu=0.5))
+    model.set_everted_guess()
+    model.kappa.value = kappa_r / cap.R
+    ns = NewtonSolver(model)
+    ok, _ = ns.solve()
+    assert ok, "Newton did not converge on the everted branch"
+    stab = Stability(model)
+    neg = stab.inertia()[0]
+    writer = FieldWriter(model, path)
+    writer.write(kappa_r)
+    writer.close()
+    stab.destroy()
+    ns.destroy()
+    return {**model.scalars(), "kappa_R": kappa_r, "stable": neg == 0}
 
 
 def run(outdir: str | Path = "results/demo", quick: bool = False) -> dict:
@@ -72,6 +100,10 @@ def run(outdir: str | Path = "results/demo", quick: bool = False) -> dict:
     # natural-parameter steps: the shell just before its snap-through fold (κR ≈ 1.39 here), and
     # past the m = 2 loss of symmetry at κR ≈ -0.66, where the path turns onto the buckled branch
     runs = (("snap_onset", 1.35, (0.5, 1.0)), ("buckled", -1.2, (-0.4, -0.8)))
+    out["snapped"] = snapped_shape(cap, 0.04, 2.0, size, outdir / "snapped" / "fields.bp")
+    say(f"snapped: kappa R = +2.000, everted shell (stable: {out['snapped']['stable']}), apex "
+        f"displacement {out['snapped']['apex_uz_over_h']:+.2f} h -> "
+        f"{outdir / 'snapped' / 'fields.bp'}")
     for name, kr, stops in runs:
         st = ContinuationSettings(method="natural", ds=2.5, ds_max=2.5, kappa_stops=stops,
                                   max_newton_its=40)
@@ -86,12 +118,15 @@ def run(outdir: str | Path = "results/demo", quick: bool = False) -> dict:
     # the demo's own checks
     assert abs(out["sphere_kappa_b_h"] / theory.sphere_kappa_b_h() - 1) < 0.01
     assert abs(out["snap_onset"]["kappa_R"] - 1.35) < 1e-9
+    # everted: the apex went through the rim plane to its mirror image (2 x rim height 3.3 h)
+    assert out["snapped"]["stable"]
+    assert out["snapped"]["apex_uz_over_h"] < -1.5 * (1 - math.cos(math.radians(30))) / 0.04
     # before the snap the apex has moved down by a fraction of the rim height (3.3 h)
     assert -(1 - math.cos(math.radians(30))) / 0.04 < out["snap_onset"]["apex_uz_over_h"] < 0
     assert abs(out["buckled"]["kappa_R"] + 1.2) < 1e-9
     if MPI.COMM_WORLD.rank == 0:
         assert (outdir / "phase" / "phase_diagram.png").stat().st_size > 10_000
-        for name in ("snap_onset", "buckled"):
+        for name in ("snap_onset", "snapped", "buckled"):
             assert (outdir / name / "fields.bp").is_dir()
     return out
 

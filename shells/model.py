@@ -370,6 +370,29 @@ class ShellModel:
             disp = uz_top - (s / c if c else 0.0)
         return {"apex_uz_over_h": disp / float(self.h.value)}
 
+    def set_everted_guess(self) -> None:
+        """Set the state to the open shell mirrored through its rim plane (an isometry).
+
+        u = (0, 0, 2(z_rim - z)); the director keeps the material orientation, d = (-n_x, -n_y,
+        n_z) (unchanged at the pole, rotated by twice the rim angle at the rim: below 90° for
+        caps with θ < 45°, which the director parametrisation can represent). A Newton start
+        for the everted (snapped) branch, which continuation from κ = 0 reaches only through
+        two folds.
+        """
+        import ufl
+        from dolfinx import fem
+
+        if self.shape.closed:
+            raise InputError("a closed shell has no rim plane to evert through")
+        z_rim = float(self.shape.meridian(np.array(self.shape.t_max))[1])
+        x, n0 = self._x, self.n0
+        d = ufl.as_vector([-n0[0], -n0[1], n0[2]])
+        th = d / ufl.dot(d, n0) - n0
+        zero = 0.0 * x[0]
+        e = ufl.as_vector([zero, zero, 2 * (z_rim - x[2]), th[0], th[1], th[2]])
+        self.w.interpolate(fem.Expression(e, self.W.element.interpolation_points()))
+        self.w.x.scatter_forward()
+
     def num_dofs(self) -> int:
         im = self.W.dofmap.index_map
         return int(im.size_global * self.W.dofmap.index_map_bs)

@@ -72,18 +72,14 @@ def test_disk_plate_limit():
     """A free disk bifurcates into m = 2. Pezzulla et al. (2016) give |κ| r²/h = √(10 + 7√2)
     = 4.4609; the converged 1D model of this energy gives 4.604-4.607 for h/r = 0.04 ... 0.005,
     3.2 % above, independent of h/r and mesh (a difference of model/analysis, documented in
-    docs/paper-comparison.md): the surface model is checked against the 1D value."""
-    h = 0.02
-    points, found = _run(Disk(1.0), h, 1.5 * plate_a() * h, 0.15, MPI.COMM_WORLD,
-                         0.3 * plate_a() * h, layer=2.0, stop_at_first=True)
-    c = found[0]
-    assert c.kind == "bifurcation" and c.mode_m == 2
-    assert c.kappa_lo <= c.kappa <= c.kappa_hi
-    assert c.negative_after > c.negative_before
-    one_d = axisym.critical(Disk(1.0), h, 0.5, direction="up")
-    assert one_d["kind"] == "bifurcation" and one_d["mode_m"] == 2
-    assert one_d["kappa_R"] / h == pytest.approx(plate_a(), rel=0.035)
-    assert c.kappa == pytest.approx(one_d["kappa_R"], rel=0.02)
+    docs/paper-comparison.md). The surface model's disk (4.664 at h/r = 0.02 on a coarse mesh,
+    +1.3 % over the 1D value) takes minutes: benchmarks/plate_limit.py."""
+    for h in (0.02,):
+        one_d = axisym.critical(Disk(1.0), h, 0.5, direction="up", kappa_max=0.5)
+        assert one_d["kind"] == "bifurcation" and one_d["mode_m"] == 2
+        assert one_d["kappa_R"] / h == pytest.approx(plate_a(), rel=0.035)
+        first = one_d["critical_points"][0]
+        assert first["kappa_R"] == one_d["kappa_R"]
 
 
 def test_critical_cli_json_contract(capsys, shared_tmp):

@@ -134,6 +134,9 @@ def test_axisym_model_through_the_cli(capsys, shared_tmp):
         b = json.loads(out2.strip().splitlines()[-1])
         for key in ("kappa_R", "kappa_h", "psi3_over_h", "energy", "newton_its"):
             assert all(key in p for p in b["points"]), key
-        # the branch turns at the fold found by `critical`
-        assert len(b["folds"]) == 1
+        # the branch turns at the fold found by `critical` (the snap), and back at the second
+        # fold (κR ≈ 0.61) before it reaches κR = 1.5 on the everted side
+        assert len(b["folds"]) == 2
         assert b["folds"][0]["kappa_R"] == pytest.approx(d["kappa_R"], rel=0.02)
+        assert 0.3 < b["folds"][1]["kappa_R"] < d["kappa_R"]
+        assert b["points"][-1]["kappa_R"] == pytest.approx(1.5, rel=1e-9)

@@ -19,7 +19,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Iterator
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -255,9 +255,8 @@ def _arclength(model, ns, st, lam0, lam_end, L, point, its0, direction, initial_
     w = ar.w
     if st.ds_unit == "kappa":
         scale = 1.0 / max(abs(ar.tl), 1e-6)
-        st = ContinuationSettings(**{**st.describe(), "kappa_stops": st.kappa_stops,
-                                     "ds_unit": "arclength", "ds": st.ds * scale,
-                                     "ds_min": st.ds_min * scale, "ds_max": st.ds_max * scale})
+        st = replace(st, ds_unit="arclength", ds=st.ds * scale, ds_min=st.ds_min * scale,
+                     ds_max=st.ds_max * scale)
     ds = st.ds
     lam = lam0
     n = 0

@@ -29,7 +29,7 @@ import logging
 import math
 import time
 from collections.abc import Iterator
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -166,6 +166,8 @@ class _Locator:
                  stab: Stability) -> None:
         self.model = model
         self.st = st
+        # trial solves next to a singular point may need more Newton iterations
+        self.st_locate = replace(st, max_newton_its=max(st.max_newton_its, 30))
         self.crit = crit
         self.stab = stab
         self.L = model.shape.characteristic_size()
@@ -214,9 +216,7 @@ class _Locator:
             w.axpy(sigma - near.sigma, ar.tw)
             lam_p = near.lam + (sigma - near.sigma) * ar.tl
         ar.sync()
-        st = self.st
-        st = ContinuationSettings(**{**st.describe(), "kappa_stops": st.kappa_stops,
-                                     "max_newton_its": max(st.max_newton_its, 30)})
+        st = self.st_locate
         t0 = time.perf_counter()
         ok, its, lam = _bordered_newton(ar, st, self.lam0 + sigma * ar.tl, lam_start=lam_p,
                                         singular_ok=True)
@@ -467,8 +467,7 @@ def switch_branch(model: Any, cp: CriticalPoint, settings: ContinuationSettings,
     ar.w.axpy(ds, ar.tw)
     ar.w.copy(ar.wp)
     ar.sync()
-    st = ContinuationSettings(**{**settings.describe(), "kappa_stops": settings.kappa_stops,
-                                 "max_newton_its": max(settings.max_newton_its, 30)})
+    st = replace(settings, max_newton_its=max(settings.max_newton_its, 30))
     ok, _, lam1 = _bordered_newton(ar, st, lam_c, singular_ok=True)
     if not ok:
         raise RuntimeError("branch switching: the corrector did not converge off the "

@@ -4,8 +4,9 @@ Files in the output directory:
 
 * ``branch.jsonl`` — line 1 is a header (``{"header": {...config...}}``), then one JSON object per
   converged point, appended and flushed as soon as it exists (a crash loses nothing computed).
-* ``checkpoint/`` — the state at the last point, one ``.npz`` per MPI rank (same rank count and
-  mesh needed to resume; otherwise the run restarts and says so).
+* ``checkpoint/`` — the state at the last point: one ``.npz`` per MPI rank (owned DOF values with
+  their node coordinates) and ``meta.json``. A rerun with the same configuration resumes from it
+  on any rank count; with another configuration or mesh it restarts and says so.
 * ``fields.bp`` — with ``fields`` other than "none": displacement ``displacement``, director
   ``director`` and curvature fields ``mean_curvature_change`` = ½ tr(b - b°) and
   ``natural_curvature_mismatch`` = ½ tr(b - b̄), as VTX (ADIOS2) for ParaView, one step per point.
@@ -153,42 +154,87 @@ def read_branch(path: str | os.PathLike) -> tuple[dict[str, Any], list[dict[str,
     return header, points
 
 
-def _checkpoint_paths(outdir: Path, comm: Any) -> Path:
-    return outdir / "checkpoint" / f"state-{comm.rank}-of-{comm.size}.npz"
+def _owned_nodes(model: Any) -> tuple[np.ndarray, int]:
+    """Coordinates of this rank's owned DOF nodes and the block size (values per node)."""
+    n_owned = model.W.dofmap.index_map.size_local
+    return model.W.tabulate_dof_coordinates()[:n_owned], model.W.dofmap.index_map_bs
 
 
 def _save_checkpoint(outdir: Path, model: Any, rec: dict[str, Any],
                      prev: tuple[np.ndarray, float] | None) -> None:
-    """State of this point (and of the previous one, whose secant orients a resumed run)."""
+    """State of this point (and of the previous one, whose secant orients a resumed run).
+
+    Each rank writes the values of its owned DOF nodes with their coordinates, so the state can
+    be read back on any partition of the same mesh (another rank count, or another partition
+    of the same rank count). Rank 0 then writes ``checkpoint/meta.json`` (rank count, point
+    index), the last file of a complete checkpoint.
+    """
     comm = model.shell.comm
-    p = _checkpoint_paths(outdir, comm)
-    p.parent.mkdir(parents=True, exist_ok=True)
+    d = outdir / "checkpoint"
+    if comm.rank == 0:
+        d.mkdir(parents=True, exist_ok=True)
+    comm.barrier()
+    x, bs = _owned_nodes(model)
+    n = x.shape[0] * bs
+    w = model.w.x.array[:n]
+    w_prev, k_prev = (prev[0][:n], prev[1]) if prev is not None else (w, float(model.kappa.value))
+    p = d / f"state-{comm.rank}-of-{comm.size}.npz"
     tmp = p.with_name(p.stem + ".tmp.npz")
-    w = model.w.x.array
-    w_prev, k_prev = prev if prev is not None else (w, float(model.kappa.value))
-    np.savez(tmp, w=w, kappa=float(model.kappa.value), index=rec["index"], w_prev=w_prev,
-             kappa_prev=k_prev, x=model.W.tabulate_dof_coordinates()[:5])
+    np.savez(tmp, x=x, w=w.reshape(-1, bs), w_prev=w_prev.reshape(-1, bs),
+             kappa=float(model.kappa.value), kappa_prev=k_prev, index=rec["index"])
     os.replace(tmp, p)
+    comm.barrier()
+    if comm.rank == 0:
+        tmp_meta = d / "meta.json.tmp"
+        tmp_meta.write_text(json.dumps({"ranks": comm.size, "index": rec["index"]}))
+        os.replace(tmp_meta, d / "meta.json")
 
 
 def _load_checkpoint(outdir: Path, model: Any
                      ) -> tuple[float, int, np.ndarray, float] | None:
-    comm = model.shell.comm
-    p = _checkpoint_paths(outdir, comm)
-    ok = p.exists()
-    data = None
-    if ok:
-        data = np.load(p)
-        ok = (data["w"].shape == model.w.x.array.shape and
-              np.allclose(data["x"], model.W.tabulate_dof_coordinates()[:5]))
-    from mpi4py import MPI
+    """Read the checkpoint into ``model.w``: (κ, index, w - w_prev, κ - κ_prev), or None.
 
+    Nodes are matched by their coordinates, so the checkpoint may come from another partition
+    or rank count; None when it is missing, incomplete or from another mesh.
+    """
+    from mpi4py import MPI
+    from scipy.spatial import cKDTree
+
+    comm = model.shell.comm
+    d = outdir / "checkpoint"
+    meta = None
+    if comm.rank == 0 and (d / "meta.json").exists():
+        try:
+            meta = json.loads((d / "meta.json").read_text())
+        except (OSError, json.JSONDecodeError):
+            meta = None
+    meta = comm.bcast(meta, root=0)
+    if meta is None:
+        return None
+    x, bs = _owned_nodes(model)
+    ok = True
+    try:
+        parts = [np.load(d / f"state-{r}-of-{meta['ranks']}.npz") for r in range(meta["ranks"])]
+        ok = all(int(q["index"]) == meta["index"] and q["w"].shape[1] == bs for q in parts)
+    except (OSError, ValueError, KeyError):
+        ok = False
     if not comm.allreduce(ok, op=MPI.LAND):
         return None
-    model.w.x.array[:] = data["w"]
+    xs = np.concatenate([q["x"] for q in parts])
+    dist, idx = cKDTree(xs).query(x)
+    scale = max(float(np.ptp(xs, axis=0).max()), 1e-300)
+    ok = xs.shape[0] == comm.allreduce(x.shape[0]) and bool(np.all(dist <= 1e-9 * scale))
+    if not comm.allreduce(ok, op=MPI.LAND):
+        return None
+    w = np.concatenate([q["w"] for q in parts])[idx].ravel()
+    w_prev = np.concatenate([q["w_prev"] for q in parts])[idx].ravel()
+    model.w.x.array[:w.size] = w
     model.w.x.scatter_forward()
-    return (float(data["kappa"]), int(data["index"]), data["w"] - data["w_prev"],
-            float(data["kappa"]) - float(data["kappa_prev"]))
+    kappa, kappa_prev = float(parts[0]["kappa"]), float(parts[0]["kappa_prev"])
+    dw = model.w.x.array.copy()
+    dw[:w.size] = w - w_prev
+    dw[w.size:] = 0.0
+    return kappa, int(meta["index"]), dw, kappa - kappa_prev
 
 
 def run_branch(cfg: BranchConfig, outdir: str | os.PathLike, *, comm: Any = None,
@@ -224,14 +270,20 @@ def run_branch(cfg: BranchConfig, outdir: str | os.PathLike, *, comm: Any = None
 
     done: list[dict[str, Any]] = []
     start = None
-    if resume and bfile.exists():
-        old_header, done = read_branch(bfile)
+    # rank 0 reads the file (it alone rewrites it below) and tells the others
+    old = read_branch(bfile) if resume and comm.rank == 0 and bfile.exists() else None
+    old = comm.bcast(old, root=0)
+    if old is not None:
+        old_header, done = old
         old_header.pop("dofs", None)
         same = {k: v for k, v in header.items() if k != "dofs"} == old_header
         start = _load_checkpoint(outdir, model) if same and done else None
         if start is None:
-            log.info("%s: existing branch file does not match this run or has no usable "
-                     "checkpoint; starting afresh", label)
+            why = ("its configuration differs from this run's" if not same else
+                   "it has no points" if not done else
+                   "its checkpoint is missing, incomplete or from another mesh")
+            log.info("%s: not resuming from the existing branch file (%s); starting afresh",
+                     label, why)
             done = []
         else:
             # keep only the points up to the checkpoint
@@ -251,7 +303,8 @@ def run_branch(cfg: BranchConfig, outdir: str | os.PathLike, *, comm: Any = None
     if start is not None and abs(kappa0 - cfg.kappa_end) < 1e-14 * abs(cfg.kappa_end):
         return
     tangent = None
-    if start is not None and (np.any(start[2]) or start[3] != 0):
+    moved = start is not None and comm.allreduce(bool(np.any(start[2])), op=MPI.LOR)
+    if start is not None and (moved or start[3] != 0):
         tangent = (start[2], start[3] * cfg.L)  # secant of the last two points orients the run
     it = continuation(model, cfg.continuation, kappa_start=kappa0, kappa_end=cfg.kappa_end,
                       solver=ns, start_index=index0, skip_first=start is not None,

@@ -71,3 +71,29 @@ def test_resume_after_interruption(shared_tmp):
         assert [p["wall_time"] for p in on_disk] == [p["wall_time"] for p in first]
     assert resumed[-1]["psi3_over_h"] == pytest.approx(full[-1]["psi3_over_h"], rel=1e-9)
     assert resumed[-1]["kappa_R"] == pytest.approx(20.0, rel=1e-12)
+
+
+def test_resume_on_another_rank_count(shared_tmp):
+    """The checkpoint is keyed by node coordinates: a run interrupted on all ranks resumes on
+    one (on 2 ranks: written by 2, read by 1) and ends where the uninterrupted run does."""
+    cfg = BranchConfig(shape=Sphere(1.0), h_over_r=0.05, kappa_end=20.0, size=0.3,
+                       continuation=ContinuationSettings(method="natural", ds=4.0, ds_max=4.0))
+    c = MPI.COMM_WORLD
+    gen = run_branch(cfg, shared_tmp / "cut")
+    first = [next(gen) for _ in range(2)]
+    gen.close()
+    c.barrier()
+    ok, msg = True, ""
+    if c.rank == 0:  # the others wait: the resumed run is on rank 0 alone
+        resumed = list(run_branch(cfg, shared_tmp / "cut", comm=MPI.COMM_SELF))
+        full = list(run_branch(cfg, shared_tmp / "full", comm=MPI.COMM_SELF))
+        checks = {
+            "from the file": [p["wall_time"] for p in resumed[:2]]
+            == [p["wall_time"] for p in first],
+            "same points": [p["index"] for p in resumed] == [p["index"] for p in full],
+            "same end": abs(resumed[-1]["psi3_over_h"] / full[-1]["psi3_over_h"] - 1) < 1e-8,
+        }
+        ok = all(checks.values())
+        msg = str(checks)
+    ok, msg = c.bcast((ok, msg), root=0)
+    assert ok, msg

@@ -39,9 +39,22 @@ def _rank() -> int:
         return 0
 
 
+class _StderrHandler(logging.StreamHandler):  # type: ignore[type-arg]
+    """Writes to whatever ``sys.stderr`` is at the time of the record, not at set-up (so a
+    replaced and closed stderr, as in a test harness, is never written to)."""
+
+    @property  # type: ignore[override]
+    def stream(self) -> Any:
+        return sys.stderr
+
+    @stream.setter
+    def stream(self, value: Any) -> None:
+        pass
+
+
 def _setup_logging(verbose: bool) -> None:
     """Progress and logs go to stderr on rank 0 only."""
-    handler: logging.Handler = logging.StreamHandler(sys.stderr)
+    handler: logging.Handler = _StderrHandler()
     if _rank() != 0:
         handler = logging.NullHandler()
     logging.basicConfig(format="%(message)s", handlers=[handler], force=True)
@@ -232,8 +245,10 @@ def _cmd_branch(args: argparse.Namespace) -> int:
 
     points = list(run_branch(cfg, outdir, fields=args.fields, resume=not args.restart))
     header, _ = read_branch(f"{outdir}/branch.jsonl")
-    folds = [p for a, p in zip(points, points[1:], strict=False) if a["dkappa_ds"] * p["dkappa_ds"] < 0]
-    result = {"config": cfg.describe(), "dofs": header.get("dofs"), "branch_file": f"{outdir}/branch.jsonl",
+    folds = [p for a, p in zip(points, points[1:], strict=False)
+             if a["dkappa_ds"] * p["dkappa_ds"] < 0]
+    result = {"config": cfg.describe(), "dofs": header.get("dofs"),
+              "branch_file": f"{outdir}/branch.jsonl",
               "points": points, "folds": [{"kappa_R": f["kappa_R"], "kappa_h": f["kappa_h"],
                                            "index": f["index"]} for f in folds]}
 
@@ -506,8 +521,10 @@ def _build_parser() -> argparse.ArgumentParser:
                    help="thickness over R (disk: over its radius)")
     b.add_argument("--nu", type=float, default=0.5, help="Poisson ratio (default 0.5)")
     g = b.add_mutually_exclusive_group()
-    g.add_argument("--kappa-h-max", type=float, default=None, help="final kappa h (sign: direction)")
-    g.add_argument("--kappa-r-max", type=float, default=None, help="final kappa R (sign: direction)")
+    g.add_argument("--kappa-h-max", type=float, default=None,
+                   help="final kappa h (sign: direction)")
+    g.add_argument("--kappa-r-max", type=float, default=None,
+                   help="final kappa R (sign: direction)")
     b.add_argument("--model", default="surface", choices=("surface", "axisym"),
                    help="surface (2D mesh, default) or axisym (shell of revolution, 1D)")
     b.add_argument("--method", default="arclength", choices=("arclength", "natural"))

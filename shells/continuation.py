@@ -41,7 +41,18 @@ class ContinuationSettings:
         target_newton_its: the step grows when Newton needs fewer, shrinks when more.
         max_newton_its: a corrector needing more counts as failed (step halved, retried).
         newton_tol: convergence: relative Newton increment (state RMS / L and |δλ|).
-        residual_tol: and residual norm below this absolute value.
+        residual_tol: an absolute bound on the residual norm that replaces the relative one
+            below (None, the default: the relative bound; a value: the behaviour of versions
+            that had only this absolute tolerance).
+        residual_rtol: and (arclength corrector) the residual norm ||R|| at most
+            ``residual_rtol`` ||∂R/∂κ|| max(|κ|, κ_ref) + ``residual_roundoff`` ε ||J||_F ||w||:
+            relative to the κ-load, the force that κ imposes (κ_ref: 1 % of the run's largest
+            |κ|, so the bound does not vanish where the branch crosses κ = 0), plus the
+            round-off floor of a residual assembled with the Jacobian J at the state w (ε:
+            machine epsilon). Both are model-independent: a stiff Jacobian (the axisymmetric
+            model's C1 penalty) has a floor of up to 1e-2 ε ||J||_F ||w||, which exceeds 1e-5
+            of the κ-load on thin bending-dominated shells (a disk: the load is O(h²)).
+        residual_roundoff: the factor of the round-off term (measured floors are 1e-3 to 1e-2).
         state_weight: ξ in the arclength norm.
         max_steps: safety limit on the number of points.
         kappa_stops: values of κL (natural method) the run lands on exactly.
@@ -58,7 +69,9 @@ class ContinuationSettings:
     target_newton_its: int = 4
     max_newton_its: int = 12
     newton_tol: float = 1.0e-10
-    residual_tol: float = 1.0e-8
+    residual_tol: float | None = None
+    residual_rtol: float = 1.0e-5
+    residual_roundoff: float = 0.1
     state_weight: float = 1.0
     max_steps: int = 10000
     kappa_stops: tuple[float, ...] = ()
@@ -73,6 +86,17 @@ class ContinuationSettings:
                              f"{self.ds_min}, {self.ds}, {self.ds_max}")
         if self.target_newton_its < 1 or self.max_newton_its < self.target_newton_its:
             raise InputError("need 1 <= target_newton_its <= max_newton_its")
+        if self.residual_tol is not None and not (isinstance(self.residual_tol, (int, float))
+                                                  and math.isfinite(self.residual_tol)
+                                                  and self.residual_tol > 0):
+            raise InputError(f"residual_tol must be None or a positive number, got "
+                             f"{self.residual_tol!r}")
+        if not (isinstance(self.residual_rtol, (int, float)) and 0 < self.residual_rtol < 1):
+            raise InputError(f"residual_rtol must lie in (0, 1), got {self.residual_rtol!r}")
+        if not (isinstance(self.residual_roundoff, (int, float))
+                and 0 <= self.residual_roundoff < math.inf):
+            raise InputError(f"residual_roundoff must be a non-negative number, got "
+                             f"{self.residual_roundoff!r}")
         if not self.state_weight > 0:
             raise InputError("state_weight must be positive")
         if self.ds_unit not in ("arclength", "kappa"):
@@ -119,6 +143,8 @@ class _Arclength:
         self.tl = 0.0                 # tangent, λ part
         self.wp = self.w.duplicate()  # predictor
         self.w_old = self.w.duplicate()
+        self.lam_ref = 0.0            # κ_ref L of the relative residual bound
+        self.fl_norm = 0.0            # ||∂R/∂λ|| at the last ``dres_dlambda``
 
     def set_lambda(self, lam: float) -> None:
         self.model.kappa.value = lam / self.L
@@ -138,6 +164,17 @@ class _Arclength:
     def dres_dlambda(self) -> None:
         self.ns.assemble_dkappa(self.Fl)
         self.Fl.scale(1.0 / self.L)
+        self.fl_norm = float(self.Fl.norm())
+
+    def residual_bound(self, st: ContinuationSettings, lam: float) -> float:
+        """The residual tolerance at the current state and λ (``ContinuationSettings``):
+        ``residual_tol`` if given, else residual_rtol ||∂R/∂λ|| max(|λ|, λ_ref) +
+        residual_roundoff ε ||J||_F ||w|| (J: the last factored Jacobian)."""
+        if st.residual_tol is not None:
+            return st.residual_tol
+        load = self.fl_norm * max(abs(lam), self.lam_ref)
+        roundoff = float(np.finfo(float).eps) * float(self.ns.A.norm()) * float(self.w.norm())
+        return st.residual_rtol * load + st.residual_roundoff * roundoff
 
     def tangent(self, sign_ref: tuple[Any, float] | None, direction: float) -> None:
         """Unit tangent at the current (converged) point: J z = -R_λ, τ ∝ (z, 1)."""
@@ -244,6 +281,7 @@ def _growth(its: int, target: int) -> float:
 def _arclength(model, ns, st, lam0, lam_end, L, point, its0, direction, initial_tangent,
                skip_first) -> Iterator[Point]:
     ar = _Arclength(ns, L, st.state_weight)
+    ar.lam_ref = 0.01 * max(abs(lam0), abs(lam_end))
     ar.tangent(None, direction)
     if initial_tangent is not None:
         tw_arr, tl = initial_tangent
@@ -311,7 +349,9 @@ def _bordered_newton(ar: _Arclength, st: ContinuationSettings, lam_p: float,
     Starts from the model's current state and ``lam_start`` (default: the predictor λ_p).
     ``singular_ok``: next to a bifurcation the Jacobian is nearly singular and round-off is
     amplified along the critical mode, so the increment stalls above ``newton_tol`` although the
-    residual is converged; then a residual below ``residual_tol`` after 3 iterations is accepted.
+    residual is converged; then a residual below the residual bound after 3 iterations is
+    accepted. The residual bound is ``_Arclength.residual_bound`` (relative to the κ-load and
+    the round-off floor, or ``residual_tol``).
     """
     ns, w = ar.ns, ar.w
     lam = lam_p if lam_start is None else lam_start
@@ -346,10 +386,10 @@ def _bordered_newton(ar: _Arclength, st: ContinuationSettings, lam_p: float,
             return False, it, lam
         if rms < st.newton_tol and abs(dlam) < st.newton_tol * max(1.0, abs(lam)):
             ns.assemble_residual(F)
-            if F.norm() < st.residual_tol:
+            if F.norm() <= ar.residual_bound(st, lam):
                 return True, it, lam
         elif singular_ok and it >= 3:
             ns.assemble_residual(F)
-            if F.norm() < st.residual_tol:
+            if F.norm() <= ar.residual_bound(st, lam):
                 return True, it, lam
     return False, st.max_newton_its, lam

@@ -21,9 +21,11 @@ from shells.axisym import (
     ModeStability,
     branch,
     critical,
+    default_settings,
     sphere_kappa_b_h,
     sphere_mode_n,
 )
+from shells.continuation import ContinuationSettings
 from shells.errors import InputError
 from shells.geometry import Disk, Sphere, SphericalCap
 from shells.solvers import NewtonSolver
@@ -109,6 +111,50 @@ def test_cap_buckles_into_m2_for_negative_curvature():
     assert r["kind"] == "bifurcation" and r["mode_m"] == 2
     assert -1.0 < r["kappa_R"] < -0.3
     assert len(r["critical_points"]) == 1
+
+
+#: the free disk's m = 2 bifurcation at h/r = 0.02, ν = ½ (critical(..., kappa_max=0.5)); the
+#: plate limit is κ r²/h = √(10 + 7√2) = 4.46, i.e. κr = 0.0892 (test_critical.py: within 3.5 %)
+DISK_M2_KAPPA_R = 0.092077
+
+
+def test_disk_bifurcation_found_with_the_range_ending_just_beyond_it():
+    """Regression: with κ_end just past the disk's m = 2 bifurcation (κr = 0.107, 16 % beyond),
+    the bifurcation is found. The continuation's residual bound used to be 1e-5 of the κ-load
+    *at κ_end*, below the residual's round-off floor (≈ 3e-5 of the load on a thin disk, whose
+    load is O(h²) while the floor comes from the penalty-stiff Jacobian) unless κ_end was a few
+    times the current κ: the corrector failed, the step fell below ds_min, the continuation
+    ended at κr ≈ 0.04 and ``critical`` reported "none"."""
+    r = critical(Disk(1.0), 0.02, 0.5, "up", kappa_max=0.107)
+    same_on_all_ranks(r["kappa_R"])
+    assert r["kind"] == "bifurcation" and r["mode_m"] == 2
+    assert r["kappa_R"] == pytest.approx(DISK_M2_KAPPA_R, rel=3e-4)
+    assert len(r["critical_points"]) == 1
+    # the branch reaches the end of the range
+    recs = list(branch(Disk(1.0), 0.02, 0.5, "up", m_max=2, kappa_max=0.107))
+    assert recs[-1]["kappa_R"] == pytest.approx(0.107, rel=1e-12)
+    assert recs[-1]["unstable_modes"] == [2]
+
+
+def test_critical_refuses_to_report_none_for_a_branch_stopped_short():
+    """A continuation that gives up before the end of the range (here forced by an absolute
+    residual bound below the round-off floor) is an error, not "no critical point"."""
+    too_strict = default_settings(Disk(1.0), 0.02, residual_tol=2e-9)
+    with pytest.raises(RuntimeError, match="stopped at kappa R"):
+        critical(Disk(1.0), 0.02, 0.5, "up", m_max=2, kappa_max=0.107, settings=too_strict)
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(residual_tol=0.0), "residual_tol"),
+    (dict(residual_tol=float("nan")), "residual_tol"),
+    (dict(residual_rtol=0.0), "residual_rtol"),
+    (dict(residual_rtol=2.0), "residual_rtol"),
+    (dict(residual_roundoff=-1.0), "residual_roundoff"),
+])
+def test_residual_settings_are_validated(kwargs, match):
+    with pytest.raises(InputError, match=match):
+        ContinuationSettings(**kwargs)
+    assert ContinuationSettings().residual_tol is None  # relative bound by default
 
 
 def test_mesh_convergence_of_the_fold():

@@ -39,6 +39,7 @@ from shells.continuation import (
     Point,
     _Arclength,
     _bordered_newton,
+    _growth,
     continuation,
 )
 from shells.errors import InputError
@@ -433,50 +434,358 @@ def follow(model: Any, settings: ContinuationSettings, kappa_end: float,
             ns.destroy()
 
 
+def _state_kappa(ns: NewtonSolver, ar: _Arclength, lam: float) -> float:
+    """κL at which the model's current state is nearest to equilibrium (least squares).
+
+    The residual is affine in κ (b̄ = b° + κ a° enters the energy quadratically), so one
+    least-squares step from any guess is exact. A critical point's state comes from a trial
+    solve whose κ is not the located κ (which is interpolated).
+    """
+    ar.set_lambda(lam)
+    F = ns.b
+    ns.assemble_residual(F)
+    ar.dres_dlambda()
+    fl2 = ar.Fl.dot(ar.Fl)
+    if fl2 > 0:
+        lam -= F.dot(ar.Fl) / fl2
+    ar.set_lambda(lam)
+    return lam
+
+
+def _critical_directions(model: Any, ar: _Arclength, mode: np.ndarray, k: int
+                         ) -> tuple[list[Any], list[float]]:
+    """The critical eigenspace at the model's current state: the eigenvector closest to ``mode``
+    first (oriented like it), then the other k - 1 eigenvectors nearest 0; zero on the gauge DOFs,
+    orthogonalised (Euclidean, like the constraints that use them), unit in the continuation norm.
+    Returns the vectors and their eigenvalues."""
+    from dolfinx.fem.petsc import set_bc
+
+    stab = Stability(model)
+    try:
+        vals, vecs = stab.eigenpairs(max(k + 2, 4), modes=True)
+    finally:
+        stab.destroy()
+    if not vals:
+        raise RuntimeError("branch switching: no eigenpair converged at the critical state")
+    n = ar.w.getLocalSize()
+    ref = ar.w.duplicate()
+    ref.array_w[:] = mode[:n]
+    set_bc(ref, model.bcs, alpha=0.0)
+    rn = ref.norm()
+
+    def overlap(i: int) -> float:
+        return abs(vecs[i].dot(ref)) / max(vecs[i].norm() * rn, 1e-300)
+
+    first = max(range(len(vals)), key=overlap)
+    others = sorted((i for i in range(len(vals)) if i != first), key=lambda i: abs(vals[i]))
+    dirs: list[Any] = []
+    for i in [first, *others[: k - 1]]:
+        v = ar.w.duplicate()
+        v.array_w[:] = vecs[i].array_r
+        set_bc(v, model.bcs, alpha=0.0)
+        for d in dirs:
+            v.axpy(-v.dot(d) / d.dot(d), d)
+        v.scale(1.0 / math.sqrt(ar.cw * v.dot(v)))
+        dirs.append(v)
+    if dirs[0].dot(ref) < 0:
+        dirs[0].scale(-1.0)
+    ref.destroy()
+    for v in vecs:
+        v.destroy()
+    return dirs, [vals[i] for i in [first, *others[: k - 1]]]
+
+
+def _pinned_newton(ar: _Arclength, st: ContinuationSettings, lam: float, *, tw: Any, tl: float,
+                   wp: Any, lam_p: float, pins: list[Any], wc: Any,
+                   max_dlam: float = math.inf) -> tuple[bool, int, float, np.ndarray]:
+    """Newton on R(w, λ) + Σ_j s_j ψ_j = 0 with
+    cw τ_w·(w - w_p) + τ_λ (λ - λ_p) = 0 (the step's hyperplane) and cw ψ_j·(w - w_c) = 0;
+    unknowns w, λ and the multipliers s_j.
+
+    The hyperplane with τ = (φ_0, 0), w_p = w_c + a φ_0 fixes the amplitude a along the critical
+    mode φ_0 and leaves λ free: that parametrises a pitchfork regularly (λ - λ_c ∝ a², one λ for
+    each a ≠ 0; the fundamental branch, with no φ_0-component, does not meet it). τ = (0, 1)
+    fixes λ = λ_p. The pins ψ_j are the other directions of a (nearly) multiple critical
+    eigenspace, held at their value in w_c: on a shape of revolution the partner of the (cos mφ,
+    sin mφ) pair, i.e. the orientation of the buckling pattern, a nearly neutral direction of
+    the Hessian along the new branch (a phase condition, as for any continuous symmetry). s_j ψ_j
+    is then the force needed to hold the orientation: what the mesh's broken symmetry exerts.
+    Without pins this is Keller's bordered Newton. Starts from the model's current state; one
+    LU factorisation and 2 + len(pins) solves per iteration. An iterate with
+    |λ - λ_start| > ``max_dlam`` counts as divergence (the residual bound is relative to the
+    κ-load, which grows with |λ|). Returns (converged, iterations, λ, multipliers).
+    """
+    ns, w = ar.ns, ar.w
+    k = len(pins)
+    s = np.zeros(k)
+    F = ns.b
+    dw, rhs, dev = w.duplicate(), w.duplicate(), w.duplicate()
+    xs = [w.duplicate() for _ in range(k + 1)]
+    ar.set_lambda(lam)
+    lam0 = lam
+    nglob = math.sqrt(w.getSize())
+
+    def residual() -> float:
+        ns.assemble_residual(F)
+        for j in range(k):
+            F.axpy(s[j], pins[j])
+        return F.norm()
+
+    try:
+        for it in range(1, st.max_newton_its + 1):
+            fn = residual()
+            if not math.isfinite(fn):
+                return False, it, lam, s
+            ns.factor()
+            F.scale(-1.0)
+            ns.lin_solve(F, dw)
+            ar.dres_dlambda()
+            ar.Fl.scale(-1.0)
+            ns.lin_solve(ar.Fl, xs[0])
+            for j in range(k):
+                pins[j].copy(rhs)
+                rhs.scale(-1.0)
+                ns.lin_solve(rhs, xs[j + 1])
+            # the constraints are linear: their rows in (δλ, δs_1 ...)
+            w.copy(dev)
+            dev.axpy(-1.0, wp)
+            A = np.zeros((k + 1, k + 1))
+            r = np.zeros(k + 1)
+            A[0] = [ar.cw * tw.dot(x) for x in xs]
+            A[0, 0] += tl
+            r[0] = -(ar.cw * (tw.dot(dev) + tw.dot(dw)) + tl * (lam - lam_p))
+            w.copy(dev)
+            dev.axpy(-1.0, wc)
+            for j in range(k):
+                A[j + 1] = [ar.cw * pins[j].dot(x) for x in xs]
+                r[j + 1] = -ar.cw * (pins[j].dot(dev) + pins[j].dot(dw))
+            try:
+                c = np.linalg.solve(A, r)
+            except np.linalg.LinAlgError:
+                return False, it, lam, s
+            if not np.all(np.isfinite(c)):
+                return False, it, lam, s
+            for j in range(k + 1):
+                dw.axpy(c[j], xs[j])
+            w.axpy(1.0, dw)
+            lam += c[0]
+            s += c[1:]
+            ar.sync()
+            ar.set_lambda(lam)
+            rms = dw.norm() / nglob / ar.L
+            log.debug("pinned newton %d: |F| = %.3e, kappa L = %.8g, s = %s, increment %.3e",
+                      it, fn, lam, np.array2string(s, precision=3), rms)
+            if not (math.isfinite(rms) and abs(lam - lam0) <= max_dlam):
+                return False, it, lam, s
+            small = rms < st.newton_tol and abs(c[0]) < st.newton_tol * max(1.0, abs(lam))
+            # next to a singular point round-off along the nearly singular directions keeps the
+            # increment above newton_tol although the residual has converged (_bordered_newton)
+            if (small or it >= 3) and residual() <= ar.residual_bound(st, lam):
+                return True, it, lam, s
+        return False, st.max_newton_its, lam, s
+    finally:
+        for v in (dw, rhs, dev, *xs):
+            v.destroy()
+
+
 def switch_branch(model: Any, cp: CriticalPoint, settings: ContinuationSettings,
-                  kappa_end: float, *, ds: float = 1.0, solver: NewtonSolver | None = None
-                  ) -> Iterator[Point]:
+                  kappa_end: float, *, ds: float = 0.25, solver: NewtonSolver | None = None,
+                  sign: float = 1.0, pinned: int | None = None,
+                  factors: tuple[float, ...] = (1.0, 0.5, 0.25, 2.0),
+                  min_amplitude: float = 0.5) -> Iterator[Point]:
     """Follow the branch that bifurcates at ``cp`` along its critical mode.
 
-    The first step is a pseudo-arclength step of length ``ds`` (in the continuation norm: RMS
-    displacement in thicknesses) with the tangent (φ, 0), φ the critical mode: the corrector
-    works on the hyperplane orthogonal to φ, which the fundamental branch (tangent ⟂ φ) does not
-    cross near the bifurcation, so it lands on the new branch. The ordinary continuation then
-    takes over, oriented by the secant from the bifurcation point.
+    1. The critical state w_c (``cp.state``) and its κ (least squares: the residual is affine
+       in κ; the state is a trial solve next to the located κ, not at it).
+    2. The critical eigenspace there (SLEPc): φ_0 the eigenvector of ``cp.mode``, and, when
+       k = ``cp.multiplicity`` (or ``pinned``) > 1, the k - 1 other eigenvectors nearest 0.
+    3. The first point at mode amplitude a = ``sign`` × ``ds`` (continuation norm: RMS in
+       thicknesses, ``settings.state_weight``): Newton from w_c + a φ_0 on R(w, λ) = 0 with
+       cw φ_0·(w - w_c) = a and λ free (``_pinned_newton``): for a pitchfork λ - λ_c ≈ β a², a
+       regular equation in λ for a ≠ 0 that the fundamental branch (no φ_0-component) does not
+       satisfy. If it fails, a is retried with ``ds`` times each of ``factors``.
+    4. Pseudo-arclength continuation with secant predictors from (w_c, λ_c) and that point
+       onwards, adaptive steps from ``settings`` (arclength units: ``ds_unit`` must be
+       "arclength"; the first step is |a|), landing on ``kappa_end`` exactly when the branch
+       crosses it, or ending after ``settings.max_steps`` points or when the step falls below
+       ``ds_min``. Each yielded point carries in ``scalars``: ``mode_amplitude`` =
+       cw φ_0·(w - w_c), ``residual`` = ||R(w, λ)|| and ``residual_bound`` (the corrector's
+       bound, ``ContinuationSettings``) and ``pin_force`` = ||Σ s_j ψ_j||. If the amplitude falls
+       below ``min_amplitude`` times the first one (or changes sign), the branch has led back
+       to the fundamental branch and a RuntimeError is raised.
 
-    Multiple eigenvalues: on shapes of revolution every mode m ≥ 1 comes as a (cos mφ, sin mφ)
-    pair, and all directions of that plane give the same branch up to a rotation about the axis,
-    so any eigenvector of the pair will do. The perfect sphere's 2n+1-fold eigenvalue is
-    different: its eigenspace holds inequivalent directions (the axisymmetric Y_n^0 among them);
-    the direction used is the eigenvector SLEPc returns, i.e. the one the mesh singles out.
+    Multiple eigenvalues (k > 1). On a shape of revolution every mode m ≥ 1 is a (cos mφ,
+    sin mφ) pair and every direction of that plane gives the same branch up to a rotation about
+    the axis: the pattern's orientation is a continuous symmetry, and along the new branch it is
+    a nearly neutral direction of the Hessian. A mesh breaks the symmetry slightly: (i) the pair
+    splits into two simple eigenvalues crossing at nearly the same κ (``cp.multiplicity`` = 2,
+    κ located at the first crossing); the branch followed is the one along the first crossing's
+    eigenvector, which for a supercritical pitchfork is the stable orientation (the second
+    crossing's branch is a saddle with an extra negative eigenvalue of the size of the
+    splitting); (ii) the orientation stiffness along the new branch is so small (on a coarse cap
+    mesh, a Hessian eigenvalue ~10⁻⁶ against ~10⁻³ for the other modes) that the residual
+    tolerance does not determine the orientation: an unpinned Newton step leaves the orbit of
+    rotations along its tangent and diverges (the previous, unpinned version of this function
+    failed that way). So the other k - 1 eigenvectors are pinned at their w_c values for the
+    whole branch (a phase condition) and the force s_j ψ_j that holds the orientation is
+    reported as ``pin_force``: it is the only residual of the yielded states (≈ 10⁻⁵ of the
+    κ-load on the coarse cap mesh), i.e. they are equilibria up to the mesh's orientation
+    force; (iii) the bifurcation is imperfect: the path from κ = 0 turns onto one sign of the
+    new branch, the other sign lies on a separate branch with its own fold near κ_c; for |a|
+    well above the imperfection both are graphs over a (either ``sign`` works) and
+    a² ∝ |κ - κ_c| holds there, not within the imperfection scale of κ_c.
+
+    The perfect sphere's (2n+1)-fold eigenvalue is different: its eigenspace holds inequivalent
+    directions (the axisymmetric Y_n^0 among them, and mixtures whose branches are not rotations
+    of each other). The direction followed is the eigenvector of ``cp.mode`` (the first to
+    cross on the mesh) and the other k - 1 that crossed in the same step are pinned at zero
+    amplitude; this follows *a* branch tangent to that direction if one exists (pinning
+    suppresses the others); which inequivalent branch it is, and whether another is preferred,
+    needs the reduced bifurcation equations on the whole eigenspace and is not analysed.
     """
     if cp.state is None or cp.mode is None:
         raise InputError("this critical point carries no state/mode to switch from")
+    if not ds > 0:
+        raise InputError(f"the first amplitude ds must be positive, got {ds}")
+    if settings.ds_unit != "arclength":
+        raise InputError("switch_branch takes its steps in arclength (ds_unit='arclength')")
     ns = solver or NewtonSolver(model)
     L = model.shape.characteristic_size()
     ar = _Arclength(ns, L, settings.state_weight)
     n = ar.w.getLocalSize()
     wc = ar.w.duplicate()
-    wc.array_w[:] = cp.state[:n]
-    lam_c = cp.kappa_L
-    # the tangent (φ, 0), unit in the continuation norm
-    ar.tw.array_w[:] = cp.mode[:n]
-    ar.tw.scale(1.0 / math.sqrt(ar.cw * ar.tw.dot(ar.tw)))
-    ar.tl = 0.0
-    wc.copy(ar.w)
-    ar.w.axpy(ds, ar.tw)
-    ar.w.copy(ar.wp)
-    ar.sync()
-    st = replace(settings, max_newton_its=max(settings.max_newton_its, 30))
-    ok, _, lam1 = _bordered_newton(ar, st, lam_c, singular_ok=True)
-    if not ok:
-        raise RuntimeError("branch switching: the corrector did not converge off the "
-                           "fundamental branch (try another ds)")
-    secant = ar.w.array_r.copy() - cp.state[:n]
+    tw, wp, w_prev, w_last = (wc.duplicate() for _ in range(4))
+    dirs: list[Any] = []
+    t_start = time.perf_counter()
     try:
-        yield from continuation(model, settings, kappa_start=lam1 / L, kappa_end=kappa_end,
-                                solver=ns, initial_tangent=(secant, lam1 - lam_c))
+        ar.w.array_w[:] = cp.state[:n]
+        ar.sync()
+        lam_c = _state_kappa(ns, ar, cp.kappa_L)
+        lam_end = kappa_end * L
+        ar.lam_ref = 0.01 * max(abs(lam_c), abs(lam_end))
+        max_dlam = 2.0 * abs(lam_end - lam_c) + 0.1 * abs(lam_c)
+        ar.w.copy(wc)
+        k = max(1, cp.multiplicity if pinned is None else pinned)
+        dirs, vals = _critical_directions(model, ar, cp.mode, k)
+        pins = dirs[1:]
+        log.info("switch: critical state at kappa L = %.6g, eigenvalues %s", lam_c,
+                 ", ".join(f"{v:.3e}" for v in vals))
+        st = replace(settings, max_newton_its=max(settings.max_newton_its, 30))
+        sgn = 1.0 if sign >= 0 else -1.0
+
+        def amplitude() -> float:
+            ar.w.copy(wp)
+            wp.axpy(-1.0, wc)
+            return ar.cw * dirs[0].dot(wp)
+
+        def point(index: int, its: int, step: float, tl: float, s: np.ndarray) -> Point:
+            sc = model.scalars()
+            sc["mode_amplitude"] = amplitude()
+            wp.set(0.0)
+            for j, pin in enumerate(pins):
+                wp.axpy(s[j], pin)
+            sc["pin_force"] = float(wp.norm())
+            sc["residual"] = ns.residual_norm()
+            # (with the corrector's last Jacobian and ∂R/∂λ)
+            sc["residual_bound"] = ar.residual_bound(st, ar.get_lambda())
+            return Point(index=index, kappa=ar.get_lambda() / L, kappa_L=ar.get_lambda(),
+                         newton_its=its, step=step, dkappa_ds=tl,
+                         wall_time=time.perf_counter() - t_start, scalars=sc)
+
+        # first point: amplitude a along φ_0, λ free
+        first = None
+        for f in factors:
+            a = sgn * ds * f
+            dirs[0].copy(tw)
+            wc.copy(wp)
+            wp.axpy(a, dirs[0])
+            wp.copy(ar.w)
+            ar.sync()
+            ok, its, lam, s = _pinned_newton(ar, st, lam_c, tw=tw, tl=0.0, wp=wp, lam_p=lam_c,
+                                             pins=pins, wc=wc, max_dlam=max_dlam)
+            log.info("switch: amplitude %.4g: %s in %d its, kappa L = %.6g", a,
+                     "converged" if ok else "failed", its, lam)
+            if ok:
+                first = a
+                break
+        if first is None:
+            raise RuntimeError("branch switching: the corrector did not converge off the "
+                               f"fundamental branch at amplitudes {ds} x {factors}")
+        a1 = first
+        direction = 1.0 if lam_end >= lam else -1.0
+        wc.copy(w_prev)
+        lam_prev = lam_c
+        ar.w.copy(w_last)
+        index = 0
+        yield point(index, its, abs(a1), 0.0, s)
+        ds_cur = min(max(abs(a1), st.ds_min), st.ds_max)
+        while index < st.max_steps:
+            # secant tangent from the previous point, unit in the continuation norm
+            w_last.copy(tw)
+            tw.axpy(-1.0, w_prev)
+            tl = lam - lam_prev
+            norm = math.sqrt(ar.cw * tw.dot(tw) + tl * tl)
+            tw.scale(1.0 / norm)
+            tl /= norm
+            while True:
+                lam_p = lam + ds_cur * tl
+                landing = (lam_p - lam_end) * direction >= 0 and tl * direction > 0
+                frac = (lam_end - lam) / (lam_p - lam) if landing else 1.0
+                w_last.copy(ar.w)
+                ar.w.axpy(frac * ds_cur, tw)
+                ar.w.copy(wp)
+                ar.sync()
+                if landing:  # λ = λ_end: the hyperplane τ = (0, 1)
+                    wp.set(0.0)
+                    ok, its, lam_new, s_new = _pinned_newton(
+                        ar, st, lam_end, tw=wp, tl=1.0, wp=wp, lam_p=lam_end, pins=pins,
+                        wc=wc, max_dlam=max_dlam)
+                else:
+                    ok, its, lam_new, s_new = _pinned_newton(
+                        ar, st, lam_p, tw=tw, tl=tl, wp=wp, lam_p=lam_p, pins=pins, wc=wc,
+                        max_dlam=max_dlam)
+                step = frac * ds_cur
+                if ok and its <= settings.max_newton_its and not landing \
+                        and (lam_new - lam_end) * direction > 0:
+                    # the corrector crossed κ_end: land on it from the chord's interpolant
+                    f = (lam_end - lam) / (lam_new - lam)
+                    ar.w.copy(wp)
+                    wp.axpy(-1.0, w_last)
+                    w_last.copy(ar.w)
+                    ar.w.axpy(f, wp)
+                    ar.sync()
+                    wp.set(0.0)
+                    landing = True
+                    step *= f
+                    ok, its, lam_new, s_new = _pinned_newton(
+                        ar, st, lam_end, tw=wp, tl=1.0, wp=wp, lam_p=lam_end, pins=pins,
+                        wc=wc, max_dlam=max_dlam)
+                if ok and its <= settings.max_newton_its:
+                    break
+                ds_cur *= 0.5
+                if ds_cur < st.ds_min:
+                    w_last.copy(ar.w)
+                    ar.sync()
+                    ar.set_lambda(lam)
+                    log.info("switch: step below ds_min at kappa L = %.6g", lam)
+                    return
+            w_last.copy(w_prev)
+            lam_prev = lam
+            ar.w.copy(w_last)
+            lam, s = lam_new, s_new
+            index += 1
+            p = point(index, its, step, tl, s)
+            amp = p.scalars["mode_amplitude"]
+            if abs(amp) < min_amplitude * abs(a1) or amp * a1 < 0:
+                raise RuntimeError(
+                    f"branch switching: back on the fundamental branch at kappa = {p.kappa:.6g}"
+                    f" (mode amplitude {amp:.3g}, first point {a1:.3g})")
+            yield p
+            if landing:
+                return
+            ds_cur = min(st.ds_max, max(st.ds_min, ds_cur * _growth(its, st.target_newton_its)))
     finally:
-        wc.destroy()
+        for v in (wc, tw, wp, w_prev, w_last, *dirs):
+            v.destroy()
         if solver is None:
             ns.destroy()

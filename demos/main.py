@@ -41,7 +41,7 @@ def _f(v: float | None) -> str:
 
 
 def snapped_shape(cap: SphericalCap, h_over_r: float, kappa_r: float, size: float,
-                  path: Path) -> dict:
+                  layer: float, path: Path) -> dict:
     """The everted (snapped) cap at κR: Newton from the cap mirrored through its rim plane."""
     from shells.fields import FieldWriter
     from shells.mesh import MeshSpec, generate
@@ -50,7 +50,8 @@ def snapped_shape(cap: SphericalCap, h_over_r: float, kappa_r: float, size: floa
     from shells.stability import Stability
 
     h = h_over_r * cap.R
-    model = ShellModel(generate(MeshSpec(cap, h=h, size=size), MPI.COMM_WORLD),
+    model = ShellModel(generate(MeshSpec(cap, h=h, size=size, layer_elements=layer),
+                                MPI.COMM_WORLD),
                        ModelParameters(h=h, nu=0.5))
     model.set_everted_guess()
     model.kappa.value = kappa_r / cap.R
@@ -96,18 +97,21 @@ def run(outdir: str | Path = "results/demo", quick: bool = False) -> dict:
 
     # 3. shapes for ParaView
     cap = SphericalCap(1.0, math.radians(30))
-    size = 0.25 if quick else 0.15
+    size, layer = (0.25, 4.0) if quick else (0.15, 4.0)
     # natural-parameter steps: the shell just before its snap-through fold (κR ≈ 1.39 here), and
     # past the m = 2 loss of symmetry at κR ≈ -0.66, where the path turns onto the buckled branch
     runs = (("snap_onset", 1.35, (0.5, 1.0)), ("buckled", -1.2, (-0.4, -0.8)))
-    out["snapped"] = snapped_shape(cap, 0.04, 2.0, size, outdir / "snapped" / "fields.bp")
+    out["snapped"] = snapped_shape(cap, 0.04, 2.0, size, layer,
+                                   outdir / "snapped" / "fields.bp")
     say(f"snapped: kappa R = +2.000, everted shell (stable: {out['snapped']['stable']}), apex "
         f"displacement {out['snapped']['apex_uz_over_h']:+.2f} h -> "
         f"{outdir / 'snapped' / 'fields.bp'}")
     for name, kr, stops in runs:
-        st = ContinuationSettings(method="natural", ds=2.5, ds_max=2.5, kappa_stops=stops,
-                                  max_newton_its=40)
-        bc = BranchConfig(shape=cap, h_over_r=0.04, kappa_end=kr, size=size, continuation=st)
+        # steps of at most 0.4 in κR, grown while Newton needs at most 5 iterations
+        st = ContinuationSettings(method="natural", ds=0.4, ds_max=0.4, kappa_stops=stops,
+                                  target_newton_its=5, max_newton_its=25)
+        bc = BranchConfig(shape=cap, h_over_r=0.04, kappa_end=kr, size=size,
+                          layer_elements=layer, continuation=st)
         pts = list(run_branch(bc, outdir / name, fields="last", resume=False, label=name))
         out[name] = pts[-1]
         say(f"{name}: kappa R = {pts[-1]['kappa_R']:+.3f}, apex displacement "

@@ -10,6 +10,8 @@ All lengths are in units of the sphere radius R unless stated; ``nu`` is the Poi
   in κh) or in the paper's x ≫ 1 form (its Eq. "kappacri").
 * ``sphere_kappa_b_h`` = 4√(3(1-ν)/((1+ν)(5+4ν))), ``sphere_mode_x``: the minimising x.
 * ``plate_a`` = √(10 + 7√2) (Pezzulla 2016): a disk of radius r bifurcates at |κ| r²/h = a.
+  ``plate_a_uniform_curvature``: the same threshold in the Föppl-von Kármán plate with the
+  uniform-curvature (Mansfield) ansatz, 8/(1+ν)^{3/2}, a second reduced-model reference.
 * ``snap_kappa_R`` (α, β) and ``buckling_kappa_R`` (Eq. 4, a, b, c) with the paper's fitted values.
 """
 
@@ -28,6 +30,7 @@ __all__ = [
     "sphere_mode_x",
     "sphere_mode_n",
     "plate_a",
+    "plate_a_uniform_curvature",
     "snap_kappa_R",
     "buckling_kappa_R",
     "mirrored_buckling_kappa_R",
@@ -115,6 +118,20 @@ def sphere_mode_n(h_over_r: float, nu: float = 0.5) -> float:
 def plate_a() -> float:
     """√(10 + 7√2) = 4.4609: a free disk bifurcates at |κ| r²/h = a (Pezzulla et al. 2016)."""
     return math.sqrt(10 + 7 * math.sqrt(2))
+
+
+def plate_a_uniform_curvature(nu: float = 0.5) -> float:
+    """|κ| r²/h at the m = 2 bifurcation of a free disk with uniform principal curvatures.
+
+    Föppl-von Kármán plate, w = (k₁x² + k₂y²)/2: per unit area the bending energy is
+    (D/2)[(k₁-κ)² + (k₂-κ)² + 2ν(k₁-κ)(k₂-κ)] and the stretching energy of a free disk with
+    Gaussian curvature K = k₁k₂ is Y K² r⁴/384 (Y = Eh, D = Y h²/12(1-ν²)). On the symmetric
+    branch k₁ = k₂ = c the antisymmetric direction k₁,₂ = c ± ε has stiffness
+    D(1-ν) - Y c² r⁴/192, zero at c r²/h = 4/√(1+ν); equilibrium κ = c + c³r⁴(1-ν)/(16h²) then
+    gives κ r²/h = 8/(1+ν)^{3/2} (4.354 at ν = 1/2, 5.397 at 0.3, 8 at 0). The ansatz is a
+    restriction of the plate problem, so it is a reference for the trend in ν, not a bound.
+    """
+    return 8.0 / (1.0 + nu) ** 1.5
 
 
 def snap_kappa_R(thetabar: float, alpha: float = PAPER["alpha"], beta: float = PAPER["beta"]

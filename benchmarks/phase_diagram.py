@@ -116,6 +116,12 @@ def crosscheck(cfg: PhaseDiagramConfig) -> list[dict[str, Any]]:
     return rows
 
 
+_PLATE_NOTE = ("√(10+7√2) is a reduced-model value and carries no ν; the full energy's a(ν) "
+               "is strongly ν-dependent (1D: 7.90 / 5.62 / 4.60 at ν = 0 / 0.3 / 0.5) and lies "
+               "-1.3 % to +5.9 % from the uniform-curvature FvK value 8/(1+ν)^1.5 "
+               "(`benchmarks/plate_limit.py --nu-study`)")
+
+
 def plate_check() -> dict[str, Any]:
     f = RESULTS / "plate_limit.json"
     if f.exists():
@@ -270,7 +276,7 @@ def render(data: dict[str, Any]) -> str:
                     else "")
             w(f"| plate limit a = κ r²/h ({plate['model']}, h/r = {r.get('h_over_r')}{mesh})"
               f" | {plate_a():.4f} | {_fmt(v, None, 4)} (m = {r.get('mode_m')}) | "
-              f"{_rel(v, plate_a())} | |")
+              f"{_rel(v, plate_a())} | {_PLATE_NOTE} |")
     b11 = x.get("b11_rim_at_snap")
     if b11:
         w(f"| rim curvature at snap b11 R = (1+ν)(κ_s R - 1) | factor 1 | factor "

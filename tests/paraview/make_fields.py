@@ -27,7 +27,7 @@ ARRAYS = ("displacement", "director", "mean_curvature_change", "natural_curvatur
 def main(out: Path) -> None:
     from mpi4py import MPI
 
-    from shells.branch import BranchConfig, read_branch
+    from shells.branch import BranchConfig, _load_checkpoint, read_branch
     from shells.fields import FieldWriter
     from shells.mesh import generate
     from shells.model import ModelParameters, ShellModel
@@ -42,12 +42,11 @@ def main(out: Path) -> None:
     cfg = BranchConfig.from_description(header)
     model = ShellModel(generate(cfg.mesh_spec(), comm),
                        ModelParameters(h=cfg.h, nu=cfg.nu, shear_penalty=cfg.shear_penalty))
-    ck = np.load(run / "checkpoint" / "state-0-of-1.npz")
-    assert int(ck["index"]) == last["index"], "checkpoint is not the last point"
-    assert ck["w"].shape == model.w.x.array.shape
-    model.w.x.array[:] = ck["w"]
-    model.w.x.scatter_forward()
-    model.kappa.value = float(ck["kappa"])
+    # the run's last state, read back through the branch module's own checkpoint reader
+    ck = _load_checkpoint(run, model)
+    assert ck is not None, "no usable checkpoint"
+    assert ck[1] == last["index"], "checkpoint is not the last point"
+    model.kappa.value = ck[0]
 
     writer = FieldWriter(model, out / "expected-scratch.bp")  # only for its interpolation
     funcs = writer.update()

@@ -416,7 +416,9 @@ def _critical_surface(args: argparse.Namespace, shape: Any, h: float, kappa_end:
 
     comm = MPI.COMM_WORLD
     sm = generate(MeshSpec(shape, h=h, size=args.size, layer_elements=args.layer_elements), comm)
-    model = ShellModel(sm, ModelParameters(h=h, nu=args.nu, shear_penalty=args.shear_penalty))
+    model = ShellModel(sm, ModelParameters(h=h, nu=args.nu, shear_penalty=args.shear_penalty,
+                                           degree=args.degree,
+                                           quadrature_degree=2 * args.degree))
     L = shape.characteristic_size()
     lam_end = abs(kappa_end) * L
     ds = args.ds if args.ds is not None else lam_end / 16
@@ -466,7 +468,8 @@ def _critical_surface(args: argparse.Namespace, shape: Any, h: float, kappa_end:
             "mode_m": first["mode_m"] if first else None,
             "mode_n": first["mode_n"] if first else None,
             "dofs": model.num_dofs(), "critical_points": cps,
-            "mesh": {"size": args.size, "layer_elements": args.layer_elements},
+            "mesh": {"size": args.size, "layer_elements": args.layer_elements,
+                     "degree": args.degree},
             "wall_time": time_now() - t0}
 
 
@@ -566,6 +569,9 @@ def _build_parser() -> argparse.ArgumentParser:
                    help="elements across sqrt(R h) at the rim (default 4)")
     c.add_argument("--shear-penalty", type=_positive_float("shear-penalty"), default=1.0e3,
                    help="Kirchhoff-Love penalty, times the Naghdi shear stiffness (default 1e3)")
+    c.add_argument("--degree", type=int, choices=(2, 3), default=2,
+                   help="surface model: polynomial degree (3 locks far less: docs/model.md; "
+                   "default 2), full quadrature 2 x degree")
     c.add_argument("--ds", type=_positive_float("ds"), default=None,
                    help="initial step, in kappa L (default: range/16)")
     c.add_argument("--ds-max", type=_positive_float("ds-max"), default=None,

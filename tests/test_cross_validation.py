@@ -27,7 +27,7 @@ def _surface_first(theta_deg: float, direction: str):
     sm = generate(MeshSpec(shape, h=H, size=0.2, layer_elements=3.0), MPI.COMM_WORLD)
     model = ShellModel(sm, ModelParameters(h=H, nu=0.5))
     end = _END[direction] * (1 if direction == "up" else -1)
-    st = ContinuationSettings(ds=0.2, ds_max=0.25, ds_unit="kappa")
+    st = ContinuationSettings(ds=0.2, ds_max=0.5, ds_unit="kappa", target_newton_its=6)
     # 2 % comparisons need no 1e-4 location (0.5 % will do): a few evaluations per critical point
     # suffice (the m = 2 bifurcations are imperfect on a mesh: the last digits cost many)
     crit = CriticalSettings(stop_at_first=True, rel_tol=5e-3, max_evaluations=4)

@@ -156,8 +156,7 @@ def read_branch(path: str | os.PathLike) -> tuple[dict[str, Any], list[dict[str,
 
 def _owned_nodes(model: Any) -> tuple[np.ndarray, int]:
     """Coordinates of this rank's owned DOF nodes and the block size (values per node)."""
-    n_owned = model.W.dofmap.index_map.size_local
-    return model.W.tabulate_dof_coordinates()[:n_owned], model.W.dofmap.index_map_bs
+    return model.owned_dof_coordinates(), model.W.dofmap.index_map_bs
 
 
 def _save_checkpoint(outdir: Path, model: Any, rec: dict[str, Any],

@@ -117,6 +117,10 @@ class ShellModel:
         self._build_forms()
         self.bcs = self._supports()
 
+    def owned_dof_coordinates(self) -> np.ndarray:
+        """Coordinates of this rank's owned DOF nodes (each carries 6 values: u, θ)."""
+        return self.W.tabulate_dof_coordinates()[: self.W.dofmap.index_map.size_local]
+
     # ------------------------------------------------------------------------------------------
     # kinematics
     # ------------------------------------------------------------------------------------------
@@ -265,8 +269,7 @@ class ShellModel:
         from shells.mesh import gauge_points
 
         comm = self.shell.comm
-        n_owned = self.W.dofmap.index_map.size_local
-        x = self.W.tabulate_dof_coordinates()[:n_owned]
+        x = self.owned_dof_coordinates()
         L = self.shape.characteristic_size()
         tol = 1e-9 * L
 
@@ -344,8 +347,8 @@ class ShellModel:
         from mpi4py import MPI
 
         comm = self.shell.comm
-        n_owned = self.W.dofmap.index_map.size_local
-        x = self.W.tabulate_dof_coordinates()[:n_owned]
+        x = self.owned_dof_coordinates()
+        n_owned = x.shape[0]
         arr = self.w.x.array.reshape(-1, 6)[:n_owned]
         top = np.array([0.0, 0.0, float(self.shape.meridian(np.array(0.0))[1])])
         tol = 1e-8 * self.shape.characteristic_size()

@@ -60,6 +60,7 @@ import numpy as np
 
 from shells.errors import InputError
 from shells.geometry import Disk, EllipsoidalCap, Shape, SphericalCap
+from shells.solvers import apply_options, configure_factor, setup_factor
 from shells.stability import INERTIA_OPTIONS as _SURFACE_INERTIA_OPTIONS
 
 __all__ = ["AxisymParameters", "AxisymModel", "ModeStability", "RunConfig", "branch", "critical",
@@ -463,8 +464,6 @@ class ModeStability:
         from dolfinx.fem.petsc import create_matrix
         from petsc4py import PETSc
 
-        from shells.solvers import apply_options, configure_factor
-
         self.model = model
         mesh = model.mesh
         cell = mesh.basix_cell()
@@ -552,7 +551,8 @@ class ModeStability:
         """(negative, zero, positive) eigenvalue counts of H_m."""
         self.assemble(m)
         self.ksp.setOperators(self.H)
-        self.ksp.setUp()
+        if not setup_factor(self.ksp, self.H, self.options):
+            raise RuntimeError(f"the m = {m} Hessian's LDL^T factorisation failed: no inertia")
         neg, zero, pos = self.ksp.getPC().getFactorMatrix().getInertia()
         return int(neg), int(zero), int(pos)
 

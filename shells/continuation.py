@@ -359,9 +359,8 @@ def _bordered_newton(ar: _Arclength, st: ContinuationSettings, lam_p: float,
     F = ns.b
     for it in range(1, st.max_newton_its + 1):
         ns.assemble_residual(F)
-        if not np.isfinite(F.norm()):
+        if not np.isfinite(F.norm()) or not ns.factor():
             return False, it, lam
-        ns.factor()
         F.scale(-1.0)
         ns.lin_solve(F, ar.a)
         ar.dres_dlambda()
@@ -384,6 +383,8 @@ def _bordered_newton(ar: _Arclength, st: ContinuationSettings, lam_p: float,
         rms = ar.a.norm() / math.sqrt(w.getSize()) / ar.L
         if not (math.isfinite(rms) and math.isfinite(lam)):
             return False, it, lam
+        if abs(lam - lam_p) > 10.0 * max(1.0, abs(lam_p)):
+            return False, it, lam  # diverging: its iterates would only poison the factor
         if rms < st.newton_tol and abs(dlam) < st.newton_tol * max(1.0, abs(lam)):
             ns.assemble_residual(F)
             if F.norm() <= ar.residual_bound(st, lam):

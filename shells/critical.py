@@ -201,6 +201,19 @@ class _Locator:
         s = ar.cw * self.z.dot(ar.tw) / norm + ar.tl / norm
         return (1.0 if s >= 0 else -1.0) / norm
 
+    def modes_at(self, e: _Eval, nev: int) -> tuple[_Eval, list[Any]]:
+        """The eigenpair nearest 0 at an evaluated (converged) point, from its stored state:
+        no corrector, which may not converge again right next to a bifurcation."""
+        w = self.ar.w
+        w.array_w[:] = e.state[: w.getLocalSize()]
+        self.ar.sync()
+        self.ar.set_lambda(e.lam)
+        vals, vecs = self.stab.eigenpairs(nev, modes=True)
+        if not vals:
+            return e, []
+        i = int(np.argmin(np.abs(vals)))
+        return replace(e, eig=vals[i]), [vecs[i]]
+
     def evaluate(self, sigma: float, nev: int, modes: bool = False,
                  near: _Eval | None = None) -> tuple[_Eval, list[Any]]:
         """Corrector on the hyperplane at arclength σ of the step; starts from ``near``'s state
@@ -254,6 +267,8 @@ def locate(loc: _Locator, p0: Point, w0: np.ndarray, c0: int, p1: Point, c1: int
     track = min(c0, c1)  # the eigenvalue that crosses: the (track+1)-th smallest
     samples: list[_Eval] = []
     interpolated: tuple[float, float] | None = None
+    failures = 0
+    s_fail: float | None = None
 
     def low_side(e: _Eval) -> bool:
         if fold:
@@ -315,28 +330,40 @@ def locate(loc: _Locator, p0: Point, w0: np.ndarray, c0: int, p1: Point, c1: int
             cand = lo.sigma - fl * width / (fh - fl)
             if lo.sigma + 0.05 * width < cand < hi.sigma - 0.05 * width:
                 s = cand
+        if s_fail is not None and s >= s_fail:
+            # the corrector failed there: approach the critical point from the near side,
+            # where the Jacobian is better conditioned
+            s = lo.sigma + 0.5 * (s_fail - lo.sigma)
         e = None
         # Start from the step's own predictor w0 + σ τ, which has no component along the
         # critical mode: a start taken from an earlier trial solution carries round-off that
         # the nearly singular Jacobian has amplified along that mode, and Newton then lands on
-        # the bifurcated branch, which the hyperplane also cuts. Nearby starts are a fallback.
-        for shift, near in ((0.0, False), (0.0, True), (0.1, True), (-0.1, True)):
-            s_try = s + shift * width
+        # the bifurcated branch, which the hyperplane also cuts. The nearest solution is the
+        # fallback.
+        for near in (False, True):
             try:
-                e, _ = loc.evaluate(s_try, nev, near=(
-                    (lo if s_try - lo.sigma <= hi.sigma - s_try else hi) if near else None))
+                e, _ = loc.evaluate(s, nev, near=(
+                    (lo if s - lo.sigma <= hi.sigma - s else hi) if near else None))
                 break
             except RuntimeError:
                 continue
         if e is None:
             # right next to a bifurcation (a nearby bifurcated branch, a nearly singular
-            # Jacobian) Newton may not converge: keep what is known, the bracket (and the
-            # eigenvalue interpolation), and report its width as the accuracy
+            # Jacobian) Newton may not converge: retry nearer the low end; in the end keep
+            # what is known, the bracket (and the eigenvalue interpolation), and report its
+            # width as the accuracy
+            failures += 1
+            s_fail = s if s_fail is None else min(s_fail, s)
+            if failures < 3:
+                continue
             r = None if fold else eig_root()
             if r is not None:
                 interpolated = r
-            log.info("critical point located to the bracket kappa L in [%.6g, %.6g] only: "
-                     "the corrector does not converge closer to it", lo.lam, hi.lam)
+                log.info("critical point at kappa L = %.8g from the eigenvalue samples "
+                         "(+- %.2g): the corrector does not converge closer to it", r[0], r[1])
+            else:
+                log.info("critical point located to the bracket kappa L in [%.6g, %.6g] only: "
+                         "the corrector does not converge closer to it", lo.lam, hi.lam)
             break
         evals += 1
         samples.append(e)
@@ -377,10 +404,7 @@ def locate(loc: _Locator, p0: Point, w0: np.ndarray, c0: int, p1: Point, c1: int
         kind = "bifurcation"
     # mode at the trial point nearest the critical point (on the near side)
     near = lo if lo.sigma > 0 else hi
-    try:
-        e, vecs = loc.evaluate(near.sigma, nev, modes=True)
-    except RuntimeError:
-        e, vecs = loc.evaluate(near.sigma, nev, modes=True, near=near)
+    e, vecs = loc.modes_at(near, nev)
     q = loc.modes(vecs[0]) if vecs else {}
     m, n = loc.modes.classify(q) if q else (None, None)
     k_lo, k_hi = sorted((bracket[0] / L, bracket[1] / L))

@@ -10,7 +10,14 @@ from __future__ import annotations
 import itertools
 from typing import Any
 
-__all__ = ["DEFAULT_SNES_OPTIONS", "NewtonSolver", "apply_options", "configure_factor"]
+__all__ = [
+    "DEFAULT_SNES_OPTIONS",
+    "NewtonSolver",
+    "apply_options",
+    "configure_factor",
+    "reset_factor",
+    "setup_factor",
+]
 
 _counter = itertools.count()
 
@@ -63,6 +70,26 @@ def configure_factor(ksp: Any, A: Any, options: dict[str, Any]) -> None:
             F.setMumpsCntl(int(k.rsplit("_", 1)[1]), float(v))
 
 
+def reset_factor(ksp: Any, A: Any, options: dict[str, Any]) -> None:
+    """Drop ``ksp``'s factorisation so that the next set-up factors afresh.
+
+    Needed after a failed factorisation: MUMPS keeps INFOG(1) < 0 and PETSc then skips the
+    numeric phase of every later factorisation of that factor, so one bad matrix (a diverged
+    Newton iterate) would make every later solve fail or return Inf.
+    """
+    ksp.getPC().reset()
+    configure_factor(ksp, A, options)
+
+
+def setup_factor(ksp: Any, A: Any, options: dict[str, Any]) -> bool:
+    """Factor ``A`` (``ksp.setUp()``); False, and the factor reset, if the factorisation failed."""
+    ksp.setUp()
+    if int(ksp.getPC().getFailedReason()) == 0:
+        return True
+    reset_factor(ksp, A, options)
+    return False
+
+
 class NewtonSolver:
     """SNES Newton on the model's residual/Hessian with homogeneous point supports.
 
@@ -89,9 +116,10 @@ class NewtonSolver:
         configure_factor(self.ksp, self.A, self.options)
         # a second KSP for bordered solves with its own prefix
         self.lin = PETSc.KSP().create(comm)
-        lin_opts = {k: v for k, v in self.options.items() if k.startswith(("ksp_", "pc_", "mat_"))}
-        apply_options(self.lin, self.prefix + "lin_", lin_opts)
-        configure_factor(self.lin, self.A, lin_opts)
+        self.lin_opts = {k: v for k, v in self.options.items()
+                         if k.startswith(("ksp_", "pc_", "mat_"))}
+        apply_options(self.lin, self.prefix + "lin_", self.lin_opts)
+        configure_factor(self.lin, self.A, self.lin_opts)
 
     # -- callbacks ---------------------------------------------------------------------------
     def _set_state(self, x: Any) -> None:
@@ -147,6 +175,8 @@ class NewtonSolver:
         self.snes.solve(None, self.x)
         reason = self.snes.getConvergedReason()
         its = self.snes.getIterationNumber()
+        if reason <= 0 and int(self.ksp.getPC().getFailedReason()) != 0:
+            reset_factor(self.ksp, self.A, self.options)  # or every later solve fails too
         self._set_state(self.x)
         return reason > 0, its
 
@@ -154,11 +184,13 @@ class NewtonSolver:
         self.assemble_residual(self.b)
         return float(self.b.norm())
 
-    def factor(self) -> None:
-        """Assemble and factor the Jacobian at the current state for ``lin_solve``."""
+    def factor(self) -> bool:
+        """Assemble and factor the Jacobian at the current state for ``lin_solve``; False if
+        the factorisation failed (``lin_solve`` then returns Inf, and the next call factors
+        afresh)."""
         self.assemble_jacobian(self.A)
         self.lin.setOperators(self.A)  # same matrix object: the configured factor is kept
-        self.lin.setUp()
+        return setup_factor(self.lin, self.A, self.lin_opts)
 
     def lin_solve(self, rhs: Any, out: Any) -> None:
         self.lin.solve(rhs, out)

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from shells.solvers import apply_options, configure_factor
+from shells.solvers import apply_options, configure_factor, setup_factor
 
 __all__ = ["StabilityResult", "Stability"]
 
@@ -79,7 +79,8 @@ class Stability:
         """(negative, zero, positive) eigenvalue counts of the Hessian."""
         self.assemble()
         self.ksp.setOperators(self.H)  # same object as configured: keeps the MUMPS controls
-        self.ksp.setUp()
+        if not setup_factor(self.ksp, self.H, self.options):
+            raise RuntimeError("the Hessian's LDL^T factorisation failed: no inertia")
         F = self.ksp.getPC().getFactorMatrix()
         neg, zero, pos = F.getInertia()
         return int(neg), int(zero), int(pos)

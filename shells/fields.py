@@ -39,7 +39,8 @@ class FieldWriter:
         self._exprs = [
             (self.u, fem.Expression(k["u"], pts)),
             (self.d, fem.Expression(k["d"], pts)),
-            (self.H, fem.Expression(0.5 * ufl.tr(k["b"] - r["b"]), Vs.element.interpolation_points())),
+            (self.H, fem.Expression(0.5 * ufl.tr(k["b"] - r["b"]),
+                                    Vs.element.interpolation_points())),
             (self.Hbar, fem.Expression(0.5 * ufl.tr(k["b"] - r["b"] - model.kappa * model.P0),
                                        Vs.element.interpolation_points())),
         ]

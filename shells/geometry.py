@@ -6,7 +6,8 @@ second fundamental form, both as NumPy functions of points and as UFL expression
 coordinate (for the surface model). All shapes are surfaces of revolution about the z axis with the
 pole at the top, ``t`` being the meridian parameter measured from the pole:
 
-* sphere / spherical cap of radius ``R``: x = R (sin t cos phi, sin t sin phi, cos t), t in [0, theta]
+* sphere / spherical cap of radius ``R``:
+  x = R (sin t cos phi, sin t sin phi, cos t), t in [0, theta]
 * ellipsoidal cap, semi-axes (R, R, r3): x = (R sin t cos phi, R sin t sin phi, r3 cos t)
 * disk of radius ``radius``: x = (t cos phi, t sin phi, 0), t in [0, radius]
 

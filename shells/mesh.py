@@ -1,4 +1,4 @@
-"""gmsh meshes of the analytic shapes, graded in the rim boundary layer, read in parallel by dolfinx.
+"""gmsh meshes of the analytic shapes, graded in the rim boundary layer, read in parallel.
 
 ``MeshSpec`` says what to mesh; ``generate`` builds the gmsh model on rank 0 and distributes it with
 ``dolfinx.io.gmshio``; ``write_msh``/``load_mesh`` store and read a mesh (a ``.msh`` file plus a

@@ -1,4 +1,4 @@
-"""Closed-form results of the paper (and of its references) that the computations are checked against.
+"""Closed-form results of the paper (and its references) that the computations are checked against.
 
 All lengths are in units of the sphere radius R unless stated; ``nu`` is the Poisson ratio.
 

@@ -5,6 +5,8 @@ The paper's scaling: |W_edge / W_bulk| ~ (R/h)^(3/2) / tan(theta/2). This comput
 fits the exponent (over all thicknesses and over the thinnest three) and writes JSON + a table.
 
     scripts/in-env python3 benchmarks/edge_bulk_scaling.py [OUT.json]
+
+OUT.json defaults to benchmarks/results/edge_bulk.json, which docs/paper-comparison.md reads.
 """
 
 from __future__ import annotations
@@ -38,7 +40,7 @@ def works(h: float, theta_deg: float, layer_elements: float, size: float, kappa_
             "ratio": abs(s["W_edge"] / s["W_bulk"])}
 
 
-def main(out: str = "results/edge_bulk_scaling.json") -> None:
+def main(out: str = "benchmarks/results/edge_bulk.json") -> None:
     rows = []
     hs = [0.04, 0.02, 0.01, 0.005, 0.0025]
     for theta in (30.0, 60.0, 90.0):

@@ -52,6 +52,9 @@ class ContinuationSettings:
             machine epsilon). Both are model-independent: a stiff Jacobian (the axisymmetric
             model's C1 penalty) has a floor of up to 1e-2 ε ||J||_F ||w||, which exceeds 1e-5
             of the κ-load on thin bending-dominated shells (a disk: the load is O(h²)).
+            Natural steps (SNES, no increment test) accept a residual below the same bound with
+            10⁻³ ``residual_rtol``: its relative decrease of 1e-9 from the small start residual
+            of a short step can lie below round-off (a P3 sphere stalled at κh ≈ 1.41).
         residual_roundoff: the factor of the round-off term (measured floors are 1e-3 to 1e-2).
         state_weight: ξ in the arclength norm.
         max_steps: safety limit on the number of points.
@@ -173,6 +176,8 @@ class _Arclength:
         if st.residual_tol is not None:
             return st.residual_tol
         load = self.fl_norm * max(abs(lam), self.lam_ref)
+        if not self.ns.A.isAssembled():  # no Jacobian yet (Newton converged at once)
+            self.ns.assemble_jacobian(self.ns.A)
         roundoff = float(np.finfo(float).eps) * float(self.ns.A.norm()) * float(self.w.norm())
         return st.residual_rtol * load + st.residual_roundoff * roundoff
 
@@ -240,6 +245,9 @@ def _natural(model, ns, st, lam0, lam_end, L, point, its0, skip_first) -> Iterat
     if not skip_first:
         yield point(its0, 0.0, direction)
     lam, ds = lam0, st.ds
+    ar = _Arclength(ns, L, st.state_weight)  # for its residual bound only
+    ar.lam_ref = 0.01 * max(abs(lam0), abs(lam_end))
+    st_snes = replace(st, residual_rtol=1e-3 * st.residual_rtol)
     w = model.w.x.petsc_vec
     w_old, dw = w.duplicate(), w.duplicate()
     dw.set(0.0)
@@ -252,7 +260,8 @@ def _natural(model, ns, st, lam0, lam_end, L, point, its0, skip_first) -> Iterat
         w.axpy(direction * step, dw)  # secant predictor
         model.w.x.scatter_forward()
         model.kappa.value = new_lam / L
-        ok, its = ns.solve()
+        ar.dres_dlambda()
+        ok, its = ns.solve(atol=ar.residual_bound(st_snes, new_lam))
         if not ok or its > st.max_newton_its:
             w_old.copy(w)
             model.w.x.scatter_forward()

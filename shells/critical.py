@@ -201,6 +201,15 @@ class _Locator:
         s = ar.cw * self.z.dot(ar.tw) / norm + ar.tl / norm
         return (1.0 if s >= 0 else -1.0) / norm
 
+    def eigs_at(self, state: np.ndarray, lam: float, nev: int) -> tuple[float, ...]:
+        """The ``nev`` eigenvalues nearest 0 at a converged state (owned values) and κL."""
+        w = self.ar.w
+        w.array_w[:] = state[: w.getLocalSize()]
+        self.ar.sync()
+        self.ar.set_lambda(lam)
+        vals, _ = self.stab.eigenpairs(nev)
+        return tuple(sorted(vals))
+
     def modes_at(self, e: _Eval, nev: int) -> tuple[_Eval, list[Any]]:
         """The eigenpair nearest 0 at an evaluated (converged) point, from its stored state:
         no corrector, which may not converge again right next to a bifurcation."""
@@ -269,6 +278,14 @@ def locate(loc: _Locator, p0: Point, w0: np.ndarray, c0: int, p1: Point, c1: int
     interpolated: tuple[float, float] | None = None
     failures = 0
     s_fail: float | None = None
+    if not fold:
+        # the crossing eigenvalue at both ends, from their converged states (no corrector):
+        # secant steps from the start. Not samples for the root's quadratic fit: a step's end
+        # can lie far from the crossing (past an imperfect bifurcation, near the other branch)
+        n_own = loc.w0.getLocalSize()
+        lo = replace(lo, state=w0[:n_own].copy())
+        lo = replace(lo, eigs=loc.eigs_at(lo.state, lo.lam, nev))
+        hi = replace(hi, eigs=loc.eigs_at(hi.state, hi.lam, nev))
 
     def low_side(e: _Eval) -> bool:
         if fold:
@@ -354,7 +371,7 @@ def locate(loc: _Locator, p0: Point, w0: np.ndarray, c0: int, p1: Point, c1: int
             # width as the accuracy
             failures += 1
             s_fail = s if s_fail is None else min(s_fail, s)
-            if failures < 3:
+            if failures < 5:
                 continue
             r = None if fold else eig_root()
             if r is not None:

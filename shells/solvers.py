@@ -169,10 +169,23 @@ class NewtonSolver:
         set_bc(v, self.model.bcs, alpha=0.0)
 
     # -- solves ------------------------------------------------------------------------------
-    def solve(self) -> tuple[bool, int]:
-        """Newton from the current state at the current κ. Returns (converged, iterations)."""
+    def solve(self, atol: float | None = None) -> tuple[bool, int]:
+        """Newton from the current state at the current κ. Returns (converged, iterations).
+
+        ``atol``: an absolute residual tolerance for this solve (the larger of it and the
+        solver's own ``snes_atol``); continuation passes its residual bound, relative to the
+        κ-load, because a relative decrease of 1e-9 from a small start residual (a short step)
+        lies below round-off.
+        """
         self.model.w.x.petsc_vec.copy(self.x)
-        self.snes.solve(None, self.x)
+        if atol is not None:
+            rtol, atol0, stol, max_it = self.snes.getTolerances()
+            self.snes.setTolerances(atol=max(atol, atol0))
+        try:
+            self.snes.solve(None, self.x)
+        finally:
+            if atol is not None:
+                self.snes.setTolerances(atol=atol0)
         reason = self.snes.getConvergedReason()
         its = self.snes.getIterationNumber()
         if reason <= 0 and int(self.ksp.getPC().getFailedReason()) != 0:

@@ -10,52 +10,23 @@ folds and the m = 2 bifurcations they give agree with the converged 1D values to
 import math
 
 import pytest
+from crossval import check_cap
 from mpi4py import MPI
 
 from shells import axisym
 from shells.continuation import ContinuationSettings, continuation
-from shells.critical import CriticalSettings, ModeAnalysis, follow
-from shells.geometry import Sphere, SphericalCap
+from shells.critical import ModeAnalysis
+from shells.geometry import Sphere
 from shells.mesh import MeshSpec, generate
 from shells.model import ModelParameters, ShellModel
 from shells.stability import Stability
 from shells.theory import sphere_radius_ratio
 
-H = 0.04
-_END = {"up": 4.0, "down": 2.0}  # |κR| at the end of the range
 
-
-def _surface_first(theta_deg: float, direction: str):
-    shape = SphericalCap(1.0, math.radians(theta_deg))
-    sm = generate(MeshSpec(shape, h=H, size=0.2, layer_elements=3.0), MPI.COMM_WORLD)
-    model = ShellModel(sm, ModelParameters(h=H, nu=0.5))
-    end = _END[direction] * (1 if direction == "up" else -1)
-    if direction == "up":  # to the fold: steps grow while Newton needs up to 6 iterations
-        st = ContinuationSettings(ds=0.2, ds_max=0.5, ds_unit="kappa", target_newton_its=6)
-    else:  # the m = 2 bifurcation is imperfect on a mesh: such steps land 7 % short on 2 ranks
-        st = ContinuationSettings(ds=0.2, ds_max=0.25, ds_unit="kappa")
-    # 2 % comparisons need no 1e-4 location: a few evaluations per critical point suffice (the
-    # m = 2 bifurcations are imperfect on a mesh, where the last digits cost many evaluations)
-    crit = CriticalSettings(stop_at_first=True, rel_tol=1e-3, max_evaluations=8)
-    for _, _, found in follow(model, st, end, crit):
-        if found:
-            return found[0]
-    return None
-
-
-# (30°, up) is checked in tests/test_critical.py on the same mesh
-@pytest.mark.parametrize("theta_deg, direction", [(30, "down"), (45, "up"), (45, "down")])
-def test_surface_and_axisym_agree_on_caps(theta_deg, direction):
-    one_d = axisym.critical(SphericalCap(1.0, math.radians(theta_deg)), H, 0.5,
-                            direction=direction, m_max=6, kappa_max=_END[direction])
-    two_d = _surface_first(theta_deg, direction)
-    assert two_d is not None
-    assert two_d.kind == one_d["kind"]
-    assert two_d.mode_m == one_d["mode_m"]
-    assert two_d.kappa == pytest.approx(one_d["kappa_R"], rel=0.02)
-    # every rank saw the same result
-    assert MPI.COMM_WORLD.allreduce(two_d.kappa, op=MPI.MAX) == pytest.approx(
-        MPI.COMM_WORLD.allreduce(two_d.kappa, op=MPI.MIN), rel=1e-12)
+# (30°, up) is checked in tests/test_critical.py on the same mesh; κ < 0 caps: in
+# tests/test_cross_validation_down.py (a separate file: the serial pass spreads files over workers)
+def test_surface_and_axisym_agree_on_a_cap_going_up():
+    check_cap(45, "up")
 
 
 def test_surface_and_axisym_agree_on_the_sphere():

@@ -6,8 +6,8 @@ slightly (an imperfect bifurcation). The critical point comes from ``follow`` (l
 the accuracy is reported and used), the new branch from ``switch_branch``; the checks are
 physical: equilibrium, m = 2 content, lower energy and stability where the fundamental branch is
 unstable, and the pitchfork law a² ∝ |κ - κ_c| whose extrapolated κ_c must agree with the
-eigenvalue crossing located on the fundamental branch. Valid on any number of ranks: every
-quantity is a collective (reduced) value, and every rank asserts.
+eigenvalue crossing located on the fundamental branch and with the axisymmetric model. Valid
+on any number of ranks: every quantity is a collective (reduced) value, and every rank asserts.
 """
 
 import math
@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
+from shells import axisym
 from shells.continuation import ContinuationSettings, continuation
 from shells.critical import CriticalSettings, ModeAnalysis, follow, switch_branch
 from shells.geometry import SphericalCap
@@ -108,3 +109,10 @@ def test_switch_onto_the_buckled_branch_of_a_cap():
         assert e_new < e_fund, compared
         c_landau.append((e_fund - e_new) / (k - kappa0) ** 2)
     assert max(c_landau) <= 1.1 * min(c_landau), c_landau
+    # cross-validation (this cap is the θ = 30°, κ < 0 case of tests/test_cross_validation*.py):
+    # the 1D model's first critical point is the same m = 2 bifurcation, within 2 % of both the
+    # located κ_c and the pitchfork's κ_0 (measured: -0.6622, located -0.6625, κ_0 -0.6630)
+    one_d = axisym.critical(shape, h, 0.5, direction="down", m_max=6, kappa_max=2.0)
+    assert one_d["kind"] == "bifurcation" and one_d["mode_m"] == 2
+    assert cp.kappa == pytest.approx(one_d["kappa_R"], rel=0.02)
+    assert kappa0 == pytest.approx(one_d["kappa_R"], rel=0.02)

@@ -10,6 +10,8 @@ from __future__ import annotations
 import itertools
 from typing import Any
 
+import numpy as np
+
 __all__ = [
     "DEFAULT_SNES_OPTIONS",
     "NewtonSolver",
@@ -172,26 +174,34 @@ class NewtonSolver:
     def solve(self, atol: float | None = None) -> tuple[bool, int]:
         """Newton from the current state at the current κ. Returns (converged, iterations).
 
-        ``atol``: an absolute residual tolerance for this solve (the larger of it and the
-        solver's own ``snes_atol``); continuation passes its residual bound, relative to the
-        κ-load, because a relative decrease of 1e-9 from a small start residual (a short step)
-        lies below round-off.
+        ``atol``: an absolute residual tolerance for this solve (the larger of it, the solver's
+        own ``snes_atol`` and the round-off floor ``roundoff_floor()``); continuation passes its
+        residual bound, relative to the κ-load, because a relative decrease of 1e-9 from a
+        small start residual (a short step) lies below round-off.
         """
         self.model.w.x.petsc_vec.copy(self.x)
-        if atol is not None:
-            rtol, atol0, stol, max_it = self.snes.getTolerances()
-            self.snes.setTolerances(atol=max(atol, atol0))
+        rtol, atol0, stol, max_it = self.snes.getTolerances()
+        # never below the round-off floor of the residual (else Newton stalls there until
+        # max_it: measured at 1e-12 on a 39k-DOF cap, where snes_atol is 1e-12)
+        self.snes.setTolerances(atol=max(atol0, atol or 0.0, self.roundoff_floor()))
         try:
             self.snes.solve(None, self.x)
         finally:
-            if atol is not None:
-                self.snes.setTolerances(atol=atol0)
+            self.snes.setTolerances(atol=atol0)
         reason = self.snes.getConvergedReason()
         its = self.snes.getIterationNumber()
         if reason <= 0 and int(self.ksp.getPC().getFailedReason()) != 0:
             reset_factor(self.ksp, self.A, self.options)  # or every later solve fails too
         self._set_state(self.x)
         return reason > 0, its
+
+    def roundoff_floor(self, factor: float = 0.1) -> float:
+        """``factor`` ε ||J||_F ||w||: the residual's round-off floor at the current state (J:
+        the last assembled Jacobian; assembled here if there is none yet)."""
+        if not self.A.isAssembled():
+            self.assemble_jacobian(self.A)
+        w = self.model.w.x.petsc_vec
+        return factor * float(np.finfo(float).eps) * float(self.A.norm()) * float(w.norm())
 
     def residual_norm(self) -> float:
         self.assemble_residual(self.b)

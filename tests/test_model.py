@@ -1,4 +1,4 @@
-"""Surface shell model with natural curvature: closed-sphere laws, pressure analogy, edge/bulk works.
+"""Surface shell model with natural curvature: closed-sphere laws, pressure analogy, edge works.
 
 All on 1 and 2 ranks (scalars are reduced over the communicator before asserting).
 """
@@ -22,7 +22,7 @@ H = 0.05  # h/R of the paper's closed-sphere checks
 def exact_sphere_psi3_over_h(kh: float, h: float = H, R: float = 1.0) -> float:
     """Uniformly shrunk sphere: lambda (lambda^2 - 1) = (h^2 / 6R) ((1 - lambda)/R - kappa)."""
     kappa = kh / h
-    lam = brentq(lambda l: l * (l * l - 1) - h * h / (6 * R) * ((1 - l) / R - kappa), 0.5, 1.5,
+    lam = brentq(lambda x: x * (x * x - 1) - h * h / (6 * R) * ((1 - x) / R - kappa), 0.5, 1.5,
                  xtol=1e-15)
     return (lam - 1) * R / h
 
@@ -74,7 +74,7 @@ def test_sphere_linear_law_small_kappa(sphere_model, sphere_solver):
 
 
 def test_pressure_analogy_eq5(sphere_model, sphere_solver):
-    """Dead pressure p with kappa h = 6 (1 - nu) (R/h)^2 p / E gives the same Psi3 to first order."""
+    """Dead pressure p with kappa h = 6 (1 - nu) (R/h)^2 p / E: the same Psi3 to first order."""
     nu = 0.5
     for kh in (1e-3, 1e-2):
         p_over_e = kh / (6 * (1 - nu)) * H**2
@@ -86,7 +86,7 @@ def test_pressure_analogy_eq5(sphere_model, sphere_solver):
 
 
 def test_energy_split_and_curvature_potential(sphere_model, sphere_solver):
-    """Energy = U_s + (h^2/3) U_b + P_kappa + (h^2/3) 2 (1 + nu) kappa^2 A (the dropped constant)."""
+    """Energy = U_s + (h^2/3) U_b + P_kappa + (h^2/3) 2 (1 + nu) kappa^2 A (a dropped constant)."""
     kappa = 0.5 / H
     s = _solve_at(sphere_model, sphere_solver, kappa)
     area = sphere_model.assemble("area")  # the discrete surface area
@@ -144,7 +144,8 @@ def test_cap_snaps_through_a_fold():
         pts.append(p)
         if len(pts) > 2 and pts[-3].dkappa_ds < 0:  # two points past the fold
             break
-    i = next(i for i, (a, b) in enumerate(zip(pts, pts[1:])) if a.dkappa_ds > 0 > b.dkappa_ds)
+    i = next(i for i, (a, b) in enumerate(zip(pts, pts[1:], strict=False))
+             if a.dkappa_ds > 0 > b.dkappa_ds)
     kappa_fold = max(pts[i].kappa_L, pts[i + 1].kappa_L)
     # paper: kappa_s R = 0.85 thetabar - 0.67 = 1.555; independent codes find ~7 % lower, and
     # this coarse mesh is lower still (benchmarks quantify it): a broad but failing-capable window

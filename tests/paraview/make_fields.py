@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 RUN = ["branch", "--shape", "sphere", "--h-over-r", "0.05", "--nu", "0.5", "--kappa-h-max", "0.5",
+       "--size", "0.2",
        "--fields", "last", "--restart"]
 ARRAYS = ("displacement", "director", "mean_curvature_change", "natural_curvature_mismatch")
 

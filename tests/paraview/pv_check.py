@@ -14,10 +14,19 @@ import json
 import sys
 from pathlib import Path
 
-from paraview import servermanager
-from paraview.simple import (ADIOS2VTXReader, ColorBy, GetActiveViewOrCreate,
-                             GetColorTransferFunction, GetDisplayProperties, ResetCamera,
-                             SaveScreenshot, Show, Text, WarpByVector)
+from paraview import servermanager  # noqa: F401 (initialises the server manager)
+from paraview.simple import (
+    ADIOS2VTXReader,
+    ColorBy,
+    GetActiveViewOrCreate,
+    GetColorTransferFunction,
+    GetDisplayProperties,
+    ResetCamera,
+    SaveScreenshot,
+    Show,
+    Text,
+    WarpByVector,
+)
 
 RTOL = 1e-9
 
@@ -55,11 +64,12 @@ def check(out):
         got = [a.GetRange(i) for i in range(nc)] + ([a.GetRange(-1)] if nc > 1 else [])
         want = e["ranges"] + ([e["magnitude"]] if nc > 1 else [])
         labels = [f"component {i}" for i in range(nc)] + (["magnitude"] if nc > 1 else [])
-        for lab, g, w in zip(labels, got, want):
+        for lab, g, w in zip(labels, got, want, strict=False):
             dev = max(abs(g[0] - w[0]), abs(g[1] - w[1]))
             ok = dev <= tol
             print(f"  {name:28s} {lab:12s} ParaView [{g[0]:+.10e}, {g[1]:+.10e}]  "
-                  f"dolfinx [{w[0]:+.10e}, {w[1]:+.10e}]  |diff| {dev:.1e} {'ok' if ok else 'FAIL'}")
+                  f"dolfinx [{w[0]:+.10e}, {w[1]:+.10e}]  |diff| {dev:.1e} "
+                  f"{'ok' if ok else 'FAIL'}")
             if not ok:
                 errors.append(f"{name} {lab}: ParaView {g}, dolfinx {w} (tolerance {tol:.1e})")
     if errors:
@@ -99,7 +109,8 @@ def check(out):
     r.Update()
     img = dsa.WrapDataObject(r.GetOutput()).PointData[0]
     bg = img[0]
-    covered = float(((abs(img[:, :3].astype(float) - bg[:3].astype(float))).sum(axis=1) > 30).mean())
+    diff = abs(img[:, :3].astype(float) - bg[:3].astype(float))
+    covered = float((diff.sum(axis=1) > 30).mean())
     print(f"pv_check: screenshot {png}: {covered:.0%} of the pixels differ from the background")
     if covered < 0.05:
         raise AssertionError(f"screenshot {png} is (nearly) blank: {covered:.1%} covered")

@@ -176,10 +176,7 @@ class _Arclength:
         if st.residual_tol is not None:
             return st.residual_tol
         load = self.fl_norm * max(abs(lam), self.lam_ref)
-        if not self.ns.A.isAssembled():  # no Jacobian yet (Newton converged at once)
-            self.ns.assemble_jacobian(self.ns.A)
-        roundoff = float(np.finfo(float).eps) * float(self.ns.A.norm()) * float(self.w.norm())
-        return st.residual_rtol * load + st.residual_roundoff * roundoff
+        return st.residual_rtol * load + self.ns.roundoff_floor(st.residual_roundoff)
 
     def tangent(self, sign_ref: tuple[Any, float] | None, direction: float) -> None:
         """Unit tangent at the current (converged) point: J z = -R_λ, τ ∝ (z, 1)."""

@@ -201,22 +201,23 @@ class _Locator:
         s = ar.cw * self.z.dot(ar.tw) / norm + ar.tl / norm
         return (1.0 if s >= 0 else -1.0) / norm
 
-    def eigs_at(self, state: np.ndarray, lam: float, nev: int) -> tuple[float, ...]:
-        """The ``nev`` eigenvalues nearest 0 at a converged state (owned values) and κL."""
+    def _load(self, state: np.ndarray, lam: float) -> None:
+        """Back to a stored converged state (owned values) at κL = ``lam``, without a solve."""
         w = self.ar.w
         w.array_w[:] = state[: w.getLocalSize()]
         self.ar.sync()
         self.ar.set_lambda(lam)
+
+    def eigs_at(self, state: np.ndarray, lam: float, nev: int) -> tuple[float, ...]:
+        """The ``nev`` eigenvalues nearest 0 at a converged state (owned values) and κL."""
+        self._load(state, lam)
         vals, _ = self.stab.eigenpairs(nev)
         return tuple(sorted(vals))
 
     def modes_at(self, e: _Eval, nev: int) -> tuple[_Eval, list[Any]]:
         """The eigenpair nearest 0 at an evaluated (converged) point, from its stored state:
         no corrector, which may not converge again right next to a bifurcation."""
-        w = self.ar.w
-        w.array_w[:] = e.state[: w.getLocalSize()]
-        self.ar.sync()
-        self.ar.set_lambda(e.lam)
+        self._load(e.state, e.lam)
         vals, vecs = self.stab.eigenpairs(nev, modes=True)
         if not vals:
             return e, []

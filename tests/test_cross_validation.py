@@ -1,13 +1,9 @@
 """Cross-validation: the 2D surface model and the 1D axisymmetric model find the same critical
 points (kind, κ within 2 %, mode m) on spherical caps, both directions of κ, and the same
 buckling κ_b (within 2 %) and degree n (within 1) of the closed sphere at h/R = 0.05.
-
-The surface meshes are coarse (bulk size 0.2 R, 3 elements across the rim layer); the cap
-folds and the m = 2 bifurcations they give agree with the converged 1D values to ~0.1-1 %
-(mesh studies in benchmarks/). Both models follow the same κ range (to κR = 4 up, -2 down).
+The cap meshes and settings: tests/crossval.py.
 """
 
-import math
 
 import pytest
 from crossval import check_cap
@@ -44,7 +40,7 @@ def test_surface_and_axisym_agree_on_the_sphere():
     k1 = one_d["kappa_R"]
     sm = generate(MeshSpec(Sphere(1.0), h=h, size=0.21), MPI.COMM_WORLD)
     model = ShellModel(sm, ModelParameters(h=h, nu=0.5, degree=3, quadrature_degree=6))
-    stab = Stability(model)
+    stab, modes = Stability(model), ModeAnalysis(model)
     stops = (0.98 * k1, 1.02 * k1)
     st = ContinuationSettings(method="natural", ds=0.5 * k1, ds_max=0.5 * k1, kappa_stops=stops)
     seen = {}
@@ -52,7 +48,7 @@ def test_surface_and_axisym_agree_on_the_sphere():
         if any(abs(p.kappa - k) < 1e-9 * k1 for k in stops):
             neg = stab.inertia()[0]
             vals, vecs = stab.eigenpairs(4, modes=True)
-            q = ModeAnalysis(model)(vecs[0])
+            q = modes(vecs[0])
             seen[round(p.kappa / k1, 2)] = (neg, vals[0], model.scalars()["psi3_over_h"], q)
     stab.destroy()
     assert set(seen) == {0.98, 1.02}
@@ -64,5 +60,5 @@ def test_surface_and_axisym_agree_on_the_sphere():
         exact = (sphere_radius_ratio(f * k1, h) - 1) / h
         assert psi == pytest.approx(exact, rel=1e-3)
     # measured: 36 negative eigenvalues at 1.02 κ_b; the lowest mode has n(n+1) = 78.6 (n = 8)
-    n = round((-1 + math.sqrt(1 + 4 * q["x"])) / 2)
+    _, n = modes.classify(q)
     assert abs(n - one_d["mode_n"]) <= 1

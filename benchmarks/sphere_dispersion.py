@@ -62,14 +62,17 @@ class HomogeneousSphere:
     """The m = 0 Hessian of the axisymmetric model at the exact uniformly shrunk sphere."""
 
     def __init__(self, h: float, nu: float, cells: int, penalty: float = 1.0e4) -> None:
-        from shells.axisym import AxisymModel, AxisymParameters, ModeStability
+        from shells.axisym import AxisymModel, AxisymParameters
+        from shells.stability import Stability
 
         self.h, self.nu = h, nu
         self.model = AxisymModel(Sphere(1.0), AxisymParameters(h=h, nu=nu, cells=cells,
                                                                penalty=penalty),
                                  comm=MPI.COMM_SELF)
-        self.stab = ModeStability(self.model)
-        V = self.stab.V
+        self.model.modes = (0,)
+        self.stab = Stability(self.model)
+        self.forms = self.model.mode_forms
+        V = self.forms.V
         self._comp = {}
         for name, i in (("U", 0), ("W", 2)):
             sub, dofs = V.sub(0).sub(i).collapse()
@@ -100,9 +103,9 @@ class HomogeneousSphere:
         from scipy.sparse.linalg import eigsh
 
         self.set_state(kappa_h)
-        bcs = self.stab.set_mode(0)
+        bcs = self.forms.conditions(0)
         H = self.stab.assemble(0)
-        M = assemble_matrix(self.stab.mass, bcs=bcs, diagonal=1.0)
+        M = assemble_matrix(self.forms.mass, bcs=bcs, diagonal=1.0)
         M.assemble()
 
         def csr(A: Any) -> Any:
@@ -294,7 +297,6 @@ def plot_axisym(cases: list[dict[str, Any]], out: Path) -> None:
 # ------------------------------------------------------------------------------------------------
 def surface_route(a: argparse.Namespace) -> None:
     """The surface model: SLEPc eigenpairs along the branch, degrees by Rayleigh quotient."""
-    from shells.critical import ModeAnalysis
     from shells.mesh import MeshSpec, generate
     from shells.model import ModelParameters, ShellModel
     from shells.solvers import NewtonSolver
@@ -306,7 +308,7 @@ def surface_route(a: argparse.Namespace) -> None:
     t0 = time.perf_counter()
     sm = generate(MeshSpec(Sphere(1.0), h=h, size=a.size), comm)
     model = ShellModel(sm, ModelParameters(h=h, nu=a.nu))
-    ns, stab, modes = NewtonSolver(model), Stability(model), ModeAnalysis(model)
+    ns, stab = NewtonSolver(model), Stability(model)
     khs = np.linspace(kappa_h[0], kappa_h[1], int(kappa_h[2]))
     table: dict[int, list[tuple[float, float]]] = {}
     for kh in khs:
@@ -315,7 +317,7 @@ def surface_route(a: argparse.Namespace) -> None:
         assert ok, kh
         vals, vecs = stab.eigenpairs(a.nev, modes=True)
         for lam, v in zip(vals, vecs, strict=True):
-            n = modes.classify(modes(v))[1]
+            n = model.classify_mode(v).n
             cur = table.setdefault(n, [])
             # keep the lowest eigenvalue of each degree at this κ
             if cur and cur[-1][0] == kh:

@@ -43,14 +43,14 @@ about z); m = 1: D = 0 at the top pole (translation) and W = 0 on the widest par
 slope constraint at the pole would do for the tilt in principle, but a point has no capacity
 for slopes in 2D: it leaves a spurious near-zero eigenvalue. Inertia per m by MUMPS LDLᵀ.
 
-Public API: ``AxisymModel`` (drop-in for ``shells.continuation.continuation``), ``ModeStability``
-(per-m inertia), ``branch(...)`` (generator of point records with per-m negative counts) and
-``critical(...)`` (first critical point and all critical points up to the first fold).
+Public API: ``AxisymModel`` (a ``shells.problem.Problem``: the algorithm layer's continuation,
+Newton and ``shells.stability.Stability`` run on it; its stability blocks are the modes m),
+``ModeForms`` (the H_m forms), ``branch(...)`` (generator of point records with per-m negative
+counts) and ``critical(...)`` (first critical point and all critical points up to the first fold).
 """
 
 from __future__ import annotations
 
-import itertools
 import math
 from collections.abc import Iterator
 from dataclasses import dataclass, field
@@ -59,20 +59,15 @@ from typing import Any
 import numpy as np
 
 from shells.errors import InputError
+from shells.formproblem import FormProblem
 from shells.geometry import Disk, EllipsoidalCap, Shape, SphericalCap
-from shells.solvers import apply_options, configure_factor, setup_factor
-from shells.stability import INERTIA_OPTIONS as _SURFACE_INERTIA_OPTIONS
+from shells.problem import ModeInfo
 
-__all__ = ["AxisymParameters", "AxisymModel", "ModeStability", "RunConfig", "branch", "critical",
+__all__ = ["AxisymParameters", "AxisymModel", "ModeForms", "RunConfig", "branch", "critical",
            "default_settings", "make_meridian_nodes", "sphere_kappa_b_h", "sphere_mode_n"]
-
-_counter = itertools.count()
 
 #: the mode Hessian's kernel is long (the second variation of the whole density at two phases)
 JIT_OPTIONS: dict[str, Any] = {"timeout": 300}
-
-#: MUMPS LDLᵀ with null-pivot detection: the same options as the surface model's inertia
-INERTIA_OPTIONS: dict[str, Any] = dict(_SURFACE_INERTIA_OPTIONS)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -247,14 +242,18 @@ def _cross(a: tuple, b: tuple) -> tuple:
 # ------------------------------------------------------------------------------------------------
 # the model
 # ------------------------------------------------------------------------------------------------
-class AxisymModel:
-    """Axisymmetric shell model with the attributes ``shells.continuation`` uses.
+class AxisymModel(FormProblem):
+    """Axisymmetric shell model, a ``shells.problem.Problem``.
 
     Attributes: ``shape``, ``shell`` (the ``MeridianMesh``; ``shell.comm``), ``W``, ``w`` (state
     (u_r, u_z; p_r, p_z)), ``kappa``, ``h``, ``nu`` (Constants), ``residual``, ``hessian``,
     ``dres_dkappa`` (compiled forms), ``bcs``, ``mass``; methods ``scalars()``, ``num_dofs()``,
-    ``energy_density(jet)``.
+    ``energy_density(jet)``. Assembly from ``FormProblem``; the stability blocks are the Fourier
+    modes m of ``modes`` (default 0..12), each with its Hessian H_m (``ModeForms``, compiled on
+    first use).
     """
+
+    modes: tuple[int, ...] = tuple(range(13))
 
     def __init__(self, shape: Shape, params: AxisymParameters, comm: Any = None) -> None:
         import basix.ufl
@@ -435,6 +434,34 @@ class AxisymModel:
         im = self.W.dofmap.index_map
         return int(im.size_global * self.W.dofmap.index_map_bs)
 
+    # -- stability blocks: the Fourier modes m (shells.problem.Problem) ---------------------------
+    @property
+    def mode_forms(self) -> ModeForms:
+        if not hasattr(self, "_mode_forms"):
+            self._mode_forms = ModeForms(self)
+        return self._mode_forms
+
+    def stability_blocks(self) -> tuple[int, ...]:
+        return tuple(self.modes)
+
+    def block_layout(self, block: Any) -> int:
+        return 0  # one form for every m: one matrix
+
+    def create_hessian(self, block: Any) -> Any:
+        from dolfinx.fem.petsc import create_matrix
+
+        return create_matrix(self.mode_forms.form)
+
+    def assemble_hessian(self, block: Any, H: Any) -> None:
+        bcs = self.mode_forms.set_mode(block)
+        self._assemble_symmetric(H, self.mode_forms.form, bcs)
+
+    def assemble_mass(self, block: Any) -> Any:
+        return self._assemble_mass(self.mode_forms.mass, self.mode_forms.conditions(block))
+
+    def classify_mode(self, vec: Any, block: Any) -> ModeInfo:
+        return ModeInfo(m=int(block), n=None)
+
 
 def _dirichlet(V: Any, vertices: np.ndarray) -> list[Any]:
     from dolfinx import default_scalar_type, fem
@@ -448,21 +475,18 @@ def _dirichlet(V: Any, vertices: np.ndarray) -> list[Any]:
 # ------------------------------------------------------------------------------------------------
 # stability against Fourier modes
 # ------------------------------------------------------------------------------------------------
-class ModeStability:
-    """Hessians H_m of the energy about the model's (axisymmetric) state, and their inertia.
+class ModeForms:
+    """The Fourier-mode Hessians H_m of the energy about the model's (axisymmetric) state.
 
     Unknowns (S, D, W; P_S, P_D, P_W) in P3³ x P2³: U = S + D, V = S - D for m ≥ 1 and U = S,
-    V = D for m = 0 (see the module docstring for the axis conditions). ``negative_count(m)``
-    assembles H_m at the model's current state and κ and returns the number of negative
-    eigenvalues (MUMPS LDLᵀ inertia; Dirichlet rows are unit pivots).
+    V = D for m = 0 (see the module docstring for the axis conditions). One compiled form for
+    every m: m and the phases are Constants (``set_mode``).
     """
 
-    def __init__(self, model: AxisymModel, options: dict[str, Any] | None = None) -> None:
+    def __init__(self, model: AxisymModel) -> None:
         import basix.ufl
         import ufl
         from dolfinx import default_scalar_type, fem
-        from dolfinx.fem.petsc import create_matrix
-        from petsc4py import PETSc
 
         self.model = model
         mesh = model.mesh
@@ -499,12 +523,6 @@ class ModeStability:
         self.form = fem.form(self.hessian_ufl, jit_options=JIT_OPTIONS)
         self.mass = fem.form(ufl.inner(v_, v) * model.r0 * model.g * model.dx)
         self._bcs = {k: self._conditions(k) for k in (0, 1, 2, 3)}
-        self.H = create_matrix(self.form)
-        self.prefix = f"shells_axisym_stab_{next(_counter)}_"
-        self.options = {**INERTIA_OPTIONS, **(options or {})}
-        self.ksp = PETSc.KSP().create(model.shell.comm)
-        apply_options(self.ksp, self.prefix, self.options)
-        configure_factor(self.ksp, self.H, self.options)
 
     def _conditions(self, mclass: int) -> list[Any]:
         V, model = self.V, self.model
@@ -522,6 +540,10 @@ class ModeStability:
             pairs = [(S, poles), (D, poles), (W, poles), (PS, poles), (PD, poles), (PW, poles)]
         return [bc for sub, verts in pairs for bc in _dirichlet(sub, verts)]
 
+    def conditions(self, m: int) -> list[Any]:
+        """The Dirichlet conditions of mode m (axis conditions and rigid-motion gauges)."""
+        return self._bcs[min(int(m), 3)]
+
     def set_mode(self, m: int) -> list[Any]:
         """Set the Constants of mode m; returns its Dirichlet conditions."""
         if not (isinstance(m, (int, np.integer)) and m >= 0):
@@ -535,56 +557,7 @@ class ModeStability:
             vals = dict(a0=1.0, b0=0.0, a1=0.0, b1=1.0, cSU=1.0, cDU=1.0, cSV=1.0, cDV=-1.0)
         for k, v in vals.items():
             c[k].value = v
-        return self._bcs[min(int(m), 3)]
-
-    def assemble(self, m: int) -> Any:
-        from dolfinx.fem.petsc import assemble_matrix
-
-        bcs = self.set_mode(m)
-        self.H.zeroEntries()
-        assemble_matrix(self.H, self.form, bcs=bcs, diagonal=1.0)
-        self.H.assemble()
-        self.H.setOption(self.H.Option.SYMMETRIC, True)
-        return self.H
-
-    def inertia(self, m: int) -> tuple[int, int, int]:
-        """(negative, zero, positive) eigenvalue counts of H_m."""
-        self.assemble(m)
-        self.ksp.setOperators(self.H)
-        if not setup_factor(self.ksp, self.H, self.options):
-            raise RuntimeError(f"the m = {m} Hessian's LDL^T factorisation failed: no inertia")
-        neg, zero, pos = self.ksp.getPC().getFactorMatrix().getInertia()
-        return int(neg), int(zero), int(pos)
-
-    def negative_count(self, m: int) -> int:
-        return self.inertia(m)[0]
-
-    def negative_counts(self, ms: Any) -> dict[int, int]:
-        return {int(m): self.negative_count(int(m)) for m in ms}
-
-    def lowest_eigenvalues(self, m: int, k: int = 1) -> np.ndarray:
-        """The k lowest eigenvalues of H_m v = λ M v, M the L² mass on dω, constrained DOFs
-        removed (dense LAPACK: for diagnostics and tests, not for production loops)."""
-        from dolfinx.fem.petsc import assemble_matrix
-        from petsc4py import PETSc
-        from scipy.linalg import eigh
-
-        bcs = self.set_mode(m)
-        H = self.assemble(m)
-        M = assemble_matrix(self.mass, bcs=bcs, diagonal=1.0)
-        M.assemble()
-        dense = [A.convert("dense", PETSc.Mat()) for A in (H, M)]
-        Hd, Md = (A.getDenseArray().copy() for A in dense)
-        for A in (*dense, M):
-            A.destroy()
-        fixed = np.unique(np.concatenate([bc.dof_indices()[0] for bc in bcs]))
-        keep = np.setdiff1d(np.arange(Hd.shape[0]), fixed)
-        Hd, Md = Hd[np.ix_(keep, keep)], Md[np.ix_(keep, keep)]
-        return eigh(Hd, Md, eigvals_only=True, subset_by_index=[0, k - 1])
-
-    def destroy(self) -> None:
-        for o in (self.ksp, self.H):
-            o.destroy()
+        return self.conditions(m)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -925,13 +898,13 @@ class _Run:
 
     def __post_init__(self) -> None:
         from shells.solvers import NewtonSolver
+        from shells.stability import Stability
 
         self.model = AxisymModel(self.cfg.shape, self.cfg.params())
-        self.ns = NewtonSolver(self.model, options=SNES_OPTIONS,
-                               prefix=f"shells_axisym_snes_{next(_counter)}_")
-        self.ns_loc = NewtonSolver(self.model, options=SNES_OPTIONS,
-                                   prefix=f"shells_axisym_loc_{next(_counter)}_")
-        self.stab = ModeStability(self.model)
+        self.model.modes = tuple(self.cfg.modes)
+        self.ns = NewtonSolver(self.model, options=SNES_OPTIONS)
+        self.ns_loc = NewtonSolver(self.model, options=SNES_OPTIONS)
+        self.stab = Stability(self.model)
         # the residual bound is the continuation's own (relative to the κ-load, plus the
         # round-off floor of the penalty-stiff Jacobian): no model-specific tolerance here
         self.settings = self.cfg.settings or default_settings(self.cfg.shape, self.cfg.h_over_r)

@@ -1,13 +1,15 @@
-"""Continuation in the natural curvature κ: natural-parameter (SNES) and pseudo-arclength.
+"""Continuation in the natural curvature κ: natural-parameter (SNES) and pseudo-arclength
+(algorithm layer, on ``shells.problem.Problem``).
 
-``continuation(model, settings, ...)`` is a generator: it yields one ``Point`` per converged step
-(scalar indicators only: κ, energy split, Ψ3, Newton iterations, the κ-component of the unit
-tangent whose sign change marks a fold). The model's Function holds the current state, so a
+``continuation(problem, settings, ...)`` is a generator: it yields one ``Point`` per converged
+step (scalar indicators only: κ, energy split, Ψ3, Newton iterations, the κ-component of the unit
+tangent whose sign change marks a fold). The problem's state holds the current point, so a
 consumer can write fields or check stability between two ``next()`` calls.
 
-The parameter is λ = κ L (L: the shape's length scale R, the disk's radius). Pseudo-arclength uses
-the norm ||(δw, δλ)||² = ξ² |δw|²/(N h²) + δλ² (N: number of DOFs, h: the thickness, so the state
-is measured in thicknesses; ξ = ``state_weight``), a
+The parameter is λ = κ L (L: the problem's ``length_scale()``: R, the disk's radius).
+Pseudo-arclength uses the norm ||(δw, δλ)||² = ξ² |δw|²/(N h²) + δλ² (N: number of DOFs, h: the
+problem's ``state_scale()``, the thickness, so the state is measured in thicknesses;
+ξ = ``state_weight``), a
 predictor along the unit tangent and Keller's bordered Newton corrector on the hyperplane
 orthogonal to it; two solves per iteration share one LU factorisation. The tangent orientation is
 kept consistent (positive inner product with the previous one), which carries the branch around
@@ -133,11 +135,11 @@ class _Arclength:
 
     def __init__(self, ns: NewtonSolver, L: float, xi: float) -> None:
         self.ns = ns
-        self.model = ns.model
+        self.problem = ns.problem
         self.L = L
-        self.w = self.model.w.x.petsc_vec
+        self.w = self.problem.state
         N = self.w.getSize()
-        h = float(self.model.h.value)
+        h = self.problem.state_scale()
         self.cw = xi**2 / (N * h**2)
         self.Fl = self.w.duplicate()  # dR/dλ
         self.a = self.w.duplicate()
@@ -150,13 +152,13 @@ class _Arclength:
         self.fl_norm = 0.0            # ||∂R/∂λ|| at the last ``dres_dlambda``
 
     def set_lambda(self, lam: float) -> None:
-        self.model.kappa.value = lam / self.L
+        self.problem.set_kappa(lam / self.L)
 
     def get_lambda(self) -> float:
-        return float(self.model.kappa.value) * self.L
+        return self.problem.get_kappa() * self.L
 
     def sync(self) -> None:
-        self.model.w.x.scatter_forward()
+        self.problem.sync()
 
     def restore(self, lam: float) -> None:
         """Back to the last converged point (after a failed step)."""
@@ -198,22 +200,22 @@ class _Arclength:
         self.tl = s * tl
 
 
-def continuation(model: Any, settings: ContinuationSettings, *, kappa_start: float = 0.0,
+def continuation(problem: Any, settings: ContinuationSettings, *, kappa_start: float = 0.0,
                  kappa_end: float, solver: NewtonSolver | None = None, start_index: int = 0,
                  initial_tangent: tuple[np.ndarray, float] | None = None,
                  skip_first: bool = False) -> Iterator[Point]:
-    """Follow the branch from the model's current state at ``kappa_start`` to ``kappa_end``.
+    """Follow the branch from the problem's current state at ``kappa_start`` to ``kappa_end``.
 
     The first point is the (re-converged) start; the run ends on the point at ``kappa_end``
     exactly, or when the step falls below ``ds_min``, or after ``max_steps`` points.
     ``initial_tangent`` (local state array, λ part) resumes an arclength run in its direction.
     """
-    ns = solver or NewtonSolver(model)
-    L = model.shape.characteristic_size()
+    ns = solver or NewtonSolver(problem)
+    L = problem.length_scale()
     lam0, lam_end = kappa_start * L, kappa_end * L
     direction = 1.0 if lam_end >= lam0 else -1.0
     t_start = time.perf_counter()
-    model.kappa.value = kappa_start
+    problem.set_kappa(kappa_start)
     ok, its = ns.solve()
     if not ok:
         raise RuntimeError(f"Newton did not converge at the start kappa = {kappa_start}")
@@ -221,21 +223,21 @@ def continuation(model: Any, settings: ContinuationSettings, *, kappa_start: flo
 
     def point(its: int, step: float, tl: float) -> Point:
         nonlocal index
-        p = Point(index=index, kappa=float(model.kappa.value),
-                  kappa_L=float(model.kappa.value) * L, newton_its=its, step=step,
+        kappa = problem.get_kappa()
+        p = Point(index=index, kappa=kappa, kappa_L=kappa * L, newton_its=its, step=step,
                   dkappa_ds=tl, wall_time=time.perf_counter() - t_start,
-                  scalars=model.scalars())
+                  scalars=problem.scalars())
         index += 1
         return p
 
     if settings.method == "natural":
-        yield from _natural(model, ns, settings, lam0, lam_end, L, point, its, skip_first)
+        yield from _natural(problem, ns, settings, lam0, lam_end, L, point, its, skip_first)
     else:
-        yield from _arclength(model, ns, settings, lam0, lam_end, L, point, its, direction,
+        yield from _arclength(ns, settings, lam0, lam_end, L, point, its, direction,
                               initial_tangent, skip_first)
 
 
-def _natural(model, ns, st, lam0, lam_end, L, point, its0, skip_first) -> Iterator[Point]:
+def _natural(problem, ns, st, lam0, lam_end, L, point, its0, skip_first) -> Iterator[Point]:
     direction = 1.0 if lam_end >= lam0 else -1.0
     stops = sorted({s for s in st.kappa_stops if (s - lam0) * direction > 0
                     and (lam_end - s) * direction > 0} | {lam_end}, key=lambda s: s * direction)
@@ -245,7 +247,7 @@ def _natural(model, ns, st, lam0, lam_end, L, point, its0, skip_first) -> Iterat
     ar = _Arclength(ns, L, st.state_weight)  # for its residual bound only
     ar.lam_ref = 0.01 * max(abs(lam0), abs(lam_end))
     st_snes = replace(st, residual_rtol=1e-3 * st.residual_rtol)
-    w = model.w.x.petsc_vec
+    w = problem.state
     w_old, dw = w.duplicate(), w.duplicate()
     dw.set(0.0)
     n = 0
@@ -255,14 +257,14 @@ def _natural(model, ns, st, lam0, lam_end, L, point, its0, skip_first) -> Iterat
         new_lam = lam + direction * step
         w.copy(w_old)
         w.axpy(direction * step, dw)  # secant predictor
-        model.w.x.scatter_forward()
-        model.kappa.value = new_lam / L
+        ar.sync()
+        ar.set_lambda(new_lam)
         ar.dres_dlambda()
         ok, its = ns.solve(atol=ar.residual_bound(st_snes, new_lam))
         if not ok or its > st.max_newton_its:
             w_old.copy(w)
-            model.w.x.scatter_forward()
-            model.kappa.value = lam / L
+            ar.sync()
+            ar.set_lambda(lam)
             ds *= 0.5
             if ds < st.ds_min:
                 return
@@ -284,7 +286,7 @@ def _growth(its: int, target: int) -> float:
     return min(2.0, max(0.5, target / max(its, 1)))
 
 
-def _arclength(model, ns, st, lam0, lam_end, L, point, its0, direction, initial_tangent,
+def _arclength(ns, st, lam0, lam_end, L, point, its0, direction, initial_tangent,
                skip_first) -> Iterator[Point]:
     ar = _Arclength(ns, L, st.state_weight)
     ar.lam_ref = 0.01 * max(abs(lam0), abs(lam_end))
@@ -352,7 +354,7 @@ def _bordered_newton(ar: _Arclength, st: ContinuationSettings, lam_p: float,
                      ) -> tuple[bool, int, float]:
     """Keller's bordered Newton on R(w, λ) = 0, τ·(w - w_p, λ - λ_p) = 0.
 
-    Starts from the model's current state and ``lam_start`` (default: the predictor λ_p).
+    Starts from the problem's current state and ``lam_start`` (default: the predictor λ_p).
     ``singular_ok``: next to a bifurcation the Jacobian is nearly singular and round-off is
     amplified along the critical mode, so the increment stalls above ``newton_tol`` although the
     residual is converged; then a residual below the residual bound after 3 iterations is

@@ -1,6 +1,7 @@
-"""Critical points along a branch: detection by Hessian inertia, location, classification, modes.
+"""Critical points along a branch: detection by Hessian inertia, location, classification, modes
+(algorithm layer, on ``shells.problem.Problem``).
 
-``follow(model, ...)`` runs the pseudo-arclength continuation and, at every point, the inertia of
+``follow(problem, ...)`` runs the pseudo-arclength continuation and, at every point, the inertia of
 the Hessian (MUMPS LDLᵀ). A change of the negative count between two points brackets a critical
 point, which is then located inside that step:
 
@@ -17,10 +18,9 @@ Several eigenvalues crossing inside one step (the 2n+1-fold eigenvalue of a perf
 slightly by the mesh) are reported as one critical point whose ``multiplicity`` is the change of
 the negative count over the step; its κ is the first crossing.
 
-The mode: the eigenvector of the eigenvalue nearest 0 at the located point, characterised by its
-normal component w = u·n° through Rayleigh quotients: on a sphere x = R² ∫|∇w|²/∫w² = n(n+1)
-(spherical-harmonic degree n); on surfaces of revolution about z, m² = ∫(∂_φ w)²/∫w² (azimuthal
-wavenumber m).
+The mode: the eigenvector of the eigenvalue nearest 0 at the located point, named by the
+problem's ``classify_mode`` (the surface model: Rayleigh quotients of its normal component, n on
+a sphere, m on surfaces of revolution).
 """
 
 from __future__ import annotations
@@ -43,13 +43,13 @@ from shells.continuation import (
     continuation,
 )
 from shells.errors import InputError
+from shells.problem import get_state, set_state
 from shells.solvers import NewtonSolver
 from shells.stability import Stability, StabilityResult
 
 log = logging.getLogger("shells")
 
-__all__ = ["CriticalSettings", "CriticalPoint", "ModeAnalysis", "follow", "locate",
-           "switch_branch"]
+__all__ = ["CriticalSettings", "CriticalPoint", "follow", "locate", "switch_branch"]
 
 
 @dataclass(frozen=True)
@@ -116,76 +116,30 @@ class _Eval:
     eigs: tuple[float, ...] = ()
 
 
-class ModeAnalysis:
-    """Rayleigh quotients of the normal component of a mode: n(n+1) on spheres, m² about z."""
-
-    def __init__(self, model: Any) -> None:
-        import ufl
-        from dolfinx import fem
-
-        self.model = model
-        self.v = fem.Function(model.W)
-        u, _ = model.split(self.v)
-        wn = ufl.dot(u, model.n0)
-        x = model._x
-        grad_s = model.P0 * ufl.grad(wn)
-        e_phi = ufl.as_vector([-x[1], x[0], 0.0])  # ∂x/∂φ about the z axis
-        dx = model.dx
-        self.forms = {"w2": fem.form(wn * wn * dx), "grad2": fem.form(ufl.dot(grad_s, grad_s) * dx),
-                      "dphi2": fem.form(ufl.dot(e_phi, ufl.grad(wn)) ** 2 * dx)}
-
-    def __call__(self, vec: Any) -> dict[str, float]:
-        from dolfinx import fem
-        from mpi4py import MPI
-
-        vec.copy(self.v.x.petsc_vec)
-        self.v.x.scatter_forward()
-        comm = self.model.shell.comm
-        vals = {k: comm.allreduce(fem.assemble_scalar(f), op=MPI.SUM)
-                for k, f in self.forms.items()}
-        w2 = max(vals["w2"], 1e-300)
-        R = self.model.shape.R
-        out = {"m2": vals["dphi2"] / w2}
-        if math.isfinite(R):
-            out["x"] = vals["grad2"] / w2 * R * R
-        return out
-
-    def classify(self, q: dict[str, float]) -> tuple[int | None, int | None]:
-        """(m, n): n for closed spheres (m is not defined on a degenerate eigenspace), else m."""
-        from shells.geometry import Sphere
-
-        if isinstance(self.model.shape, Sphere):
-            x = q["x"]
-            return None, int(round((-1 + math.sqrt(1 + 4 * max(x, 0.0))) / 2))
-        return int(round(math.sqrt(max(q["m2"], 0.0)))), None
-
-
 class _Locator:
     """Re-takes the arclength step from a stored point with trial lengths σ."""
 
-    def __init__(self, model: Any, st: ContinuationSettings, crit: CriticalSettings,
+    def __init__(self, problem: Any, st: ContinuationSettings, crit: CriticalSettings,
                  stab: Stability) -> None:
-        self.model = model
+        self.problem = problem
         self.st = st
         # trial solves next to a singular point may need more Newton iterations
         self.st_locate = replace(st, max_newton_its=max(st.max_newton_its, 30))
         self.crit = crit
         self.stab = stab
-        self.L = model.shape.characteristic_size()
-        self.ns = NewtonSolver(model)
+        self.L = problem.length_scale()
+        self.ns = NewtonSolver(problem)
         self.ar = _Arclength(self.ns, self.L, st.state_weight)
-        self.w0 = model.w.x.petsc_vec.duplicate()
-        self.z = model.w.x.petsc_vec.duplicate()
-        self.modes = ModeAnalysis(model)
+        self.w0 = problem.state.duplicate()
+        self.z = problem.state.duplicate()
 
     def destroy(self) -> None:
         self.ns.destroy()
 
     def start(self, w0: np.ndarray, lam0: float, tl0: float) -> None:
         """Set the step's first point and its tangent (oriented like the branch there)."""
-        self.model.w.x.array[:] = w0
-        self.model.w.x.scatter_forward()
-        self.model.w.x.petsc_vec.copy(self.w0)
+        set_state(self.problem, w0)
+        self.problem.state.copy(self.w0)
         self.lam0 = lam0
         self.ar.set_lambda(lam0)
         self.ar.tangent(None, 1.0 if tl0 >= 0 else -1.0)
@@ -255,7 +209,7 @@ class _Locator:
         log.debug("locate:   negative %d, eigenvalue nearest 0 %.3e, dkappa/ds %.3e (%.1f s)",
                   count, eig, tl, time.perf_counter() - t0)
         vecs_near = [vecs[int(np.argmin(np.abs(vals)))]] if modes and vals else []
-        state = w.array_r.copy()
+        state = get_state(self.problem)
         return _Eval(sigma, lam, count, tl, eig, state, tuple(sorted(vals))), vecs_near
 
 
@@ -423,8 +377,9 @@ def locate(loc: _Locator, p0: Point, w0: np.ndarray, c0: int, p1: Point, c1: int
     # mode at the trial point nearest the critical point (on the near side)
     near = lo if lo.sigma > 0 else hi
     e, vecs = loc.modes_at(near, nev)
-    q = loc.modes(vecs[0]) if vecs else {}
-    m, n = loc.modes.classify(q) if q else (None, None)
+    info = loc.problem.classify_mode(vecs[0], None) if vecs else None
+    m, n = (info.m, info.n) if info else (None, None)
+    q = dict(info.rayleigh) if info else {}
     k_lo, k_hi = sorted((bracket[0] / L, bracket[1] / L))
     return CriticalPoint(kind=kind, kappa=lam_star / L, kappa_L=lam_star, kappa_lo=k_lo,
                          kappa_hi=k_hi, negative_before=c0, negative_after=c1,
@@ -435,36 +390,36 @@ def locate(loc: _Locator, p0: Point, w0: np.ndarray, c0: int, p1: Point, c1: int
                          mode=vecs[0].array_r.copy() if vecs else None)
 
 
-def follow(model: Any, settings: ContinuationSettings, kappa_end: float,
+def follow(problem: Any, settings: ContinuationSettings, kappa_end: float,
            crit: CriticalSettings | None = None, *, solver: NewtonSolver | None = None,
            nev: int = 0) -> Iterator[tuple[Point, StabilityResult, list[CriticalPoint]]]:
     """Follow the branch from κ = 0 to ``kappa_end`` with stability at every point.
 
     Yields (point, stability, critical points located in the step that ended at this point).
-    The model's state is the point's state at each yield. ``nev`` > 0 also computes that many
+    The problem's state is the point's state at each yield. ``nev`` > 0 also computes that many
     eigenvalues per point.
     """
     crit = crit or CriticalSettings()
     if settings.method != "arclength":
         raise InputError("locating critical points needs the arclength method (folds)")
-    ns = solver or NewtonSolver(model)
-    stab = Stability(model)
-    loc = _Locator(model, settings, crit, stab)
+    ns = solver or NewtonSolver(problem)
+    stab = Stability(problem)
+    loc = _Locator(problem, settings, crit, stab)
     prev: tuple[Point, np.ndarray, int] | None = None
     try:
-        for p in continuation(model, settings, kappa_start=0.0, kappa_end=kappa_end, solver=ns):
+        for p in continuation(problem, settings, kappa_start=0.0, kappa_end=kappa_end,
+                              solver=ns):
             res = stab.check(nev=nev)
             found: list[CriticalPoint] = []
             if prev is not None and res.negative_count != prev[2]:
-                w1 = model.w.x.array.copy()
-                k1 = float(model.kappa.value)
+                w1 = get_state(problem)
+                k1 = problem.get_kappa()
                 cp = locate(loc, prev[0], prev[1], prev[2], p, res.negative_count, w1)
                 found.append(cp)
                 # back to the branch point: the continuation goes on from it
-                model.w.x.array[:] = w1
-                model.w.x.scatter_forward()
-                model.kappa.value = k1
-            prev = (p, model.w.x.array.copy(), res.negative_count)
+                set_state(problem, w1)
+                problem.set_kappa(k1)
+            prev = (p, get_state(problem), res.negative_count)
             yield p, res, found
             if found and (crit.stop_at_first or
                           (crit.stop_at_fold and any(c.kind == "fold" for c in found))):
@@ -494,15 +449,13 @@ def _state_kappa(ns: NewtonSolver, ar: _Arclength, lam: float) -> float:
     return lam
 
 
-def _critical_directions(model: Any, ar: _Arclength, mode: np.ndarray, k: int
+def _critical_directions(problem: Any, ar: _Arclength, mode: np.ndarray, k: int
                          ) -> tuple[list[Any], list[float]]:
     """The critical eigenspace at the model's current state: the eigenvector closest to ``mode``
     first (oriented like it), then the other k - 1 eigenvectors nearest 0; zero on the gauge DOFs,
     orthogonalised (Euclidean, like the constraints that use them), unit in the continuation norm.
     Returns the vectors and their eigenvalues."""
-    from dolfinx.fem.petsc import set_bc
-
-    stab = Stability(model)
+    stab = Stability(problem)
     try:
         vals, vecs = stab.eigenpairs(max(k + 2, 4), modes=True)
     finally:
@@ -512,7 +465,7 @@ def _critical_directions(model: Any, ar: _Arclength, mode: np.ndarray, k: int
     n = ar.w.getLocalSize()
     ref = ar.w.duplicate()
     ref.array_w[:] = mode[:n]
-    set_bc(ref, model.bcs, alpha=0.0)
+    problem.zero_constrained(ref)
     rn = ref.norm()
 
     def overlap(i: int) -> float:
@@ -524,7 +477,7 @@ def _critical_directions(model: Any, ar: _Arclength, mode: np.ndarray, k: int
     for i in [first, *others[: k - 1]]:
         v = ar.w.duplicate()
         v.array_w[:] = vecs[i].array_r
-        set_bc(v, model.bcs, alpha=0.0)
+        problem.zero_constrained(v)
         for d in dirs:
             v.axpy(-v.dot(d) / d.dot(d), d)
         v.scale(1.0 / math.sqrt(ar.cw * v.dot(v)))
@@ -630,7 +583,7 @@ def _pinned_newton(ar: _Arclength, st: ContinuationSettings, lam: float, *, tw: 
             v.destroy()
 
 
-def switch_branch(model: Any, cp: CriticalPoint, settings: ContinuationSettings,
+def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSettings,
                   kappa_end: float, *, ds: float = 0.25, solver: NewtonSolver | None = None,
                   sign: float = 1.0, pinned: int | None = None,
                   factors: tuple[float, ...] = (1.0, 0.5, 0.25, 2.0),
@@ -691,8 +644,8 @@ def switch_branch(model: Any, cp: CriticalPoint, settings: ContinuationSettings,
         raise InputError(f"the first amplitude ds must be positive, got {ds}")
     if settings.ds_unit != "arclength":
         raise InputError("switch_branch takes its steps in arclength (ds_unit='arclength')")
-    ns = solver or NewtonSolver(model)
-    L = model.shape.characteristic_size()
+    ns = solver or NewtonSolver(problem)
+    L = problem.length_scale()
     ar = _Arclength(ns, L, settings.state_weight)
     n = ar.w.getLocalSize()
     wc = ar.w.duplicate()
@@ -708,7 +661,7 @@ def switch_branch(model: Any, cp: CriticalPoint, settings: ContinuationSettings,
         max_dlam = 2.0 * abs(lam_end - lam_c) + 0.1 * abs(lam_c)
         ar.w.copy(wc)
         k = max(1, cp.multiplicity if pinned is None else pinned)
-        dirs, vals = _critical_directions(model, ar, cp.mode, k)
+        dirs, vals = _critical_directions(problem, ar, cp.mode, k)
         pins = dirs[1:]
         log.info("switch: critical state at kappa L = %.6g, eigenvalues %s", lam_c,
                  ", ".join(f"{v:.3e}" for v in vals))
@@ -721,7 +674,7 @@ def switch_branch(model: Any, cp: CriticalPoint, settings: ContinuationSettings,
             return ar.cw * dirs[0].dot(wp)
 
         def point(index: int, its: int, step: float, tl: float, s: np.ndarray) -> Point:
-            sc = model.scalars()
+            sc = problem.scalars()
             sc["mode_amplitude"] = amplitude()
             wp.set(0.0)
             for j, pin in enumerate(pins):

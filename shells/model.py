@@ -1,4 +1,5 @@
-"""The non-Euclidean shell energy of the paper on a surface mesh (Eq. 1 / S-energy), in UFL.
+"""The non-Euclidean shell energy of the paper on a surface mesh (Eq. 1 / S-energy), in UFL:
+the surface model (model layer; implements ``shells.problem.Problem``).
 
 Energy (dimensionless as in the paper: Young's modulus scaled out, per reference area dω)::
 
@@ -41,8 +42,10 @@ from typing import Any
 import numpy as np
 
 from shells.errors import InputError
+from shells.formproblem import FormProblem
 from shells.geometry import Shape
 from shells.mesh import RIM_TAG, ShellMesh
+from shells.problem import ModeInfo
 
 __all__ = ["ModelParameters", "ShellModel"]
 
@@ -77,8 +80,13 @@ class ModelParameters:
 
 
 @dataclass
-class ShellModel:
-    """Surface shell model: spaces, the energy and its derivatives, supports and functionals."""
+class ShellModel(FormProblem):
+    """Surface shell model: spaces, the energy and its derivatives, supports and functionals.
+
+    A ``shells.problem.Problem``: assembly from ``FormProblem``; one stability block (``None``,
+    the Hessian) with the L² mass of (u, θ); modes classified by the Rayleigh quotients of their
+    normal component (``classify_mode``).
+    """
 
     shell: ShellMesh
     params: ModelParameters
@@ -399,3 +407,63 @@ class ShellModel:
     def num_dofs(self) -> int:
         im = self.W.dofmap.index_map
         return int(im.size_global * self.W.dofmap.index_map_bs)
+
+    # ------------------------------------------------------------------------------------------
+    # stability blocks and modes (shells.problem.Problem)
+    # ------------------------------------------------------------------------------------------
+    def stability_blocks(self) -> tuple[None]:
+        return (None,)
+
+    def block_layout(self, block: Any) -> None:
+        return None
+
+    def create_hessian(self, block: Any) -> Any:
+        return self.create_jacobian()
+
+    def assemble_hessian(self, block: Any, H: Any) -> None:
+        self._assemble_symmetric(H, self.hessian, self.bcs)
+
+    def assemble_mass(self, block: Any) -> Any:
+        return self._assemble_mass(self.mass, self.bcs)
+
+    def mode_rayleigh(self, vec: Any) -> dict[str, float]:
+        """Rayleigh quotients of the normal component w = u·n° of a mode: ``m2`` =
+        ∫(∂_φ w)²/∫w² about the z axis (m² on a surface of revolution) and, on spherical
+        surfaces, ``x`` = R² ∫|∇w|²/∫w² (n(n+1) for a spherical harmonic of degree n)."""
+        from dolfinx import fem
+        from mpi4py import MPI
+
+        if not hasattr(self, "_mode_forms"):
+            import ufl
+
+            self._mode_v = fem.Function(self.W)
+            u, _ = self.split(self._mode_v)
+            wn = ufl.dot(u, self.n0)
+            x = self._x
+            grad_s = self.P0 * ufl.grad(wn)
+            e_phi = ufl.as_vector([-x[1], x[0], 0.0])  # ∂x/∂φ about the z axis
+            self._mode_forms = {
+                "w2": fem.form(wn * wn * self.dx),
+                "grad2": fem.form(ufl.dot(grad_s, grad_s) * self.dx),
+                "dphi2": fem.form(ufl.dot(e_phi, ufl.grad(wn)) ** 2 * self.dx)}
+        vec.copy(self._mode_v.x.petsc_vec)
+        self._mode_v.x.scatter_forward()
+        comm = self.shell.comm
+        vals = {k: comm.allreduce(fem.assemble_scalar(f), op=MPI.SUM)
+                for k, f in self._mode_forms.items()}
+        w2 = max(vals["w2"], 1e-300)
+        R = self.shape.R
+        out = {"m2": vals["dphi2"] / w2}
+        if math.isfinite(R):
+            out["x"] = vals["grad2"] / w2 * R * R
+        return out
+
+    def classify_mode(self, vec: Any, block: Any = None) -> ModeInfo:
+        """n on closed spheres (m is not defined on a degenerate eigenspace), else m."""
+        from shells.geometry import Sphere
+
+        q = self.mode_rayleigh(vec)
+        if isinstance(self.shape, Sphere):
+            x = q["x"]
+            return ModeInfo(None, int(round((-1 + math.sqrt(1 + 4 * max(x, 0.0))) / 2)), q)
+        return ModeInfo(int(round(math.sqrt(max(q["m2"], 0.0)))), None, q)

@@ -267,17 +267,19 @@ class _Branch:
 
     def __init__(self, theta: float, h_over_r: float, nu: float, cfg: PhaseDiagramConfig
                  ) -> None:
-        from shells.axisym import AxisymModel, AxisymParameters, ModeStability
+        from shells.axisym import AxisymModel, AxisymParameters
         from shells.geometry import SphericalCap
         from shells.solvers import NewtonSolver
+        from shells.stability import Stability
 
         self.shape = SphericalCap(1.0, theta)
         self.model = AxisymModel(self.shape, AxisymParameters(
             h=h_over_r, nu=nu, cells=cfg.cells, layer_cells=cfg.layer_cells))
         self.ns = NewtonSolver(self.model, options={"snes_rtol": 1e-9, "snes_atol": 1e-11,
                                                     "snes_stol": 1e-12, "snes_max_it": 30})
-        self.stab = ModeStability(self.model)
         self.modes = list(range(cfg.m_max + 1))
+        self.model.modes = tuple(self.modes)
+        self.stab = Stability(self.model)
         self.curv = _Curvatures(self.model)
 
     def set(self, w: np.ndarray, lam: float) -> None:

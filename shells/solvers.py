@@ -1,13 +1,24 @@
-"""PETSc solvers for the shell model: SNES Newton and a reusable LU for bordered systems.
+"""PETSc solvers on the problem interface: SNES Newton and a reusable LU for bordered systems
+(algorithm layer).
 
-Options are passed as a dict under a unique prefix per solver instance (``shells_snes_<n>_``),
-set only for the duration of ``setFromOptions`` and removed afterwards, so the global PETSc
-options database is left as it was. Defaults: Newton with a basic line search, MUMPS LU.
+Every solver has a stable, documented options prefix, so a user can address it from the PETSc
+options database (``-shells_newton_snes_monitor``, ``PETSC_OPTIONS=...``):
+
+| prefix | solver |
+| --- | --- |
+| ``shells_newton_`` | Newton (SNES, its KSP and PC) |
+| ``shells_newton_lin_`` | the LU of the bordered (arclength, pinned) corrector's solves |
+| ``shells_inertia_`` | the LDLᵀ factorisation whose inertia decides stability |
+| ``shells_eigen_`` | the SLEPc eigensolver (EPS, its ST and KSP) of the stability blocks |
+
+The package's defaults are passed as dicts, set in the database only for the duration of
+``setFromOptions`` and removed afterwards (the global database is left as it was); an option the
+user has set under the same prefix takes precedence over the default and is left in place.
+Defaults: Newton with a basic line search, MUMPS LU.
 """
 
 from __future__ import annotations
 
-import itertools
 from typing import Any
 
 import numpy as np
@@ -21,7 +32,10 @@ __all__ = [
     "setup_factor",
 ]
 
-_counter = itertools.count()
+#: the options prefixes (see the module docstring)
+NEWTON_PREFIX = "shells_newton_"
+INERTIA_PREFIX = "shells_inertia_"
+EIGEN_PREFIX = "shells_eigen_"
 
 DEFAULT_SNES_OPTIONS: dict[str, Any] = {
     "snes_type": "newtonls",
@@ -38,19 +52,28 @@ DEFAULT_SNES_OPTIONS: dict[str, Any] = {
 }
 
 
-def apply_options(obj: Any, prefix: str, options: dict[str, Any]) -> None:
-    """Set ``options`` under ``prefix``, call ``obj.setFromOptions()``, then remove them again."""
+def apply_options(obj: Any, prefix: str, options: dict[str, Any]) -> dict[str, Any]:
+    """Set the defaults ``options`` under ``prefix``, call ``obj.setFromOptions()``, then remove
+    them again. An option the user already has in the database under ``prefix`` wins and stays.
+    Returns the options in effect (the user's values as strings)."""
     from petsc4py import PETSc
 
     opts = PETSc.Options()
     obj.setOptionsPrefix(prefix)
+    effective = dict(options)
+    mine = []
     for k, v in options.items():
-        opts[prefix + k] = v
+        if opts.hasName(prefix + k):
+            effective[k] = opts.getString(prefix + k)
+        else:
+            opts[prefix + k] = v
+            mine.append(k)
     try:
         obj.setFromOptions()
     finally:
-        for k in options:
+        for k in mine:
             opts.delValue(prefix + k)
+    return effective
 
 
 def configure_factor(ksp: Any, A: Any, options: dict[str, Any]) -> None:
@@ -93,43 +116,39 @@ def setup_factor(ksp: Any, A: Any, options: dict[str, Any]) -> bool:
 
 
 class NewtonSolver:
-    """SNES Newton on the model's residual/Hessian with homogeneous point supports.
+    """SNES Newton on a ``shells.problem.Problem``'s residual and Jacobian.
 
     Also exposes the assembled Jacobian and a KSP on it for bordered (arclength) solves.
+    ``prefix``: the options prefix (default ``shells_newton_``; see the module docstring).
     """
 
-    def __init__(self, model: Any, options: dict[str, Any] | None = None,
+    def __init__(self, problem: Any, options: dict[str, Any] | None = None,
                  prefix: str | None = None) -> None:
-        from dolfinx.fem.petsc import create_matrix, create_vector
         from petsc4py import PETSc
 
-        self.model = model
-        self.options = {**DEFAULT_SNES_OPTIONS, **(options or {})}
-        self.prefix = prefix or f"shells_snes_{next(_counter)}_"
-        comm = model.shell.comm
-        self.b = create_vector(model.residual)
-        self.A = create_matrix(model.hessian)
-        self.x = model.w.x.petsc_vec.duplicate()
-        self.snes = PETSc.SNES().create(comm)
+        self.problem = problem
+        self.prefix = prefix or NEWTON_PREFIX
+        self.b = problem.create_vector()
+        self.A = problem.create_jacobian()
+        self.x = problem.state.duplicate()
+        self.snes = PETSc.SNES().create(problem.comm)
         self.snes.setFunction(self._F, self.b)
         self.snes.setJacobian(self._J, self.A)
-        apply_options(self.snes, self.prefix, self.options)
+        self.options = apply_options(self.snes, self.prefix,
+                                     {**DEFAULT_SNES_OPTIONS, **(options or {})})
         self.ksp = self.snes.getKSP()
         configure_factor(self.ksp, self.A, self.options)
         # a second KSP for bordered solves with its own prefix
-        self.lin = PETSc.KSP().create(comm)
-        self.lin_opts = {k: v for k, v in self.options.items()
-                         if k.startswith(("ksp_", "pc_", "mat_"))}
-        apply_options(self.lin, self.prefix + "lin_", self.lin_opts)
+        self.lin = PETSc.KSP().create(problem.comm)
+        self.lin_opts = apply_options(self.lin, self.prefix + "lin_",
+                                      {k: v for k, v in self.options.items()
+                                       if k.startswith(("ksp_", "pc_", "mat_"))})
         configure_factor(self.lin, self.A, self.lin_opts)
 
     # -- callbacks ---------------------------------------------------------------------------
     def _set_state(self, x: Any) -> None:
-        from petsc4py import PETSc
-
-        x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-        x.copy(self.model.w.x.petsc_vec)
-        self.model.w.x.scatter_forward()
+        x.copy(self.problem.state)
+        self.problem.sync()
 
     def _F(self, snes: Any, x: Any, b: Any) -> None:
         self._set_state(x)
@@ -141,34 +160,14 @@ class NewtonSolver:
 
     # -- assembly ----------------------------------------------------------------------------
     def assemble_residual(self, b: Any) -> None:
-        from dolfinx.fem.petsc import apply_lifting, assemble_vector, set_bc
-        from petsc4py import PETSc
-
-        m = self.model
-        with b.localForm() as bl:
-            bl.set(0.0)
-        assemble_vector(b, m.residual)
-        apply_lifting(b, [m.hessian], bcs=[m.bcs], x0=[m.w.x.petsc_vec], alpha=-1.0)
-        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        set_bc(b, m.bcs, m.w.x.petsc_vec, -1.0)
+        self.problem.assemble_residual(b)
 
     def assemble_jacobian(self, A: Any) -> None:
-        from dolfinx.fem.petsc import assemble_matrix
-
-        A.zeroEntries()
-        assemble_matrix(A, self.model.hessian, bcs=self.model.bcs)
-        A.assemble()
+        self.problem.assemble_jacobian(A)
 
     def assemble_dkappa(self, v: Any) -> None:
-        """dR/dκ at the current state, zero on the supports."""
-        from dolfinx.fem.petsc import assemble_vector, set_bc
-        from petsc4py import PETSc
-
-        with v.localForm() as vl:
-            vl.set(0.0)
-        assemble_vector(v, self.model.dres_dkappa)
-        v.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        set_bc(v, self.model.bcs, alpha=0.0)
+        """dR/dκ at the current state, zero on the constrained DOFs."""
+        self.problem.assemble_dkappa(v)
 
     # -- solves ------------------------------------------------------------------------------
     def solve(self, atol: float | None = None) -> tuple[bool, int]:
@@ -179,7 +178,7 @@ class NewtonSolver:
         residual bound, relative to the κ-load, because a relative decrease of 1e-9 from a
         small start residual (a short step) lies below round-off.
         """
-        self.model.w.x.petsc_vec.copy(self.x)
+        self.problem.state.copy(self.x)
         rtol, atol0, stol, max_it = self.snes.getTolerances()
         # never below the round-off floor of the residual (else Newton stalls there until
         # max_it: measured at 1e-12 on a 39k-DOF cap, where snes_atol is 1e-12)
@@ -200,7 +199,7 @@ class NewtonSolver:
         the last assembled Jacobian; assembled here if there is none yet)."""
         if not self.A.isAssembled():
             self.assemble_jacobian(self.A)
-        w = self.model.w.x.petsc_vec
+        w = self.problem.state
         return factor * float(np.finfo(float).eps) * float(self.A.norm()) * float(w.norm())
 
     def residual_norm(self) -> float:

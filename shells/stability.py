@@ -1,27 +1,37 @@
-"""Stability of an equilibrium: Hessian inertia (MUMPS LDLᵀ) and lowest eigenpairs (SLEPc).
+"""Stability of an equilibrium: inertia (MUMPS LDLᵀ) and eigenpairs nearest 0 (SLEPc) of a
+problem's stability blocks (algorithm layer, on ``shells.problem.Problem``).
 
-The Hessian is the same ``ufl.derivative`` of the energy that Newton uses. Gauge DOFs (the six
-rigid-motion constraints) get unit rows in H and a tiny mass, so their eigenvalues sit far above
-the spectrum of interest and add only positive pivots to the inertia.
+A block is the Hessian (the surface model: one block, ``None``) or one of its Fourier blocks H_m
+(the axisymmetric model: block m); the problem assembles it at its current state, with unit rows
+on its constrained DOFs, and its mass matrix with a tiny diagonal there, so the constrained DOFs'
+eigenvalues sit far above the spectrum of interest and add only positive pivots to the inertia.
+Blocks of equal ``block_layout`` share one matrix and one factor (the symbolic factorisation is
+reused between them).
 
 Facts used (petsc4py 3.22): ``getInertia`` needs MUMPS ICNTL(24) = 1 (null pivot detection);
 ICNTL(13) = 1 keeps the inertia correct in parallel (no ScaLAPACK root); indefinite matrices want
-ICNTL(14) (workspace) near 200; ``Mat.getInfo`` is collective.
+ICNTL(14) (workspace) near 200; ``Mat.getInfo`` is collective. Options prefixes:
+``shells_inertia_`` (the factorisation), ``shells_eigen_`` (the EPS; ``-shells_eigen_eps_view``
+works), see ``shells.solvers``.
 """
 
 from __future__ import annotations
 
-import itertools
+from collections.abc import Hashable, Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from shells.solvers import apply_options, configure_factor, setup_factor
+from shells.solvers import (
+    EIGEN_PREFIX,
+    INERTIA_PREFIX,
+    apply_options,
+    configure_factor,
+    setup_factor,
+)
 
 __all__ = ["StabilityResult", "Stability"]
-
-_counter = itertools.count()
 
 INERTIA_OPTIONS: dict[str, Any] = {
     "ksp_type": "preonly",
@@ -48,55 +58,84 @@ class StabilityResult:
                 "zero_count": self.zero_count, "eigenvalues": list(self.eigenvalues)}
 
 
-class Stability:
-    """Inertia and eigenpairs of the model's Hessian at its current state."""
+class _Block:
+    """The matrix and LDLᵀ factor of one block layout."""
 
-    def __init__(self, model: Any, options: dict[str, Any] | None = None) -> None:
-        from dolfinx.fem.petsc import assemble_matrix, create_matrix
+    def __init__(self, problem: Any, block: Hashable, options: dict[str, Any]) -> None:
         from petsc4py import PETSc
 
-        self.model = model
-        comm = model.shell.comm
-        self.prefix = f"shells_stab_{next(_counter)}_"
-        self.H = create_matrix(model.hessian)
-        self.M = assemble_matrix(model.mass, bcs=model.bcs, diagonal=1.0e-12)
-        self.M.assemble()
-        self.ksp = PETSc.KSP().create(comm)
-        self.options = {**INERTIA_OPTIONS, **(options or {})}
-        apply_options(self.ksp, self.prefix, self.options)
+        self.H = problem.create_hessian(block)
+        self.ksp = PETSc.KSP().create(problem.comm)
+        self.options = apply_options(self.ksp, INERTIA_PREFIX, options)
         configure_factor(self.ksp, self.H, self.options)
+        self.M: dict[Hashable, Any] = {}
 
-    def assemble(self) -> Any:
-        from dolfinx.fem.petsc import assemble_matrix
+    def destroy(self) -> None:
+        for o in (self.ksp, self.H, *self.M.values()):
+            o.destroy()
 
-        self.H.zeroEntries()
-        assemble_matrix(self.H, self.model.hessian, bcs=self.model.bcs, diagonal=1.0)
-        self.H.assemble()
-        self.H.setOption(self.H.Option.SYMMETRIC, True)
-        return self.H
 
-    def inertia(self) -> tuple[int, int, int]:
-        """(negative, zero, positive) eigenvalue counts of the Hessian."""
-        self.assemble()
-        self.ksp.setOperators(self.H)  # same object as configured: keeps the MUMPS controls
-        if not setup_factor(self.ksp, self.H, self.options):
-            raise RuntimeError("the Hessian's LDL^T factorisation failed: no inertia")
-        F = self.ksp.getPC().getFactorMatrix()
-        neg, zero, pos = F.getInertia()
+class Stability:
+    """Inertia and eigenpairs of a problem's stability blocks at its current state."""
+
+    def __init__(self, problem: Any, options: dict[str, Any] | None = None) -> None:
+        self.problem = problem
+        self.options = {**INERTIA_OPTIONS, **(options or {})}
+        self._blocks: dict[Hashable, _Block] = {}
+
+    def blocks(self) -> tuple[Hashable, ...]:
+        return tuple(self.problem.stability_blocks())
+
+    def _block(self, block: Hashable) -> _Block:
+        key = self.problem.block_layout(block)
+        if key not in self._blocks:
+            self._blocks[key] = _Block(self.problem, block, self.options)
+        return self._blocks[key]
+
+    def assemble(self, block: Hashable = None) -> Any:
+        """The block's Hessian at the current state (the shared matrix of its layout)."""
+        b = self._block(block)
+        self.problem.assemble_hessian(block, b.H)
+        return b.H
+
+    def inertia(self, block: Hashable = None) -> tuple[int, int, int]:
+        """(negative, zero, positive) eigenvalue counts of the block's Hessian."""
+        b = self._block(block)
+        self.problem.assemble_hessian(block, b.H)
+        b.ksp.setOperators(b.H)  # same object as configured: keeps the MUMPS controls
+        if not setup_factor(b.ksp, b.H, b.options):
+            raise RuntimeError(f"the Hessian's LDL^T factorisation failed (block {block}): "
+                               "no inertia")
+        neg, zero, pos = b.ksp.getPC().getFactorMatrix().getInertia()
         return int(neg), int(zero), int(pos)
 
-    def eigenpairs(self, nev: int = 6, *, modes: bool = False, assemble: bool = True
-                   ) -> tuple[list[float], list[Any]]:
-        """The ``nev`` eigenvalues of H v = λ M v nearest 0 (M: L² mass of u and θ), ascending."""
-        from petsc4py import PETSc
+    def negative_count(self, block: Hashable = None) -> int:
+        return self.inertia(block)[0]
+
+    def negative_counts(self, blocks: Iterable[Hashable] | None = None) -> dict[Hashable, int]:
+        """The negative count of every block (default: all of the problem's blocks)."""
+        return {b: self.negative_count(b) for b in (self.blocks() if blocks is None else blocks)}
+
+    def mass(self, block: Hashable = None) -> Any:
+        b = self._block(block)
+        if block not in b.M:
+            b.M[block] = self.problem.assemble_mass(block)
+        return b.M[block]
+
+    def eigenpairs(self, nev: int = 6, *, modes: bool = False, assemble: bool = True,
+                   block: Hashable = None) -> tuple[list[float], list[Any]]:
+        """The ``nev`` eigenvalues of H v = μ M v nearest 0 of a block (M: its mass),
+        ascending, and with ``modes`` their eigenvectors. ``assemble=False``: the block's
+        matrix as last assembled (by ``inertia``)."""
         from slepc4py import SLEPc
 
-        if assemble:
-            self.assemble()
-        eps = SLEPc.EPS().create(self.model.shell.comm)
-        eps.setOperators(self.H, self.M)
+        H = self.assemble(block) if assemble else self._block(block).H
+        eps = SLEPc.EPS().create(self.problem.comm)
+        eps.setOperators(H, self.mass(block))
         eps.setProblemType(SLEPc.EPS.ProblemType.GHEP)
-        eps.setDimensions(nev=nev, ncv=max(2 * nev + 10, 24))
+        size = H.getSize()[0]  # a tiny problem cannot have more than its size
+        nev = min(nev, size)
+        eps.setDimensions(nev=nev, ncv=min(max(2 * nev + 10, 24), size))
         eps.setTarget(0.0)
         eps.setWhichEigenpairs(SLEPc.EPS.Which.TARGET_REAL)
         st = eps.getST()
@@ -108,29 +147,32 @@ class Stability:
         pc.setType("lu")
         pc.setFactorSolverType("mumps")
         eps.setTolerances(1e-10, 200)
-        eps.setOptionsPrefix(self.prefix + "eps_")
+        eps.setOptionsPrefix(EIGEN_PREFIX)
+        eps.setFromOptions()  # the user's -shells_eigen_... options
         eps.solve()
         vals, vecs = [], []
         for i in range(eps.getConverged()):
             vals.append(eps.getEigenvalue(i).real)
             if modes:
-                v = self.H.createVecRight()
+                v = H.createVecRight()
                 eps.getEigenvector(i, v)
                 vecs.append(v)
         order = np.argsort(vals)
         eps.destroy()
         vals = [vals[i] for i in order][:nev]
         vecs = [vecs[i] for i in order][:nev] if modes else []
-        _ = PETSc  # imported for type side effects in slepc
         return vals, vecs
 
-    def check(self, nev: int = 0, modes: bool = False) -> StabilityResult:
-        """Inertia (always) and, with ``nev`` > 0, the lowest eigenpairs."""
-        neg, zero, _ = self.inertia()
-        vals, vecs = self.eigenpairs(nev, modes=modes, assemble=False) if nev > 0 else ([], [])
+    def check(self, nev: int = 0, modes: bool = False, block: Hashable = None
+              ) -> StabilityResult:
+        """Inertia (always) and, with ``nev`` > 0, the eigenpairs nearest 0, of one block."""
+        neg, zero, _ = self.inertia(block)
+        vals, vecs = (self.eigenpairs(nev, modes=modes, assemble=False, block=block)
+                      if nev > 0 else ([], []))
         return StabilityResult(stable=neg == 0 and zero == 0, negative_count=neg,
                                zero_count=zero, eigenvalues=vals, modes=vecs if modes else None)
 
     def destroy(self) -> None:
-        for o in (self.ksp, self.H, self.M):
-            o.destroy()
+        for b in self._blocks.values():
+            b.destroy()
+        self._blocks.clear()

@@ -1,0 +1,118 @@
+"""The assembly half of the ``Problem`` interface from compiled dolfinx forms (problem layer).
+
+``FormProblem`` is a mixin for the two finite-element models. A model that mixes it in provides
+the attributes
+
+* ``w`` (the state ``fem.Function``), ``kappa`` (a ``fem.Constant``), ``h`` (a ``fem.Constant``),
+  ``shape`` (its ``characteristic_size()`` is L), ``shell.comm``;
+* ``residual``, ``hessian``, ``dres_dkappa``: compiled forms of R, ∂R/∂w and ∂R/∂κ, all
+  ``ufl.derivative``s of the one energy;
+* ``bcs``: the gauge as homogeneous Dirichlet conditions;
+
+and gets the state, parameter and assembly methods of ``shells.problem.Problem``. The stability
+blocks, scalars and mode classification stay with each model.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+__all__ = ["FormProblem"]
+
+
+class FormProblem:
+    """Residual, Jacobian, dR/dκ and the gauge of a dolfinx model (see the module docstring)."""
+
+    w: Any
+    kappa: Any
+    h: Any
+    shape: Any
+    shell: Any
+    residual: Any
+    hessian: Any
+    dres_dkappa: Any
+    bcs: list[Any]
+
+    @property
+    def comm(self) -> Any:
+        return self.shell.comm
+
+    @property
+    def state(self) -> Any:
+        return self.w.x.petsc_vec
+
+    def sync(self) -> None:
+        self.w.x.scatter_forward()
+
+    def get_kappa(self) -> float:
+        return float(self.kappa.value)
+
+    def set_kappa(self, kappa: float) -> None:
+        self.kappa.value = kappa
+
+    def length_scale(self) -> float:
+        return float(self.shape.characteristic_size())
+
+    def state_scale(self) -> float:
+        return float(self.h.value)
+
+    def create_vector(self) -> Any:
+        from dolfinx.fem.petsc import create_vector
+
+        return create_vector(self.residual)
+
+    def create_jacobian(self) -> Any:
+        from dolfinx.fem.petsc import create_matrix
+
+        return create_matrix(self.hessian)
+
+    def assemble_residual(self, b: Any) -> None:
+        from dolfinx.fem.petsc import apply_lifting, assemble_vector, set_bc
+        from petsc4py import PETSc
+
+        with b.localForm() as bl:
+            bl.set(0.0)
+        assemble_vector(b, self.residual)
+        apply_lifting(b, [self.hessian], bcs=[self.bcs], x0=[self.state], alpha=-1.0)
+        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        set_bc(b, self.bcs, self.state, -1.0)
+
+    def assemble_jacobian(self, A: Any) -> None:
+        from dolfinx.fem.petsc import assemble_matrix
+
+        A.zeroEntries()
+        assemble_matrix(A, self.hessian, bcs=self.bcs)
+        A.assemble()
+
+    def assemble_dkappa(self, b: Any) -> None:
+        from dolfinx.fem.petsc import assemble_vector, set_bc
+        from petsc4py import PETSc
+
+        with b.localForm() as bl:
+            bl.set(0.0)
+        assemble_vector(b, self.dres_dkappa)
+        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        set_bc(b, self.bcs, alpha=0.0)
+
+    def zero_constrained(self, v: Any) -> None:
+        from dolfinx.fem.petsc import set_bc
+
+        set_bc(v, self.bcs, alpha=0.0)
+
+    # -- helpers for the models' stability blocks -------------------------------------------------
+    @staticmethod
+    def _assemble_symmetric(H: Any, form: Any, bcs: list[Any]) -> None:
+        from dolfinx.fem.petsc import assemble_matrix
+
+        H.zeroEntries()
+        assemble_matrix(H, form, bcs=bcs, diagonal=1.0)
+        H.assemble()
+        H.setOption(H.Option.SYMMETRIC, True)
+
+    @staticmethod
+    def _assemble_mass(form: Any, bcs: list[Any]) -> Any:
+        from dolfinx.fem.petsc import assemble_matrix
+
+        M = assemble_matrix(form, bcs=bcs, diagonal=1.0e-12)
+        M.assemble()
+        return M

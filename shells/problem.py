@@ -1,0 +1,130 @@
+"""The problem interface: what the algorithm layer may know of a model (problem layer).
+
+Every algorithm in ``shells`` (Newton, continuation, stability, critical points, branch
+switching) is written against ``Problem`` and nothing else: no algorithm reads a model's private
+attributes. Three kinds of problem implement it:
+
+* ``shells.model.ShellModel``: the 2D surface model (one stability block, ``None``);
+* ``shells.axisym.AxisymModel``: the 1D axisymmetric model (one stability block per Fourier
+  mode m = 0, 1, 2, ...);
+* ``shells.algebraic``: tiny algebraic problems with exact answers (a fold, a pitchfork) that
+  test the algorithms in milliseconds.
+
+The two finite-element models get the assembly half of the interface from
+``shells.formproblem.FormProblem`` (residual, Jacobian and dR/dκ from compiled dolfinx forms, the
+gauge as Dirichlet conditions).
+
+Conventions. The state is a PETSc vector distributed over ``comm`` (ghosted or not): its owned
+values are the unknowns, ``sync()`` refreshes whatever a model derives from them (ghost values)
+after they were changed in place. The load parameter is the natural curvature κ; algorithms
+continue in λ = κ L with L = ``length_scale()``, and measure the state in units of
+``state_scale()`` (the thickness h): the arclength norm is |δw|²/(N s²) + δλ². Residual and
+dR/dκ vectors are zero on constrained (gauge) DOFs, the Jacobian has unit rows there. The
+stability blocks are symmetric matrices whose inertia decides stability: the Hessian itself
+(surface model) or its Fourier blocks H_m (axisymmetric model), with a mass matrix for the
+eigenproblem H v = μ M v; ``classify_mode`` names an eigenvector's mode (m, n).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Hashable
+from dataclasses import dataclass, field
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+
+__all__ = ["ModeInfo", "Problem", "get_state", "set_state"]
+
+
+@dataclass(frozen=True)
+class ModeInfo:
+    """What a mode is: azimuthal wavenumber m (surfaces of revolution), spherical-harmonic
+    degree n (closed spheres), and the Rayleigh quotients they were read from."""
+
+    m: int | None = None
+    n: int | None = None
+    rayleigh: dict[str, float] = field(default_factory=dict)
+
+
+@runtime_checkable
+class Problem(Protocol):
+    """A parameter-dependent equilibrium problem R(w, κ) = 0 with a symmetric Jacobian."""
+
+    comm: Any
+
+    # -- state and parameter ---------------------------------------------------------------------
+    @property
+    def state(self) -> Any:
+        """The current state (PETSc Vec); algorithms change its owned values, then ``sync()``."""
+
+    def sync(self) -> None:
+        """Refresh what derives from the state's owned values (ghosts) after a change."""
+
+    def get_kappa(self) -> float:
+        """The natural curvature κ of the current point."""
+
+    def set_kappa(self, kappa: float) -> None:
+        """Set κ (no solve)."""
+
+    def length_scale(self) -> float:
+        """L: the continuation parameter is λ = κ L."""
+
+    def state_scale(self) -> float:
+        """s: the state is measured in units of s (the thickness) by the arclength norm."""
+
+    def num_dofs(self) -> int:
+        """Global number of unknowns."""
+
+    # -- assembly --------------------------------------------------------------------------------
+    def create_vector(self) -> Any:
+        """A vector of the residual's layout."""
+
+    def create_jacobian(self) -> Any:
+        """A matrix of the Jacobian's layout."""
+
+    def assemble_residual(self, b: Any) -> None:
+        """R(w, κ) into ``b`` (zero on the constrained DOFs)."""
+
+    def assemble_jacobian(self, A: Any) -> None:
+        """∂R/∂w into ``A`` (unit rows and columns on the constrained DOFs)."""
+
+    def assemble_dkappa(self, b: Any) -> None:
+        """∂R/∂κ into ``b`` (zero on the constrained DOFs)."""
+
+    def zero_constrained(self, v: Any) -> None:
+        """Set the constrained (gauge) DOFs of a state-shaped vector to zero."""
+
+    # -- what a point is -------------------------------------------------------------------------
+    def scalars(self) -> dict[str, float]:
+        """Scalar indicators of the current point (the same on every rank)."""
+
+    # -- stability -------------------------------------------------------------------------------
+    def stability_blocks(self) -> tuple[Hashable, ...]:
+        """Labels of the stability blocks: ``(None,)`` for one Hessian, Fourier modes m..."""
+
+    def block_layout(self, block: Hashable) -> Hashable:
+        """Blocks with equal layout keys share one matrix (same sparsity, same size)."""
+
+    def create_hessian(self, block: Hashable) -> Any:
+        """A matrix of the block's layout."""
+
+    def assemble_hessian(self, block: Hashable, H: Any) -> None:
+        """The block's Hessian at the current point (unit rows on its constrained DOFs)."""
+
+    def assemble_mass(self, block: Hashable) -> Any:
+        """A new SPD mass matrix of the block (tiny diagonal on its constrained DOFs)."""
+
+    def classify_mode(self, vec: Any, block: Hashable) -> ModeInfo:
+        """The mode (m, n) of an eigenvector of the block's Hessian."""
+
+
+def get_state(problem: Problem) -> np.ndarray:
+    """A copy of this rank's owned state values."""
+    return problem.state.array_r.copy()
+
+
+def set_state(problem: Problem, values: np.ndarray) -> None:
+    """Set the owned state values (the first ``local size`` of ``values``) and sync."""
+    v = problem.state
+    v.array_w[:] = values[: v.getLocalSize()]
+    problem.sync()

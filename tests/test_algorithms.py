@@ -1,0 +1,116 @@
+"""The algorithm layer (continuation, stability, critical points, branch switching) on the tiny
+algebraic problems of ``shells.algebraic``, whose answers are known exactly: milliseconds per
+test. Each rank solves its own copy (MPI.COMM_SELF), so the tests are valid on any number of
+ranks; one test distributes a problem over MPI.COMM_WORLD and checks that the answer is the
+same.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from shells.algebraic import FoldProblem, PitchforkProblem
+from shells.continuation import ContinuationSettings, continuation
+from shells.critical import CriticalSettings, follow, switch_branch
+from shells.problem import Problem
+from shells.stability import Stability
+
+STEPS = ContinuationSettings(ds=0.1, ds_max=0.2)
+
+
+def test_the_problems_implement_the_interface():
+    assert isinstance(FoldProblem(), Problem)
+    assert isinstance(PitchforkProblem(), Problem)
+
+
+@pytest.mark.parametrize("sign", [1.0, -1.0])
+def test_fold_located_to_1e8(sign):
+    """x² + sκ - 1 = 0: the stable branch from x = 1 reaches its fold at κ = s."""
+    P = FoldProblem(sign=sign)
+    crit = CriticalSettings(rel_tol=1e-8)
+    run = list(follow(P, STEPS, 3.0 * sign, crit))
+    found = [c for _, _, cps in run for c in cps]
+    assert len(found) == 1
+    cp = found[0]
+    assert cp.kind == "fold"
+    assert cp.kappa == pytest.approx(sign, rel=1e-8)
+    assert cp.accuracy < 1e-8
+    assert (cp.negative_before, cp.negative_after) == (0, 1)
+    # on the stable half before the fold: the exact branch, stable
+    for p, r, _ in run[:-1]:
+        assert p.scalars["w0"] == pytest.approx(P.exact_x(p.kappa), abs=1e-8)
+        assert r.negative_count == 0
+
+
+@pytest.mark.parametrize("sign", [1.0, -1.0])
+def test_arclength_turns_around_the_fold(sign):
+    """Past the fold the branch comes back (κ moves back towards 0) on the unstable half
+    x = -sqrt(1 - sκ), with one negative eigenvalue."""
+    P = FoldProblem(sign=sign)
+    st = ContinuationSettings(ds=0.1, ds_max=0.2, max_steps=20)
+    stab = Stability(P)
+    pts = []
+    for p in continuation(P, st, kappa_end=3.0 * sign):
+        pts.append((p.kappa, p.scalars["w0"], p.dkappa_ds, stab.negative_count()))
+    stab.destroy()
+    assert len(pts) == 21  # the run never reaches κ = 3s: it turned around
+    after = [q for q in pts if q[1] < 0]
+    assert len(after) >= 5
+    for kappa, x, dk, neg in after:
+        assert x == pytest.approx(-math.sqrt(1.0 - sign * kappa), abs=1e-8)
+        assert dk * sign < 0  # κ moves back
+        assert neg == 1
+    kappas = [q[0] for q in after]
+    assert all((a - b) * sign > 0 for a, b in zip(kappas, kappas[1:], strict=False))
+
+
+def test_pitchfork_located_to_1e8():
+    P = PitchforkProblem()
+    run = list(follow(P, STEPS, 2.5, CriticalSettings(rel_tol=1e-8, stop_at_fold=False)))
+    found = [c for _, _, cps in run for c in cps]
+    # the x pitchfork at κ = 1 and the z_1 one at κ = c_1 = 2, in that order
+    assert [c.kind for c in found] == ["bifurcation", "bifurcation"]
+    assert [c.kappa for c in found] == pytest.approx([1.0, 2.0], rel=1e-8)
+    assert [c.mode_m for c in found] == [1, 2]
+    assert [(c.negative_before, c.negative_after) for c in found] == [(0, 1), (1, 2)]
+
+
+def test_switching_onto_the_pitchfork_branch():
+    """The bifurcated branch x² = 2(κ - 1): on it exactly, stable, below the fundamental
+    branch (E = -(κ - 1)²/2 against 0), amplitude ∝ (κ - κ_c)^½ (fitted exponent)."""
+    P = PitchforkProblem()
+    run = list(follow(P, STEPS, 1.4, CriticalSettings(rel_tol=1e-8, stop_at_first=True)))
+    cp = run[-1][2][0]
+    stab = Stability(P)
+    pts = []
+    for p in switch_branch(P, cp, ContinuationSettings(ds=0.05, ds_max=0.1), 1.4, ds=0.05):
+        pts.append((p, stab.negative_count()))
+    stab.destroy()
+    assert pts[-1][0].kappa == pytest.approx(1.4, rel=1e-12)  # landed on the end
+    dk, amp = [], []
+    for p, neg in pts:
+        k, x, y = p.kappa, p.scalars["w1"], p.scalars["w0"]
+        assert x * x == pytest.approx(2 * (k - 1), abs=1e-8)
+        assert y == pytest.approx(2 * k - 1, abs=1e-8)
+        assert p.scalars["energy"] == pytest.approx(-0.5 * (k - 1) ** 2, abs=1e-10)
+        assert p.scalars["energy"] < 0  # the fundamental branch has E = 0
+        assert neg == 0
+        dk.append(k - cp.kappa)
+        amp.append(abs(p.scalars["mode_amplitude"]))
+    slope = float(np.polyfit(np.log(dk), np.log(amp), 1)[0])
+    assert slope == pytest.approx(0.5, abs=0.01)
+
+
+def test_distributed_fold_gives_the_same_answer():
+    """The fold problem with its unknowns spread over all ranks: same fold, to round-off."""
+    from mpi4py import MPI
+
+    P = FoldProblem(springs=3, comm=MPI.COMM_WORLD)
+    run = list(follow(P, STEPS, 3.0, CriticalSettings(rel_tol=1e-8)))
+    cp = run[-1][2][0]
+    assert cp.kind == "fold" and cp.kappa == pytest.approx(1.0, rel=1e-8)
+    assert MPI.COMM_WORLD.allreduce(cp.kappa, op=MPI.MAX) == MPI.COMM_WORLD.allreduce(
+        cp.kappa, op=MPI.MIN)

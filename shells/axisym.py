@@ -409,7 +409,9 @@ class AxisymModel(FormProblem):
         return float(fem.assemble_scalar(self._scalar_forms[name]))
 
     def scalars(self) -> dict[str, float]:
-        """Energy split, Ψ3/h (mean normal displacement, translation-free) and apex u_z/h."""
+        """Energy split, Ψ3/h (mean normal displacement, translation-free), apex u_z/h, and the
+        pole's normal displacement Ψ3(pole)/h = (u_z(pole) - ū_z)/h (ū: the mean displacement,
+        i.e. relative to the centroid's translation)."""
         out = {k: self.assemble(k) for k in ("total", "stretching", "bending",
                                              "curvature_potential", "penalty")}
         out["energy"] = out.pop("total")
@@ -421,6 +423,7 @@ class AxisymModel(FormProblem):
         uz = self.uz_at(np.array([0.0, self.shape.t_max]))
         disp = 0.5 * (uz[0] - uz[1]) if self.shape.closed else uz[0] - uz[1]
         out["apex_uz_over_h"] = float(disp) / h
+        out["psi3_pole_over_h"] = float(uz[0] - self.assemble("uz_integral") / area) / h
         return out
 
     def uz_at(self, t: np.ndarray) -> np.ndarray:
@@ -441,26 +444,66 @@ class AxisymModel(FormProblem):
             self._mode_forms = ModeForms(self)
         return self._mode_forms
 
+    # Block None is the Jacobian itself: the Hessian of the axisymmetric unknowns, i.e. H_0
+    # without the torsion D (the stability within rotational symmetry: folds and axisymmetric
+    # bifurcations, the block branch switching on the 1D model uses).
     def stability_blocks(self) -> tuple[int, ...]:
         return tuple(self.modes)
 
-    def block_layout(self, block: Any) -> int:
-        return 0  # one form for every m: one matrix
+    def block_layout(self, block: Any) -> str:
+        return "axisymmetric" if block is None else "modes"  # one form for every m
 
     def create_hessian(self, block: Any) -> Any:
+        if block is None:
+            return self.create_jacobian()
         from dolfinx.fem.petsc import create_matrix
 
         return create_matrix(self.mode_forms.form)
 
     def assemble_hessian(self, block: Any, H: Any) -> None:
+        if block is None:
+            self._assemble_symmetric(H, self.hessian, self.bcs)
+            return
         bcs = self.mode_forms.set_mode(block)
         self._assemble_symmetric(H, self.mode_forms.form, bcs)
 
     def assemble_mass(self, block: Any) -> Any:
+        if block is None:
+            return self._assemble_mass(self.mass, self.bcs)
         return self._assemble_mass(self.mode_forms.mass, self.mode_forms.conditions(block))
 
     def classify_mode(self, vec: Any, block: Any) -> ModeInfo:
-        return ModeInfo(m=int(block), n=None)
+        """m = the block's wavenumber (0 for the Jacobian); on a closed sphere also the degree
+        n of an axisymmetric mode from the Rayleigh quotient R² ∫(∂_s w)² / ∫ w² = n(n+1) of
+        its normal component w (exact for the Legendre polynomial P_n)."""
+        if block is not None or not _is_sphere(self.shape):
+            return ModeInfo(m=0 if block is None else int(block), n=None)
+        from dolfinx import fem
+
+        if not hasattr(self, "_degree_forms"):
+            import ufl
+
+            from dolfinx import default_scalar_type
+
+            self._mode_w = fem.Function(self.W)
+            self._mode_shift = fem.Constant(self.mesh, default_scalar_type(0.0))
+            u, _ = ufl.split(self._mode_w)
+            # the gauge u_z(pole) = 0 adds a translation (degree 1) to every mode: removed
+            uz = u[1] - self._mode_shift
+            wn = (u[0] * (-self.z0t) + uz * self.r0t) / self.g
+            ad = self.area_density
+            self._degree_forms = (fem.form((wn.dx(0) / self.g) ** 2 * ad * self.dx),
+                                  fem.form(wn * wn * ad * self.dx),
+                                  fem.form(u[1] * ad * self.dx), fem.form(ad * self.dx))
+        vec.copy(self._mode_w.x.petsc_vec)
+        self._mode_w.x.scatter_forward()
+        f_g2, f_w2, f_uz, f_area = self._degree_forms
+        self._mode_shift.value = float(fem.assemble_scalar(f_uz)) / float(
+            fem.assemble_scalar(f_area))
+        g2, w2 = (float(fem.assemble_scalar(f)) for f in (f_g2, f_w2))
+        x = g2 / max(w2, 1e-300) * self.shape.R ** 2
+        n = int(round((-1 + math.sqrt(1 + 4 * max(x, 0.0))) / 2))
+        return ModeInfo(m=0, n=n, rayleigh={"x": x})
 
 
 def _dirichlet(V: Any, vertices: np.ndarray) -> list[Any]:

@@ -350,8 +350,8 @@ def _arclength(ns, st, lam0, lam_end, L, point, its0, direction, initial_tangent
 
 
 def _bordered_newton(ar: _Arclength, st: ContinuationSettings, lam_p: float,
-                     lam_start: float | None = None, singular_ok: bool = False
-                     ) -> tuple[bool, int, float]:
+                     lam_start: float | None = None, singular_ok: bool = False,
+                     deflate: Any = None) -> tuple[bool, int, float]:
     """Keller's bordered Newton on R(w, λ) = 0, τ·(w - w_p, λ - λ_p) = 0.
 
     Starts from the problem's current state and ``lam_start`` (default: the predictor λ_p).
@@ -359,7 +359,9 @@ def _bordered_newton(ar: _Arclength, st: ContinuationSettings, lam_p: float,
     amplified along the critical mode, so the increment stalls above ``newton_tol`` although the
     residual is converged; then a residual below the residual bound after 3 iterations is
     accepted. The residual bound is ``_Arclength.residual_bound`` (relative to the κ-load and
-    the round-off floor, or ``residual_tol``).
+    the round-off floor, or ``residual_tol``). ``deflate(a, b)``, when given, may remove
+    components from the two solves J a = -R, J b = -R_λ of each iteration (the locator's
+    safeguard against Newton steps that switch to a branch bifurcating close by).
     """
     ns, w = ar.ns, ar.w
     lam = lam_p if lam_start is None else lam_start
@@ -374,6 +376,8 @@ def _bordered_newton(ar: _Arclength, st: ContinuationSettings, lam_p: float,
         ar.dres_dlambda()
         ar.Fl.scale(-1.0)
         ns.lin_solve(ar.Fl, ar.b)
+        if deflate is not None:
+            deflate(ar.a, ar.b)
         # hyperplane constraint N = cw τw·(w - wp) + τl (λ - λp)
         w.copy(ar.Fl)
         ar.Fl.axpy(-1.0, ar.wp)

@@ -62,6 +62,20 @@ class CriticalSettings:
         stop_at_fold: stop following the branch after the first fold.
         stop_at_first: stop after the first critical point of any kind.
         nev: eigenvalues computed at each trial point (nearest 0).
+        max_chord_deviation: when set, a trial solution of a step without a fold whose state
+            deviates from the step's chord (its two end states, interpolated in σ) by more than
+            this fraction of the chord's length counts as a failed corrector: the hyperplane
+            of a step along κ also cuts the branches that bifurcate close by, and next to a
+            cluster of transcritical bifurcations (a closed sphere's axisymmetric modes of
+            neighbouring degrees, 1e-4 apart in κ) Newton lands on them. None (default): no
+            check (the surface model's imperfect bifurcations turn the path itself off the
+            chord).
+        deflate: in steps without a fold, the locator's corrector omits from each Newton step
+            its components along the ``deflate`` eigenvectors of the Jacobian nearest 0 when
+            such a component exceeds 10 times the rest of the step: round-off amplified by
+            the nearly singular Jacobian, or the start of a switch to a branch bifurcating
+            close by (a closed sphere's cluster of axisymmetric modes). Costs one eigensolve
+            per Newton iteration: for the 1D model. 0 (default): off.
     """
 
     rel_tol: float = 1.0e-4
@@ -69,12 +83,19 @@ class CriticalSettings:
     stop_at_fold: bool = True
     stop_at_first: bool = False
     nev: int = 4
+    max_chord_deviation: float | None = None
+    deflate: int = 0
 
     def __post_init__(self) -> None:
         if not (0 < self.rel_tol < 0.1):
             raise InputError(f"rel_tol must lie in (0, 0.1), got {self.rel_tol}")
         if self.max_evaluations < 2 or self.nev < 1:
             raise InputError("need max_evaluations >= 2 and nev >= 1")
+        if not (isinstance(self.deflate, int) and 0 <= self.deflate <= 20):
+            raise InputError(f"deflate must be an integer in [0, 20], got {self.deflate!r}")
+        if self.max_chord_deviation is not None and not self.max_chord_deviation > 0:
+            raise InputError(f"max_chord_deviation must be None or positive, got "
+                             f"{self.max_chord_deviation!r}")
 
 
 @dataclass
@@ -132,12 +153,22 @@ class _Locator:
         self.ar = _Arclength(self.ns, self.L, st.state_weight)
         self.w0 = problem.state.duplicate()
         self.z = problem.state.duplicate()
+        self.chord = problem.state.duplicate()  # w1 - w0 of the step
+        self.sigma1 = 0.0
 
     def destroy(self) -> None:
         self.ns.destroy()
+        for v in (self.w0, self.z, self.chord):
+            v.destroy()
 
-    def start(self, w0: np.ndarray, lam0: float, tl0: float) -> None:
-        """Set the step's first point and its tangent (oriented like the branch there)."""
+    def start(self, w0: np.ndarray, lam0: float, tl0: float, w1: np.ndarray | None = None,
+              sigma1: float = 0.0, lam1: float = 0.0) -> None:
+        """Set the step's first point and its tangent (oriented like the branch there), and
+        its last point ``w1`` at arclength ``sigma1`` (for the chord check)."""
+        if w1 is not None:
+            n = self.chord.getLocalSize()
+            self.chord.array_w[:] = w1[:n] - w0[:n]
+            self.sigma1, self.lam1 = sigma1, lam1
         set_state(self.problem, w0)
         self.problem.state.copy(self.w0)
         self.lam0 = lam0
@@ -196,12 +227,28 @@ class _Locator:
         ar.sync()
         st = self.st_locate
         t0 = time.perf_counter()
+        deflate = (_Deflation(self.problem, self.stab, self.crit.deflate)
+                   if self.crit.deflate and self.sigma1 > 0 else None)
         ok, its, lam = _bordered_newton(ar, st, self.lam0 + sigma * ar.tl, lam_start=lam_p,
-                                        singular_ok=True)
+                                        singular_ok=True, deflate=deflate)
         log.debug("locate: sigma = %.6g  kappa L = %.8g  converged %s in %d its (%.1f s)",
                   sigma, lam, ok, its, time.perf_counter() - t0)
         if not ok:
             raise RuntimeError(f"corrector failed at sigma = {sigma:.3e}")
+        if self.crit.max_chord_deviation is not None and self.sigma1 > 0:
+            # (w, λ) - ((w0, λ0) + σ/σ1 (w1 - w0, λ1 - λ0)) relative to the chord, in the
+            # continuation norm
+            dev = w.copy()
+            dev.axpy(-1.0, self.w0)
+            dev.axpy(-sigma / self.sigma1, self.chord)
+            f = sigma / self.sigma1
+            dlam = lam - (self.lam0 + f * (self.lam1 - self.lam0))
+            chord2 = ar.cw * self.chord.dot(self.chord) + (self.lam1 - self.lam0) ** 2
+            ratio = math.sqrt((ar.cw * dev.dot(dev) + dlam**2) / max(chord2, 1e-300))
+            dev.destroy()
+            if ratio > self.crit.max_chord_deviation:
+                log.debug("locate:   off the step's chord (%.3g of its length): rejected", ratio)
+                raise RuntimeError(f"corrector left the branch at sigma = {sigma:.3e}")
         count = self.stab.inertia()[0]
         vals, vecs = self.stab.eigenpairs(nev, modes=modes, assemble=False)
         eig = min(vals, key=abs) if vals else math.nan
@@ -213,6 +260,58 @@ class _Locator:
         return _Eval(sigma, lam, count, tl, eig, state, tuple(sorted(vals))), vecs_near
 
 
+class _Deflation:
+    """The corrector's safeguard next to singular points: removes from Newton's solves their
+    components along the Jacobian's ``k`` eigenvectors nearest 0 (M-orthogonal projection, M
+    the mass of block ``None``) where such a component exceeds 10 times the rest: round-off
+    amplified by the nearly singular Jacobian, or the start of a switch to a branch that
+    bifurcates close by. ``keep``: a direction (a followed mode) whose near-parallel
+    eigenvectors are not removed. One eigensolve per call (at the problem's current state)."""
+
+    def __init__(self, problem: Any, stab: Stability, k: int, keep: Any = None) -> None:
+        self.problem, self.stab, self.k, self.keep = problem, stab, k, keep
+
+    def __call__(self, *xs: Any) -> None:
+        _, vecs = self.stab.eigenpairs(self.k, modes=True, block=None)
+        M = self.stab.mass(None)
+        Mv = [M.createVecLeft() for _ in vecs]
+        tmp = self.problem.state.duplicate()
+        try:
+            for v, mv in zip(vecs, Mv, strict=True):
+                M.mult(v, mv)
+                nv = math.sqrt(max(v.dot(mv), 1e-300))
+                v.scale(1.0 / nv)
+                mv.scale(1.0 / nv)
+            if self.keep is not None:
+                kn = math.sqrt(max(_m_dot(M, self.keep), 1e-300))
+                pairs = [(v, mv) for v, mv in zip(vecs, Mv, strict=True)
+                         if abs(self.keep.dot(mv)) / kn < 0.5]
+            else:
+                pairs = list(zip(vecs, Mv, strict=True))
+            tiny = 1e-14 * math.sqrt(max(_m_dot(M, self.problem.state), 0.0)) + 1e-300
+            for x in xs:
+                c = [x.dot(mv) for _, mv in pairs]
+                x.copy(tmp)
+                for ci, (v, _) in zip(c, pairs, strict=True):
+                    tmp.axpy(-ci, v)
+                rest = math.sqrt(max(_m_dot(M, tmp), 0.0))
+                for ci, (v, _) in zip(c, pairs, strict=True):
+                    if abs(ci) > 10.0 * rest + tiny:
+                        x.axpy(-ci, v)
+        finally:
+            for v in (*vecs, *Mv, tmp):
+                v.destroy()
+
+
+def _m_dot(M: Any, x: Any) -> float:
+    """xᵀ M x."""
+    y = M.createVecLeft()
+    M.mult(x, y)
+    out = float(x.dot(y))
+    y.destroy()
+    return out
+
+
 def locate(loc: _Locator, p0: Point, w0: np.ndarray, c0: int, p1: Point, c1: int,
            w1: np.ndarray) -> CriticalPoint:
     """Locate the critical point in the step from ``p0`` (count c0) to ``p1`` (count c1)."""
@@ -220,7 +319,7 @@ def locate(loc: _Locator, p0: Point, w0: np.ndarray, c0: int, p1: Point, c1: int
     crit = loc.crit
     L = loc.L
     fold = (p0.dkappa_ds >= 0) != (p1.dkappa_ds >= 0)
-    loc.start(w0, p0.kappa_L, p0.dkappa_ds)
+    loc.start(w0, p0.kappa_L, p0.dkappa_ds, None if fold else w1, p1.step, p1.kappa_L)
     nev = max(crit.nev, abs(c1 - c0) + 2)
     tl0 = loc.ar.tl
     lo = _Eval(0.0, p0.kappa_L, c0, tl0, math.nan)
@@ -376,6 +475,17 @@ def locate(loc: _Locator, p0: Point, w0: np.ndarray, c0: int, p1: Point, c1: int
         kind = "bifurcation"
     # mode at the trial point nearest the critical point (on the near side)
     near = lo if lo.sigma > 0 else hi
+    if interpolated is not None and hi.lam != lo.lam:
+        # the root was interpolated from eigenvalue samples: its nearest trial state may lie
+        # well away from it (a branch switch starts from the state); one trial at the root
+        s_star = lo.sigma + (lam_star - lo.lam) / (hi.lam - lo.lam) * (hi.sigma - lo.sigma)
+        try:
+            e_star, _ = loc.evaluate(s_star, nev)
+            evals += 1
+            if abs(e_star.lam - lam_star) < abs(near.lam - lam_star):
+                near = e_star
+        except RuntimeError:
+            pass
     e, vecs = loc.modes_at(near, nev)
     info = loc.problem.classify_mode(vecs[0], None) if vecs else None
     m, n = (info.m, info.n) if info else (None, None)
@@ -490,9 +600,44 @@ def _critical_directions(problem: Any, ar: _Arclength, mode: np.ndarray, k: int
     return dirs, [vals[i] for i in [first, *others[: k - 1]]]
 
 
+def _off_branch_direction(problem: Any, ns: NewtonSolver, ar: _Arclength, phi: Any) -> Any:
+    """φ made orthogonal (cw inner product) to the fundamental branch's state tangent z at the
+    current (critical) state, unit in the continuation norm. z = -J⁻¹ ∂R/∂λ with its
+    component along φ (M-orthogonal, M the mass of block None) removed: J is singular along
+    φ there, so that component of the solve is undetermined."""
+    z = phi.duplicate()
+    ns.factor()
+    ar.dres_dlambda()
+    ar.Fl.scale(-1.0)
+    ns.lin_solve(ar.Fl, z)
+    stab = Stability(problem)
+    try:
+        M = stab.mass(None)
+        z.axpy(-_m_inner(M, z, phi) / max(_m_dot(M, phi), 1e-300), phi)
+    finally:
+        stab.destroy()
+    out = phi.copy()
+    zz = z.dot(z)
+    if zz > 0 and math.isfinite(zz):
+        out.axpy(-phi.dot(z) / zz, z)
+    z.destroy()
+    out.scale(1.0 / math.sqrt(max(ar.cw * out.dot(out), 1e-300)))
+    return out
+
+
+def _m_inner(M: Any, x: Any, y: Any) -> float:
+    """xᵀ M y."""
+    t = M.createVecLeft()
+    M.mult(y, t)
+    out = float(x.dot(t))
+    t.destroy()
+    return out
+
+
 def _pinned_newton(ar: _Arclength, st: ContinuationSettings, lam: float, *, tw: Any, tl: float,
                    wp: Any, lam_p: float, pins: list[Any], wc: Any,
-                   max_dlam: float = math.inf) -> tuple[bool, int, float, np.ndarray]:
+                   max_dlam: float = math.inf, deflate: Any = None
+                   ) -> tuple[bool, int, float, np.ndarray]:
     """Newton on R(w, λ) + Σ_j s_j ψ_j = 0 with
     cw τ_w·(w - w_p) + τ_λ (λ - λ_p) = 0 (the step's hyperplane) and cw ψ_j·(w - w_c) = 0;
     unknowns w, λ and the multipliers s_j.
@@ -541,6 +686,8 @@ def _pinned_newton(ar: _Arclength, st: ContinuationSettings, lam: float, *, tw: 
                 pins[j].copy(rhs)
                 rhs.scale(-1.0)
                 ns.lin_solve(rhs, xs[j + 1])
+            if deflate is not None:
+                deflate(dw, *xs)
             # the constraints are linear: their rows in (δλ, δs_1 ...)
             w.copy(dev)
             dev.axpy(-1.0, wp)
@@ -587,7 +734,8 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
                   kappa_end: float, *, ds: float = 0.25, solver: NewtonSolver | None = None,
                   sign: float = 1.0, pinned: int | None = None,
                   factors: tuple[float, ...] = (1.0, 0.5, 0.25, 2.0),
-                  min_amplitude: float = 0.5) -> Iterator[Point]:
+                  min_amplitude: float = 0.5, release_pins: int | None = None,
+                  deflate: int = 0) -> Iterator[Point]:
     """Follow the branch that bifurcates at ``cp`` along its critical mode.
 
     1. The critical state w_c (``cp.state``) and its κ (least squares: the residual is affine
@@ -607,7 +755,11 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
        cw φ_0·(w - w_c), ``residual`` = ||R(w, λ)|| and ``residual_bound`` (the corrector's
        bound, ``ContinuationSettings``) and ``pin_force`` = ||Σ s_j ψ_j||. If the amplitude falls
        below ``min_amplitude`` times the first one (or changes sign), the branch has led back
-       to the fundamental branch and a RuntimeError is raised.
+       to the fundamental branch and a RuntimeError is raised. ``release_pins``: after that
+       many points the pins are dropped (below). ``deflate`` > 0: every corrector omits
+       dominant components along that many near-null eigenvectors of the Jacobian other than
+       the followed mode (``_Deflation``; for clusters of nearly simultaneous bifurcations,
+       the closed sphere's neighbouring degrees on the 1D model).
 
     Multiple eigenvalues (k > 1). On a shape of revolution every mode m ≥ 1 is a (cos mφ,
     sin mφ) pair and every direction of that plane gives the same branch up to a rotation about
@@ -663,19 +815,32 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
         k = max(1, cp.multiplicity if pinned is None else pinned)
         dirs, vals = _critical_directions(problem, ar, cp.mode, k)
         pins = dirs[1:]
+        defl_stab = Stability(problem) if deflate else None
+        defl = _Deflation(problem, defl_stab, deflate, keep=dirs[0]) if deflate else None
         log.info("switch: critical state at kappa L = %.6g, eigenvalues %s", lam_c,
                  ", ".join(f"{v:.3e}" for v in vals))
         st = replace(settings, max_newton_its=max(settings.max_newton_its, 30))
         sgn = 1.0 if sign >= 0 else -1.0
 
+        # the amplitude is measured along φ_0 made orthogonal (in the continuation norm's
+        # inner product) to the fundamental branch's tangent at w_c: the DOF inner product is
+        # not the physical one (the 1D model's unknowns carry no area weight), so φ_0 itself
+        # can overlap the fundamental branch's direction, whose own motion in κ would then
+        # meet the amplitude condition (measured: the 1D sphere's first corrector landed back
+        # on the fundamental branch 1 % below κ_c)
+        amp_dir = _off_branch_direction(problem, ns, ar, dirs[0])
+        pred = dirs[0].copy()
+        pred.scale(1.0 / (ar.cw * amp_dir.dot(dirs[0])))
+
         def amplitude() -> float:
             ar.w.copy(wp)
             wp.axpy(-1.0, wc)
-            return ar.cw * dirs[0].dot(wp)
+            return ar.cw * amp_dir.dot(wp)
 
         def point(index: int, its: int, step: float, tl: float, s: np.ndarray) -> Point:
             sc = problem.scalars()
             sc["mode_amplitude"] = amplitude()
+            sc["kappa_c"] = lam_c / L  # where the branch leaves the fundamental one
             wp.set(0.0)
             for j, pin in enumerate(pins):
                 wp.axpy(s[j], pin)
@@ -691,13 +856,13 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
         first = None
         for f in factors:
             a = sgn * ds * f
-            dirs[0].copy(tw)
+            amp_dir.copy(tw)
             wc.copy(wp)
-            wp.axpy(a, dirs[0])
+            wp.axpy(a, pred)
             wp.copy(ar.w)
             ar.sync()
             ok, its, lam, s = _pinned_newton(ar, st, lam_c, tw=tw, tl=0.0, wp=wp, lam_p=lam_c,
-                                             pins=pins, wc=wc, max_dlam=max_dlam)
+                                             pins=pins, wc=wc, max_dlam=max_dlam, deflate=defl)
             log.info("switch: amplitude %.4g: %s in %d its, kappa L = %.6g", a,
                      "converged" if ok else "failed", its, lam)
             if ok:
@@ -722,6 +887,7 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
             norm = math.sqrt(ar.cw * tw.dot(tw) + tl * tl)
             tw.scale(1.0 / norm)
             tl /= norm
+            jumps = 0
             while True:
                 lam_p = lam + ds_cur * tl
                 landing = (lam_p - lam_end) * direction >= 0 and tl * direction > 0
@@ -734,11 +900,11 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
                     wp.set(0.0)
                     ok, its, lam_new, s_new = _pinned_newton(
                         ar, st, lam_end, tw=wp, tl=1.0, wp=wp, lam_p=lam_end, pins=pins,
-                        wc=wc, max_dlam=max_dlam)
+                        wc=wc, max_dlam=max_dlam, deflate=defl)
                 else:
                     ok, its, lam_new, s_new = _pinned_newton(
                         ar, st, lam_p, tw=tw, tl=tl, wp=wp, lam_p=lam_p, pins=pins, wc=wc,
-                        max_dlam=max_dlam)
+                        max_dlam=max_dlam, deflate=defl)
                 step = frac * ds_cur
                 if ok and its <= settings.max_newton_its and not landing \
                         and (lam_new - lam_end) * direction > 0:
@@ -754,9 +920,14 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
                     step *= f
                     ok, its, lam_new, s_new = _pinned_newton(
                         ar, st, lam_end, tw=wp, tl=1.0, wp=wp, lam_p=lam_end, pins=pins,
-                        wc=wc, max_dlam=max_dlam)
+                        wc=wc, max_dlam=max_dlam, deflate=defl)
                 if ok and its <= settings.max_newton_its:
-                    break
+                    if amplitude() * a1 >= 0 or jumps >= 3:
+                        break
+                    # the corrector crossed the fundamental branch onto the other side of the
+                    # mode: a jump to another branch (a long step next to a cluster of
+                    # bifurcations), not the end of this one: a shorter step first
+                    jumps += 1
                 ds_cur *= 0.5
                 if ds_cur < st.ds_min:
                     w_last.copy(ar.w)
@@ -778,9 +949,15 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
             yield p
             if landing:
                 return
+            if release_pins is not None and index >= release_pins and pins:
+                pins, s = [], np.zeros(0)
             ds_cur = min(st.ds_max, max(st.ds_min, ds_cur * _growth(its, st.target_newton_its)))
     finally:
         for v in (wc, tw, wp, w_prev, w_last, *dirs):
             v.destroy()
+        for name in ("amp_dir", "pred", "defl_stab"):
+            obj = locals().get(name)
+            if obj is not None:
+                obj.destroy()
         if solver is None:
             ns.destroy()

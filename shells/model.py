@@ -338,7 +338,7 @@ class ShellModel(FormProblem):
         psi3 = self.assemble("psi3_integral") / area - float(mean_u @ mean_n)
         h = float(self.h.value)
         out["psi3_over_h"] = psi3 / h
-        out.update(self._apex())
+        out.update(self._apex(float(mean_u[2])))
         if "W_bulk" in self._scalar_forms:
             self._u_shift.value[:] = mean_u
             for k in ("W_bulk", "W_edge"):
@@ -346,11 +346,12 @@ class ShellModel(FormProblem):
                     out[k] = self.assemble(k)
         return out
 
-    def _apex(self) -> dict[str, float]:
-        """Apex displacement along z, free of rigid motion.
+    def _apex(self, mean_uz: float) -> dict[str, float]:
+        """Apex displacement along z, free of rigid motion, and the pole's normal displacement.
 
-        Closed surfaces: half the change of the pole-to-pole distance. Open shells: apex u_z
-        minus the mean u_z of the rim nodes.
+        ``apex_uz_over_h``: closed surfaces: half the change of the pole-to-pole distance; open
+        shells: apex u_z minus the mean u_z of the rim nodes. ``psi3_pole_over_h``: (u_z(pole) -
+        ū_z)/h with ū the mean displacement (the pole's normal is e_z), as the 1D model's.
         """
         from mpi4py import MPI
 
@@ -379,7 +380,8 @@ class ShellModel(FormProblem):
             s = comm.allreduce(float(arr[on_rim, 2].sum()), op=MPI.SUM)
             c = comm.allreduce(int(on_rim.sum()), op=MPI.SUM)
             disp = uz_top - (s / c if c else 0.0)
-        return {"apex_uz_over_h": disp / float(self.h.value)}
+        h = float(self.h.value)
+        return {"apex_uz_over_h": disp / h, "psi3_pole_over_h": (uz_top - mean_uz) / h}
 
     def set_everted_guess(self) -> None:
         """Set the state to the open shell mirrored through its rim plane (an isometry).

@@ -22,7 +22,10 @@ continue in λ = κ L with L = ``length_scale()``, and measure the state in unit
 dR/dκ vectors are zero on constrained (gauge) DOFs, the Jacobian has unit rows there. The
 stability blocks are symmetric matrices whose inertia decides stability: the Hessian itself
 (surface model) or its Fourier blocks H_m (axisymmetric model), with a mass matrix for the
-eigenproblem H v = μ M v; ``classify_mode`` names an eigenvector's mode (m, n).
+eigenproblem H v = μ M v; ``classify_mode`` names an eigenvector's mode (m, n). Block ``None``
+is always the Jacobian (the Hessian of the state's own unknowns): its eigenvectors live in the
+state's space, so branch switching follows them (on the axisymmetric model: the axisymmetric
+modes, the only ones it can follow past a bifurcation).
 """
 
 from __future__ import annotations

@@ -1,0 +1,366 @@
+"""Post-buckling branches: follow the fundamental branch to a bifurcation, switch, follow the
+bifurcated branch on both sides (driver layer, on the algorithm layer's ``follow`` and
+``switch_branch``; both models).
+
+``postbuckle(cfg)`` yields one record per computed point:
+
+1. the fundamental branch from κ = 0 by pseudo-arclength with the stability at every point, up
+   to its ``cfg.at``-th bifurcation, located to 1e-4 in κ (``branch`` = "fundamental");
+2. at the bifurcation, the critical mode: on the 1D model the axisymmetric (m = 0) mode of the
+   Jacobian (rotational symmetry enforced: the only branches the 1D model represents), on the
+   surface model the critical eigenvector of the Hessian (a split (cos mφ, sin mφ) pair's
+   partner is pinned: a phase condition, see ``shells.critical.switch_branch``);
+3. the bifurcated branch on both sides of the mode (amplitude +a and -a), by secant
+   pseudo-arclength, until κ leaves [``kappa_min_ratio`` κ_c, κ_max], after ``max_points``
+   points, or when the branch returns to the fundamental one (``branch`` = "bifurcated").
+
+Each bifurcated point carries ``side`` (+1/-1, the sign of the first amplitude), ``start``
+("down" or "up": where κ goes from κ_c on that side) and ``subcritical`` (it goes back against
+the loading, towards smaller |κ|): a transcritical (asymmetric) bifurcation, as the closed
+sphere's, has one side of each; a pitchfork two alike.
+
+Stability at every point: the negative count of the full Hessian (``negative_count``; on the 1D
+model Σ_m (1 or 2) N_m over m = 0..m_max, each m ≥ 1 counted for its cos and sin members, with
+the per-mode counts in ``negative_counts`` and the axisymmetric count N_axi of the Jacobian).
+
+Stationary records: every point is appended to ``DIR/postbuckle.jsonl`` as it is computed
+(header first). A rerun with the same configuration whose file ended with its summary record
+reuses the file; an incomplete one is recomputed from κ = 0 (the 1D model takes seconds).
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+import os
+from collections.abc import Iterator
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from shells.errors import InputError
+from shells.geometry import Shape
+
+__all__ = ["PostbuckleConfig", "postbuckle", "read_postbuckle", "run_postbuckle"]
+
+log = logging.getLogger("shells")
+
+
+@dataclass(frozen=True)
+class PostbuckleConfig:
+    """One post-buckling run.
+
+    Attributes:
+        shape: the shell (``shells.geometry``).
+        h_over_r: thickness over the shape's length scale L.
+        nu: Poisson ratio.
+        model: "axisym" (1D; axisymmetric branches only) or "surface" (2D).
+        direction: "up" (κ > 0) or "down" (κ < 0).
+        at: follow the branch from the ``at``-th bifurcation of the fundamental branch.
+        kappa_end: end of the range (signed κ, absolute); None: ``theory.default_kappa_range``.
+        kappa_min_ratio: bifurcated branches end where κ/κ_c falls below this.
+        max_points: at most this many points per side of the bifurcated branch.
+        amplitude: first mode amplitude (RMS in thicknesses) of the bifurcated branch.
+        cells, size, layer_elements, degree: discretisation of the 1D / surface model (None:
+            the model's defaults; the surface model: size 0.2, 3 layer elements, P2).
+        penalty: the 1D model's C1 penalty (None: 1e6 on closed shells, else its default).
+    """
+
+    shape: Shape
+    h_over_r: float
+    nu: float = 0.5
+    model: str = "axisym"
+    direction: str = "up"
+    at: int = 1
+    kappa_end: float | None = None
+    kappa_min_ratio: float = 0.5
+    max_points: int = 60
+    amplitude: float = 0.25
+    cells: int | None = None
+    penalty: float | None = None
+    size: float = 0.2
+    layer_elements: float = 3.0
+    degree: int = 2
+
+    def __post_init__(self) -> None:
+        if self.model not in ("axisym", "surface"):
+            raise InputError(f"model must be axisym or surface, got {self.model!r}")
+        if self.direction not in ("up", "down"):
+            raise InputError(f"direction must be up or down, got {self.direction!r}")
+        if not (isinstance(self.at, int) and 1 <= self.at <= 50):
+            raise InputError(f"--at must be an integer in [1, 50], got {self.at!r}")
+        if not (math.isfinite(self.h_over_r) and 0 < self.h_over_r < 1):
+            raise InputError(f"h/R must lie in (0, 1), got {self.h_over_r!r}")
+        if not (0 <= self.kappa_min_ratio < 1):
+            raise InputError(f"kappa_min_ratio must lie in [0, 1), got {self.kappa_min_ratio}")
+        if not (isinstance(self.max_points, int) and 1 <= self.max_points <= 100000):
+            raise InputError(f"max_points must be a positive integer, got {self.max_points!r}")
+        if not (math.isfinite(self.amplitude) and self.amplitude > 0):
+            raise InputError(f"amplitude must be positive, got {self.amplitude!r}")
+        sign = 1.0 if self.direction == "up" else -1.0
+        if self.kappa_end is not None and not (math.isfinite(self.kappa_end)
+                                               and self.kappa_end * sign > 0):
+            raise InputError("the end of the kappa range must be a nonzero number of the sign "
+                             "of --direction")
+
+    @property
+    def L(self) -> float:  # noqa: N802
+        return self.shape.characteristic_size()
+
+    @property
+    def h(self) -> float:
+        return self.h_over_r * self.L
+
+    @property
+    def R(self) -> float:  # noqa: N802
+        """The length of κR: the pole radius R (the disk's radius)."""
+        return self.shape.R if math.isfinite(self.shape.R) else self.L
+
+    @property
+    def kappa_stop(self) -> float:
+        from shells.theory import default_kappa_range
+
+        if self.kappa_end is not None:
+            return self.kappa_end
+        return default_kappa_range(self.shape, self.h_over_r, self.nu, self.direction)
+
+    def describe(self) -> dict[str, Any]:
+        d = asdict(self)
+        d["shape"] = self.shape.describe()
+        return d
+
+
+DEFLATE = int(os.environ.get("SHELLS_DEFLATE", "4"))
+
+
+class _Run:
+    """The model, its solvers and the record maker of a run."""
+
+    def __init__(self, cfg: PostbuckleConfig) -> None:
+        from mpi4py import MPI
+
+        from shells.solvers import NewtonSolver
+        from shells.stability import Stability
+
+        self.cfg = cfg
+        if cfg.model == "axisym":
+            from shells.axisym import SNES_OPTIONS, AxisymModel, RunConfig
+
+            # the C1 penalty ties the slopes to the displacement only to O(1/penalty): on a
+            # closed sphere that is a pole-localised, mirror-symmetric imperfection (measured:
+            # Legendre content 3.6e-6 h at κh = 1, h/R = 0.01, for penalty 1e4, exactly 10x less
+            # per decade of penalty, independent of the mesh), which the near-critical even
+            # degrees amplify into a fold 2e-4 before κ_b: 1e6 makes it 100x smaller
+            penalty = cfg.penalty if cfg.penalty is not None else (
+                1.0e6 if cfg.shape.closed else 1.0e4)
+            rc = RunConfig(shape=cfg.shape, h_over_r=cfg.h_over_r, nu=cfg.nu,
+                           direction=cfg.direction, cells=cfg.cells, penalty=penalty)
+            self.model: Any = AxisymModel(cfg.shape, rc.params())
+            self.model.modes = tuple(rc.modes)
+            self.ns = NewtonSolver(self.model, options=SNES_OPTIONS)
+        else:
+            from shells.mesh import MeshSpec, generate
+            from shells.model import ModelParameters, ShellModel
+
+            sm = generate(MeshSpec(cfg.shape, h=cfg.h, size=cfg.size,
+                                   layer_elements=cfg.layer_elements), MPI.COMM_WORLD)
+            self.model = ShellModel(sm, ModelParameters(h=cfg.h, nu=cfg.nu, degree=cfg.degree,
+                                                        quadrature_degree=2 * cfg.degree))
+            self.ns = NewtonSolver(self.model)
+        self.stab = Stability(self.model)
+
+    def stability(self) -> dict[str, Any]:
+        if self.cfg.model == "surface":
+            n = self.stab.negative_count(None)
+            return {"stable": n == 0, "negative_count": n}
+        counts = self.stab.negative_counts()
+        total = sum(c if m == 0 else 2 * c for m, c in counts.items())
+        return {"stable": total == 0, "negative_count": total,
+                "negative_counts": [counts[m] for m in sorted(counts)],
+                "negative_count_axisymmetric": self.stab.negative_count(None)}
+
+    def record(self, p: Any, branch: str, **extra: Any) -> dict[str, Any]:
+        d = p.as_dict()
+        d.update(branch=branch, kappa_R=p.kappa * self.cfg.R, kappa_h=p.kappa * self.cfg.h,
+                 **self.stability())
+        d.setdefault("mode_amplitude", 0.0)
+        d.update(extra)
+        return d
+
+    def destroy(self) -> None:
+        self.stab.destroy()
+        self.ns.destroy()
+
+
+def _settings(cfg: PostbuckleConfig, kappa_stop: float) -> tuple[Any, Any]:
+    from shells.continuation import ContinuationSettings
+    from shells.critical import CriticalSettings
+
+    lam = abs(kappa_stop) * cfg.L
+    closed = cfg.shape.closed
+    # a closed sphere's axisymmetric modes of neighbouring degrees bifurcate within 1e-4 in κ:
+    # short steps, and the locator's corrector deflates the near-null modes (else it lands on
+    # the branches bifurcating close by; measured: 2e-4 low at 1/6 of the range per step)
+    frac = 1.0 / 80 if closed else 1.0 / 40
+    st = ContinuationSettings(ds=frac * lam, ds_max=frac * lam, ds_min=1e-8 * lam,
+                              ds_unit="kappa", newton_tol=1e-8)
+    crit = CriticalSettings(stop_at_fold=True, deflate=4 if cfg.model == "axisym" else 0)
+    return st, crit
+
+
+def postbuckle(cfg: PostbuckleConfig) -> Iterator[dict[str, Any]]:
+    """Compute the run of ``cfg``; yields its records in order (see the module docstring):
+    fundamental points, then {"critical_point": {...}} once, then the bifurcated points, then
+    {"summary": {...}} last.
+
+    Raises:
+        InputError: bad configuration, or a first critical point the model cannot switch at
+            (a fold before the bifurcation; a non-axisymmetric bifurcation on the 1D model).
+        RuntimeError: the continuation stopped short of the range, or switching failed.
+    """
+    from shells.continuation import ContinuationSettings
+    from shells.critical import follow, switch_branch
+
+    run = _Run(cfg)
+    kappa_stop = cfg.kappa_stop
+    st, crit = _settings(cfg, kappa_stop)
+    try:
+        bifs = []
+        cp = None
+        for p, _, found in follow(run.model, st, kappa_stop, crit, solver=run.ns):
+            rec = run.record(p, "fundamental")
+            for c in found:
+                if c.kind == "fold":
+                    raise InputError(f"the fundamental branch reaches a fold at kappa R = "
+                                     f"{c.kappa * cfg.R:.6g} before bifurcation {cfg.at}: "
+                                     "nothing to switch to (shells critical shows the fold)")
+                bifs.append(c)
+            if cfg.model == "axisym" and any(rec["negative_counts"][1:]) and not bifs:
+                ms = [m for m, c in enumerate(rec["negative_counts"]) if c and m > 0]
+                raise InputError(
+                    f"the fundamental branch loses stability to the non-axisymmetric mode(s) "
+                    f"m = {ms} by kappa R = {rec['kappa_R']:.5g}: the 1D model follows "
+                    "axisymmetric branches only; use --model surface")
+            yield rec
+            if len(bifs) >= cfg.at:
+                cp = bifs[cfg.at - 1]
+                break
+        if cp is None:
+            raise RuntimeError(f"no bifurcation {cfg.at} on the fundamental branch up to "
+                               f"kappa R = {kappa_stop * cfg.R:.6g}")
+        cpd = {"kind": cp.kind, "kappa": cp.kappa, "kappa_R": cp.kappa * cfg.R,
+               "kappa_h": cp.kappa * cfg.h, "mode_m": cp.mode_m, "mode_n": cp.mode_n,
+               "multiplicity": cp.multiplicity, "accuracy": cp.accuracy,
+               "kappa_R_bracket": [cp.kappa_lo * cfg.R, cp.kappa_hi * cfg.R]}
+        log.info("postbuckle: bifurcation at kappa R = %.6f (kappa h = %.6f), m = %s, n = %s",
+                 cpd["kappa_R"], cpd["kappa_h"], cp.mode_m, cp.mode_n)
+        yield {"critical_point": cpd}
+        lam_c = abs(cp.kappa_L)
+        sst = ContinuationSettings(ds=cfg.amplitude, ds_max=max(4 * cfg.amplitude, 0.01 * lam_c),
+                                   ds_min=1e-6 * cfg.amplitude, target_newton_its=5,
+                                   max_steps=cfg.max_points)
+        k_lo, k_hi = sorted((cfg.kappa_min_ratio * cp.kappa, kappa_stop))
+        # the 1D model follows its one axisymmetric mode without pins: the modes of the
+        # neighbouring degrees that cross next to it are other branches, not an orbit of
+        # symmetry, and a localised dimple holds every degree (pinning them fails at large
+        # amplitude, measured). The surface model pins the partner of a split pair (the
+        # pattern's orientation), see switch_branch
+        pinned = 1 if cfg.model == "axisym" else None
+        deflate = DEFLATE if cfg.model == "axisym" else 0
+        sides = {}
+        for side in (1.0, -1.0):
+            n, first, ended = 0, None, "range"
+            try:
+                for p in switch_branch(run.model, cp, sst, cfg.kappa_min_ratio * cp.kappa,
+                                       ds=cfg.amplitude, solver=run.ns, sign=side,
+                                       pinned=pinned, min_amplitude=0.1, deflate=deflate):
+                    if first is None:
+                        first = p.kappa
+                    start = "down" if abs(first) < abs(cp.kappa) else "up"
+                    rec = run.record(p, "bifurcated", side=int(side), start=start,
+                                     subcritical=start == "down")
+                    n += 1
+                    yield rec
+                    if not (k_lo <= p.kappa <= k_hi) or n >= cfg.max_points:
+                        ended = "range" if n < cfg.max_points else "max_points"
+                        break
+            except RuntimeError as e:
+                if "back on the fundamental branch" not in str(e):
+                    raise
+                ended = "returned to the fundamental branch"
+            sides[int(side)] = {"points": n, "ended": ended,
+                                "start": None if first is None else (
+                                    "down" if abs(first) < abs(cp.kappa) else "up")}
+            log.info("postbuckle: side %+d: %d points, %s", side, n, ended)
+        yield {"summary": {"sides": sides, "dofs": run.model.num_dofs()}}
+    finally:
+        run.destroy()
+
+
+def _append(path: Path, rec: dict[str, Any]) -> None:
+    """One whole line per write(2) on an O_APPEND descriptor, then fsync: a crash leaves whole
+    lines only."""
+    line = (json.dumps(rec, default=_json_default) + "\n").encode()
+    fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
+    try:
+        os.write(fd, line)
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def _json_default(o: Any) -> Any:
+    if isinstance(o, np.generic):
+        return o.item()
+    raise TypeError(f"not JSON serialisable: {type(o).__name__}")
+
+
+def read_postbuckle(path: str | os.PathLike) -> tuple[dict[str, Any], list[dict[str, Any]]]:
+    """Header and records of a post-buckling file (a torn last line is ignored)."""
+    header: dict[str, Any] = {}
+    recs: list[dict[str, Any]] = []
+    with open(path) as f:
+        for line in f:
+            try:
+                rec = json.loads(line)
+            except json.JSONDecodeError:
+                break
+            if "header" in rec:
+                header = rec["header"]
+            else:
+                recs.append(rec)
+    return header, recs
+
+
+def run_postbuckle(cfg: PostbuckleConfig, outdir: str | os.PathLike | None = None,
+                   comm: Any = None) -> list[dict[str, Any]]:
+    """``postbuckle`` with its records appended to ``outdir/postbuckle.jsonl`` (rank 0) as
+    they are computed; a complete file of the same configuration is reused."""
+    from mpi4py import MPI
+
+    comm = MPI.COMM_WORLD if comm is None else comm
+    header = cfg.describe()
+    path = Path(outdir) / "postbuckle.jsonl" if outdir is not None else None
+    if path is not None:
+        old = None
+        if comm.rank == 0 and path.exists():
+            old = read_postbuckle(path)
+        old = comm.bcast(old, root=0)
+        if old is not None and old[0] == header and old[1] and "summary" in old[1][-1]:
+            log.info("postbuckle: reusing the complete run in %s", path)
+            return old[1]
+        if comm.rank == 0:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            tmp = path.with_suffix(".jsonl.tmp")
+            tmp.write_text(json.dumps({"header": header}) + "\n")
+            os.replace(tmp, path)
+    recs = []
+    for rec in postbuckle(cfg):
+        recs.append(rec)
+        if path is not None and comm.rank == 0:
+            _append(path, rec)
+    return recs
+

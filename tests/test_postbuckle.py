@@ -1,0 +1,76 @@
+"""Post-buckling of the closed sphere on the 1D model (shells.postbuckle): the fundamental branch
+against the paper's Ψ3/h = -(κh/12)/(1 + (h/R)²/12), the axisymmetric bifurcation located by the
+common algorithm layer against the 1D model's own per-mode locator, and the subcritical branch
+switched onto there (the paper's Fig. 3: κ falls as the pole dimples inwards).
+
+The 1D problem runs on MPI.COMM_SELF on every rank: every rank computes and asserts the same.
+"""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from shells import axisym
+from shells.geometry import Sphere
+from shells.postbuckle import PostbuckleConfig, postbuckle
+from shells.theory import sphere_psi3_linear
+
+H = 0.01
+
+
+@pytest.fixture(scope="module")
+def sphere_run():
+    recs = list(postbuckle(PostbuckleConfig(Sphere(1.0), H, max_points=10)))
+    fund = [r for r in recs if r.get("branch") == "fundamental"]
+    cp = next(r["critical_point"] for r in recs if "critical_point" in r)
+    down = [r for r in recs if r.get("branch") == "bifurcated" and r["side"] == -1]
+    up = [r for r in recs if r.get("branch") == "bifurcated" and r["side"] == 1]
+    summary = recs[-1]["summary"]
+    return fund, cp, down, up, summary
+
+
+def test_fundamental_branch_follows_the_linear_law(sphere_run):
+    fund, cp, *_ = sphere_run
+    kb = cp["kappa"]
+    checked = [r for r in fund if 0 < r["kappa"] <= 0.95 * kb]
+    assert len(checked) >= 20
+    for r in checked:
+        assert r["psi3_pole_over_h"] == pytest.approx(sphere_psi3_linear(r["kappa_h"], H),
+                                                      rel=5e-3)
+        assert r["stable"] and r["negative_count"] == 0
+
+
+def test_bifurcation_located_and_agrees_with_the_per_mode_locator(sphere_run):
+    _, cp, *_ = sphere_run
+    assert cp["kind"] == "bifurcation" and cp["mode_m"] == 0
+    assert cp["accuracy"] < 1e-4
+    # the same model (penalty 1e6, as the driver uses on closed shells), its own locator
+    # (bisection on the per-mode inertia along chord-parametrised steps)
+    ref = axisym.critical(Sphere(1.0), H, 0.5, penalty=1.0e6)
+    assert cp["kappa_h"] == pytest.approx(ref["kappa_h"], rel=1e-4)
+    # the degree: 19 or 20 (the two cross 1e-4 apart; sphere_mode_n = 19.4)
+    assert abs(cp["mode_n"] - axisym.sphere_mode_n(H, 0.5)) < 1.0
+
+
+def test_subcritical_branch_starts_at_kappa_b_and_goes_down(sphere_run):
+    fund, cp, down, _, summary = sphere_run
+    assert len(down) == 10
+    kc = cp["kappa"]
+    for r in down:
+        assert r["kappa_c"] == pytest.approx(kc, rel=1e-4)  # leaves the fundamental at κ_b
+    assert down[0]["start"] == "down" and down[0]["subcritical"]
+    kappas = [r["kappa"] for r in down]
+    assert kappas[0] < kc and all(b < a for a, b in zip(kappas, kappas[1:], strict=False))
+    # the pole dimples inwards, ever deeper
+    poles = [r["psi3_pole_over_h"] for r in down]
+    assert all(b < a for a, b in zip(poles, poles[1:], strict=False)) and poles[-1] < -1.0
+    # exactly one more negative axisymmetric (m = 0) eigenvalue than the fundamental branch had
+    n_fund = fund[-2]["negative_count_axisymmetric"]  # the last point before κ_b
+    assert fund[-2]["kappa"] < kc and n_fund == 0
+    for r in down:
+        if r["kappa"] > 0.95 * kc:
+            assert r["negative_count_axisymmetric"] == n_fund + 1
+            assert r["negative_counts"][0] == n_fund + 1
+    assert summary["sides"][-1]["points"] == len(down)

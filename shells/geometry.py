@@ -34,6 +34,20 @@ def _positive(name: str, value: float) -> None:
         raise InputError(f"{name} must be a positive number, got {value!r}")
 
 
+#: Smallest half opening angle of a cap (degrees). Below it a cap is degenerate for the mesher:
+#: ``shells.mesh`` tells the cap's surface from the flat base of its OCC ball sector by the
+#: height of its bounding box, flat meaning < 1e-6 R, and a cap's height is its sagitta
+#: R (1 - cos theta), which falls below 1e-6 R at theta = 0.081 deg (measured: 0.05 deg fails
+#: with an IndexError in gmsh, 0.09 deg meshes); 0.1 deg (sagitta 1.5e-6 R) keeps a margin.
+#: The plate limit (theta-bar = theta / sqrt(h/R) -> 0) stays reachable: at h/R = 0.01, 0.1 deg
+#: is theta-bar = 0.017. Every cap in tests/, benchmarks/ and demos/ has theta >= 2 deg.
+THETA_MIN_DEG = 0.1
+#: A cap with theta > 180 - THETA_MIN_DEG is refused as a "cap" (``make_shape``): it is a closed
+#: sphere with a pinhole of radius < 1.7e-3 R, smaller than the boundary layer sqrt(R h) of any
+#: h/R > 3e-6, and the paper's cap laws (the default kappa range) diverge at theta = 180 deg.
+CAP_THETA_MAX_DEG = 180.0 - THETA_MIN_DEG
+
+
 def _check_theta(theta: float) -> None:
     if not (isinstance(theta, (int, float)) and math.isfinite(theta)):
         raise InputError(f"theta must be a number, got {theta!r}")
@@ -41,6 +55,12 @@ def _check_theta(theta: float) -> None:
         raise InputError(
             f"theta must lie in (0, pi] (0 to 180 degrees), got {theta:.6g} rad "
             f"= {math.degrees(theta):.6g} deg"
+        )
+    if theta < math.radians(THETA_MIN_DEG) * (1 - 1e-12):
+        raise InputError(
+            f"theta = {math.degrees(theta):.6g} deg is too small: a cap needs theta >= "
+            f"{THETA_MIN_DEG:g} deg (below it the cap is numerically flat; for the plate limit "
+            "use the disk shape)"
         )
 
 
@@ -330,6 +350,11 @@ def make_shape(kind: str, *, radius: float = 1.0, theta: float | None = None,
     if kind == "cap":
         if theta is None:
             raise InputError("the cap shape needs an opening angle (--theta-deg)")
+        if isinstance(theta, (int, float)) and math.isfinite(theta) \
+                and math.radians(CAP_THETA_MAX_DEG) < theta <= math.pi * (1 + 1e-12):
+            raise InputError(
+                f"a cap of theta = {math.degrees(theta):.6g} deg is a closed sphere (a cap needs "
+                f"theta <= {CAP_THETA_MAX_DEG:g} deg): use the sphere shape (--shape sphere)")
         return SphericalCap(radius=radius, theta=theta)
     if kind == "ellipsoid":
         return EllipsoidalCap(radius=radius, r3=1.5 * radius if r3 is None else r3,

@@ -30,7 +30,8 @@ if TYPE_CHECKING:
     import dolfinx.mesh
     from mpi4py import MPI
 
-__all__ = ["MeshSpec", "ShellMesh", "generate", "write_msh", "load_mesh", "SURFACE_TAG", "RIM_TAG"]
+__all__ = ["MeshSpec", "ShellMesh", "generate", "write_msh", "load_mesh", "SURFACE_TAG", "RIM_TAG",
+           "estimate_cells", "check_mesh_size"]
 
 SURFACE_TAG = 1
 RIM_TAG = 1
@@ -286,16 +287,104 @@ def _build_model(gmsh: Any, spec: MeshSpec) -> None:
         gmsh.model.mesh.setOrder(spec.order)
 
 
+# --------------------------------------------------------------------------------------------
+# cell-count and memory estimate, checked before meshing
+# --------------------------------------------------------------------------------------------
+#: Triangles per unit area at element size s: 2.5 / s^2. An equilateral triangle of side s has
+#: area (sqrt 3 / 4) s^2, i.e. 2.31 / s^2; gmsh's frontal-Delaunay meshes (algorithm 6) of the
+#: 30-degree cap have 2.37 / s^2 (size 0.01: 19 919 cells, size 0.0018: 609 094). With the rim
+#: layer (caps of 30 and 150 deg, h/R 1e-2 to 1e-4, sphere, disk, ellipsoids) the estimate was
+#: 0.95 to 1.22 times the count (tests/test_validation.py checks two of them).
+CELLS_PER_SIZE2 = 2.5
+#: Peak resident memory of ``shells mesh`` per cell, bytes. Measured (peak RSS of
+#: ``shells mesh cap --theta-deg 30 --size S``, order 2, one process; RSS of the imports alone
+#: 205 MB): S = 0.005: 79 229 cells, 295 MB; 0.0025: 315 099 cells, 620 MB (655 MB with -o, the
+#: file written and read back); 0.0018: 609 094 cells, 1112 MB. Marginal cost 1.67 kB per
+#: cell, 1.43-1.52 kB on average; on 2 ranks (0.0025) 577 + 250 MB. 2048 B is conservative.
+MESH_BYTES_PER_CELL = 2048
+#: Resident memory of one process before meshing (dolfinx, gmsh, PETSc imported): 205 MB
+#: measured, rounded up.
+PROCESS_BASE_BYTES = 256 * 2**20
+
+
+def estimate_cells(spec: MeshSpec) -> float:
+    """An upper estimate of the number of triangles gmsh makes for ``spec`` (from the size field
+    of ``_set_sizes``: bulk size, the rim band at the layer size, the graded transition)."""
+    shape = spec.shape
+    L = shape.characteristic_size()
+    area = shape.area() / L**2  # in units of L: no overflow for any radius
+    s_b = spec.bulk_size / L
+    s_l = spec.layer_size / L
+    c = CELLS_PER_SIZE2
+    bulk = c * area / s_b**2
+    w = spec.layer_width
+    rim = 0.0 if shape.closed else shape.rim_length() / L
+    if w is None or rim <= 0 or s_l >= s_b:
+        return bulk
+    band = spec.layer_widths * w / L  # DistMin: the band at the layer size
+    grow = (s_b - s_l) / 0.2  # DistMax - DistMin: size linear from s_l to s_b over it
+    layer = c * rim * band / s_l**2
+    graded = c * rim * grow / (s_l * s_b)  # integral of 1/s(x)^2 across the transition
+    return min(bulk + layer + graded, c * area / s_l**2)
+
+
+def _memory_limit() -> int | None:
+    """Bytes of memory this machine (or the cgroup it runs in, if smaller) can hold."""
+    limit = None
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemTotal:"):
+                    limit = int(line.split()[1]) * 1024
+                    break
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        with open("/sys/fs/cgroup/memory.max") as f:
+            v = f.read().strip()
+        if v.isdigit():
+            limit = int(v) if limit is None else min(limit, int(v))
+    except OSError:
+        pass
+    return limit
+
+
+def check_mesh_size(spec: MeshSpec, comm: MPI.Comm | None = None) -> float:
+    """Refuse (InputError, on every rank of ``comm``) a mesh whose estimated memory, over all
+    ranks, exceeds the machine's memory; returns the estimated number of cells."""
+    from mpi4py import MPI as _MPI
+
+    comm = _MPI.COMM_WORLD if comm is None else comm
+    err = None
+    cells = 0.0
+    if comm.rank == 0:
+        cells = estimate_cells(spec)
+        need = comm.size * PROCESS_BASE_BYTES + cells * MESH_BYTES_PER_CELL
+        limit = _memory_limit()
+        if not math.isfinite(cells) or (limit is not None and need > limit):
+            err = (f"the mesh would have about {cells:.3g} cells and need about "
+                   f"{need / 2**30:.3g} GiB, more than this machine's "
+                   f"{(limit or 0) / 2**30:.3g} GiB of memory: use a larger --size (now "
+                   f"{spec.size:g}) or fewer --layer-elements (now {spec.layer_elements:g})")
+    if comm.size > 1:
+        err, cells = comm.bcast((err, cells), root=0)
+    if err:
+        raise InputError(err)
+    return cells
+
+
 def generate(spec: MeshSpec, comm: MPI.Comm | None = None, msh_path: str | os.PathLike | None = None
              ) -> ShellMesh:
     """Mesh ``spec`` with gmsh on rank 0 of ``comm`` and distribute it over ``comm``.
 
-    If ``msh_path`` is given, rank 0 also writes the gmsh file and its JSON sidecar.
+    If ``msh_path`` is given, rank 0 also writes the gmsh file and its JSON sidecar. A mesh too
+    large for the machine's memory is refused first (``check_mesh_size``).
     """
     from dolfinx.io import gmshio
     from mpi4py import MPI as _MPI
 
     comm = _MPI.COMM_WORLD if comm is None else comm
+    check_mesh_size(spec, comm)
     with _gmsh_model(f"shells-{spec.shape.kind}") as gmsh:
         if comm.rank == 0:
             _build_model(gmsh, spec)
@@ -322,6 +411,7 @@ def write_msh(spec: MeshSpec, path: str | os.PathLike, comm: MPI.Comm | None = N
     from mpi4py import MPI as _MPI
 
     comm = _MPI.COMM_WORLD if comm is None else comm
+    check_mesh_size(spec, comm)
     err = None
     if comm.rank == 0:
         try:

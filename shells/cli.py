@@ -15,7 +15,7 @@ import sys
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from shells import __version__
+from shells import __version__, paths
 from shells.errors import InputError
 
 __all__ = ["main"]
@@ -129,7 +129,7 @@ def _shape_from_args(args: argparse.Namespace):
 def _cmd_mesh(args: argparse.Namespace) -> int:
     from mpi4py import MPI
 
-    from shells.mesh import MeshSpec, generate, load_mesh
+    from shells.mesh import MeshSpec, check_mesh_size, generate, load_mesh
 
     if args.spec is not None:
         spec = _load_spec(args.spec)
@@ -142,6 +142,7 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
                         order=args.order)
     if args.output is not None and not str(args.output).endswith(".msh"):
         raise InputError(f"-o must name a gmsh .msh file, got {args.output!r}")
+    check_mesh_size(spec)  # before the log line: a refused mesh is one line on stderr
     log.info("meshing %s ...", spec.shape.describe())
     sm = generate(spec, MPI.COMM_WORLD, msh_path=args.output)
     if args.output is not None:
@@ -242,6 +243,9 @@ def _cmd_branch(args: argparse.Namespace) -> int:
                        shear_penalty=args.shear_penalty, continuation=cont)
     outdir = args.output or "results/branch"
     from shells.branch import read_branch
+    from shells.mesh import check_mesh_size
+
+    check_mesh_size(cfg.mesh_spec())  # before run_branch creates its folder
 
     points = list(run_branch(cfg, outdir, fields=args.fields, resume=not args.restart))
     header, _ = read_branch(f"{outdir}/branch.jsonl")
@@ -592,6 +596,79 @@ def _build_parser() -> argparse.ArgumentParser:
     return p
 
 
+# --------------------------------------------------------------------------------------------
+# argument validation before any work: ranges common to the subcommands, every path argument
+# --------------------------------------------------------------------------------------------
+#: Largest h/R (h over the shape's length scale) accepted. The model is Koiter's thin-shell
+#: energy (bending h^3/12, no transverse shear or thickness change), an expansion in h/R: at
+#: h/R = 0.5 the faces lie at 0.75 R and 1.25 R and the expansion has no meaning any more. The
+#: thickest shells in tests/ and benchmarks/ have h/R = 0.05.
+H_OVER_R_MAX = 0.5
+
+#: Path arguments per subcommand: (attribute, label, kind, value used when the attribute is
+#: None). Kinds: "in" (a file read), "msh"/"png" (a file written, with that suffix), "dir" (an
+#: output folder). Every one is checked by ``shells.paths`` before the subcommand starts.
+_PATH_ARGS: dict[str, list[tuple[str, str, str, str | None]]] = {
+    "mesh": [("spec", "--spec", "in", None), ("output", "-o", "msh", None),
+             ("png", "--png", "png", None)],
+    "info": [("mesh", "mesh file", "in", None)],
+    "render": [("mesh", "mesh file", "in", None), ("output", "-o", "png", None)],
+    "branch": [("output", "-o", "dir", "results/branch")],
+    "critical": [("output", "-o", "dir", None)],
+    "phase-diagram": [("output", "-o", "dir", None)],
+}
+
+
+def _check_ranges(args: argparse.Namespace) -> None:
+    """Ranges shared by several subcommands (h/R; the phase diagram's smallest cap)."""
+    from shells.geometry import THETA_MIN_DEG
+
+    hs = getattr(args, "h_over_r", None)
+    if hs is None:
+        return
+    for h in hs if isinstance(hs, list) else [hs]:
+        if not (math.isfinite(h) and 0 < h <= H_OVER_R_MAX):
+            raise InputError(f"--h-over-r must lie in (0, {H_OVER_R_MAX:g}] (a thin shell), "
+                             f"got {h:g}")
+    rng = getattr(args, "thetabar_range", None)
+    if args.command == "phase-diagram" and rng and all(math.isfinite(v) for v in rng):
+        theta_deg = math.degrees(min(rng) * math.sqrt(min(hs)))
+        if theta_deg < THETA_MIN_DEG:
+            raise InputError(f"theta-bar {min(rng):g} at h/R = {min(hs):g} is a cap of theta = "
+                             f"{theta_deg:.3g} deg, below the {THETA_MIN_DEG:g} deg minimum")
+
+
+def _check_paths(args: argparse.Namespace) -> None:
+    """Every path argument of the subcommand (``_PATH_ARGS``), checked on rank 0; the verdict is
+    broadcast so that all ranks stop (or go on) together."""
+    from mpi4py import MPI
+
+    specs = _PATH_ARGS.get(args.command, [])
+    comm = MPI.COMM_WORLD
+    err = None
+    if comm.rank == 0:
+        try:
+            for attr, label, kind, default in specs:
+                value = getattr(args, attr, None)
+                value = default if value is None else value
+                if value is None:
+                    continue
+                if kind == "in":
+                    paths.check_input_file(value, label)
+                elif kind == "dir":
+                    paths.check_output_dir(value, label)
+                else:
+                    paths.check_output_file(value, label, suffixes=(f".{kind}",))
+        except InputError as e:
+            err = str(e)
+        except Exception as e:  # never leave the other ranks waiting in the broadcast
+            err = f"cannot check the paths: {type(e).__name__}: {e}"
+    if comm.size > 1:
+        err = comm.bcast(err, root=0)
+    if err:
+        raise InputError(err)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; returns the exit status (0 ok, 2 bad input, 1 failure)."""
     argv = list(sys.argv[1:] if argv is None else argv)
@@ -603,6 +680,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             if _rank() == 0:
                 parser.print_help()
             return 0
+        _check_ranges(args)
+        _check_paths(args)
         return int(args.func(args) or 0)
     except InputError as e:
         msg = str(e)

@@ -97,6 +97,29 @@ def _positive_float(name: str) -> Callable[[str], float]:
     return conv
 
 
+#: Accepted --radius (and --r3 up to the upper bound). Every result is dimensionless (kappa R,
+#: kappa h, h/R): the radius only sets the unit. The mesher's test that drops a cap's flat base
+#: (height < 1e-6 R, shells.mesh) fails against OCC's absolute bounding-box slack (~2e-7) below
+#: R = 0.25 (measured: R = 0.2 and 0.1 mesh a closed lens, twice the area, no rim; 0.25 and 0.3
+#: are right), and R = 1e200 fails in OCC ("Could not fix wire"); 1e6 .. 1e20 mesh correctly.
+RADIUS_RANGE = (0.5, 1.0e6)
+
+
+def _length(name: str, lo: float | None) -> Callable[[str], float]:
+    """A length in [lo, RADIUS_RANGE[1]] (lo None: any positive value)."""
+    hi = RADIUS_RANGE[1]
+
+    def conv(text: str) -> float:
+        v = _positive_float(name)(text)
+        if v > hi or (lo is not None and v < lo):
+            rng = f"[{lo:g}, {hi:g}]" if lo is not None else f"(0, {hi:g}]"
+            raise argparse.ArgumentTypeError(f"{name} must lie in {rng} (results are "
+                                             f"dimensionless: R sets the unit), got {text}")
+        return v
+
+    return conv
+
+
 def _add_shape_args(p: argparse.ArgumentParser, positional: bool) -> None:
     from shells.geometry import SHAPES
 
@@ -104,11 +127,11 @@ def _add_shape_args(p: argparse.ArgumentParser, positional: bool) -> None:
         p.add_argument("shape", metavar="SHAPE", help=f"one of: {', '.join(SHAPES)}")
     else:
         p.add_argument("--shape", required=True, help=f"one of: {', '.join(SHAPES)}")
-    p.add_argument("--radius", type=_positive_float("radius"), default=1.0,
+    p.add_argument("--radius", type=_length("radius", RADIUS_RANGE[0]), default=1.0,
                    help="sphere/cap radius R, ellipsoid semi-axes r1 = r2, disk radius (default 1)")
     p.add_argument("--theta-deg", type=float, default=None,
                    help="half opening angle theta from the pole to the rim, degrees (0, 180]")
-    p.add_argument("--r3", type=_positive_float("r3"), default=None,
+    p.add_argument("--r3", type=_length("r3", None), default=None,
                    help="ellipsoid semi-axis along the symmetry axis (default 1.5 R)")
 
 
@@ -182,8 +205,13 @@ def _load_spec(path: str):
         raise InputError(f"mesh parameter file not found: {path!r}")
     try:
         d = json.loads(p.read_text())
+        if not isinstance(d, dict) or not isinstance(d.get("spec", d), dict):
+            raise TypeError("not a JSON object")
         return MeshSpec.from_description(d.get("spec", d))
-    except (json.JSONDecodeError, KeyError, TypeError) as e:
+    except InputError as e:
+        raise InputError(f"{path!r}: {e}") from None
+    except (ValueError, KeyError, TypeError, AttributeError, OSError) as e:
+        # ValueError: bad JSON, not UTF-8, a value that is not a number
         raise InputError(f"{path!r} is not a valid mesh parameter file: {e}") from None
 
 
@@ -495,11 +523,11 @@ def _build_parser() -> argparse.ArgumentParser:
                        description="Mesh a shape with gmsh (second-order geometry, refined in the "
                        "rim boundary layer of width sqrt(R h)) and report area and rim errors.")
     m.add_argument("shape", metavar="SHAPE", nargs="?", help="sphere, cap, ellipsoid or disk")
-    m.add_argument("--radius", type=_positive_float("radius"), default=1.0,
+    m.add_argument("--radius", type=_length("radius", RADIUS_RANGE[0]), default=1.0,
                    help="R (sphere, cap), r1 = r2 (ellipsoid), disk radius (default 1)")
     m.add_argument("--theta-deg", type=float, default=None,
                    help="half opening angle, pole to rim, in degrees (0, 180]")
-    m.add_argument("--r3", type=_positive_float("r3"), default=None,
+    m.add_argument("--r3", type=_length("r3", None), default=None,
                    help="ellipsoid semi-axis along z (default 1.5 R)")
     m.add_argument("--h-over-r", type=_positive_float("h/R"), default=None,
                    help="thickness h/R: refines the rim layer of width sqrt(R h)")
@@ -607,7 +635,9 @@ H_OVER_R_MAX = 0.5
 
 #: Path arguments per subcommand: (attribute, label, kind, value used when the attribute is
 #: None). Kinds: "in" (a file read), "msh"/"png" (a file written, with that suffix), "dir" (an
-#: output folder). Every one is checked by ``shells.paths`` before the subcommand starts.
+#: output folder), "shared" (only: shared with the host). Every one is checked by
+#: ``shells.paths`` before the subcommand starts; a subcommand not listed here has its -o
+#: (``output``), if any, checked as "shared".
 _PATH_ARGS: dict[str, list[tuple[str, str, str, str | None]]] = {
     "mesh": [("spec", "--spec", "in", None), ("output", "-o", "msh", None),
              ("png", "--png", "png", None)],
@@ -620,9 +650,18 @@ _PATH_ARGS: dict[str, list[tuple[str, str, str, str | None]]] = {
 
 
 def _check_ranges(args: argparse.Namespace) -> None:
-    """Ranges shared by several subcommands (h/R; the phase diagram's smallest cap)."""
+    """Ranges shared by several subcommands (nu, the kappa range, h/R; the phase diagram's
+    smallest cap), before any work or any file is written."""
     from shells.geometry import THETA_MIN_DEG
 
+    nu = getattr(args, "nu", None)
+    if nu is not None and not (math.isfinite(nu) and -1.0 < nu <= 0.5):
+        raise InputError(f"nu must lie in (-1, 0.5], got {nu:g}")
+    for opt in ("kappa_h_max", "kappa_r_max"):
+        k = getattr(args, opt, None)
+        if k is not None and not (math.isfinite(k) and k != 0):
+            raise InputError(f"--{opt.replace('_', '-')} must be a finite nonzero number, "
+                             f"got {k:g}")
     hs = getattr(args, "h_over_r", None)
     if hs is None:
         return
@@ -643,7 +682,7 @@ def _check_paths(args: argparse.Namespace) -> None:
     broadcast so that all ranks stop (or go on) together."""
     from mpi4py import MPI
 
-    specs = _PATH_ARGS.get(args.command, [])
+    specs = _PATH_ARGS.get(args.command, [("output", "-o", "shared", None)])
     comm = MPI.COMM_WORLD
     err = None
     if comm.rank == 0:
@@ -655,6 +694,8 @@ def _check_paths(args: argparse.Namespace) -> None:
                     continue
                 if kind == "in":
                     paths.check_input_file(value, label)
+                elif kind == "shared":
+                    paths.check_shared(value, label)
                 elif kind == "dir":
                     paths.check_output_dir(value, label)
                 else:
@@ -684,7 +725,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         _check_paths(args)
         return int(args.func(args) or 0)
     except InputError as e:
-        msg = str(e)
+        msg = " ".join(str(e).splitlines())  # one line, whatever the message holds
         if _rank() == 0:
             print(msg if msg.startswith("shells") else f"shells: error: {msg}", file=sys.stderr)
         return 2

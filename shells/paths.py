@@ -15,10 +15,10 @@ Two kinds of check:
   the environment's private root: a file written there never appears on the host and a file read
   there is not the host's, so it is refused. Without ``SHELLS_HOST_PATHS`` (a native install)
   this check does nothing; set but empty means nothing is shared.
-* **Usable.** An output folder must be a writable folder or creatable (its nearest existing
-  ancestor is a folder in which a folder can be made); an output file must not be a folder and
-  its folder must be usable likewise. Checks probe with a temporary entry that is removed at once;
-  nothing the command would write is created here.
+* **Usable** (checked second, so nothing is probed in the private root). An output folder must
+  be a writable folder or creatable (its nearest existing ancestor is a folder in which a folder
+  can be made); an output file must not be a folder and its folder must be usable likewise. The
+  probe is a temporary entry removed at once: nothing the command would write is created here.
 
 The functions are plain (no MPI): the CLI runs them on rank 0 and broadcasts the verdict.
 """
@@ -137,9 +137,8 @@ def _usable_folder(folder: Path, what: str, shown: str) -> None:
 
 def check_output_dir(path: str | os.PathLike[str], what: str) -> Path:
     """An output folder: an existing writable folder, or creatable; shared with the host."""
-    p = Path(_text(path, what))
+    p = check_shared(path, what)
     _usable_folder(p, what, repr(str(path)))
-    check_shared(p, what)
     return p
 
 
@@ -151,6 +150,7 @@ def check_output_file(path: str | os.PathLike[str], what: str,
     shown = repr(str(path))
     if suffixes and p.suffix.lower() not in suffixes:
         raise InputError(f"{what} must name a {' or '.join(suffixes)} file, got {shown}")
+    check_shared(p, what)
     try:
         if p.is_dir():
             raise InputError(f"{what} {shown} is a folder, not a file")
@@ -159,5 +159,4 @@ def check_output_file(path: str | os.PathLike[str], what: str,
     except OSError as e:
         raise InputError(f"{what} {shown} is not usable: {e.strerror or e}") from None
     _usable_folder(p.parent, what, shown)
-    check_shared(p, what)
     return p

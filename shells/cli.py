@@ -207,7 +207,15 @@ def _load_spec(path: str):
         d = json.loads(p.read_text())
         if not isinstance(d, dict) or not isinstance(d.get("spec", d), dict):
             raise TypeError("not a JSON object")
-        return MeshSpec.from_description(d.get("spec", d))
+        spec = MeshSpec.from_description(d.get("spec", d))
+        for name in ("radius", "r3"):  # the ranges of --radius and --r3
+            if hasattr(spec.shape, name):
+                lo = RADIUS_RANGE[0] if name == "radius" else None
+                try:
+                    _length(name, lo)(repr(getattr(spec.shape, name)))
+                except argparse.ArgumentTypeError as e:
+                    raise InputError(str(e)) from None
+        return spec
     except InputError as e:
         raise InputError(f"{path!r}: {e}") from None
     except (ValueError, KeyError, TypeError, AttributeError, OSError) as e:

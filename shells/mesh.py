@@ -310,9 +310,16 @@ PROCESS_BASE_BYTES = 256 * 2**20
 def estimate_cells(spec: MeshSpec) -> float:
     """An upper estimate of the number of triangles gmsh makes for ``spec`` (from the size field
     of ``_set_sizes``: bulk size, the rim band at the layer size, the graded transition)."""
+    try:
+        return _estimate_cells(spec)
+    except (ZeroDivisionError, OverflowError):  # a size of 5e-324 squared, a radius of 1e300
+        return math.inf
+
+
+def _estimate_cells(spec: MeshSpec) -> float:
     shape = spec.shape
     L = shape.characteristic_size()
-    area = shape.area() / L**2  # in units of L: no overflow for any radius
+    area = shape.area() / L**2  # in units of L
     s_b = spec.bulk_size / L
     s_l = spec.layer_size / L
     c = CELLS_PER_SIZE2

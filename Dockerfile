@@ -27,4 +27,10 @@ COPY . /opt/shells
 WORKDIR /opt/shells
 RUN pip install --break-system-packages --no-deps --no-build-isolation --no-cache-dir . \
  && shells --version
+# `docker run` enters through scripts/in-env, which sets SHELLS_HOST_PATHS to the folders mounted
+# into the container (from /proc/self/mountinfo): `shells` then refuses, before any work, a path
+# that would stay inside the container. Mount the working folder at the same path:
+#   docker run --rm -v "$PWD:$PWD" -w "$PWD" shells shells mesh cap --theta-deg 30 -o cap.msh
+# (-e SHELLS_HOST_PATHS=/ turns the check off). `buildah run` and RUN skip the entrypoint.
+ENTRYPOINT ["/usr/bin/env", "SHELLS_HOST_PATHS_FROM=mountinfo", "/opt/shells/scripts/in-env"]
 CMD ["python3", "demos/main.py", "/opt/shells/results/demo"]

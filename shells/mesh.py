@@ -296,13 +296,14 @@ def _build_model(gmsh: Any, spec: MeshSpec) -> None:
 #: layer (caps of 30 and 150 deg, h/R 1e-2 to 1e-4, sphere, disk, ellipsoids) the estimate was
 #: 0.95 to 1.22 times the count (tests/test_validation.py checks two of them).
 CELLS_PER_SIZE2 = 2.5
-#: Peak resident memory of ``shells mesh`` per cell, bytes. Measured (peak RSS of
-#: ``shells mesh cap --theta-deg 30 --size S``, order 2, one process; RSS of the imports alone
-#: 205 MB): S = 0.005: 79 229 cells, 295 MB; 0.0025: 315 099 cells, 620 MB (655 MB with -o, the
-#: file written and read back); 0.0018: 609 094 cells, 1112 MB. Marginal cost 1.67 kB per
-#: cell, 1.43-1.52 kB on average; on 2 ranks (0.0025) 577 + 250 MB. 2048 B is conservative.
+#: Peak resident memory of ``shells mesh`` per cell, bytes. Measured (ru_maxrss of one
+#: ``python3 -m shells mesh cap --theta-deg 30 --size S`` process, order 2; the imports alone
+#: 200 MiB): S = 0.01: 19 919 cells, 213 MiB; 0.005: 79 229 cells, 289 MiB; 0.0025: 315 099
+#: cells, 605 MiB (639 MiB with -o: written and read back); 0.0018: 609 094 cells, 1086 MiB.
+#: 1350-1525 B per cell on average, 1713 B marginal; on 2 ranks (0.0025) 563 + 244 MiB. 2048 B
+#: is conservative: on 24 GiB the limit is about 12 million cells (size 4e-4 for that cap).
 MESH_BYTES_PER_CELL = 2048
-#: Resident memory of one process before meshing (dolfinx, gmsh, PETSc imported): 205 MB
+#: Resident memory of one process before meshing (dolfinx, gmsh, PETSc imported): 200 MiB
 #: measured, rounded up.
 PROCESS_BASE_BYTES = 256 * 2**20
 

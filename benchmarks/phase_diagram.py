@@ -199,6 +199,45 @@ def _fmt(v: Any, err: Any = None, nd: int = 3) -> str:
     return s + (f" ± {err:.{nd}f}" if err is not None and math.isfinite(err) else "")
 
 
+def _postbuckling_rows(d: dict) -> list[str]:
+    """The closed sphere's Ψ3 law and post-buckling branch (benchmarks/sphere_postbuckling.py)."""
+    rows = []
+    mins = []
+    for r in d["results"]:
+        h, cp = r["h_over_R"], r["critical_point"]
+        rows.append(
+            f"| closed sphere, 1D, h/R = {h:g}: slope dΨ3(pole)/d(κh) on the fundamental branch "
+            f"(κ ≤ 0.9 κ_b) | -1/12 (-(1/12)/(1 + (h/R)²/12) = {r['slope_theory']:.5f}) | "
+            f"{r['slope_psi3_vs_kappa_h']:.5f} | {_rel(r['slope_psi3_vs_kappa_h'], -1 / 12)} | "
+            f"κ_b h = {cp['kappa_h']:.5f} (n = {cp['mode_n']}; thin limit 1.5119, "
+            f"{_rel(cp['kappa_h'], r['kappa_b_h_thin_limit'])}), located by the common "
+            "algorithm layer (`shells.postbuckle`, penalty 1e6) |")
+        sides = r["summary"]["sides"]
+        pts = [p for p in r["points"] if p["branch"] == "bifurcated"]
+        inward = [p for p in pts if p["psi3_pole_over_h"] < -1.0]
+        side = inward[0]["side"] if inward else None
+        down = [p for p in pts if p["side"] == side]
+        if down:
+            kmin = min(p["kappa"] for p in down) / cp["kappa"]
+            mins.append(kmin)
+            s = sides[str(side)]
+            rows.append(
+                f"| closed sphere, 1D, h/R = {h:g}: post-buckling branch (rotational symmetry "
+                f"enforced) | subcritical, unstable | subcritical: κ falls from κ_b as the pole "
+                f"dimples inwards, to κ/κ_b = {kmin:.3f} at Ψ3(pole)/h = "
+                f"{min(p['psi3_pole_over_h'] for p in down):.1f} ({s['points']} points, ended: "
+                f"{s['ended']}) | – | one more negative m = 0 eigenvalue than the fundamental "
+                "branch; `benchmarks/sphere_postbuckling.py`, figure "
+                "benchmarks/results/sphere_postbuckling.png |")
+    if len(mins) > 1:
+        rows.append("| post-buckling vs h/R | \"does not vary considerably\" | κ/κ_b reached "
+                    "on the traced branches: " + ", ".join(f"{m:.3f}" for m in mins)
+                    + " (h/R = " + ", ".join(f"{r['h_over_R']:g}" for r in d["results"])
+                    + ") | – | the branches end where the run's range or point budget ends, "
+                    "not at a common κ: compare the curves in the figure |")
+    return rows
+
+
 def _edge_bulk_row(d: dict) -> str:
     """The W_edge dominance row from benchmarks/edge_bulk_scaling.py's JSON (finest layer)."""
     rows = d["rows"]
@@ -339,6 +378,10 @@ def render(data: dict[str, Any]) -> str:
     else:
         w("| W_edge dominance | (R/h)^(3/2)/tan(θ/2) | not computed in this run | – | "
           "benchmarks/results/edge_bulk.json absent: run benchmarks/edge_bulk_scaling.py |")
+    pb = RESULTS / "sphere_postbuckling.json"
+    if pb.exists():
+        for row in _postbuckling_rows(json.loads(pb.read_text())):
+            w(row)
     w("")
     # -- details
     w("## Snapping line κ_s R = β θ̄ - α\n")

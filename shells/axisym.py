@@ -426,6 +426,20 @@ class AxisymModel(FormProblem):
         out["psi3_pole_over_h"] = float(uz[0] - self.assemble("uz_integral") / area) / h
         return out
 
+    def meridian_profile(self) -> dict[str, np.ndarray]:
+        """The state on the meridian at the mesh vertices, pole to pole/rim: reference t, r°,
+        z° and displacement u_r, u_z (the mean u_z removed: no rigid translation)."""
+        Vu, dofs = self.W.sub(0).collapse()
+        t = Vu.tabulate_dof_coordinates()[:, 0]
+        u = self.w.x.array[np.asarray(dofs)].reshape(-1, 2)
+        verts = np.unique(self.mesh.geometry.x[:, 0])
+        idx = np.array([int(np.argmin(np.abs(t - tv))) for tv in verts])
+        r0, z0 = self.shape.meridian(verts)
+        area = self.assemble("area")
+        uz = u[idx, 1] - self.assemble("uz_integral") / area
+        return {"t": verts, "r0": np.asarray(r0), "z0": np.asarray(z0), "ur": u[idx, 0],
+                "uz": uz}
+
     def uz_at(self, t: np.ndarray) -> np.ndarray:
         """u_z at mesh nodes t (values of the P3 field at vertices)."""
         Vz, dofs = self.W.sub(0).sub(1).collapse()
@@ -482,7 +496,6 @@ class AxisymModel(FormProblem):
 
         if not hasattr(self, "_degree_forms"):
             import ufl
-
             from dolfinx import default_scalar_type
 
             self._mode_w = fem.Function(self.W)

@@ -34,7 +34,7 @@ import json
 import logging
 import math
 import os
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -133,7 +133,13 @@ class PostbuckleConfig:
         return d
 
 
-DEFLATE = int(os.environ.get("SHELLS_DEFLATE", "4"))
+#: the 1D model's branch switching: near-null modes deflated from its corrector steps (the
+#: neighbouring degrees of a sphere's buckling mode), and the round-off factor of its residual
+#: bound: with the penalty 1e6 the residual stalls at about 10 ε ||J||_F ||w|| on the inward
+#: branch of the h/R = 0.01 sphere below κ/κ_b = 0.94 (measured; the default 0.1 stopped it
+#: there, 1.0 at 0.57, 10 reaches 0.5)
+DEFLATE = 4
+ROUNDOFF = 10.0
 
 
 class _Run:
@@ -211,10 +217,12 @@ def _settings(cfg: PostbuckleConfig, kappa_stop: float) -> tuple[Any, Any]:
     return st, crit
 
 
-def postbuckle(cfg: PostbuckleConfig) -> Iterator[dict[str, Any]]:
+def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], None] | None = None
+               ) -> Iterator[dict[str, Any]]:
     """Compute the run of ``cfg``; yields its records in order (see the module docstring):
     fundamental points, then {"critical_point": {...}} once, then the bifurcated points, then
-    {"summary": {...}} last.
+    {"summary": {...}} last. ``on_point(model, record)`` is called at every point while the
+    model holds its state (for fields and shapes).
 
     Raises:
         InputError: bad configuration, or a first critical point the model cannot switch at
@@ -244,6 +252,8 @@ def postbuckle(cfg: PostbuckleConfig) -> Iterator[dict[str, Any]]:
                     f"the fundamental branch loses stability to the non-axisymmetric mode(s) "
                     f"m = {ms} by kappa R = {rec['kappa_R']:.5g}: the 1D model follows "
                     "axisymmetric branches only; use --model surface")
+            if on_point is not None:
+                on_point(run.model, rec)
             yield rec
             if len(bifs) >= cfg.at:
                 cp = bifs[cfg.at - 1]
@@ -261,7 +271,8 @@ def postbuckle(cfg: PostbuckleConfig) -> Iterator[dict[str, Any]]:
         lam_c = abs(cp.kappa_L)
         sst = ContinuationSettings(ds=cfg.amplitude, ds_max=max(4 * cfg.amplitude, 0.01 * lam_c),
                                    ds_min=1e-6 * cfg.amplitude, target_newton_its=5,
-                                   max_steps=cfg.max_points)
+                                   max_steps=cfg.max_points,
+                                   residual_roundoff=ROUNDOFF if cfg.model == "axisym" else 0.1)
         k_lo, k_hi = sorted((cfg.kappa_min_ratio * cp.kappa, kappa_stop))
         # the 1D model follows its one axisymmetric mode without pins: the modes of the
         # neighbouring degrees that cross next to it are other branches, not an orbit of
@@ -272,7 +283,7 @@ def postbuckle(cfg: PostbuckleConfig) -> Iterator[dict[str, Any]]:
         deflate = DEFLATE if cfg.model == "axisym" else 0
         sides = {}
         for side in (1.0, -1.0):
-            n, first, ended = 0, None, "range"
+            n, first, ended = 0, None, "stalled (step below ds_min)"
             try:
                 for p in switch_branch(run.model, cp, sst, cfg.kappa_min_ratio * cp.kappa,
                                        ds=cfg.amplitude, solver=run.ns, sign=side,
@@ -283,10 +294,19 @@ def postbuckle(cfg: PostbuckleConfig) -> Iterator[dict[str, Any]]:
                     rec = run.record(p, "bifurcated", side=int(side), start=start,
                                      subcritical=start == "down")
                     n += 1
+                    if on_point is not None:
+                        on_point(run.model, rec)
                     yield rec
-                    if not (k_lo <= p.kappa <= k_hi) or n >= cfg.max_points:
-                        ended = "range" if n < cfg.max_points else "max_points"
+                    if not (k_lo <= p.kappa <= k_hi):
+                        ended = "range"
                         break
+                    if n >= cfg.max_points:
+                        ended = "max_points"
+                        break
+                else:
+                    if n and abs(p.kappa - cfg.kappa_min_ratio * cp.kappa) <= 1e-12 * abs(
+                            cp.kappa):
+                        ended = "range"  # landed on the end of the range
             except RuntimeError as e:
                 if "back on the fundamental branch" not in str(e):
                     raise
@@ -336,7 +356,9 @@ def read_postbuckle(path: str | os.PathLike) -> tuple[dict[str, Any], list[dict[
 
 
 def run_postbuckle(cfg: PostbuckleConfig, outdir: str | os.PathLike | None = None,
-                   comm: Any = None) -> list[dict[str, Any]]:
+                   comm: Any = None,
+                   on_point: Callable[[Any, dict[str, Any]], None] | None = None
+                   ) -> list[dict[str, Any]]:
     """``postbuckle`` with its records appended to ``outdir/postbuckle.jsonl`` (rank 0) as
     they are computed; a complete file of the same configuration is reused."""
     from mpi4py import MPI
@@ -358,7 +380,7 @@ def run_postbuckle(cfg: PostbuckleConfig, outdir: str | os.PathLike | None = Non
             tmp.write_text(json.dumps({"header": header}) + "\n")
             os.replace(tmp, path)
     recs = []
-    for rec in postbuckle(cfg):
+    for rec in postbuckle(cfg, on_point):
         recs.append(rec)
         if path is not None and comm.rank == 0:
             _append(path, rec)

@@ -8,8 +8,6 @@ The 1D problem runs on MPI.COMM_SELF on every rank: every rank computes and asse
 
 from __future__ import annotations
 
-import math
-
 import pytest
 
 from shells import axisym

@@ -1,0 +1,173 @@
+"""The closed sphere's curvature buckling and its subcritical post-buckling branch (the paper's
+Fig. 3), on the 1D model through ``shells.postbuckle``: Ψ3(pole)/h against κ/κ_b for h/R =
+0.001, 0.01 and 0.1 (ν = ½), the theory line -κh/12, the located κ_b, the branch switched onto at
+it with rotational symmetry enforced (the inward-dimple side), axisymmetric profiles and a 3D
+render of a buckled sphere. Writes JSON, PNG/PDF figures and a VTK shape, and prints a table.
+
+    scripts/in-env python3 benchmarks/sphere_postbuckling.py [OUTDIR [--figure-only]]
+    (OUTDIR: default benchmarks/results; --figure-only redraws the figure from its JSON)
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from shells.geometry import Sphere
+from shells.postbuckle import PostbuckleConfig, postbuckle
+from shells.revolve import revolve, write_profile_csv, write_vts
+from shells.theory import sphere_kappa_b_h
+
+H_OVER_R = (0.001, 0.01, 0.1)
+PROFILE_AT = (0.95, 0.85, 0.75)  # κ/κ_b on the inward branch where profiles are kept
+
+
+def run_one(h: float, max_points: int) -> dict:
+    t0 = time.perf_counter()
+    profiles: dict[float, dict] = {}
+    kc: list[float] = []
+
+    def on_point(model, rec) -> None:
+        if rec["branch"] == "bifurcated" and rec["side"] == -1 and kc:
+            ratio = rec["kappa"] / kc[0]
+            for target in PROFILE_AT:
+                if target not in profiles and ratio <= target:
+                    profiles[target] = {k: v.copy() for k, v in model.meridian_profile().items()}
+                    profiles[target]["kappa_over_kappa_b"] = ratio
+
+    recs = []
+    for r in postbuckle(PostbuckleConfig(Sphere(1.0), h, max_points=max_points,
+                                         kappa_min_ratio=0.3), on_point):
+        if "critical_point" in r:
+            kc.append(r["critical_point"]["kappa"])
+        recs.append(r)
+    cp = next(r["critical_point"] for r in recs if "critical_point" in r)
+    fund = [r for r in recs if r.get("branch") == "fundamental"]
+    bif = [r for r in recs if r.get("branch") == "bifurcated"]
+    down = [r for r in bif if r["side"] == -1]
+    lin = [r for r in fund if 0 < r["kappa"] <= 0.9 * cp["kappa"]]
+    slope = float(np.polyfit([r["kappa_h"] for r in lin],
+                             [r["psi3_pole_over_h"] for r in lin], 1)[0])
+    keys = ("kappa", "kappa_h", "psi3_pole_over_h", "psi3_over_h", "energy", "negative_count",
+            "negative_count_axisymmetric", "mode_amplitude", "branch", "side", "start",
+            "subcritical", "kappa_c")
+    return {"h_over_R": h, "critical_point": cp, "wall_s": time.perf_counter() - t0,
+            "kappa_b_h_thin_limit": sphere_kappa_b_h(0.5),
+            "slope_psi3_vs_kappa_h": slope, "slope_theory": -1.0 / 12 / (1 + h * h / 12),
+            "min_kappa_over_kappa_b": min(r["kappa"] for r in down) / cp["kappa"] if down
+            else None,
+            "summary": recs[-1]["summary"],
+            "points": [{k: r.get(k) for k in keys} for r in fund + bif],
+            "profiles": {str(k): {kk: (vv.tolist() if isinstance(vv, np.ndarray) else vv)
+                                  for kk, vv in p.items()} for k, p in profiles.items()}}
+
+
+def figure(results: list[dict], out: Path) -> list[str]:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (ax, axp) = plt.subplots(1, 2, figsize=(10.5, 4.2),
+                                  gridspec_kw={"width_ratios": [1.5, 1]})
+    colors = {0.001: "tab:blue", 0.01: "tab:green", 0.1: "tab:red"}
+    x = np.linspace(0, 1, 50)
+    ax.plot(x, -x * sphere_kappa_b_h(0.5) / 12, "k-", lw=2, label=r"theory $-\kappa h/12$")
+    for res in results:
+        h, kc = res["h_over_R"], res["critical_point"]["kappa"]
+        c = colors.get(h, None)
+        pts = res["points"]
+        f = [p for p in pts if p["branch"] == "fundamental" and p["kappa"] <= kc]
+        ax.plot([p["kappa"] / kc for p in f], [p["psi3_pole_over_h"] for p in f], "--",
+                color=c, lw=1)
+        for side in (1, -1):
+            d = [p for p in pts if p["branch"] == "bifurcated" and p["side"] == side]
+            if not d:
+                continue
+            # the side whose pole dimples inwards is the paper's branch (for an odd degree
+            # the other side is its mirror image, dimpled at the south pole)
+            inward = min(p["psi3_pole_over_h"] for p in d) < -1.0
+            ax.plot([1.0] + [p["kappa"] / kc for p in d],
+                    [f[-1]["psi3_pole_over_h"]] + [p["psi3_pole_over_h"] for p in d],
+                    "-" if inward else ":", color=c, lw=1.5 if inward else 1,
+                    label=f"h/R = {h:g}, n = {res['critical_point']['mode_n']}"
+                    + (" (pole inwards, unstable)" if inward else " (other side)"))
+    ax.set_xlabel(r"$\kappa/\kappa_b$")
+    ax.set_ylabel(r"$\Psi_3(\mathrm{pole})/h$")
+    ax.set_xlim(0, 1.05)
+    ax.set_ylim(-12, 1.0)
+    ax.legend(fontsize=8, loc="lower left")
+    ax.set_title("closed sphere, 1D model, nu = 1/2")
+    ref = next((r for r in results if r["h_over_R"] == 0.01), results[0])
+    h = ref["h_over_R"]
+    for _key, prof in sorted(ref["profiles"].items(), key=lambda kv: -float(kv[0])):
+        r0, z0 = np.array(prof["r0"]), np.array(prof["z0"])
+        rr, zz = r0 + np.array(prof["ur"]), z0 + np.array(prof["uz"])
+        sel = z0 > 0.6  # the cap around the north pole, where the dimple is
+        axp.plot(rr[sel], zz[sel], label=f"kappa/kappa_b = {prof['kappa_over_kappa_b']:.2f}")
+    t = np.linspace(0, 0.9, 100)
+    axp.plot(np.sin(t), np.cos(t), "k:", lw=0.8, label="reference")
+    axp.set_aspect("equal")
+    axp.set_title(f"axisymmetric profiles, h/R = {h:g}")
+    axp.legend(fontsize=7)
+    fig.tight_layout()
+    paths = []
+    for ext in ("png", "pdf"):
+        p = out / f"sphere_postbuckling.{ext}"
+        fig.savefig(p, dpi=150)
+        paths.append(str(p))
+    plt.close(fig)
+    return paths
+
+
+def render_3d(res: dict, out: Path) -> list[str]:
+    """The buckled sphere at the deepest kept profile: VTK (.vts) and an off-screen render."""
+    import pyvista as pv
+
+    from shells.render import ensure_display
+
+    ensure_display()
+    key = min(res["profiles"], key=float)
+    prof = {k: np.asarray(v) for k, v in res["profiles"][key].items()}
+    # exaggerate nothing: the dimple is tens of thicknesses deep
+    grid = revolve(prof)
+    vts = write_vts(grid, out / "sphere_postbuckled.vts")
+    write_profile_csv(prof, out / "sphere_postbuckled_profile.csv", res["h_over_R"])
+    pl = pv.Plotter(off_screen=True, window_size=(700, 600))
+    pl.add_mesh(grid, scalars="normal_displacement", cmap="coolwarm", smooth_shading=True)
+    pl.camera_position = [(2.2, -2.2, 2.0), (0, 0, 0), (0, 0, 1)]
+    png = str(out / "sphere_postbuckled_3d.png")
+    pl.screenshot(png)
+    pl.close()
+    return [vts, png]
+
+
+def main(outdir: str = "benchmarks/results", *flags: str) -> None:
+    out = Path(outdir)
+    out.mkdir(parents=True, exist_ok=True)
+    if "--figure-only" in flags:  # redraw from the JSON of a previous run
+        results = json.loads((out / "sphere_postbuckling.json").read_text())["results"]
+        print("files:", ", ".join(figure(results, out)))
+        return
+    results = [run_one(h, 80) for h in H_OVER_R]
+    files = figure(results, out) + render_3d(next(r for r in results
+                                                 if r["h_over_R"] == 0.01), out)
+    (out / "sphere_postbuckling.json").write_text(json.dumps(
+        {"results": results, "files": files}, indent=1, default=float))
+    print(f"{'h/R':>6} {'kappa_b h':>10} {'n':>3} {'slope':>9} {'theory':>9} "
+          f"{'min k/kb':>8} {'wall s':>6}")
+    for r in results:
+        cp = r["critical_point"]
+        print(f"{r['h_over_R']:6g} {cp['kappa_h']:10.5f} {cp['mode_n']:3d} "
+              f"{r['slope_psi3_vs_kappa_h']:9.5f} {r['slope_theory']:9.5f} "
+              f"{r['min_kappa_over_kappa_b'] or math.nan:8.3f} {r['wall_s']:6.1f}")
+    print("files:", ", ".join(files))
+
+
+if __name__ == "__main__":
+    main(*sys.argv[1:])

@@ -32,6 +32,7 @@ from shells.errors import InputError
 from shells.fields import FieldWriter
 from shells.geometry import Shape, shape_from_description
 from shells.mesh import MeshSpec, ShellMesh, generate
+from shells.store import read_with_header
 
 __all__ = ["BranchConfig", "run_branch", "read_branch"]
 
@@ -136,22 +137,7 @@ class _Progress:
 
 def read_branch(path: str | os.PathLike) -> tuple[dict[str, Any], list[dict[str, Any]]]:
     """Header and points of a branch file (a torn last line from a crash is ignored)."""
-    header: dict[str, Any] = {}
-    points: list[dict[str, Any]] = []
-    with open(path) as f:
-        for line in f:
-            line = line.strip()
-            if not line:
-                continue
-            try:
-                rec = json.loads(line)
-            except json.JSONDecodeError:
-                continue
-            if "header" in rec:
-                header = rec["header"]
-            else:
-                points.append(rec)
-    return header, points
+    return read_with_header(path)
 
 
 def _owned_nodes(model: Any) -> tuple[np.ndarray, int]:

@@ -17,6 +17,7 @@ from typing import Any
 
 from shells import __version__, paths
 from shells.errors import InputError
+from shells.store import json_default
 
 __all__ = ["main"]
 
@@ -68,20 +69,7 @@ def emit(result: dict[str, Any], args: argparse.Namespace, human: Callable[[], N
     if not getattr(args, "json", False):
         human()
     else:
-        print(json.dumps(result, default=_json_default), flush=True)
-
-
-def _json_default(o: Any) -> Any:
-    try:
-        import numpy as np
-
-        if isinstance(o, np.generic):
-            return o.item()
-        if isinstance(o, np.ndarray):
-            return o.tolist()
-    except ImportError:  # pragma: no cover
-        pass
-    raise TypeError(f"not JSON serialisable: {type(o).__name__}")
+        print(json.dumps(result, default=json_default), flush=True)
 
 
 def _positive_float(name: str) -> Callable[[str], float]:
@@ -333,7 +321,7 @@ def _branch_axisym(args: argparse.Namespace, shape: Any) -> int:
         points.append(rec)
         if _rank() == 0:
             with open(outdir / "branch.jsonl", "a") as f:
-                f.write(json.dumps(rec, default=_json_default) + "\n")
+                f.write(json.dumps(rec, default=json_default) + "\n")
     folds = [p for a, p in zip(points, points[1:], strict=False)
              if a["dkappa_ds"] * p["dkappa_ds"] < 0]
     result = {"model": "axisym", "branch_file": str(outdir / "branch.jsonl"), "points": points,
@@ -358,31 +346,6 @@ def _branch_axisym(args: argparse.Namespace, shape: Any) -> int:
 # --------------------------------------------------------------------------------------------
 # shells critical
 # --------------------------------------------------------------------------------------------
-def default_kappa_range(shape: Any, h_over_r: float, nu: float, direction: str) -> float:
-    """A κ range (absolute, signed) that contains the first critical point with a margin.
-
-    Built from the paper's laws (sphere: κ_b h; caps: the snap line, the mirrored Eq. (4) and
-    Eq. (4); disk: the plate limit), widened by 60 %.
-    """
-    from shells import theory
-    from shells.geometry import Disk, Sphere, SphericalCap
-
-    sign = 1.0 if direction == "up" else -1.0
-    L = shape.characteristic_size()
-    h = h_over_r * L
-    if isinstance(shape, Sphere):
-        return sign * 1.6 * theory.sphere_kappa_b_h(nu) / h
-    if isinstance(shape, Disk):
-        return sign * 1.6 * theory.plate_a() * h / L**2
-    if isinstance(shape, SphericalCap):
-        tb = shape.theta / math.sqrt(h_over_r)
-        if direction == "up":
-            kr = max(theory.snap_kappa_R(tb), theory.mirrored_buckling_kappa_R(tb, h_over_r))
-            return (1.6 * max(kr, 1.0) + 0.5) / shape.R
-        return (1.6 * min(theory.buckling_kappa_R(tb, h_over_r), -1.0) - 0.5) / shape.R
-    return sign * 8.0 / shape.R
-
-
 def _cmd_critical(args: argparse.Namespace) -> int:
     import time
     from pathlib import Path
@@ -401,6 +364,8 @@ def _cmd_critical(args: argparse.Namespace) -> int:
     elif args.kappa_r_max is not None:
         kappa_end = sign * abs(args.kappa_r_max) / R_or_L
     else:
+        from shells.theory import default_kappa_range
+
         kappa_end = default_kappa_range(shape, args.h_over_r, args.nu, args.direction)
     theta_deg = math.degrees(shape.theta) if hasattr(shape, "theta") and not shape.closed \
         else None
@@ -423,7 +388,7 @@ def _cmd_critical(args: argparse.Namespace) -> int:
     if args.output and _rank() == 0:
         Path(args.output).mkdir(parents=True, exist_ok=True)
         (Path(args.output) / "critical.json").write_text(
-            json.dumps(result, indent=1, default=_json_default))
+            json.dumps(result, indent=1, default=json_default))
     _ = time
 
     def human() -> None:
@@ -623,6 +588,9 @@ def _build_parser() -> argparse.ArgumentParser:
     c.set_defaults(func=_cmd_critical)
 
     _add_phase_diagram(sub)
+    from shells.postbuckle_cli import add_subcommand as _add_postbuckle
+
+    _add_postbuckle(sub, _positive_float, _add_shape_args)
 
     r = sub.add_parser("render", help="render a .msh surface to PNG (off-screen)")
     r.add_argument("mesh", help="gmsh .msh file")
@@ -654,6 +622,7 @@ _PATH_ARGS: dict[str, list[tuple[str, str, str, str | None]]] = {
     "branch": [("output", "-o", "dir", "results/branch")],
     "critical": [("output", "-o", "dir", None)],
     "phase-diagram": [("output", "-o", "dir", None)],
+    "postbuckle": [("output", "-o", "dir", None)],
 }
 
 

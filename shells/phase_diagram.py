@@ -44,6 +44,7 @@ from typing import Any
 import numpy as np
 
 from shells.errors import InputError
+from shells.store import append_record, json_default, read_records
 from shells.theory import PAPER, buckling_kappa_R, mirrored_buckling_kappa_R, plate_a, snap_kappa_R
 
 __all__ = ["PhaseDiagramConfig", "Task", "add_subcommand", "compute_task", "everted_check",
@@ -510,38 +511,6 @@ def everted_check(h_over_r: float, thetabar: float, cfg: PhaseDiagramConfig,
 # ------------------------------------------------------------------------------------------------
 # the points file, claims and the parallel driver
 # ------------------------------------------------------------------------------------------------
-def _append(path: Path, rec: dict[str, Any]) -> None:
-    """One line, one write(2) on an O_APPEND descriptor, flushed to disk."""
-    line = (json.dumps(rec, default=_json_default) + "\n").encode()
-    fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
-    try:
-        os.write(fd, line)
-        os.fsync(fd)
-    finally:
-        os.close(fd)
-
-
-def _json_default(o: Any) -> Any:
-    if isinstance(o, np.generic):
-        return o.item()
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    raise TypeError(f"not JSON serialisable: {type(o).__name__}")
-
-
-def read_records(path: Path) -> list[dict[str, Any]]:
-    """The records of a points file (a torn last line from an interrupted write is ignored)."""
-    if not path.exists():
-        return []
-    out = []
-    for line in path.read_text().splitlines():
-        try:
-            out.append(json.loads(line))
-        except json.JSONDecodeError:
-            continue
-    return out
-
-
 def _record_key(rec: dict[str, Any], signature: str) -> str:
     return Task(rec["h_over_R"], rec["thetabar"], rec["direction"]).key(signature)
 
@@ -587,7 +556,7 @@ def _run_tasks(tasks: list[Task], cfg: PhaseDiagramConfig, outdir: Path, comm: A
         rec = compute_task(t, cfg)
         rec["signature"] = sig
         rec["rank"] = comm.rank
-        _append(points, rec)
+        append_record(points, rec)
         mine += 1
         if comm.rank == 0:  # progress: everything in the file so far (all ranks)
             recs = read_records(points)
@@ -660,7 +629,7 @@ def run_phase_diagram(cfg: PhaseDiagramConfig, outdir: str | Path, comm: Any = N
         if figure:
             result["figures"] = make_figure(result, out / "phase_diagram")
         (out / "phase_diagram.json").write_text(json.dumps(result, indent=1,
-                                                           default=_json_default))
+                                                           default=json_default))
     return comm.bcast(result, root=0)
 
 
@@ -708,7 +677,7 @@ def _bisect_snap(h: float, lo: float, hi: float, cfg: PhaseDiagramConfig, out: P
         if rec is None:
             rec = compute_task(t, cfg)
             rec.update(signature=sig, rank=rank)
-            _append(out / "points.jsonl", rec)
+            append_record(out / "points.jsonl", rec)
             n += 1
         if rec.get("status") != "ok":
             break

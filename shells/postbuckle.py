@@ -30,7 +30,6 @@ reuses the file; an incomplete one is recomputed from κ = 0 (the 1D model takes
 
 from __future__ import annotations
 
-import json
 import logging
 import math
 import os
@@ -39,10 +38,9 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from shells.errors import InputError
 from shells.geometry import Shape
+from shells.store import append_record, read_with_header, write_header
 
 __all__ = ["PostbuckleConfig", "postbuckle", "read_postbuckle", "run_postbuckle"]
 
@@ -320,39 +318,9 @@ def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], 
         run.destroy()
 
 
-def _append(path: Path, rec: dict[str, Any]) -> None:
-    """One whole line per write(2) on an O_APPEND descriptor, then fsync: a crash leaves whole
-    lines only."""
-    line = (json.dumps(rec, default=_json_default) + "\n").encode()
-    fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
-    try:
-        os.write(fd, line)
-        os.fsync(fd)
-    finally:
-        os.close(fd)
-
-
-def _json_default(o: Any) -> Any:
-    if isinstance(o, np.generic):
-        return o.item()
-    raise TypeError(f"not JSON serialisable: {type(o).__name__}")
-
-
 def read_postbuckle(path: str | os.PathLike) -> tuple[dict[str, Any], list[dict[str, Any]]]:
     """Header and records of a post-buckling file (a torn last line is ignored)."""
-    header: dict[str, Any] = {}
-    recs: list[dict[str, Any]] = []
-    with open(path) as f:
-        for line in f:
-            try:
-                rec = json.loads(line)
-            except json.JSONDecodeError:
-                break
-            if "header" in rec:
-                header = rec["header"]
-            else:
-                recs.append(rec)
-    return header, recs
+    return read_with_header(path)
 
 
 def run_postbuckle(cfg: PostbuckleConfig, outdir: str | os.PathLike | None = None,
@@ -375,14 +343,11 @@ def run_postbuckle(cfg: PostbuckleConfig, outdir: str | os.PathLike | None = Non
             log.info("postbuckle: reusing the complete run in %s", path)
             return old[1]
         if comm.rank == 0:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            tmp = path.with_suffix(".jsonl.tmp")
-            tmp.write_text(json.dumps({"header": header}) + "\n")
-            os.replace(tmp, path)
+            write_header(path, header)
     recs = []
     for rec in postbuckle(cfg, on_point):
         recs.append(rec)
         if path is not None and comm.rank == 0:
-            _append(path, rec)
+            append_record(path, rec)
     return recs
 

@@ -72,3 +72,53 @@ def test_subcritical_branch_starts_at_kappa_b_and_goes_down(sphere_run):
             assert r["negative_count_axisymmetric"] == n_fund + 1
             assert r["negative_counts"][0] == n_fund + 1
     assert summary["sides"][-1]["points"] == len(down)
+
+
+def test_postbuckle_cli_json_contract_and_shapes(capsys, shared_tmp):
+    """``shells postbuckle`` on a thick sphere (h/R = 0.05, n ~ 8): the JSON keys the CLI
+    promises, the branch file, and a 3D shape per side for ParaView."""
+    import json
+
+    from mpi4py import MPI
+
+    from shells.cli import main
+
+    out = shared_tmp / "pb"
+    rc = main(["postbuckle", "--shape", "sphere", "--h-over-r", "0.05", "--max-points", "4",
+               "-o", str(out), "--fields", "last", "--json"])
+    assert rc == 0
+    if MPI.COMM_WORLD.rank == 0:
+        d = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+        cp = d["critical_point"]
+        for key in ("kind", "kappa_R", "kappa_h", "mode_m", "mode_n"):
+            assert key in cp, key
+        assert cp["kind"] == "bifurcation" and cp["mode_m"] == 0
+        assert cp["kappa_h"] == pytest.approx(axisym.critical(Sphere(1.0), 0.05, 0.5,
+                                                              penalty=1.0e6)["kappa_h"],
+                                              rel=2e-4)
+        pts = d["points"]
+        for key in ("kappa_R", "kappa_h", "psi3_over_h", "energy", "newton_its", "branch",
+                    "stable", "negative_count", "psi3_pole_over_h", "mode_amplitude"):
+            assert all(key in p for p in pts), key
+        assert {p["branch"] for p in pts} == {"fundamental", "bifurcated"}
+        assert sum(p["branch"] == "bifurcated" for p in pts) >= 2
+        lines = (out / "postbuckle.jsonl").read_text().splitlines()
+        assert "header" in json.loads(lines[0]) and "summary" in json.loads(lines[-1])
+        shapes = sorted((out / "shapes").glob("*.vts"))
+        assert shapes and all(f in d["files"] for f in map(str, shapes))
+
+
+def test_postbuckle_cli_refuses_what_the_1d_model_cannot_follow(capsys):
+    """A 30-degree cap under kappa < 0 loses symmetry to m = 2 first: the 1D model says so and
+    names the model that can (one line, exit 2)."""
+    from mpi4py import MPI
+
+    from shells.cli import main
+
+    rc = main(["postbuckle", "--shape", "cap", "--theta-deg", "30", "--h-over-r", "0.04",
+               "--direction", "down"])
+    assert rc == 2
+    err = capsys.readouterr().err
+    if MPI.COMM_WORLD.rank == 0:
+        assert len(err.strip().splitlines()) == 1
+        assert "m = [2]" in err and "--model surface" in err

@@ -280,36 +280,53 @@ def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], 
         pinned = 1 if cfg.model == "axisym" else None
         deflate = DEFLATE if cfg.model == "axisym" else 0
         sides = {}
+        # the 1D model's first corrector next to a cluster of bifurcations is sensitive to the
+        # amplitude (measured on the h/R = 0.01 sphere: 0.2 and 0.25 fell back onto the
+        # fundamental branch, 0.3 and 0.5 followed the dimple): a side that returns within
+        # its first 3 points is retried with other amplitudes (its points are kept back until
+        # then); the surface model takes one amplitude and streams its points
+        factors = (1.0, 1.4, 2.0, 0.6) if cfg.model == "axisym" else (1.0,)
         for side in (1.0, -1.0):
-            n, first, ended = 0, None, "stalled (step below ds_min)"
-            try:
-                for p in switch_branch(run.model, cp, sst, cfg.kappa_min_ratio * cp.kappa,
-                                       ds=cfg.amplitude, solver=run.ns, sign=side,
-                                       pinned=pinned, min_amplitude=0.1, deflate=deflate):
-                    if first is None:
-                        first = p.kappa
-                    start = "down" if abs(first) < abs(cp.kappa) else "up"
-                    rec = run.record(p, "bifurcated", side=int(side), start=start,
-                                     subcritical=start == "down")
-                    n += 1
-                    if on_point is not None:
-                        on_point(run.model, rec)
-                    yield rec
-                    if not (k_lo <= p.kappa <= k_hi):
-                        ended = "range"
-                        break
-                    if n >= cfg.max_points:
-                        ended = "max_points"
-                        break
-                else:
-                    if n and abs(p.kappa - cfg.kappa_min_ratio * cp.kappa) <= 1e-12 * abs(
-                            cp.kappa):
-                        ended = "range"  # landed on the end of the range
-            except RuntimeError as e:
-                if "back on the fundamental branch" not in str(e):
-                    raise
-                ended = "returned to the fundamental branch"
-            sides[int(side)] = {"points": n, "ended": ended,
+            for f in factors:
+                amp = f * cfg.amplitude
+                held: list[dict[str, Any]] = []
+                n, first, ended = 0, None, "stalled (step below ds_min)"
+                try:
+                    for p in switch_branch(run.model, cp, sst, cfg.kappa_min_ratio * cp.kappa,
+                                           ds=amp, solver=run.ns, sign=side, pinned=pinned,
+                                           min_amplitude=0.1, deflate=deflate):
+                        if first is None:
+                            first = p.kappa
+                        start = "down" if abs(first) < abs(cp.kappa) else "up"
+                        rec = run.record(p, "bifurcated", side=int(side), start=start,
+                                         subcritical=start == "down", first_amplitude=amp)
+                        n += 1
+                        if on_point is not None:
+                            on_point(run.model, rec)
+                        if len(factors) > 1:
+                            held.append(rec)
+                        else:
+                            yield rec
+                        if not (k_lo <= p.kappa <= k_hi):
+                            ended = "range"
+                            break
+                        if n >= cfg.max_points:
+                            ended = "max_points"
+                            break
+                    else:
+                        if n and abs(p.kappa - cfg.kappa_min_ratio * cp.kappa) <= 1e-12 * abs(
+                                cp.kappa):
+                            ended = "range"  # landed on the end of the range
+                except RuntimeError as e:
+                    if "back on the fundamental branch" not in str(e):
+                        raise
+                    ended = "returned to the fundamental branch"
+                if ended != "returned to the fundamental branch" or n >= 3 or f == factors[-1]:
+                    break
+                log.info("postbuckle: side %+d returned after %d points at amplitude %.3g: "
+                         "retried", side, n, amp)
+            yield from held
+            sides[int(side)] = {"points": n, "ended": ended, "first_amplitude": amp,
                                 "start": None if first is None else (
                                     "down" if abs(first) < abs(cp.kappa) else "up")}
             log.info("postbuckle: side %+d: %d points, %s", side, n, ended)

@@ -710,3 +710,18 @@ def main(argv: Sequence[str] | None = None) -> int:
         if _rank() == 0:
             print("shells: interrupted", file=sys.stderr)
         return 130
+    except Exception as e:  # noqa: BLE001 - a failure is one line, never a traceback
+        import traceback
+
+        from mpi4py import MPI
+
+        comm = MPI.COMM_WORLD
+        if "-v" in argv or "--verbose" in argv:
+            traceback.print_exc()
+        msg = " ".join(f"{type(e).__name__}: {e}".splitlines())
+        where = f" (rank {comm.rank} of {comm.size})" if comm.size > 1 else ""
+        print(f"shells: failed{where}: {msg}", file=sys.stderr, flush=True)
+        if comm.size > 1:
+            # the other ranks may wait in a collective for this one: end them all now
+            comm.Abort(1)
+        return 1

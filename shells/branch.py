@@ -32,7 +32,7 @@ from shells.errors import InputError
 from shells.fields import FieldWriter
 from shells.geometry import Shape, shape_from_description
 from shells.mesh import MeshSpec, ShellMesh, generate
-from shells.store import read_with_header
+from shells.store import append_record, json_default, read_with_header
 
 __all__ = ["BranchConfig", "run_branch", "read_branch"]
 
@@ -275,10 +275,12 @@ def run_branch(cfg: BranchConfig, outdir: str | os.PathLike, *, comm: Any = None
             done = [d for d in done if d["index"] <= start[1]]
             log.info("%s: resuming after point %d at kappa = %.6g", label, start[1], start[0])
     if comm.rank == 0:
-        with open(bfile, "w") as f:
-            f.write(json.dumps({"header": header}) + "\n")
-            for d in done:
-                f.write(json.dumps(d) + "\n")
+        # the kept points are rewritten under the header into a temporary file, renamed over
+        # the old one: a kill leaves the old file or the new one, never a torn one
+        tmp = bfile.with_name(bfile.name + ".tmp")
+        tmp.write_text("".join(json.dumps(r, default=json_default) + "\n"
+                               for r in [{"header": header}, *done]))
+        os.replace(tmp, bfile)
     yield from done
 
     writer = FieldWriter(model, outdir / "fields.bp") if fields != "none" else None
@@ -300,9 +302,7 @@ def run_branch(cfg: BranchConfig, outdir: str | os.PathLike, *, comm: Any = None
         for p in it:
             rec = point_record(p, cfg)
             if comm.rank == 0:
-                with open(bfile, "a") as f:
-                    f.write(json.dumps(rec) + "\n")
-                    f.flush()
+                append_record(bfile, rec)  # one whole line, fsync'ed
             _save_checkpoint(outdir, model, rec, prev)
             prev = (model.w.x.array.copy(), float(model.kappa.value))
             if writer is not None and fields == "all":

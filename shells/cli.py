@@ -691,6 +691,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; returns the exit status (0 ok, 2 bad input, 1 failure)."""
     argv = list(sys.argv[1:] if argv is None else argv)
     parser = _build_parser()
+    signalled: list[int] = []
+
+    def _terminate(signum: int, frame: Any) -> None:
+        signalled.append(signum)
+        raise KeyboardInterrupt
+
+    import signal
+    import threading
+
+    if threading.current_thread() is threading.main_thread():
+        old_term = signal.signal(signal.SIGTERM, _terminate)
     try:
         args = parser.parse_args(argv)
         _setup_logging(args.verbose)
@@ -707,9 +718,13 @@ def main(argv: Sequence[str] | None = None) -> int:
             print(msg if msg.startswith("shells") else f"shells: error: {msg}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
+        # every file a run writes is whole at any moment (appended lines, renamed checkpoints):
+        # the same command resumes
         if _rank() == 0:
-            print("shells: interrupted", file=sys.stderr)
-        return 130
+            name = "SIGTERM" if signalled else "SIGINT"
+            print(f"shells: interrupted ({name}); rerun the same command to resume",
+                  file=sys.stderr)
+        return 143 if signalled else 130
     except Exception as e:  # noqa: BLE001 - a failure is one line, never a traceback
         import traceback
 
@@ -725,3 +740,6 @@ def main(argv: Sequence[str] | None = None) -> int:
             # the other ranks may wait in a collective for this one: end them all now
             comm.Abort(1)
         return 1
+    finally:
+        if threading.current_thread() is threading.main_thread():
+            signal.signal(signal.SIGTERM, old_term)

@@ -6,7 +6,8 @@ runs ``shells branch`` (the CLI, ``--fields last``) into DIR/run, then rebuilds 
 run's header and checkpoint (the state at the last point), interpolates the fields with the same
 ``FieldWriter`` and writes DIR/expected.json: the file to open, its time value, point and cell
 counts, and for each array its component count and per-component and magnitude ranges — what
-tests/paraview/pv_check.py, in ParaView, must find in the file.
+tests/paraview/pv_check.py, in ParaView, must find in the file. Likewise (``"shape"``) for a
+1D post-buckled sphere written as a 3D surface (.vts) by ``shells postbuckle --fields last``.
 """
 
 from __future__ import annotations
@@ -22,6 +23,9 @@ import numpy as np
 RUN = ["branch", "--shape", "sphere", "--h-over-r", "0.05", "--nu", "0.5", "--kappa-h-max", "0.5",
        "--size", "0.2",
        "--fields", "last", "--restart"]
+#: a closed sphere's axisymmetric post-buckling on the 1D model, the last state of each side
+PB_RUN = ["postbuckle", "--shape", "sphere", "--h-over-r", "0.05", "--max-points", "4",
+          "--fields", "last"]
 ARRAYS = ("displacement", "director", "mean_curvature_change", "natural_curvature_mismatch")
 
 
@@ -75,9 +79,39 @@ def main(out: Path) -> None:
         "cells": mesh.topology.index_map(mesh.topology.dim).size_local,
         "arrays": arrays,
     }
+    expected["shape"] = postbuckled_shape(out)
     (out / "expected.json").write_text(json.dumps(expected, indent=1) + "\n")
     print(f"make_fields: {expected['file']}: {expected['points']} points, {expected['cells']} "
           f"cells, kappa h = {last['kappa_h']:.3g}; expected ranges in {out / 'expected.json'}")
+
+
+def postbuckled_shape(out: Path) -> dict:
+    """A 1D post-buckled sphere written as a 3D surface by ``shells postbuckle --fields last``,
+    and what its arrays must hold: rebuilt here from the run's meridian CSV (``shells.revolve``
+    on the CSV's values, not by reading the .vts back)."""
+    import csv
+
+    from shells.revolve import revolve
+
+    run = out / "postbuckle"
+    subprocess.run([sys.executable, "-m", "shells", *PB_RUN, "-o", str(run)], check=True)
+    vts = sorted((run / "shapes").glob("*.vts"))[-1]
+    rows = list(csv.DictReader(open(vts.with_suffix(".csv"))))
+    h = 0.05
+    prof = {k: np.array([float(r[k]) for r in rows]) for k in ("t", "r0", "z0")}
+    prof["ur"] = np.array([float(r["ur_over_h"]) * h for r in rows])
+    prof["uz"] = np.array([float(r["uz_over_h"]) * h for r in rows])
+    grid = revolve(prof)
+    arrays = {}
+    for name in ("displacement", "normal_displacement"):
+        a = np.asarray(grid.point_data[name]).reshape(grid.n_points, -1)
+        arrays[name] = {"components": a.shape[1],
+                        "ranges": [[float(a[:, i].min()), float(a[:, i].max())]
+                                   for i in range(a.shape[1])],
+                        "magnitude": [float(np.linalg.norm(a, axis=1).min()),
+                                      float(np.linalg.norm(a, axis=1).max())]}
+    return {"file": str(vts.resolve()), "points": int(grid.n_points),
+            "cells": int(grid.n_cells), "arrays": arrays}
 
 
 if __name__ == "__main__":

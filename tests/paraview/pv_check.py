@@ -115,6 +115,48 @@ def check(out):
     if covered < 0.05:
         raise AssertionError(f"screenshot {png} is (nearly) blank: {covered:.1%} covered")
     print("pv_check: ParaView opens the fields; names and ranges match dolfinx")
+    check_shape(exp["shape"])
+
+
+def _compare(name, a, e, errors):
+    """One array's component count, per-component and magnitude ranges against ``e``."""
+    nc = a.GetNumberOfComponents()
+    if nc != e["components"]:
+        errors.append(f"{name}: {nc} components, expected {e['components']}")
+        return
+    scale = max(abs(v) for r in e["ranges"] + [e["magnitude"]] for v in r) or 1.0
+    got = [a.GetRange(i) for i in range(nc)] + ([a.GetRange(-1)] if nc > 1 else [])
+    want = e["ranges"] + ([e["magnitude"]] if nc > 1 else [])
+    for g, w in zip(got, want, strict=False):
+        # the CSV the expectation is rebuilt from holds 10 significant digits
+        if max(abs(g[0] - w[0]), abs(g[1] - w[1])) > 1e-8 * scale:
+            errors.append(f"{name}: ParaView {g}, expected {w}")
+
+
+def check_shape(exp):
+    """The 1D model's post-buckled sphere (.vts, a revolved meridian) in ParaView's own XML
+    structured-grid reader: point and cell counts, array names and ranges."""
+    from paraview.simple import XMLStructuredGridReader
+
+    reader = XMLStructuredGridReader(FileName=[exp["file"]])
+    reader.UpdatePipeline()
+    info = reader.GetDataInformation()
+    errors = []
+    for what, got in (("points", info.GetNumberOfPoints()), ("cells", info.GetNumberOfCells())):
+        if got != exp[what]:
+            errors.append(f"{what}: ParaView reads {got}, shells wrote {exp[what]}")
+    pd = reader.PointData
+    print(f"pv_check: {exp['file']}: {info.GetNumberOfPoints()} points, "
+          f"{info.GetNumberOfCells()} cells, point arrays {sorted(pd.keys())}")
+    for name, e in exp["arrays"].items():
+        if name not in pd.keys():
+            errors.append(f"array {name!r} missing (have {sorted(pd.keys())})")
+            continue
+        _compare(name, pd[name], e, errors)
+    if errors:
+        raise AssertionError("ParaView check of the post-buckled shape failed:\n  "
+                             + "\n  ".join(errors))
+    print("pv_check: ParaView opens the 1D post-buckled sphere; names and ranges match")
 
 
 if __name__ == "__main__":

@@ -50,28 +50,7 @@ def check(out):
     pd = reader.PointData
     print(f"pv_check: {exp['file']} at t = {exp['time']}: {info.GetNumberOfPoints()} points, "
           f"{info.GetNumberOfCells()} cells, point arrays {sorted(pd.keys())}")
-    for name, e in exp["arrays"].items():
-        if name not in pd.keys():
-            errors.append(f"array {name!r} missing (have {sorted(pd.keys())})")
-            continue
-        a = pd[name]
-        nc = a.GetNumberOfComponents()
-        if nc != e["components"]:
-            errors.append(f"{name}: {nc} components, expected {e['components']}")
-            continue
-        scale = max(abs(v) for r in e["ranges"] + [e["magnitude"]] for v in r) or 1.0
-        tol = RTOL * scale
-        got = [a.GetRange(i) for i in range(nc)] + ([a.GetRange(-1)] if nc > 1 else [])
-        want = e["ranges"] + ([e["magnitude"]] if nc > 1 else [])
-        labels = [f"component {i}" for i in range(nc)] + (["magnitude"] if nc > 1 else [])
-        for lab, g, w in zip(labels, got, want, strict=False):
-            dev = max(abs(g[0] - w[0]), abs(g[1] - w[1]))
-            ok = dev <= tol
-            print(f"  {name:28s} {lab:12s} ParaView [{g[0]:+.10e}, {g[1]:+.10e}]  "
-                  f"dolfinx [{w[0]:+.10e}, {w[1]:+.10e}]  |diff| {dev:.1e} "
-                  f"{'ok' if ok else 'FAIL'}")
-            if not ok:
-                errors.append(f"{name} {lab}: ParaView {g}, dolfinx {w} (tolerance {tol:.1e})")
+    _compare_arrays(pd, exp["arrays"], RTOL, errors)
     if errors:
         raise AssertionError("ParaView check failed:\n  " + "\n  ".join(errors))
 
@@ -118,19 +97,32 @@ def check(out):
     check_shape(exp["shape"])
 
 
-def _compare(name, a, e, errors):
-    """One array's component count, per-component and magnitude ranges against ``e``."""
-    nc = a.GetNumberOfComponents()
-    if nc != e["components"]:
-        errors.append(f"{name}: {nc} components, expected {e['components']}")
-        return
-    scale = max(abs(v) for r in e["ranges"] + [e["magnitude"]] for v in r) or 1.0
-    got = [a.GetRange(i) for i in range(nc)] + ([a.GetRange(-1)] if nc > 1 else [])
-    want = e["ranges"] + ([e["magnitude"]] if nc > 1 else [])
-    for g, w in zip(got, want, strict=False):
-        # the CSV the expectation is rebuilt from holds 10 significant digits
-        if max(abs(g[0] - w[0]), abs(g[1] - w[1])) > 1e-8 * scale:
-            errors.append(f"{name}: ParaView {g}, expected {w}")
+def _compare_arrays(pd, expected, rtol, errors):
+    """Each expected array's presence, component count, per-component and magnitude ranges
+    (tolerance ``rtol`` times the array's largest magnitude), printed and appended to
+    ``errors`` on a mismatch."""
+    for name, e in expected.items():
+        if name not in pd.keys():
+            errors.append(f"array {name!r} missing (have {sorted(pd.keys())})")
+            continue
+        a = pd[name]
+        nc = a.GetNumberOfComponents()
+        if nc != e["components"]:
+            errors.append(f"{name}: {nc} components, expected {e['components']}")
+            continue
+        scale = max(abs(v) for r in e["ranges"] + [e["magnitude"]] for v in r) or 1.0
+        tol = rtol * scale
+        got = [a.GetRange(i) for i in range(nc)] + ([a.GetRange(-1)] if nc > 1 else [])
+        want = e["ranges"] + ([e["magnitude"]] if nc > 1 else [])
+        labels = [f"component {i}" for i in range(nc)] + (["magnitude"] if nc > 1 else [])
+        for lab, g, w in zip(labels, got, want, strict=False):
+            dev = max(abs(g[0] - w[0]), abs(g[1] - w[1]))
+            ok = dev <= tol
+            print(f"  {name:28s} {lab:12s} ParaView [{g[0]:+.10e}, {g[1]:+.10e}]  "
+                  f"expected [{w[0]:+.10e}, {w[1]:+.10e}]  |diff| {dev:.1e} "
+                  f"{'ok' if ok else 'FAIL'}")
+            if not ok:
+                errors.append(f"{name} {lab}: ParaView {g}, expected {w} (tolerance {tol:.1e})")
 
 
 def check_shape(exp):
@@ -148,11 +140,8 @@ def check_shape(exp):
     pd = reader.PointData
     print(f"pv_check: {exp['file']}: {info.GetNumberOfPoints()} points, "
           f"{info.GetNumberOfCells()} cells, point arrays {sorted(pd.keys())}")
-    for name, e in exp["arrays"].items():
-        if name not in pd.keys():
-            errors.append(f"array {name!r} missing (have {sorted(pd.keys())})")
-            continue
-        _compare(name, pd[name], e, errors)
+    # the CSV the expectation is rebuilt from holds 10 significant digits
+    _compare_arrays(pd, exp["arrays"], 1e-8, errors)
     if errors:
         raise AssertionError("ParaView check of the post-buckled shape failed:\n  "
                              + "\n  ".join(errors))

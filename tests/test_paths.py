@@ -29,8 +29,9 @@ from shells.errors import InputError
 REPO = Path(__file__).resolve().parent.parent
 
 
-class WorkStartedError(Exception):
-    """The command got past validation to its computation (stubbed out)."""
+class WorkStartedError(BaseException):
+    """The command got past validation to its computation (stubbed out). A BaseException: the
+    CLI turns every Exception into a one-line failure with exit status 1."""
 
 
 def _stub(*args, **kwargs):

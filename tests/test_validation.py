@@ -35,8 +35,9 @@ except ImportError:  # not in deps/debian-packages.txt yet: the seeded sample be
     HAVE_HYPOTHESIS = False
 
 
-class WorkStartedError(Exception):
-    """The command got past validation to its computation (stubbed out)."""
+class WorkStartedError(BaseException):
+    """The command got past validation to its computation (stubbed out). A BaseException: the
+    CLI turns every Exception into a one-line failure with exit status 1."""
 
 
 def _stub(*args, **kwargs):

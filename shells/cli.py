@@ -420,6 +420,9 @@ def _critical_surface(args: argparse.Namespace, shape: Any, h: float, kappa_end:
     from shells.model import ModelParameters, ShellModel
 
     comm = MPI.COMM_WORLD
+    from shells.model import default_discretisation
+
+    args.degree, args.size = default_discretisation(shape, args.degree, args.size)
     sm = generate(MeshSpec(shape, h=h, size=args.size, layer_elements=args.layer_elements), comm)
     model = ShellModel(sm, ModelParameters(h=h, nu=args.nu, shear_penalty=args.shear_penalty,
                                            degree=args.degree,
@@ -568,15 +571,15 @@ def _build_parser() -> argparse.ArgumentParser:
     g.add_argument("--kappa-h-max", type=float, default=None, help="end of the range, |kappa h|")
     g.add_argument("--kappa-r-max", type=float, default=None, help="end of the range, |kappa R|")
     c.add_argument("--first-only", action="store_true", help="stop at the first critical point")
-    c.add_argument("--size", type=_positive_float("size"), default=0.1,
-                   help="bulk element size / R (default 0.1)")
+    c.add_argument("--size", type=_positive_float("size"), default=None,
+                   help="bulk element size / R (default 0.1; closed spheres 0.21)")
     c.add_argument("--layer-elements", type=_positive_float("layer-elements"), default=4.0,
                    help="elements across sqrt(R h) at the rim (default 4)")
     c.add_argument("--shear-penalty", type=_positive_float("shear-penalty"), default=1.0e3,
                    help="Kirchhoff-Love penalty, times the Naghdi shear stiffness (default 1e3)")
-    c.add_argument("--degree", type=int, choices=(2, 3), default=2,
-                   help="surface model: polynomial degree (3 locks far less: docs/model.md; "
-                   "default 2), full quadrature 2 x degree")
+    c.add_argument("--degree", type=int, choices=(2, 3), default=None,
+                   help="surface model: polynomial degree, full quadrature 2 x degree (default "
+                   "2; closed spheres 3: P2 locks there, docs/model.md)")
     c.add_argument("--ds", type=_positive_float("ds"), default=None,
                    help="initial step, in kappa L (default: range/16)")
     c.add_argument("--ds-max", type=_positive_float("ds-max"), default=None,

@@ -106,6 +106,7 @@ def test_critical_cli_json_contract(capsys, shared_tmp):
     (["critical", "--shape", "sphere", "--h-over-r", "-1"], "positive"),
     (["critical", "--shape", "sphere", "--h-over-r", "0.05", "--direction", "left"], "invalid"),
     (["critical", "--shape", "sphere", "--h-over-r", "0.05", "--model", "x"], "invalid"),
+    (["critical", "--shape", "sphere", "--h-over-r", "0.05", "--degree", "2"], "P2 locks"),
 ])
 def test_critical_bad_input(capsys, argv, needle):
     assert main(argv) == 2

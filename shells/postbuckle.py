@@ -292,7 +292,9 @@ def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], 
                 held: list[dict[str, Any]] = []
                 n, first, ended = 0, None, "stalled (step below ds_min)"
                 try:
-                    for p in switch_branch(run.model, cp, sst, cfg.kappa_min_ratio * cp.kappa,
+                    # landing target: the end of the range (a supercritical branch lands on
+                    # it); a subcritical one turns back and ends below kappa_min_ratio κ_c
+                    for p in switch_branch(run.model, cp, sst, kappa_stop,
                                            ds=amp, solver=run.ns, sign=side, pinned=pinned,
                                            min_amplitude=0.1, deflate=deflate):
                         if first is None:
@@ -314,8 +316,7 @@ def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], 
                             ended = "max_points"
                             break
                     else:
-                        if n and abs(p.kappa - cfg.kappa_min_ratio * cp.kappa) <= 1e-12 * abs(
-                                cp.kappa):
+                        if n and abs(p.kappa - kappa_stop) <= 1e-12 * abs(kappa_stop):
                             ended = "range"  # landed on the end of the range
                 except RuntimeError as e:
                     if "back on the fundamental branch" not in str(e):

@@ -886,9 +886,48 @@ def fit_all(points: list[dict[str, Any]], nu: float = 0.5) -> dict[str, Any]:
 # ------------------------------------------------------------------------------------------------
 # the figure
 # ------------------------------------------------------------------------------------------------
+def _shade_computed(ax: Any, pts: list[dict[str, Any]], ylo: float, yhi: float) -> None:
+    """Shade the phases as computed: each computed θ̄ colours the band halfway to its neighbours.
+    Blue (broken symmetry) below the κ < 0 loss of symmetry; white (symmetric, original
+    orientation) up to the first instability going up (the snap, the loss of symmetry before
+    the fold, or κR = 1 for a smooth inversion); then, where the shell is symmetric and everted
+    (after a snap or an inversion), green up to its loss of symmetry (the everted branch's
+    computed one, else the mirror 2 - κ_b of the κ < 0 one), and blue above. Points computed in
+    one direction only (the θ̄_s bisection's) take no band: their neighbours' bands cover them."""
+    blue, green = "#bcd3ee", "#c9e8c0"
+    pts = sorted((p for p in pts if p.get("up_kind") is not None
+                  and p.get("kappa_down_R") is not None), key=lambda p: p["thetabar"])
+    tbs = [p["thetabar"] for p in pts]
+    for i, p in enumerate(pts):
+        lo = 0.5 * (tbs[i - 1] + tbs[i]) if i > 0 else max(0.0, tbs[0] - 0.5 * (
+            tbs[1] - tbs[0]) if len(tbs) > 1 else tbs[0] - 0.5)
+        hi = 0.5 * (tbs[i] + tbs[i + 1]) if i + 1 < len(tbs) else tbs[i] + 0.5 * (
+            tbs[i] - tbs[i - 1] if i > 0 else 1.0)
+        band = [lo, hi]
+
+        def fill(y0: float | None, y1: float | None, color: str, band: list = band) -> None:
+            if y0 is not None and y1 is not None and y1 > y0:
+                ax.fill_between(band, y0, y1, color=color, lw=0)
+
+        down = p.get("kappa_down_R")
+        fill(ylo, down, blue)
+        kind = p["up_kind"]
+        top = {"snap": p.get("kappa_snap_R"), "bifurcation": p.get("kappa_bif_up_R"),
+               "inversion": 1.0}.get(kind)
+        if kind == "bifurcation":
+            fill(top, yhi, blue)
+            continue
+        ev = p.get("kappa_everted_R") if kind == "snap" else p.get("kappa_up_R")
+        if ev is None and down is not None:
+            ev = 2.0 - down
+        fill(top, ev, green)
+        fill(ev if ev is not None else None, yhi, blue)
+
+
 def make_figure(result: dict[str, Any], stem: Path) -> list[str]:
-    """The phase diagram in the paper's style: θ̄ horizontal, κR vertical, phases shaded (from
-    the fitted lines, for the smallest h/R), computed points, the paper's lines dashed."""
+    """The phase diagram in the paper's style: θ̄ horizontal, κR vertical, phases shaded from
+    the computed transitions (``_shade_computed``, the smallest h/R), computed points, the
+    fitted lines solid and the paper's dashed."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -908,17 +947,10 @@ def make_figure(result: dict[str, Any], stem: Path) -> list[str]:
     ts = fits.get("thetabar_s") or PAPER["thetabar_s"]
     down = np.array([buckling_kappa_R(t, h0, b, c) for t in x])
     mirror = 2.0 - down
-    snap = be * x - al
     ylo = min(-6.0, float(np.nanmin([p.get("kappa_down_R") or 0 for p in pts] + [0])) - 0.5)
     yhi = max(8.0, 1.1 * float(np.nanmax([p.get("kappa_snap_R") or 0 for p in pts] + [0])))
     fig, ax = plt.subplots(figsize=(7.5, 7.2))
-    blue, green = "#bcd3ee", "#c9e8c0"
-    ax.fill_between(x, ylo, down, color=blue, lw=0)
-    # white: symmetric, original orientation, up to the snap (θ̄ ≥ θ̄_s) or κR = 1 (smooth
-    # inversion); green: symmetric everted, up to the mirrored line; blue: broken symmetry
-    upper = np.where(x >= ts, snap, 1.0)
-    ax.fill_between(x, upper, mirror, where=mirror > upper, color=green, lw=0)
-    ax.fill_between(x, np.maximum(upper, mirror), yhi, color=blue, lw=0)
+    _shade_computed(ax, [p for p in pts if p["h_over_R"] == h0], ylo, yhi)
     ax.plot(x, down, "k-", lw=1.2, label="fits: Eq. (4), mirrored, snap line")
     ax.plot(x, mirror, "k-", lw=1.2)
     xs = x[x >= ts]
@@ -957,8 +989,8 @@ def make_figure(result: dict[str, Any], stem: Path) -> list[str]:
     ax.axhline(0, color="0.6", lw=0.5)
     ax.set_xlabel(r"$\bar\theta = \theta/\sqrt{h/R}$")
     ax.set_ylabel(r"$\kappa R$")
-    ax.set_title(f"Curvature-induced instabilities of open caps (shaded from the fits, "
-                 f"h/R = {h0:g})", fontsize=9)
+    ax.set_title(f"Curvature-induced instabilities of open caps (shaded from the computed "
+                 f"transitions, h/R = {h0:g}; lines: fits)", fontsize=9)
     ax.legend(fontsize=6.5, loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=2,
               frameon=False)
     fig.tight_layout()

@@ -23,7 +23,7 @@ Stability at every point: the negative count of the full Hessian (``negative_cou
 model Σ_m (1 or 2) N_m over m = 0..m_max, each m ≥ 1 counted for its cos and sin members, with
 the per-mode counts in ``negative_counts`` and the axisymmetric count N_axi of the Jacobian).
 
-Stationary records: every point is appended to ``DIR/postbuckle.jsonl`` as it is computed
+Files: every point is appended to ``DIR/postbuckle.jsonl`` as it is computed
 (header first). A rerun with the same configuration whose file ended with its summary record
 reuses the file; an incomplete one is recomputed from κ = 0 (the 1D model takes seconds).
 """

@@ -62,14 +62,6 @@ class CriticalSettings:
         stop_at_fold: stop following the branch after the first fold.
         stop_at_first: stop after the first critical point of any kind.
         nev: eigenvalues computed at each trial point (nearest 0).
-        max_chord_deviation: when set, a trial solution of a step without a fold whose state
-            deviates from the step's chord (its two end states, interpolated in σ) by more than
-            this fraction of the chord's length counts as a failed corrector: the hyperplane
-            of a step along κ also cuts the branches that bifurcate close by, and next to a
-            cluster of transcritical bifurcations (a closed sphere's axisymmetric modes of
-            neighbouring degrees, 1e-4 apart in κ) Newton lands on them. None (default): no
-            check (the surface model's imperfect bifurcations turn the path itself off the
-            chord).
         deflate: in steps without a fold, the locator's corrector omits from each Newton step
             its components along the ``deflate`` eigenvectors of the Jacobian nearest 0 when
             such a component exceeds 10 times the rest of the step: round-off amplified by
@@ -83,7 +75,6 @@ class CriticalSettings:
     stop_at_fold: bool = True
     stop_at_first: bool = False
     nev: int = 4
-    max_chord_deviation: float | None = None
     deflate: int = 0
 
     def __post_init__(self) -> None:
@@ -93,9 +84,6 @@ class CriticalSettings:
             raise InputError("need max_evaluations >= 2 and nev >= 1")
         if not (isinstance(self.deflate, int) and 0 <= self.deflate <= 20):
             raise InputError(f"deflate must be an integer in [0, 20], got {self.deflate!r}")
-        if self.max_chord_deviation is not None and not self.max_chord_deviation > 0:
-            raise InputError(f"max_chord_deviation must be None or positive, got "
-                             f"{self.max_chord_deviation!r}")
 
 
 @dataclass
@@ -153,22 +141,18 @@ class _Locator:
         self.ar = _Arclength(self.ns, self.L, st.state_weight)
         self.w0 = problem.state.duplicate()
         self.z = problem.state.duplicate()
-        self.chord = problem.state.duplicate()  # w1 - w0 of the step
-        self.sigma1 = 0.0
+        self.fold = False  # the step being located contains a fold
 
     def destroy(self) -> None:
         self.ns.destroy()
-        for v in (self.w0, self.z, self.chord):
+        for v in (self.w0, self.z):
             v.destroy()
 
-    def start(self, w0: np.ndarray, lam0: float, tl0: float, w1: np.ndarray | None = None,
-              sigma1: float = 0.0, lam1: float = 0.0) -> None:
-        """Set the step's first point and its tangent (oriented like the branch there), and
-        its last point ``w1`` at arclength ``sigma1`` (for the chord check)."""
-        if w1 is not None:
-            n = self.chord.getLocalSize()
-            self.chord.array_w[:] = w1[:n] - w0[:n]
-            self.sigma1, self.lam1 = sigma1, lam1
+    def start(self, w0: np.ndarray, lam0: float, tl0: float, fold: bool = False) -> None:
+        """Set the step's first point and its tangent (oriented like the branch there);
+        ``fold``: the step contains a fold (no deflation there: the branch turns into the
+        near-null direction)."""
+        self.fold = fold
         set_state(self.problem, w0)
         self.problem.state.copy(self.w0)
         self.lam0 = lam0
@@ -228,27 +212,13 @@ class _Locator:
         st = self.st_locate
         t0 = time.perf_counter()
         deflate = (_Deflation(self.problem, self.stab, self.crit.deflate)
-                   if self.crit.deflate and self.sigma1 > 0 else None)
+                   if self.crit.deflate and not self.fold else None)
         ok, its, lam = _bordered_newton(ar, st, self.lam0 + sigma * ar.tl, lam_start=lam_p,
                                         singular_ok=True, deflate=deflate)
         log.debug("locate: sigma = %.6g  kappa L = %.8g  converged %s in %d its (%.1f s)",
                   sigma, lam, ok, its, time.perf_counter() - t0)
         if not ok:
             raise RuntimeError(f"corrector failed at sigma = {sigma:.3e}")
-        if self.crit.max_chord_deviation is not None and self.sigma1 > 0:
-            # (w, λ) - ((w0, λ0) + σ/σ1 (w1 - w0, λ1 - λ0)) relative to the chord, in the
-            # continuation norm
-            dev = w.copy()
-            dev.axpy(-1.0, self.w0)
-            dev.axpy(-sigma / self.sigma1, self.chord)
-            f = sigma / self.sigma1
-            dlam = lam - (self.lam0 + f * (self.lam1 - self.lam0))
-            chord2 = ar.cw * self.chord.dot(self.chord) + (self.lam1 - self.lam0) ** 2
-            ratio = math.sqrt((ar.cw * dev.dot(dev) + dlam**2) / max(chord2, 1e-300))
-            dev.destroy()
-            if ratio > self.crit.max_chord_deviation:
-                log.debug("locate:   off the step's chord (%.3g of its length): rejected", ratio)
-                raise RuntimeError(f"corrector left the branch at sigma = {sigma:.3e}")
         count = self.stab.inertia()[0]
         vals, vecs = self.stab.eigenpairs(nev, modes=modes, assemble=False)
         eig = min(vals, key=abs) if vals else math.nan
@@ -305,11 +275,7 @@ class _Deflation:
 
 def _m_dot(M: Any, x: Any) -> float:
     """xᵀ M x."""
-    y = M.createVecLeft()
-    M.mult(x, y)
-    out = float(x.dot(y))
-    y.destroy()
-    return out
+    return _m_inner(M, x, x)
 
 
 def locate(loc: _Locator, p0: Point, w0: np.ndarray, c0: int, p1: Point, c1: int,
@@ -319,7 +285,7 @@ def locate(loc: _Locator, p0: Point, w0: np.ndarray, c0: int, p1: Point, c1: int
     crit = loc.crit
     L = loc.L
     fold = (p0.dkappa_ds >= 0) != (p1.dkappa_ds >= 0)
-    loc.start(w0, p0.kappa_L, p0.dkappa_ds, None if fold else w1, p1.step, p1.kappa_L)
+    loc.start(w0, p0.kappa_L, p0.dkappa_ds, fold)
     nev = max(crit.nev, abs(c1 - c0) + 2)
     tl0 = loc.ar.tl
     lo = _Eval(0.0, p0.kappa_L, c0, tl0, math.nan)
@@ -803,6 +769,7 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
     wc = ar.w.duplicate()
     tw, wp, w_prev, w_last = (wc.duplicate() for _ in range(4))
     dirs: list[Any] = []
+    amp_dir = pred = defl_stab = None
     t_start = time.perf_counter()
     try:
         ar.w.array_w[:] = cp.state[:n]
@@ -955,8 +922,7 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
     finally:
         for v in (wc, tw, wp, w_prev, w_last, *dirs):
             v.destroy()
-        for name in ("amp_dir", "pred", "defl_stab"):
-            obj = locals().get(name)
+        for obj in (amp_dir, pred, defl_stab):
             if obj is not None:
                 obj.destroy()
         if solver is None:

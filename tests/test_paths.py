@@ -21,6 +21,7 @@ from pathlib import Path
 
 import pytest
 from mpi4py import MPI
+from stubs import WorkStartedError, stub_computations
 
 from shells import paths
 from shells.cli import main
@@ -29,33 +30,10 @@ from shells.errors import InputError
 REPO = Path(__file__).resolve().parent.parent
 
 
-class WorkStartedError(BaseException):
-    """The command got past validation to its computation (stubbed out). A BaseException: the
-    CLI turns every Exception into a one-line failure with exit status 1."""
-
-
-def _stub(*args, **kwargs):
-    raise WorkStartedError
-
-
 @pytest.fixture
 def no_work(monkeypatch):
-    """Replace every computation a subcommand starts by a stub raising WorkStartedError, on all
-    ranks alike (so a test never meshes or solves, and 2 ranks never wait for each other)."""
-    import contextlib
-
-    from shells import axisym, branch, mesh, phase_diagram
-
-    @contextlib.contextmanager
-    def no_gmsh(name):
-        raise WorkStartedError
-        yield  # pragma: no cover
-
-    monkeypatch.setattr(mesh, "_gmsh_model", no_gmsh)
-    monkeypatch.setattr(branch, "run_branch", _stub)
-    monkeypatch.setattr(axisym, "critical", _stub)
-    monkeypatch.setattr(axisym, "branch", _stub)
-    monkeypatch.setattr(phase_diagram, "run_phase_diagram", _stub)
+    """Every computation a subcommand starts is a stub raising WorkStartedError."""
+    stub_computations(monkeypatch)
 
 
 def _refused(capsys, argv, needle):

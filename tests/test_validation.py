@@ -23,6 +23,7 @@ import random
 
 import pytest
 from mpi4py import MPI
+from stubs import WorkStartedError, stub_computations
 
 from shells.cli import main
 
@@ -35,30 +36,10 @@ except ImportError:  # not in deps/debian-packages.txt yet: the seeded sample be
     HAVE_HYPOTHESIS = False
 
 
-class WorkStartedError(BaseException):
-    """The command got past validation to its computation (stubbed out). A BaseException: the
-    CLI turns every Exception into a one-line failure with exit status 1."""
-
-
-def _stub(*args, **kwargs):
-    raise WorkStartedError
-
-
 @pytest.fixture
 def no_work(monkeypatch, shared_tmp):
     """Stub every computation out; run in a scratch folder that is shared with the host."""
-    from shells import axisym, branch, mesh, phase_diagram
-
-    @contextlib.contextmanager
-    def no_gmsh(name):
-        raise WorkStartedError
-        yield  # pragma: no cover
-
-    monkeypatch.setattr(mesh, "_gmsh_model", no_gmsh)
-    monkeypatch.setattr(branch, "run_branch", _stub)
-    monkeypatch.setattr(axisym, "critical", _stub)
-    monkeypatch.setattr(axisym, "branch", _stub)
-    monkeypatch.setattr(phase_diagram, "run_phase_diagram", _stub)
+    stub_computations(monkeypatch)
     monkeypatch.chdir(shared_tmp)
     monkeypatch.setenv("SHELLS_HOST_PATHS", str(shared_tmp))
     return shared_tmp

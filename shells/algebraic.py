@@ -18,6 +18,11 @@ price of a parallel factorisation per solve).
   x² = 2 (λ - 1), y = 2λ - 1 is stable (Hessian [[1, -x], [-x, 2x²]] for λ < (c_1 + 1)/2) and
   lies below the fundamental one, E = -(λ - 1)²/2.
 
+* ``FoldPitchforkProblem`` (two stability blocks, like the Fourier blocks of the axisymmetric
+  model): E = x³/3 + (λ - 1) x + ½ (c - λ) z² + ¼ z⁴. Branch z = 0, x = sqrt(1 - λ): block 0
+  (x) has its fold at λ = 1, block 1 (z) a pitchfork at λ = c < 1 just before it, so that
+  both fall in one continuation step.
+
 L = 1 and the state scale is 1, so κ = λ.
 """
 
@@ -31,7 +36,7 @@ import numpy as np
 
 from shells.problem import ModeInfo
 
-__all__ = ["AlgebraicProblem", "FoldProblem", "PitchforkProblem"]
+__all__ = ["AlgebraicProblem", "FoldProblem", "FoldPitchforkProblem", "PitchforkProblem"]
 
 
 class AlgebraicProblem:
@@ -44,6 +49,9 @@ class AlgebraicProblem:
     """
 
     mode_unknowns: tuple[int, ...] = ()
+    #: stability blocks (Fourier-like): label -> the unknowns whose Hessian block it is;
+    #: empty: one block, ``None``, the whole Hessian
+    block_unknowns: dict[int, tuple[int, ...]] = {}
 
     def __init__(self, n: int, initial: np.ndarray, comm: Any = None) -> None:
         from mpi4py import MPI
@@ -131,25 +139,53 @@ class AlgebraicProblem:
         out.update({f"w{i}": float(v) for i, v in enumerate(w)})
         return out
 
-    def stability_blocks(self) -> tuple[None]:
-        return (None,)
+    def stability_blocks(self) -> tuple[Hashable, ...]:
+        return tuple(self.block_unknowns) if self.block_unknowns else (None,)
 
-    def block_layout(self, block: Hashable) -> None:
-        return None
+    def block_layout(self, block: Hashable) -> Hashable:
+        return block
+
+    def _block_matrix(self, block: Hashable) -> Any:
+        from petsc4py import PETSc
+
+        if block is None:
+            return self.create_jacobian()
+        m = len(self.block_unknowns[block])
+        A = PETSc.Mat().createAIJ(((PETSc.DECIDE, m), (PETSc.DECIDE, m)), nnz=(m, m),
+                                  comm=self.comm)
+        A.setUp()
+        return A
+
+    def _set_block(self, A: Any, block: Hashable, dense: np.ndarray) -> None:
+        from petsc4py import PETSc
+
+        if block is None:
+            self._set_matrix(A, dense)
+            return
+        idx = np.asarray(self.block_unknowns[block])
+        sub = dense[np.ix_(idx, idx)]
+        lo, hi = A.getOwnershipRange()
+        A.zeroEntries()
+        A.setValues(np.arange(lo, hi, dtype=PETSc.IntType),
+                    np.arange(idx.size, dtype=PETSc.IntType), sub[lo:hi],
+                    addv=PETSc.InsertMode.INSERT_VALUES)
+        A.assemble()
 
     def create_hessian(self, block: Hashable) -> Any:
-        return self.create_jacobian()
+        return self._block_matrix(block)
 
     def assemble_hessian(self, block: Hashable, H: Any) -> None:
-        self.assemble_jacobian(H)
+        self._set_block(H, block, self.hessian(self.gathered(), self._kappa))
         H.setOption(H.Option.SYMMETRIC, True)
 
     def assemble_mass(self, block: Hashable) -> Any:
-        M = self.create_jacobian()
-        self._set_matrix(M, np.eye(self.n))
+        M = self._block_matrix(block)
+        self._set_block(M, block, np.eye(self.n))
         return M
 
     def classify_mode(self, vec: Any, block: Hashable) -> ModeInfo:
+        if block is not None:
+            return ModeInfo(m=int(block))
         v = np.abs(self.gathered(vec))
         if not self.mode_unknowns:
             return ModeInfo()
@@ -251,3 +287,29 @@ class PitchforkProblem(AlgebraicProblem):
         d = np.zeros_like(w)
         d[0] = -1.0
         return d
+
+
+class FoldPitchforkProblem(AlgebraicProblem):
+    """Unknowns (x, z), blocks 0 = {x} and 1 = {z}: a pitchfork in z at κ = c, then the fold of
+    x² = 1 - κ at κ = 1 (see the module docstring)."""
+
+    block_unknowns = {0: (0,), 1: (1,)}
+
+    def __init__(self, c: float = 0.995, comm: Any = None) -> None:
+        self.c = float(c)
+        super().__init__(2, np.array([1.0, 0.0]), comm)
+
+    def energy(self, w: np.ndarray, k: float) -> float:
+        x, z = w
+        return float(x**3 / 3 + (k - 1) * x + 0.5 * (self.c - k) * z * z + 0.25 * z**4)
+
+    def gradient(self, w: np.ndarray, k: float) -> np.ndarray:
+        x, z = w
+        return np.array([x * x + k - 1, (self.c - k) * z + z**3])
+
+    def hessian(self, w: np.ndarray, k: float) -> np.ndarray:
+        x, z = w
+        return np.array([[2 * x, 0.0], [0.0, self.c - k + 3 * z * z]])
+
+    def dgradient_dkappa(self, w: np.ndarray, k: float) -> np.ndarray:
+        return np.array([1.0, -w[1]])

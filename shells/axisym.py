@@ -286,6 +286,7 @@ class AxisymModel(FormProblem):
         self.area_density = 2 * math.pi * self.r0 * self.g  # dω = area_density dt
         self._build_forms()
         self.bcs = self._axis_conditions()
+        self._degree_forms: dict[Any, tuple] = {}
 
     # -- kinematics ------------------------------------------------------------------------------
     def base_jet(self, w: Any) -> Jet:
@@ -488,35 +489,59 @@ class AxisymModel(FormProblem):
 
     def classify_mode(self, vec: Any, block: Any) -> ModeInfo:
         """m = the block's wavenumber (0 for the Jacobian); on a closed sphere also the degree
-        n of an axisymmetric mode from the Rayleigh quotient R² ∫(∂_s w)² / ∫ w² = n(n+1) of
-        its normal component w (exact for the Legendre polynomial P_n)."""
-        if block is not None or not _is_sphere(self.shape):
-            return ModeInfo(m=0 if block is None else int(block), n=None)
+        n of the mode from the Rayleigh quotient R² ∫ |∇w|² / ∫ w² = n(n+1) of its normal
+        component w, |∇w|² = (∂_s w)² + m² w² / r² (exact for the spherical harmonic Y_n^m)."""
+        m = 0 if block is None else int(block)
+        if not _is_sphere(self.shape):
+            return ModeInfo(m=m, n=None)
+        if block is None:
+            key, space, ur_uz = None, self.W, self._radial_axial
+        else:
+            mf = self.mode_forms
+            mf.set_mode(m)
+            key, space, ur_uz = "mode", mf.V, mf.radial_axial
+        if key not in self._degree_forms:
+            self._degree_forms[key] = self._degree_form(space, ur_uz, block is not None)
+        f, shift, m_c, forms = self._degree_forms[key]
+        m_c.value = float(m)
+        vec.copy(f.x.petsc_vec)
+        f.x.scatter_forward()
         from dolfinx import fem
 
-        if not hasattr(self, "_degree_forms"):
-            import ufl
-            from dolfinx import default_scalar_type
-
-            self._mode_w = fem.Function(self.W)
-            self._mode_shift = fem.Constant(self.mesh, default_scalar_type(0.0))
-            u, _ = ufl.split(self._mode_w)
-            # the gauge u_z(pole) = 0 adds a translation (degree 1) to every mode: removed
-            uz = u[1] - self._mode_shift
-            wn = (u[0] * (-self.z0t) + uz * self.r0t) / self.g
-            ad = self.area_density
-            self._degree_forms = (fem.form((wn.dx(0) / self.g) ** 2 * ad * self.dx),
-                                  fem.form(wn * wn * ad * self.dx),
-                                  fem.form(u[1] * ad * self.dx), fem.form(ad * self.dx))
-        vec.copy(self._mode_w.x.petsc_vec)
-        self._mode_w.x.scatter_forward()
-        f_g2, f_w2, f_uz, f_area = self._degree_forms
-        self._mode_shift.value = float(fem.assemble_scalar(f_uz)) / float(
-            fem.assemble_scalar(f_area))
-        g2, w2 = (float(fem.assemble_scalar(f)) for f in (f_g2, f_w2))
-        x = g2 / max(w2, 1e-300) * self.shape.R ** 2
+        g2, w2, uz, area = forms
+        # the gauge u_z(pole) = 0 adds a translation (degree 1) to every axisymmetric mode:
+        # removed (m ≥ 1 modes vanish on the axis and have no such gauge)
+        shift.value = (float(fem.assemble_scalar(uz)) / float(fem.assemble_scalar(area))
+                       if m == 0 else 0.0)
+        x = (float(fem.assemble_scalar(g2)) / max(float(fem.assemble_scalar(w2)), 1e-300)
+             * self.shape.R ** 2)
         n = int(round((-1 + math.sqrt(1 + 4 * max(x, 0.0))) / 2))
-        return ModeInfo(m=0, n=n, rayleigh={"x": x})
+        return ModeInfo(m=m, n=n, rayleigh={"x": x})
+
+    @staticmethod
+    def _radial_axial(f: Any) -> tuple[Any, Any]:
+        import ufl
+
+        u, _ = ufl.split(f)
+        return u[0], u[1]
+
+    def _degree_form(self, space: Any, ur_uz: Any, fourier: bool) -> tuple:
+        """(function, shift, m, forms) of the Rayleigh quotient of a mode in ``space``."""
+        from dolfinx import default_scalar_type, fem
+
+        f = fem.Function(space)
+        shift = fem.Constant(self.mesh, default_scalar_type(0.0))
+        m_c = fem.Constant(self.mesh, default_scalar_type(0.0))
+        ur, uz = ur_uz(f)
+        uz_s = uz - shift
+        wn = (ur * (-self.z0t) + uz_s * self.r0t) / self.g
+        grad2 = (wn.dx(0) / self.g) ** 2
+        if fourier:
+            grad2 = grad2 + (m_c * wn / self.r0) ** 2
+        ad = self.area_density
+        forms = (fem.form(grad2 * ad * self.dx), fem.form(wn * wn * ad * self.dx),
+                 fem.form(uz * ad * self.dx), fem.form(ad * self.dx))
+        return f, shift, m_c, forms
 
 
 def _dirichlet(V: Any, vertices: np.ndarray) -> list[Any]:
@@ -579,6 +604,13 @@ class ModeForms:
         self.form = fem.form(self.hessian_ufl, jit_options=JIT_OPTIONS)
         self.mass = fem.form(ufl.inner(v_, v) * model.r0 * model.g * model.dx)
         self._bcs = {k: self._conditions(k) for k in (0, 1, 2, 3)}
+
+    def radial_axial(self, f: Any) -> tuple[Any, Any]:
+        """(u_r, u_z) amplitudes of a mode ``f`` in ``V`` (U and W; phases as last set)."""
+        import ufl
+
+        q, _ = ufl.split(f)
+        return self.c["cSU"] * q[0] + self.c["cDU"] * q[1], q[2]
 
     def _conditions(self, mclass: int) -> list[Any]:
         V, model = self.V, self.model
@@ -674,178 +706,6 @@ def _check_common(shape: Any, h_over_r: Any, nu: Any) -> None:
 def _length(shape: Shape) -> float:
     """The length of κR: the pole radius R, the disk's radius."""
     return shape.R if math.isfinite(shape.R) else shape.characteristic_size()
-
-
-# ------------------------------------------------------------------------------------------------
-# points on the branch between two computed points (chord-parametrised pseudo-arclength)
-# ------------------------------------------------------------------------------------------------
-class _Chord:
-    """Branch points between two converged points A, B, parametrised by σ ∈ [0, 1] along the
-    chord c = B - A: the point on the branch in the hyperplane c·(x - (A + σ c)) = 0 (weighted
-    as in the continuation norm), by Keller's bordered Newton. Valid for a short step, through
-    folds (the chord is transversal to the branch there).
-
-    Near a bifurcation point J is nearly singular and Newton's basin shrinks to nothing, so the
-    predictor must be very good: cubic Hermite interpolation (values and branch tangents) between
-    the nearest cleanly converged points ("anchors") on either side. If Newton still diverges,
-    the predictor is accepted when its residual is below ``accept`` times the κ-load (it is then
-    far more accurate than the inertia or a sign of dκ/dσ needs), but not used as an anchor.
-    """
-
-    def __init__(self, model: AxisymModel, ns: Any, L: float, A: tuple[np.ndarray, float],
-                 B: tuple[np.ndarray, float], newton_tol: float = 1e-10,
-                 max_its: int = 15) -> None:
-        self.model, self.ns, self.L = model, ns, L
-        self.wA, self.lA = A
-        self.wB, self.lB = B
-        self.cw_vec = self.wB - self.wA
-        self.cl = self.lB - self.lA
-        h = float(model.h.value)
-        self.cw = 1.0 / (self.wA.size * h**2)
-        self.C2 = self.cw * self.cw_vec @ self.cw_vec + self.cl**2
-        self.tol, self.max_its = newton_tol, max_its
-        self.ftol, self.accept = 1e-7, 1e-5
-        self.deflate = True
-        self._b = model.w.x.petsc_vec.duplicate()
-        self._x = model.w.x.petsc_vec.duplicate()
-        self.anchors: dict[float, tuple[np.ndarray, float, np.ndarray, float]] = {}
-        for sig, (w, lam) in ((0.0, A), (1.0, B)):
-            self._set(w, lam)
-            self._anchor(sig)
-
-    def _set(self, w: np.ndarray, lam: float) -> None:
-        self.model.w.x.array[:] = w
-        self.model.kappa.value = lam / self.L
-
-    def _lin(self, rhs: np.ndarray) -> np.ndarray:
-        self._b.array_w[:] = rhs
-        self.ns.lin_solve(self._b, self._x)
-        return self._x.array_r.copy()
-
-    def _dres_dlambda(self) -> np.ndarray:
-        self.ns.assemble_dkappa(self._b)
-        return self._b.array_r.copy() / self.L
-
-    def _residual(self) -> np.ndarray:
-        self.ns.assemble_residual(self._b)
-        return self._b.array_r.copy()
-
-    def _anchor(self, sigma: float) -> None:
-        """Store the model's state as an anchor at σ, with d(w, λ)/dσ along the branch."""
-        self.ns.factor()
-        z = self._lin(-self._dres_dlambda())
-        den = self.cw * self.cw_vec @ z + self.cl
-        alpha = self.C2 / den if den != 0 and math.isfinite(den) else 0.0
-        dw, dl = alpha * z, alpha
-        # a tangent far from the chord's direction is polluted by a near-null mode of J (a
-        # bifurcation point close by): use the chord instead
-        if not np.linalg.norm(dw - self.cw_vec) <= 0.5 * np.linalg.norm(self.cw_vec):
-            dw, dl = self.cw_vec.copy(), self.cl
-        self.anchors[sigma] = (self.model.w.x.array.copy(), self.lam(), dw, dl)
-
-    def predictor(self, sigma: float) -> tuple[np.ndarray, float]:
-        s0 = max((s for s in self.anchors if s <= sigma), default=0.0)
-        s1 = min((s for s in self.anchors if s >= sigma), default=1.0)
-        w0, l0, dw0, dl0 = self.anchors[s0]
-        if s1 == s0:
-            return w0.copy(), l0
-        w1, l1, dw1, dl1 = self.anchors[s1]
-        d = s1 - s0
-        x = (sigma - s0) / d
-        h00, h10 = 2 * x**3 - 3 * x**2 + 1, x**3 - 2 * x**2 + x
-        h01, h11 = -2 * x**3 + 3 * x**2, x**3 - x**2
-        w = h00 * w0 + h10 * d * dw0 + h01 * w1 + h11 * d * dw1
-        lam = h00 * l0 + h10 * d * dl0 + h01 * l1 + h11 * d * dl1
-        return w, lam
-
-    def solve(self, sigma: float) -> bool:
-        """Put the branch point at σ into the model (state and κ); False if that fails.
-
-        Bordered Newton from the predictor whose steps omit the components along the four
-        eigenvectors v of J nearest 0 when such a component is more than 10 times the rest of
-        the step: that is round-off amplified by 1/μ, or the start of a switch to a branch
-        bifurcating close by. Only with ``deflate`` (off in a step that contains a fold: there
-        the branch turns into the null vector and the bordered system resolves it). The
-        residual keeps its (tiny) components along the omitted directions, so convergence is
-        judged on the step, or on a stagnating residual below ``accept`` times the κ-load.
-        """
-        import scipy.sparse as sp
-        from scipy.sparse.linalg import eigsh
-
-        m = self.model
-        if sigma in self.anchors:
-            w, lam, _, _ = self.anchors[sigma]
-            self._set(w, lam)
-            return True
-        wpred, lpred = self.predictor(sigma)
-        self._set(wpred, lpred)
-        lam = lpred
-        wp, lp = self.wA + sigma * self.cw_vec, self.lA + sigma * self.cl
-        f_prev, scale, f_pred = math.inf, 0.0, math.inf
-        tiny = 1e-14 * float(np.linalg.norm(self.wB)) + 1e-300
-        for it in range(self.max_its):
-            F = self._residual()
-            if not np.all(np.isfinite(F)):
-                break
-            Fl = self._dres_dlambda()
-            fn = float(np.linalg.norm(F))
-            if it == 0:
-                scale, f_pred = float(np.linalg.norm(Fl)) * max(1.0, abs(lam)), fn
-            if fn > 100.0 * min(f_prev, f_pred):
-                break
-            if it > 0 and fn > 0.9 * f_prev and fn <= self.accept * scale:
-                self._anchor(sigma)
-                return True  # stagnated at a small residual (round-off, near-null modes)
-            f_prev = fn
-            self.ns.factor()
-            a, b = self._lin(-F), self._lin(-Fl)
-            mu, V = np.zeros(0), np.zeros((a.size, 0))
-            if self.deflate:
-                ai, aj, av = self.ns.A.getValuesCSR()
-                J = sp.csr_matrix((av, aj, ai), shape=self.ns.A.getSize())
-                try:
-                    mu, V = eigsh(J, k=4, sigma=0.0, which="LM")
-                except Exception:  # noqa: BLE001 - ARPACK trouble: plain Newton steps
-                    pass
-            ca, cb = V.T @ a, V.T @ b
-            a_reg = float(np.linalg.norm(a - V @ ca))
-            b_reg = float(np.linalg.norm(b - V @ cb))
-            for i in range(len(mu)):
-                if abs(ca[i]) > 10.0 * a_reg + tiny or abs(cb[i]) > 10.0 * b_reg + tiny:
-                    a -= ca[i] * V[:, i]
-                    b -= cb[i] * V[:, i]
-            N = self.cw * self.cw_vec @ (m.w.x.array - wp) + self.cl * (lam - lp)
-            den = self.cl + self.cw * self.cw_vec @ b
-            if den == 0 or not math.isfinite(den):
-                break
-            dl = -(N + self.cw * self.cw_vec @ a) / den
-            dw = a + dl * b
-            m.w.x.array[:] += dw
-            lam += dl
-            m.kappa.value = lam / self.L
-            rms = float(np.linalg.norm(dw)) / math.sqrt(dw.size) / self.L
-            if not math.isfinite(rms):
-                break
-            if rms < self.tol and abs(dl) < self.tol * max(1.0, abs(lam)):
-                self._anchor(sigma)
-                return True
-        if f_pred <= self.accept * scale:
-            self._set(wpred, lpred)
-            return True
-        return False
-
-    def lam(self) -> float:
-        return float(self.model.kappa.value) * self.L
-
-    def dlam_sign(self) -> float:
-        """Sign of dλ/dσ along the branch at the current point (tangent oriented along c)."""
-        self.ns.factor()
-        z = self._lin(-self._dres_dlambda())
-        return 1.0 if self.cw * self.cw_vec @ z + self.cl >= 0 else -1.0
-
-    def destroy(self) -> None:
-        self._b.destroy()
-        self._x.destroy()
 
 
 # ------------------------------------------------------------------------------------------------
@@ -947,23 +807,27 @@ class RunConfig:
 
 @dataclass
 class _Run:
-    """The model, solvers and stability objects of a run."""
+    """The model and Newton solver of a run."""
 
     cfg: RunConfig
     model: AxisymModel = field(init=False)
 
     def __post_init__(self) -> None:
         from shells.solvers import NewtonSolver
-        from shells.stability import Stability
 
         self.model = AxisymModel(self.cfg.shape, self.cfg.params())
         self.model.modes = tuple(self.cfg.modes)
         self.ns = NewtonSolver(self.model, options=SNES_OPTIONS)
-        self.ns_loc = NewtonSolver(self.model, options=SNES_OPTIONS)
-        self.stab = Stability(self.model)
         # the residual bound is the continuation's own (relative to the κ-load, plus the
         # round-off floor of the penalty-stiff Jacobian): no model-specific tolerance here
         self.settings = self.cfg.settings or default_settings(self.cfg.shape, self.cfg.h_over_r)
+
+    def follow(self, crit: Any = None, locate_points: bool = True) -> Iterator[tuple]:
+        """``critical.follow`` over the run's range with the inertia of every H_m."""
+        from shells.critical import follow
+
+        return follow(self.model, self.settings, self.cfg.kappa_end, crit, solver=self.ns,
+                      blocks=self.model.modes, locate_points=locate_points)
 
     def record(self, p: Any, counts: dict[int, int]) -> dict[str, Any]:
         d = p.as_dict()
@@ -975,21 +839,6 @@ class _Run:
 
     def destroy(self) -> None:
         self.ns.destroy()
-        self.ns_loc.destroy()
-        self.stab.destroy()
-
-
-def _follow(run: _Run) -> Iterator[tuple[Any, dict[int, int]]]:
-    """The continuation's points with the negative count of every H_m. At κ = 0 the state is
-    the stress-free reference, the energy's minimum: every H_m is positive definite there (see
-    tests/test_axisym.py), so its counts are zero without factorising."""
-    from shells.continuation import continuation
-
-    cfg = run.cfg
-    for p in continuation(run.model, run.settings, kappa_start=0.0, kappa_end=cfg.kappa_end,
-                          solver=run.ns):
-        rest = p.kappa == 0.0 and not np.any(run.model.w.x.array)
-        yield p, ({m: 0 for m in cfg.modes} if rest else run.stab.negative_counts(cfg.modes))
 
 
 def branch(shape: Shape, h_over_r: float, nu: float = 0.5, direction: str = "up",
@@ -1021,8 +870,8 @@ def branch(shape: Shape, h_over_r: float, nu: float = 0.5, direction: str = "up"
                     kappa_max=kappa_max, **_numerics(numerics, ("rel_tol", "max_critical")))
     run = _Run(cfg)
     try:
-        for p, counts in _follow(run):
-            yield run.record(p, counts)
+        for p, res, _ in run.follow(locate_points=False):
+            yield run.record(p, res.counts)
     finally:
         run.destroy()
 
@@ -1035,124 +884,6 @@ def _numerics(numerics: dict[str, Any], extra: tuple[str, ...] = ()) -> dict[str
         raise InputError(f"unknown numerics option(s): {', '.join(sorted(bad))} "
                          f"(allowed: {', '.join(sorted(allowed))})")
     return numerics
-
-
-@dataclass
-class _Snap:
-    w: np.ndarray
-    lam: float
-    counts: dict[int, int]
-    dkds: float
-
-
-def _solve_at(chord: _Chord, sigma: float) -> float:
-    if not chord.solve(sigma):
-        raise RuntimeError(f"the branch corrector failed at sigma = {sigma:.6g} while locating "
-                           "a critical point")
-    return chord.lam()
-
-
-def _locate_fold(run: _Run, chord: _Chord, rel_tol: float) -> tuple[float, float, float]:
-    """(σ_lo, σ_hi, λ at the fold): bisection on the sign of dλ/dσ, then the extremum of λ
-    over the last three points (λ is stationary there, the error is O(Δσ²))."""
-    s0 = chord.dlam_sign() if chord.solve(0.0) else 1.0
-    lo, hi = 0.0, 1.0
-    lams = {0.0: chord.lA, 1.0: chord.lB}
-    for _ in range(60):
-        mid = 0.5 * (lo + hi)
-        lams[mid] = _solve_at(chord, mid)
-        if chord.dlam_sign() == s0:
-            lo = mid
-        else:
-            hi = mid
-        lam_ref = max(abs(lams[lo]), 1e-300)
-        if hi - lo < 1e-3 and abs(lams[hi] - lams[lo]) < 0.1 * rel_tol * lam_ref:
-            break
-    near = [lams[s] for s in lams if lo - 1e-12 <= s <= hi + 1e-12]
-    mid = 0.5 * (lo + hi)
-    near.append(_solve_at(chord, mid))
-    lam = max(near) if s0 > 0 else min(near)
-    return lo, hi, lam
-
-
-#: a perfect sphere's critical 2n+1 multiplet is split by the discretisation (by < 1e-4 in κ
-#: at the default mesh); neighbouring degrees cross a few 1e-4 apart (the minimum of κ_b(n) is
-#: flat), so the degree is read off this far past the first crossing: n is good to ±1
-SPHERE_DEGREE_OFFSET = 2.0e-4
-
-
-def _sphere_degree(run: _Run, chord: _Chord, sigma: float, lam: float, end: float,
-                   end_counts: dict[int, int]) -> int | None:
-    """n: the largest m unstable at κ (1 + SPHERE_DEGREE_OFFSET) past the crossing at σ."""
-    modes = run.cfg.modes
-    target = lam * (1.0 + SPHERE_DEGREE_OFFSET * math.copysign(1.0, chord.lB - chord.lA))
-    frac = (target - chord.lA) / (chord.lB - chord.lA) if chord.lB != chord.lA else 1.0
-    if frac >= end:
-        counts = end_counts
-    else:
-        _solve_at(chord, max(frac, sigma))
-        counts = run.stab.negative_counts(modes)
-    return max((m for m in modes if counts[m] > 0), default=None)
-
-
-def _locate_interval(run: _Run, A: _Snap, B: _Snap, rel_tol: float,
-                     limit: int | None = None) -> list[dict[str, Any]]:
-    """Critical points between two consecutive branch points A and B, in branch order, up to a
-    fold in the interval (inclusive), at most ``limit`` bifurcations before it."""
-    model, cfg = run.model, run.cfg
-    L = model.shape.characteristic_size()
-    chord = _Chord(model, run.ns_loc, L, (A.w, A.lam), (B.w, B.lam))
-    events: list[dict[str, Any]] = []
-    try:
-        end, end_counts = 1.0, dict(B.counts)
-        fold = A.dkds * B.dkds < 0
-        chord.deflate = not fold
-        if fold:
-            lo, hi, lam_f = _locate_fold(run, chord, rel_tol)
-            _solve_at(chord, lo)  # the fundamental side of the fold
-            end, end_counts = lo, run.stab.negative_counts(cfg.modes)
-            events.append(dict(kind="fold", sigma=0.5 * (lo + hi), lam=lam_f, mode_m=0,
-                               mode_n=None))
-        base = dict(A.counts)
-        lo, lam_lo = 0.0, A.lam
-        while True:
-            cand = {m for m in cfg.modes if end_counts[m] != base[m]}
-            if not cand:
-                break
-            hi, lam_hi = end, _solve_at(chord, end)
-            lo0, lam_lo0 = lo, lam_lo  # all counts are those of ``base`` here
-            # the first crossing among the candidates: bisect one of them, then check that no
-            # other one crossed before its bracket (else continue with those, further left)
-            while True:
-                m0 = min(cand)
-                while abs(lam_hi - lam_lo) > rel_tol * max(abs(lam_hi), abs(lam_lo)):
-                    mid = 0.5 * (lo + hi)
-                    lam_mid = _solve_at(chord, mid)
-                    if run.stab.negative_count(m0) != base[m0]:
-                        hi, lam_hi = mid, lam_mid
-                    else:
-                        lo, lam_lo = mid, lam_mid
-                _solve_at(chord, lo)
-                earlier = {m for m in cand - {m0} if run.stab.negative_count(m) != base[m]}
-                if not earlier:
-                    break
-                cand, hi, lam_hi = earlier, lo, lam_lo
-                lo, lam_lo = lo0, lam_lo0
-            mode_n = _sphere_degree(run, chord, hi, lam_hi, end, end_counts) \
-                if _is_sphere(cfg.shape) else None
-            events.append(dict(kind="bifurcation", sigma=0.5 * (lo + hi),
-                               lam=0.5 * (lam_lo + lam_hi), mode_m=m0, mode_n=mode_n))
-            if hi >= end or (limit is not None and len(events) >= limit):
-                break
-            _solve_at(chord, hi)
-            base = run.stab.negative_counts(cfg.modes)
-            lo, lam_lo = hi, lam_hi
-    finally:
-        chord.destroy()
-        model.w.x.array[:] = B.w
-        model.kappa.value = B.lam / L
-    events.sort(key=lambda e: e["sigma"])
-    return events
 
 
 def critical(shape: Shape, h_over_r: float, nu: float = 0.5, direction: str = "up",
@@ -1196,32 +927,32 @@ def critical(shape: Shape, h_over_r: float, nu: float = 0.5, direction: str = "u
         numerics.setdefault("max_critical", 1)
     cfg = RunConfig(shape=shape, h_over_r=h_over_r, nu=nu, direction=direction, m_max=m_max,
                     kappa_max=kappa_max, **numerics)
+    from shells.critical import CriticalSettings
+
     run = _Run(cfg)
     L = run.model.shape.characteristic_size()
-    found: list[dict[str, Any]] = []
+    # a closed sphere's axisymmetric modes of neighbouring degrees bifurcate within 1e-4 in κ:
+    # there the locator's corrector omits dominant components along the Jacobian's four
+    # eigenvectors nearest 0 (else it lands on a branch bifurcating close by). Elsewhere it
+    # must not: on a thin disk the soft axisymmetric bending modes are among them, and their
+    # components are the corrections Newton needs (measured: with it the h/R = 0.02 disk's
+    # m = 2 bifurcation came out 1.3e-3 low, at a state off the branch)
+    crit = CriticalSettings(rel_tol=cfg.rel_tol, stop_at_fold=True,
+                            max_critical=cfg.max_critical,
+                            deflate=0)
+    found: list[Any] = []
+    last = None
     try:
-        prev: _Snap | None = None
-        stop = False
-        for p, counts in _follow(run):
-            cur = _Snap(run.model.w.x.array.copy(), p.kappa_L, counts, p.dkappa_ds)
-            if prev is not None:
-                fold = prev.dkds * cur.dkds < 0
-                if fold or cur.counts != prev.counts:
-                    left = None if cfg.max_critical is None else cfg.max_critical - len(found)
-                    for ev in _locate_interval(run, prev, cur, cfg.rel_tol, left):
-                        found.append(ev)
-                        if ev["kind"] == "fold" or (cfg.max_critical is not None
-                                                    and len(found) >= cfg.max_critical):
-                            stop = True
-                            break
-            if stop:
-                break
-            prev = cur
+        for p, _, cps in run.follow(crit):
+            last = p
+            found.extend(cps)
+        stop = bool(found) and (found[-1].kind == "fold" or (
+            cfg.max_critical is not None and len(found) >= cfg.max_critical))
         lam_end = cfg.kappa_end * L
-        if not stop and (prev is None or abs(prev.lam - lam_end) > 1e-9 * abs(lam_end)):
+        if not stop and (last is None or abs(last.kappa_L - lam_end) > 1e-9 * abs(lam_end)):
             # the continuation gave up (step below ds_min, or max_steps) short of the end:
             # the critical points beyond are unknown, "none" would be a false claim
-            reached = None if prev is None else prev.lam / L * cfg.R
+            reached = None if last is None else last.kappa * cfg.R
             raise RuntimeError(f"the axisymmetric continuation stopped at kappa R = {reached} "
                                f"before the end of the range, kappa R = "
                                f"{cfg.kappa_end * cfg.R:.6g}; critical points beyond it are "
@@ -1230,8 +961,11 @@ def critical(shape: Shape, h_over_r: float, nu: float = 0.5, direction: str = "u
     finally:
         run.destroy()
     R, h = cfg.R, cfg.h
-    pts = [{"kind": e["kind"], "kappa_R": e["lam"] / L * R, "kappa_h": e["lam"] / L * h,
-            "mode_m": e["mode_m"], "mode_n": e["mode_n"]} for e in found]
+    pts = [{"kind": c.kind, "kappa_R": c.kappa * R, "kappa_h": c.kappa * h,
+            "mode_m": 0 if c.kind == "fold" else c.mode_m,
+            "mode_n": c.mode_n if c.kind != "fold" else None,
+            "kappa_R_bracket": [c.kappa_lo * R, c.kappa_hi * R], "accuracy": c.accuracy}
+           for c in found]
     first = pts[0] if pts else {"kind": "none", "kappa_R": None, "kappa_h": None,
                                 "mode_m": None, "mode_n": None}
     theta = getattr(cfg.shape, "theta", None)

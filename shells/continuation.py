@@ -18,6 +18,7 @@ folds (snap-through).
 
 from __future__ import annotations
 
+import logging
 import math
 import time
 from collections.abc import Iterator
@@ -28,6 +29,8 @@ import numpy as np
 
 from shells.errors import InputError
 from shells.solvers import NewtonSolver
+
+log = logging.getLogger("shells")
 
 __all__ = ["ContinuationSettings", "Point", "continuation"]
 
@@ -358,51 +361,76 @@ def _bordered_newton(ar: _Arclength, st: ContinuationSettings, lam_p: float,
     ``singular_ok``: next to a bifurcation the Jacobian is nearly singular and round-off is
     amplified along the critical mode, so the increment stalls above ``newton_tol`` although the
     residual is converged; then a residual below the residual bound after 3 iterations is
-    accepted. The residual bound is ``_Arclength.residual_bound`` (relative to the κ-load and
-    the round-off floor, or ``residual_tol``). ``deflate(a, b)``, when given, may remove
-    components from the two solves J a = -R, J b = -R_λ of each iteration (the locator's
-    safeguard against Newton steps that switch to a branch bifurcating close by).
+    accepted, and if Newton diverges (next to a cluster of singular modes, a closed sphere's)
+    the iterate of smallest residual is kept when that residual is below the bound (every
+    iterate, and the start, lies on the hyperplane: the constraint is linear). The residual
+    bound is ``_Arclength.residual_bound`` (relative to the κ-load and the round-off floor, or
+    ``residual_tol``). ``deflate(a, b)``, when given, may remove components from the two
+    solves J a = -R, J b = -R_λ of each iteration (the locator's safeguard against Newton
+    steps that switch to a branch bifurcating close by).
     """
     ns, w = ar.ns, ar.w
     lam = lam_p if lam_start is None else lam_start
     ar.set_lambda(lam)
     F = ns.b
-    for it in range(1, st.max_newton_its + 1):
-        ns.assemble_residual(F)
-        if not np.isfinite(F.norm()) or not ns.factor():
+    best_w = w.duplicate() if singular_ok else None
+    best = (math.inf, lam)  # (residual, λ) of the best iterate, its state in best_w
+
+    def fail(it: int) -> tuple[bool, int, float]:
+        if best_w is None or not best[0] <= ar.residual_bound(st, best[1]):
             return False, it, lam
-        F.scale(-1.0)
-        ns.lin_solve(F, ar.a)
-        ar.dres_dlambda()
-        ar.Fl.scale(-1.0)
-        ns.lin_solve(ar.Fl, ar.b)
-        if deflate is not None:
-            deflate(ar.a, ar.b)
-        # hyperplane constraint N = cw τw·(w - wp) + τl (λ - λp)
-        w.copy(ar.Fl)
-        ar.Fl.axpy(-1.0, ar.wp)
-        Nc = ar.cw * ar.tw.dot(ar.Fl) + ar.tl * (lam - lam_p)
-        denom = ar.tl + ar.cw * ar.tw.dot(ar.b)
-        if denom == 0 or not math.isfinite(denom):
-            return False, it, lam
-        dlam = -(Nc + ar.cw * ar.tw.dot(ar.a)) / denom
-        w.axpy(1.0, ar.a)
-        w.axpy(dlam, ar.b)
-        lam += dlam
+        best_w.copy(w)
         ar.sync()
-        ar.set_lambda(lam)
-        ar.a.axpy(dlam, ar.b)  # the full state increment
-        rms = ar.a.norm() / math.sqrt(w.getSize()) / ar.L
-        if not (math.isfinite(rms) and math.isfinite(lam)):
-            return False, it, lam
-        if abs(lam - lam_p) > 10.0 * max(1.0, abs(lam_p)):
-            return False, it, lam  # diverging: its iterates would only poison the factor
-        if rms < st.newton_tol and abs(dlam) < st.newton_tol * max(1.0, abs(lam)):
+        ar.set_lambda(best[1])
+        log.debug("bordered newton: diverged; kept the iterate of residual %.3e", best[0])
+        return True, it, best[1]
+
+    try:
+        for it in range(1, st.max_newton_its + 1):
             ns.assemble_residual(F)
-            if F.norm() <= ar.residual_bound(st, lam):
-                return True, it, lam
-        elif singular_ok and it >= 3:
-            ns.assemble_residual(F)
-            if F.norm() <= ar.residual_bound(st, lam):
-                return True, it, lam
-    return False, st.max_newton_its, lam
+            fn = F.norm()
+            if not np.isfinite(fn) or not ns.factor():
+                return fail(it)
+            if best_w is not None and fn < best[0]:
+                w.copy(best_w)
+                best = (fn, lam)
+            elif best_w is not None and it > 3 and fn > 1e3 * best[0]:
+                return fail(it)  # diverging from a good iterate: more steps only go further
+            F.scale(-1.0)
+            ns.lin_solve(F, ar.a)
+            ar.dres_dlambda()
+            ar.Fl.scale(-1.0)
+            ns.lin_solve(ar.Fl, ar.b)
+            if deflate is not None:
+                deflate(ar.a, ar.b)
+            # hyperplane constraint N = cw τw·(w - wp) + τl (λ - λp)
+            w.copy(ar.Fl)
+            ar.Fl.axpy(-1.0, ar.wp)
+            Nc = ar.cw * ar.tw.dot(ar.Fl) + ar.tl * (lam - lam_p)
+            denom = ar.tl + ar.cw * ar.tw.dot(ar.b)
+            if denom == 0 or not math.isfinite(denom):
+                return fail(it)
+            dlam = -(Nc + ar.cw * ar.tw.dot(ar.a)) / denom
+            w.axpy(1.0, ar.a)
+            w.axpy(dlam, ar.b)
+            lam += dlam
+            ar.sync()
+            ar.set_lambda(lam)
+            ar.a.axpy(dlam, ar.b)  # the full state increment
+            rms = ar.a.norm() / math.sqrt(w.getSize()) / ar.L
+            if not (math.isfinite(rms) and math.isfinite(lam)):
+                return fail(it)
+            if abs(lam - lam_p) > 10.0 * max(1.0, abs(lam_p)):
+                return fail(it)  # diverging: its iterates would only poison the factor
+            if rms < st.newton_tol and abs(dlam) < st.newton_tol * max(1.0, abs(lam)):
+                ns.assemble_residual(F)
+                if F.norm() <= ar.residual_bound(st, lam):
+                    return True, it, lam
+            elif singular_ok and it >= 3:
+                ns.assemble_residual(F)
+                if F.norm() <= ar.residual_bound(st, lam):
+                    return True, it, lam
+        return fail(st.max_newton_its)
+    finally:
+        if best_w is not None:
+            best_w.destroy()

@@ -28,7 +28,7 @@ from __future__ import annotations
 import logging
 import math
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Hashable, Iterable, Iterator
 from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
@@ -61,6 +61,10 @@ class CriticalSettings:
         max_evaluations: at most this many corrector solves per critical point.
         stop_at_fold: stop following the branch after the first fold.
         stop_at_first: stop after the first critical point of any kind.
+        max_critical: stop after this many critical points (None: no limit).
+        folds_only_after_first: after the first bifurcation, stop computing inertia (the
+            counts are carried) and locate folds only: the branch is then followed up to its
+            fold at the price of the corrector alone.
         nev: eigenvalues computed at each trial point (nearest 0).
         deflate: in steps without a fold, the locator's corrector omits from each Newton step
             its components along the ``deflate`` eigenvectors of the Jacobian nearest 0 when
@@ -74,6 +78,8 @@ class CriticalSettings:
     max_evaluations: int = 25
     stop_at_fold: bool = True
     stop_at_first: bool = False
+    max_critical: int | None = None
+    folds_only_after_first: bool = False
     nev: int = 4
     deflate: int = 0
 
@@ -82,6 +88,10 @@ class CriticalSettings:
             raise InputError(f"rel_tol must lie in (0, 0.1), got {self.rel_tol}")
         if self.max_evaluations < 2 or self.nev < 1:
             raise InputError("need max_evaluations >= 2 and nev >= 1")
+        if self.max_critical is not None and not (isinstance(self.max_critical, int)
+                                                  and self.max_critical >= 1):
+            raise InputError(f"max_critical must be a positive integer, got "
+                             f"{self.max_critical!r}")
         if not (isinstance(self.deflate, int) and 0 <= self.deflate <= 20):
             raise InputError(f"deflate must be an integer in [0, 20], got {self.deflate!r}")
 
@@ -102,6 +112,7 @@ class CriticalPoint:
     mode_m: int | None = None
     mode_n: int | None = None
     mode_rayleigh: dict[str, float] = field(default_factory=dict)
+    block: Any = None
     evaluations: int = 0
     accuracy: float = math.nan
     after_point: int = 0
@@ -116,13 +127,17 @@ class CriticalPoint:
 
 @dataclass
 class _Eval:
+    """A trial point of a step: σ, κL, dκ/ds, its state (owned values) and, for the blocks
+    it was checked on, their negative counts and eigenvalues nearest 0 (ascending)."""
+
     sigma: float
     lam: float
-    count: int
     tl: float
-    eig: float
     state: Any = None
-    eigs: tuple[float, ...] = ()
+    counts: dict[Hashable, int] = field(default_factory=dict)
+    eigs: dict[Hashable, tuple[float, ...]] = field(default_factory=dict)
+    eig: float = math.nan
+    complete: bool = True  # the counts of all blocks asked for are known
 
 
 class _Locator:
@@ -177,27 +192,38 @@ class _Locator:
         self.ar.sync()
         self.ar.set_lambda(lam)
 
-    def eigs_at(self, state: np.ndarray, lam: float, nev: int) -> tuple[float, ...]:
-        """The ``nev`` eigenvalues nearest 0 at a converged state (owned values) and κL."""
-        self._load(state, lam)
-        vals, _ = self.stab.eigenpairs(nev)
-        return tuple(sorted(vals))
-
-    def modes_at(self, e: _Eval, nev: int) -> tuple[_Eval, list[Any]]:
-        """The eigenpair nearest 0 at an evaluated (converged) point, from its stored state:
-        no corrector, which may not converge again right next to a bifurcation."""
+    def eigs_at(self, e: _Eval, nev: int, blocks: tuple[Hashable, ...]
+                ) -> dict[Hashable, tuple[float, ...]]:
+        """The ``nev`` eigenvalues nearest 0 (ascending) of each of ``blocks`` at an evaluated
+        (converged) point."""
         self._load(e.state, e.lam)
-        vals, vecs = self.stab.eigenpairs(nev, modes=True)
+        return {b: tuple(sorted(self.stab.eigenpairs(nev, block=b)[0])) for b in blocks}
+
+    def counts_at(self, e: _Eval, blocks: tuple[Hashable, ...]) -> dict[Hashable, int]:
+        """The negative counts of ``blocks`` at an evaluated (converged) point."""
+        self._load(e.state, e.lam)
+        return self.stab.negative_counts(blocks)
+
+    def modes_at(self, e: _Eval, nev: int, block: Hashable = None) -> tuple[_Eval, list[Any]]:
+        """The eigenpair nearest 0 of ``block`` at an evaluated (converged) point, from its
+        stored state: no corrector, which may not converge again right next to a
+        bifurcation."""
+        self._load(e.state, e.lam)
+        vals, vecs = self.stab.eigenpairs(nev, modes=True, block=block)
         if not vals:
             return e, []
         i = int(np.argmin(np.abs(vals)))
         return replace(e, eig=vals[i]), [vecs[i]]
 
-    def evaluate(self, sigma: float, nev: int, modes: bool = False,
-                 near: _Eval | None = None) -> tuple[_Eval, list[Any]]:
-        """Corrector on the hyperplane at arclength σ of the step; starts from ``near``'s state
-        (shifted along the tangent) when given: Newton is slow next to a bifurcation, where the
-        Jacobian is singular, so the closest known solution is the best start."""
+    def evaluate(self, sigma: float, near: _Eval | None = None,
+                 blocks: tuple[Hashable, ...] = (),
+                 base: dict[Hashable, int] | None = None) -> _Eval:
+        """Corrector on the hyperplane at arclength σ of the step, then the negative count of
+        each of ``blocks`` (eigenvalues: ``eigs_at``, on demand), up to the first whose count
+        differs from ``base`` when that is given (``complete`` False if some were left
+        unchecked); starts from ``near``'s state
+        (shifted along the tangent) when given: Newton is slow next to a bifurcation, where
+        the Jacobian is singular, so the closest known solution is the best start."""
         ar = self.ar
         w = ar.w
         self.w0.copy(w)
@@ -219,15 +245,15 @@ class _Locator:
                   sigma, lam, ok, its, time.perf_counter() - t0)
         if not ok:
             raise RuntimeError(f"corrector failed at sigma = {sigma:.3e}")
-        count = self.stab.inertia()[0]
-        vals, vecs = self.stab.eigenpairs(nev, modes=modes, assemble=False)
-        eig = min(vals, key=abs) if vals else math.nan
-        tl = self._signed_tl()
-        log.debug("locate:   negative %d, eigenvalue nearest 0 %.3e, dkappa/ds %.3e (%.1f s)",
-                  count, eig, tl, time.perf_counter() - t0)
-        vecs_near = [vecs[int(np.argmin(np.abs(vals)))]] if modes and vals else []
-        state = get_state(self.problem)
-        return _Eval(sigma, lam, count, tl, eig, state, tuple(sorted(vals))), vecs_near
+        e = _Eval(sigma, lam, self._signed_tl(), get_state(self.problem))
+        for i, b in enumerate(blocks):
+            e.counts[b] = self.stab.inertia(b)[0]
+            if base is not None and e.counts[b] != base[b]:
+                e.complete = i == len(blocks) - 1
+                break
+        log.debug("locate:   negative %d %s, dkappa/ds %.3e (%.1f s)", _total(e.counts),
+                  {b: c for b, c in e.counts.items() if c}, e.tl, time.perf_counter() - t0)
+        return e
 
 
 class _Deflation:
@@ -278,57 +304,219 @@ def _m_dot(M: Any, x: Any) -> float:
     return _m_inner(M, x, x)
 
 
-def locate(loc: _Locator, p0: Point, w0: np.ndarray, c0: int, p1: Point, c1: int,
-           w1: np.ndarray) -> CriticalPoint:
-    """Locate the critical point in the step from ``p0`` (count c0) to ``p1`` (count c1)."""
+def _block_key(b: Hashable) -> tuple[int, Any]:
+    """Blocks in a stable order: ``None`` (the Jacobian) first, then by label."""
+    return (0, 0) if b is None else (1, b)
+
+
+def _total(counts: dict[Hashable, int]) -> int:
+    return int(sum(counts.values()))
+
+
+def locate(loc: _Locator, p0: Point, w0: np.ndarray, counts0: dict[Hashable, int], p1: Point,
+           counts1: dict[Hashable, int] | None, w1: np.ndarray, *,
+           limit: int | None = None) -> list[CriticalPoint]:
+    """The critical points in the step from ``p0`` to ``p1``, in branch order: the crossings of
+    every stability block whose negative count changes (``counts0`` to ``counts1``, by block),
+    and the fold when dκ/ds changes sign (last: the branch is followed up to it). A step with a
+    fold is searched for crossings up to the fold's near side only (the counts there decide).
+    ``counts1`` None: folds only. ``limit``: at most this many crossings (the first ones)."""
+    fold = (p0.dkappa_ds >= 0) != (p1.dkappa_ds >= 0)
+    n_own = loc.w0.getLocalSize()
+    lo = _Eval(0.0, p0.kappa_L, p0.dkappa_ds, w0[:n_own].copy())
+    end = _Eval(p1.step, p1.kappa_L, p1.dkappa_ds, w1[:n_own].copy())
+    found: list[CriticalPoint] = []
+    fold_cp = None
+    counts_end = counts1
+    if fold:
+        fold_cp, near = _locate_fold(loc, p0, w0, p1, w1)
+        fold_cp.negative_before = _total(counts0)
+        fold_cp.negative_after = fold_cp.negative_before + 1
+        if counts1 is not None:
+            fold_cp.negative_after = _total(counts1)
+            fold_cp.multiplicity = max(1, abs(fold_cp.negative_after - _total(counts0)))
+        if counts1 is not None and near.sigma > 0:
+            end = near
+            counts_end = loc.counts_at(near, tuple(counts0))
+            fold_cp.negative_before = _total(counts_end)
+            fold_cp.multiplicity = max(1, abs(_total(counts1) - _total(counts_end)))
+        elif counts1 is not None:
+            counts_end = counts0  # no trial on the near side: its crossings are unknown
+    if counts_end is not None and (limit is None or limit > 0):
+        changed = sorted((b for b in counts0 if counts_end[b] != counts0[b]), key=_block_key)
+        if changed:
+            found = _locate_crossings(loc, p0, w0, lo, end, counts0, counts_end, changed, limit)
+    return found + ([fold_cp] if fold_cp is not None else [])
+
+
+def _locate_crossings(loc: _Locator, p0: Point, w0: np.ndarray, lo: _Eval, end: _Eval,
+                      counts0: dict[Hashable, int], counts_end: dict[Hashable, int],
+                      changed: list[Hashable], limit: int | None) -> list[CriticalPoint]:
+    """Crossings of the ``changed`` blocks between ``lo`` and ``end``: the first one, located
+    on all of them at once (a closed sphere's 2n+1 multiplet and its neighbours cross within
+    1e-4 in κ, spread over many Fourier blocks); with ``limit`` 1 that is all, otherwise the
+    first crossing of every other changed block as well, all in branch order."""
+    first = _locate_crossing(loc, p0, w0, lo, end, tuple(changed), counts0, counts_end)
+    found = [first]
+    if limit is None or limit > 1:
+        for b in changed:
+            if b != first.block:
+                found.append(_locate_crossing(loc, p0, w0, lo, end, (b,), counts0, counts_end))
+        found.sort(key=lambda c: c.kappa * (1.0 if p0.dkappa_ds >= 0 else -1.0))
+        if limit is not None:
+            found = found[:limit]
+    return found
+
+
+def _before(a: CriticalPoint, b: CriticalPoint, p0: Point) -> bool:
+    """``a`` comes before ``b`` along the step from ``p0`` (no fold inside)."""
+    return (a.kappa - b.kappa) * (1.0 if p0.dkappa_ds >= 0 else -1.0) < 0
+
+
+def _locate_fold(loc: _Locator, p0: Point, w0: np.ndarray, p1: Point, w1: np.ndarray
+                 ) -> tuple[CriticalPoint, _Eval]:
+    """The fold in the step: the zero of dκ/ds(σ), bracketed and refined (Illinois secant
+    steps) until the error bound of κ, |dκ/ds| Δσ / 2, is below ``rel_tol`` |κ|. Returns the
+    fold and the trial nearest it on the step's near side (σ = 0 if there is none)."""
     t0 = time.perf_counter()
     crit = loc.crit
-    L = loc.L
-    fold = (p0.dkappa_ds >= 0) != (p1.dkappa_ds >= 0)
-    loc.start(w0, p0.kappa_L, p0.dkappa_ds, fold)
-    nev = max(crit.nev, abs(c1 - c0) + 2)
+    loc.start(w0, p0.kappa_L, p0.dkappa_ds, fold=True)
     tl0 = loc.ar.tl
-    lo = _Eval(0.0, p0.kappa_L, c0, tl0, math.nan)
-    hi = _Eval(p1.step, p1.kappa_L, c1, p1.dkappa_ds, math.nan, w1[: loc.w0.getLocalSize()])
-    evals = 0
-    side_lo_prev = None
-    nev = max(nev, max(c0, c1) + 3)
-    track = min(c0, c1)  # the eigenvalue that crosses: the (track+1)-th smallest
-    samples: list[_Eval] = []
-    interpolated: tuple[float, float] | None = None
-    failures = 0
+    lo = _Eval(0.0, p0.kappa_L, tl0, w0[: loc.w0.getLocalSize()].copy())
+    hi = _Eval(p1.step, p1.kappa_L, p1.dkappa_ds, w1[: loc.w0.getLocalSize()])
+    sgn = 1.0 if tl0 >= 0 else -1.0
+    best = lo
+    evals, failures = 0, 0
+    sides: list[bool] = []  # the side (low: True) each trial landed on
     s_fail: float | None = None
-    if not fold:
-        # the crossing eigenvalue at both ends, from their converged states (no corrector):
-        # secant steps from the start. Not samples for the root's quadratic fit: a step's end
-        # can lie far from the crossing (past an imperfect bifurcation, near the other branch)
-        n_own = loc.w0.getLocalSize()
-        lo = replace(lo, state=w0[:n_own].copy())
-        lo = replace(lo, eigs=loc.eigs_at(lo.state, lo.lam, nev))
-        hi = replace(hi, eigs=loc.eigs_at(hi.state, hi.lam, nev))
+    while evals < crit.max_evaluations:
+        width = hi.sigma - lo.sigma
+        err = max(abs(lo.tl), abs(hi.tl)) * width / 2
+        if err <= crit.rel_tol * abs(best.lam) * 0.5 and evals >= 2:
+            break
+        s = _secant(lo, hi, lo.tl, hi.tl, sides)
+        if s_fail is not None and s >= s_fail:
+            s = lo.sigma + 0.5 * (s_fail - lo.sigma)
+        e = _trial(loc, s, lo, hi, ())
+        if e is None:
+            failures += 1
+            s_fail = s if s_fail is None else min(s_fail, s)
+            if failures < 5:
+                continue
+            log.info("fold located to the bracket kappa L in [%.6g, %.6g] only: the corrector "
+                     "does not converge closer to it", lo.lam, hi.lam)
+            break
+        evals += 1
+        sides.append((e.tl >= 0) == (tl0 >= 0))
+        if sides[-1]:
+            lo = e
+        else:
+            hi = e
+        best = max((best, e), key=lambda q: q.lam * sgn)
+    # κ is stationary at the fold: the best sample bounds it on one side; on the other side
+    # its error bound |dκ/ds| Δσ / 2 (κ(σ) is concave about the fold in direction sgn)
+    err = max(abs(lo.tl), abs(hi.tl)) * (hi.sigma - lo.sigma) / 2
+    lam_star = best.lam
+    if math.isfinite(lo.tl) and math.isfinite(hi.tl) and lo.tl != hi.tl:
+        # parabola through the tangent zero: κ* = κ(σ_i) + tl_i (σ* - σ_i) / 2
+        s_star = lo.sigma - lo.tl * (hi.sigma - lo.sigma) / (hi.tl - lo.tl)
+        est = [lo.lam + lo.tl * (s_star - lo.sigma) / 2,
+               hi.lam + hi.tl * (s_star - hi.sigma) / 2]
+        lam_star = max(est, key=lambda v: v * sgn)
+    lam_star = min(max(lam_star * sgn, best.lam * sgn), (best.lam + sgn * err) * sgn) * sgn
+    near = lo if lo.sigma > 0 else hi
+    cp = _critical_point(loc, "fold", lam_star, (best.lam, best.lam + sgn * err), err, near,
+                         None, 0, 1, evals, p0, t0)
+    return cp, lo
 
-    def low_side(e: _Eval) -> bool:
-        if fold:
-            return (e.tl >= 0) == (tl0 >= 0)
-        return e.count == c0
 
-    def value(e: _Eval) -> float:
-        if fold:
-            return e.tl
-        return e.eigs[track] if len(e.eigs) > track else math.nan
+def _locate_crossing(loc: _Locator, p0: Point, w0: np.ndarray, lo: _Eval, hi: _Eval,
+                     blocks: tuple[Hashable, ...], c0: dict[Hashable, int],
+                     c1: dict[Hashable, int]) -> CriticalPoint:
+    """The first σ in (lo, hi) where the negative count of one of ``blocks`` leaves its value
+    ``c0``: bracketed by inertia (exact, decides the side) and refined with secant steps on
+    the crossing eigenvalue (SLEPc; the smallest over the blocks) until
+    |κ_hi - κ_lo| < ``rel_tol`` |κ|, or until its root, interpolated through the samples
+    nearest it, is that accurate. The block is the one whose eigenvalue crosses first."""
+    t0 = time.perf_counter()
+    crit = loc.crit
+    loc.start(w0, p0.kappa_L, p0.dkappa_ds, fold=False)
+    nev = crit.nev
+    # the crossing eigenvalues at both ends, from their converged states (no corrector):
+    # secant steps from the start. Not samples for the root's quadratic fit: a step's end can
+    # lie far from the crossing (past an imperfect bifurcation, near the other branch)
+    lo = replace(lo, counts={b: c0[b] for b in blocks}, eigs={})
+    hi = replace(hi, counts={b: c1[b] for b in blocks}, eigs={})
+    lo0 = lo
+
+    def moved_at(e: _Eval) -> list[Hashable]:
+        """The blocks known to have a count other than c0 at ``e`` (all, if none)."""
+        return [b for b in blocks if e.counts.get(b, c0[b]) != c0[b]] or list(blocks)
+
+    # the blocks that may have crossed by the high end: those moved at the last high end whose
+    # counts are all known. Trials check these only, and stop at the first that moved (a high
+    # side trial then costs one factorisation, not one per block)
+    suspects = moved_at(hi)
+
+    def complete(e: _Eval) -> None:
+        """The counts of every suspect at ``e``."""
+        if not e.complete:
+            missing = tuple(b for b in suspects if b not in e.counts)
+            e.counts.update(loc.counts_at(e, missing))
+            e.complete = True
+
+    def crossing(e: _Eval, b: Hashable) -> float:
+        """The eigenvalue of block b that crosses 0, counted from 0 by the inertia (the
+        nearest-0 eigenvalues computed need not hold the most negative ones): a count rising
+        from c0, k = count - c0 past it: the smallest positive one before (k = 0), the k-th
+        negative one counted from 0 after; a falling count: the mirror image. NaN where that
+        eigenvalue was not computed."""
+        k = e.counts.get(b, c0[b]) - c0[b]
+        rising = c1[b] >= c0[b]
+        if abs(k) > nev - 1:
+            return math.nan  # far past its crossing: not among the nearest-0 eigenvalues
+        if b not in e.eigs:  # on demand: a few of the blocks need them, near the crossing
+            e.eigs.update(loc.eigs_at(e, nev, (b,)))
+        vals = e.eigs[b]
+        if not rising:
+            vals, k = tuple(-v for v in vals), -k
+        if k <= 0:
+            pos = [v for v in vals if v >= 0]
+            out = min(pos) if pos else math.nan
+        else:
+            neg = sorted((v for v in vals if v < 0), reverse=True)
+            out = neg[k - 1] if len(neg) >= k else math.nan  # unknown: not computed
+        return out if rising else -out
+
+    def is_low(e: _Eval) -> bool:
+        return all(e.counts[b] == c0[b] for b in e.counts)
+
+    def tracked() -> tuple[Hashable, float | None]:
+        """The block followed, and the linear root (κL) of its crossing eigenvalue in the
+        bracket (None if unknown): the first of the blocks whose count changed by the high end.
+        The inertia of all of them decides the bracket, so it closes on the first crossing of
+        any; eigenvalues are computed for the followed block only (a closed sphere's multiplet
+        spreads over dozens of Fourier blocks)."""
+        b = moved_at(hi)[0]
+        fh = crossing(hi, b)
+        fl = crossing(lo, b) if math.isfinite(fh) else math.nan
+        if math.isfinite(fl) and math.isfinite(fh) and fl * fh < 0:
+            return b, lo.lam + fl * (hi.lam - lo.lam) / (fl - fh)
+        return b, None
+
+    samples: list[_Eval] = []
 
     def eig_root() -> tuple[float, float] | None:
-        """Root of the crossing eigenvalue in κL: linear in the bracket, quadratic through the
-        three samples nearest it; their difference estimates the error."""
-        fl, fh = value(lo), value(hi)
-        if not (math.isfinite(fl) and math.isfinite(fh) and fl * fh < 0):
+        """Root of the first crossing eigenvalue in κL: linear in the bracket, quadratic
+        through the three samples nearest it; their difference estimates the error."""
+        b, lin = tracked()
+        if lin is None:
             return None
-        lin = lo.lam + fl * (hi.lam - lo.lam) / (fl - fh)
-        pts = sorted((q for q in samples if math.isfinite(value(q))),
+        pts = sorted((q for q in samples if math.isfinite(crossing(q, b))),
                      key=lambda q: abs(q.lam - lin))[:3]
         if len(pts) < 3 or len({q.lam for q in pts}) < 3:
             return None
-        c = np.polyfit([q.lam - lin for q in pts], [value(q) for q in pts], 2)
+        c = np.polyfit([q.lam - lin for q in pts], [crossing(q, b) for q in pts], 2)
         roots = np.roots(c)
         roots = roots[np.abs(roots.imag) < 1e-14].real + lin
         roots = roots[(roots - min(lo.lam, hi.lam)) * (roots - max(lo.lam, hi.lam)) <= 0]
@@ -337,53 +525,35 @@ def locate(loc: _Locator, p0: Point, w0: np.ndarray, c0: int, p1: Point, c1: int
         quad = float(roots[np.argmin(np.abs(roots - lin))])
         return quad, abs(quad - lin)
 
-    best = lo
+    evals, failures = 0, 0
+    sides: list[bool] = []  # the side (low: True) each trial landed on
+    interpolated: tuple[float, float] | None = None
+    s_fail: float | None = None
     while evals < crit.max_evaluations:
         width = hi.sigma - lo.sigma
-        if fold:
-            err = max(abs(lo.tl), abs(hi.tl)) * width / 2
-            if err <= crit.rel_tol * abs(best.lam) * 0.5 and evals >= 2:
+        if abs(hi.lam - lo.lam) <= crit.rel_tol * abs(lo.lam) * 0.5 and evals >= 1:
+            break
+        if width <= 1e-7 * max(hi.sigma, 1e-300):
+            # κ jumps across a vanishing arclength interval: the path turns sharply, as at a
+            # bifurcation made imperfect by the mesh's broken rotational symmetry; the
+            # crossing cannot be pinned closer than this jump (reported as accuracy)
+            break
+        r = eig_root()
+        if r is not None and r[1] <= 0.25 * crit.rel_tol * abs(r[0]):
+            # accurate, if no other block crossed in the bracket (it might cross first)
+            complete(hi)
+            if len(moved_at(hi)) == 1:
+                interpolated = eig_root()
                 break
-        else:
-            if abs(hi.lam - lo.lam) <= crit.rel_tol * abs(lo.lam) * 0.5 and evals >= 1:
-                break
-            if width <= 1e-7 * max(hi.sigma, 1e-300):
-                # κ jumps across a vanishing arclength interval: the path turns sharply, as
-                # at a bifurcation made imperfect by the mesh's broken rotational symmetry;
-                # the crossing cannot be pinned closer than this jump (reported as accuracy)
-                break
-            r = eig_root()
-            if r is not None and r[1] <= 0.25 * crit.rel_tol * abs(r[0]):
-                interpolated = r
-                break
-        # secant (regula falsi with the Illinois modification) when both ends have values
-        s = 0.5 * (lo.sigma + hi.sigma)
-        fl, fh = value(lo), value(hi)
-        if math.isfinite(fl) and math.isfinite(fh) and fl != fh and fl * fh < 0:
-            if side_lo_prev is True:
-                fh *= 0.5
-            elif side_lo_prev is False:
-                fl *= 0.5
-            cand = lo.sigma - fl * width / (fh - fl)
-            if lo.sigma + 0.05 * width < cand < hi.sigma - 0.05 * width:
-                s = cand
+            suspects = moved_at(hi)
+        b_t = tracked()[0]
+        s = _secant(lo, hi, crossing(lo, b_t), crossing(hi, b_t), sides)
         if s_fail is not None and s >= s_fail:
             # the corrector failed there: approach the critical point from the near side,
             # where the Jacobian is better conditioned
             s = lo.sigma + 0.5 * (s_fail - lo.sigma)
-        e = None
-        # Start from the step's own predictor w0 + σ τ, which has no component along the
-        # critical mode: a start taken from an earlier trial solution carries round-off that
-        # the nearly singular Jacobian has amplified along that mode, and Newton then lands on
-        # the bifurcated branch, which the hyperplane also cuts. The nearest solution is the
-        # fallback.
-        for near in (False, True):
-            try:
-                e, _ = loc.evaluate(s, nev, near=(
-                    (lo if s - lo.sigma <= hi.sigma - s else hi) if near else None))
-                break
-            except RuntimeError:
-                continue
+        first = [b for b in suspects if hi.counts.get(b, c0[b]) != c0[b]]
+        e = _trial(loc, s, lo, hi, tuple(first + [b for b in suspects if b not in first]), c0)
         if e is None:
             # right next to a bifurcation (a nearby bifurcated branch, a nearly singular
             # Jacobian) Newton may not converge: retry nearer the low end; in the end keep
@@ -393,74 +563,99 @@ def locate(loc: _Locator, p0: Point, w0: np.ndarray, c0: int, p1: Point, c1: int
             s_fail = s if s_fail is None else min(s_fail, s)
             if failures < 5:
                 continue
-            r = None if fold else eig_root()
-            if r is not None:
-                interpolated = r
+            interpolated = eig_root()
+            if interpolated is not None:
                 log.info("critical point at kappa L = %.8g from the eigenvalue samples "
-                         "(+- %.2g): the corrector does not converge closer to it", r[0], r[1])
+                         "(+- %.2g): the corrector does not converge closer to it",
+                         *interpolated)
             else:
                 log.info("critical point located to the bracket kappa L in [%.6g, %.6g] only: "
                          "the corrector does not converge closer to it", lo.lam, hi.lam)
             break
         evals += 1
         samples.append(e)
-        if low_side(e):
-            lo, side_lo_prev = e, True
+        sides.append(is_low(e))
+        if sides[-1]:
+            lo = e
         else:
-            hi, side_lo_prev = e, False
-        if fold:
-            best = max((best, e), key=lambda q: q.lam * (1 if tl0 >= 0 else -1))
-    # the located κ and a bracket that contains it
-    if fold:
-        sgn = 1.0 if tl0 >= 0 else -1.0
-        # κ is stationary at the fold: the best sample bounds it on one side; on the other
-        # side its error bound |dκ/ds| Δσ / 2 (κ(σ) is concave about the fold in direction sgn)
-        err = max(abs(lo.tl), abs(hi.tl)) * (hi.sigma - lo.sigma) / 2
-        lam_star = best.lam
-        if math.isfinite(lo.tl) and math.isfinite(hi.tl) and lo.tl != hi.tl:
-            # parabola through the tangent zero: κ* = κ(σ_i) + tl_i (σ* - σ_i) / 2
-            s_star = lo.sigma - lo.tl * (hi.sigma - lo.sigma) / (hi.tl - lo.tl)
-            est = [lo.lam + lo.tl * (s_star - lo.sigma) / 2,
-                   hi.lam + hi.tl * (s_star - hi.sigma) / 2]
-            lam_star = max(est, key=lambda v: v * sgn)
-        lam_star = min(max(lam_star * sgn, best.lam * sgn), (best.lam + sgn * err) * sgn) * sgn
-        bracket = (best.lam, best.lam + sgn * err)
-        kind = "fold"
-        accuracy = err
+            hi = e
+            if hi.complete:
+                suspects = moved_at(hi)
+    block, lin = tracked()
+    if interpolated is not None:
+        lam_star, accuracy = interpolated
+    elif lin is not None:
+        lam_star, accuracy = lin, abs(hi.lam - lo.lam)
     else:
-        fl, fh = value(lo), value(hi)
-        if interpolated is not None:
-            lam_star, accuracy = interpolated
-        elif math.isfinite(fl) and math.isfinite(fh) and fl * fh < 0:
-            lam_star = lo.lam + fl * (hi.lam - lo.lam) / (fl - fh)
-            accuracy = abs(hi.lam - lo.lam)
-        else:
-            lam_star = 0.5 * (lo.lam + hi.lam)
-            accuracy = abs(hi.lam - lo.lam) / 2
-        bracket = (lo.lam, hi.lam)
-        kind = "bifurcation"
-    # mode at the trial point nearest the critical point (on the near side)
-    near = lo if lo.sigma > 0 else hi
+        lam_star = 0.5 * (lo.lam + hi.lam)
+        accuracy = abs(hi.lam - lo.lam) / 2
+    # the mode at the trial point nearest the critical point (on the near side)
+    near = lo if lo.sigma > lo0.sigma else hi
     if interpolated is not None and hi.lam != lo.lam:
         # the root was interpolated from eigenvalue samples: its nearest trial state may lie
         # well away from it (a branch switch starts from the state); one trial at the root
         s_star = lo.sigma + (lam_star - lo.lam) / (hi.lam - lo.lam) * (hi.sigma - lo.sigma)
         try:
-            e_star, _ = loc.evaluate(s_star, nev)
+            e_star = loc.evaluate(s_star)
             evals += 1
             if abs(e_star.lam - lam_star) < abs(near.lam - lam_star):
                 near = e_star
         except RuntimeError:
             pass
-    e, vecs = loc.modes_at(near, nev)
-    info = loc.problem.classify_mode(vecs[0], None) if vecs else None
-    m, n = (info.m, info.n) if info else (None, None)
-    q = dict(info.rayleigh) if info else {}
+    return _critical_point(loc, "bifurcation", lam_star, (lo.lam, hi.lam), accuracy, near,
+                           block, c0[block], c1[block], evals, p0, t0)
+
+
+def _secant(lo: _Eval, hi: _Eval, fl: float, fh: float, sides: list[bool]) -> float:
+    """The next trial σ: regula falsi with the Illinois modification when the values bracket
+    a root; the midpoint when they do not, when the secant falls within 5 % of an end, or
+    after two trials in a row on the same side (regula falsi creeps there when one end's value
+    is far from linear, as a crossing eigenvalue is past a cluster of bifurcations)."""
+    width = hi.sigma - lo.sigma
+    s = 0.5 * (lo.sigma + hi.sigma)
+    if len(sides) >= 2 and sides[-1] == sides[-2]:
+        return s
+    if math.isfinite(fl) and math.isfinite(fh) and fl != fh and fl * fh < 0:
+        if sides and sides[-1]:
+            fh *= 0.5
+        elif sides:
+            fl *= 0.5
+        cand = lo.sigma - fl * width / (fh - fl)
+        if lo.sigma + 0.05 * width < cand < hi.sigma - 0.05 * width:
+            s = cand
+    return s
+
+
+def _trial(loc: _Locator, s: float, lo: _Eval, hi: _Eval,
+           blocks: tuple[Hashable, ...], base: dict[Hashable, int] | None = None
+           ) -> _Eval | None:
+    """The corrector at σ = s. It starts from the step's own predictor w0 + σ τ, which has no
+    component along the critical mode: a start taken from an earlier trial solution carries
+    round-off that the nearly singular Jacobian has amplified along that mode, and Newton then
+    lands on the bifurcated branch, which the hyperplane also cuts. The nearest solution is
+    the fallback. None if both fail."""
+    for near in (None, lo if s - lo.sigma <= hi.sigma - s else hi):
+        try:
+            return loc.evaluate(s, near=near, blocks=blocks, base=base)
+        except RuntimeError:
+            continue
+    return None
+
+
+def _critical_point(loc: _Locator, kind: str, lam_star: float, bracket: tuple[float, float],
+                    accuracy: float, near: _Eval, block: Hashable, c0: int, c1: int,
+                    evals: int, p0: Point, t0: float) -> CriticalPoint:
+    """The located point, with the mode (eigenvector nearest 0 of ``block``) at ``near``."""
+    e, vecs = loc.modes_at(near, max(loc.crit.nev, 1), block)
+    info = loc.problem.classify_mode(vecs[0], block) if vecs else None
+    L = loc.L
     k_lo, k_hi = sorted((bracket[0] / L, bracket[1] / L))
     return CriticalPoint(kind=kind, kappa=lam_star / L, kappa_L=lam_star, kappa_lo=k_lo,
                          kappa_hi=k_hi, negative_before=c0, negative_after=c1,
-                         multiplicity=abs(c1 - c0), eigenvalue=e.eig, mode_m=m, mode_n=n,
-                         mode_rayleigh=q, evaluations=evals + 1, after_point=p0.index,
+                         multiplicity=abs(c1 - c0), eigenvalue=e.eig,
+                         mode_m=info.m if info else None, mode_n=info.n if info else None,
+                         mode_rayleigh=dict(info.rayleigh) if info else {}, block=block,
+                         evaluations=evals + 1, after_point=p0.index,
                          accuracy=accuracy / max(abs(lam_star), 1e-300),
                          wall_time=time.perf_counter() - t0, state=e.state,
                          mode=vecs[0].array_r.copy() if vecs else None)
@@ -468,38 +663,75 @@ def locate(loc: _Locator, p0: Point, w0: np.ndarray, c0: int, p1: Point, c1: int
 
 def follow(problem: Any, settings: ContinuationSettings, kappa_end: float,
            crit: CriticalSettings | None = None, *, solver: NewtonSolver | None = None,
-           nev: int = 0) -> Iterator[tuple[Point, StabilityResult, list[CriticalPoint]]]:
+           nev: int = 0, blocks: Iterable[Hashable] | None = None,
+           locate_when: Callable[[Point, dict[Hashable, int], dict[Hashable, int]], bool]
+           | None = None, locate_points: bool = True
+           ) -> Iterator[tuple[Point, StabilityResult, list[CriticalPoint]]]:
     """Follow the branch from κ = 0 to ``kappa_end`` with stability at every point.
 
     Yields (point, stability, critical points located in the step that ended at this point).
-    The problem's state is the point's state at each yield. ``nev`` > 0 also computes that many
-    eigenvalues per point.
+    The problem's state is the point's state at each yield. Stability: the negative count of
+    every block of ``blocks`` (default: ``(None,)``, the Jacobian; the axisymmetric model's
+    Fourier blocks are ``problem.stability_blocks()``), in ``StabilityResult.counts``, their
+    sum in ``negative_count``; ``nev`` > 0 also computes that many eigenvalues per point (of
+    block ``None``). A step is searched for critical points (``locate``) when a count changes
+    or dκ/ds changes sign, or, with ``locate_when(point, counts before, counts after)``, when
+    that says so (folds are always located); ``locate_points=False``: stability only.
     """
     crit = crit or CriticalSettings()
     if settings.method != "arclength":
         raise InputError("locating critical points needs the arclength method (folds)")
+    blocks = (None,) if blocks is None else tuple(blocks)
     ns = solver or NewtonSolver(problem)
     stab = Stability(problem)
     loc = _Locator(problem, settings, crit, stab)
-    prev: tuple[Point, np.ndarray, int] | None = None
+    prev: tuple[Point, np.ndarray, dict[Hashable, int]] | None = None
+    n_found = 0
+    folds_only = False
     try:
         for p in continuation(problem, settings, kappa_start=0.0, kappa_end=kappa_end,
                               solver=ns):
-            res = stab.check(nev=nev)
+            if folds_only:
+                counts = dict(prev[2]) if prev is not None else {}
+                res = StabilityResult(stable=False, negative_count=_total(counts), zero_count=0,
+                                      counts=None)
+            elif blocks == (None,):
+                res = stab.check(nev=nev)
+                counts = {None: res.negative_count}
+                res.counts = counts
+            else:
+                counts = stab.negative_counts(blocks)
+                vals = stab.eigenpairs(nev)[0] if nev > 0 else []
+                total = _total(counts)
+                res = StabilityResult(stable=total == 0, negative_count=total, zero_count=0,
+                                      eigenvalues=vals, counts=counts)
             found: list[CriticalPoint] = []
-            if prev is not None and res.negative_count != prev[2]:
-                w1 = get_state(problem)
-                k1 = problem.get_kappa()
-                cp = locate(loc, prev[0], prev[1], prev[2], p, res.negative_count, w1)
-                found.append(cp)
-                # back to the branch point: the continuation goes on from it
-                set_state(problem, w1)
-                problem.set_kappa(k1)
-            prev = (p, get_state(problem), res.negative_count)
+            if prev is not None and locate_points:
+                fold = (prev[0].dkappa_ds >= 0) != (p.dkappa_ds >= 0)
+                wanted = (locate_when(p, prev[2], counts) if locate_when is not None
+                          else counts != prev[2])
+                if fold or (wanted and not folds_only):
+                    w1 = get_state(problem)
+                    k1 = problem.get_kappa()
+                    left = (None if crit.max_critical is None
+                            else crit.max_critical - n_found)
+                    found = locate(loc, prev[0], prev[1], prev[2], p,
+                                   None if folds_only or not wanted else counts, w1,
+                                   limit=left)
+                    if crit.max_critical is not None:
+                        found = found[:left]
+                    n_found += len(found)
+                    # back to the branch point: the continuation goes on from it
+                    set_state(problem, w1)
+                    problem.set_kappa(k1)
+            prev = (p, get_state(problem), counts)
             yield p, res, found
             if found and (crit.stop_at_first or
-                          (crit.stop_at_fold and any(c.kind == "fold" for c in found))):
+                          (crit.stop_at_fold and any(c.kind == "fold" for c in found)) or
+                          (crit.max_critical is not None and n_found >= crit.max_critical)):
                 return
+            if crit.folds_only_after_first and any(c.kind != "fold" for c in found):
+                folds_only = True
     finally:
         loc.destroy()
         stab.destroy()

@@ -36,7 +36,7 @@ import math
 import os
 import time
 import uuid
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterator
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -74,13 +74,10 @@ class PhaseDiagramConfig:
         nu: Poisson ratio.
         model: "axisym" (default) or "surface" (2D, for spot checks).
         m_max: Fourier modes 0..m_max are checked (axisym).
-        rel_tol: location accuracy of bifurcations, relative in κ (folds: Hermite interpolation
-            of κ(s) between two branch points).
+        rel_tol: location accuracy of folds and bifurcations, relative in κ.
         cells, layer_cells: axisymmetric mesh (bulk cells, cells per √(Rh) at the rim).
         ds_max: largest continuation step (axisym: the weighted arclength of
             ``shells.continuation``).
-        check_every: the inertia (all m) is computed at every this-many branch points until the
-            first bifurcation (which is then located between two checked points).
         refine: bisection steps in θ̄ for θ̄_s per h/R (0: the bracket only).
         size, layer_elements: surface-model mesh.
     """
@@ -95,7 +92,6 @@ class PhaseDiagramConfig:
     cells: int = 200
     layer_cells: float = 8.0
     ds_max: float = 0.2
-    check_every: int = 2
     refine: int = 3
     size: float = 0.1
     layer_elements: float = 4.0
@@ -134,9 +130,6 @@ class PhaseDiagramConfig:
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise InputError(f"{name} must be positive, got {v!r}")
-        if not (isinstance(self.check_every, int) and 1 <= self.check_every <= 10):
-            raise InputError(f"check_every must be an integer in [1, 10], got "
-                             f"{self.check_every!r}")
         if not (isinstance(self.refine, int) and 0 <= self.refine <= 20):
             raise InputError(f"refine must be an integer in [0, 20], got {self.refine!r}")
         if any(t > THETA_MAX for h in self.h_over_r for t in [a * math.sqrt(h)]):
@@ -153,7 +146,9 @@ class PhaseDiagramConfig:
             return {"model": "axisym", "nu": self.nu, "m_max": self.m_max,
                     "rel_tol": self.rel_tol, "cells": self.cells,
                     "layer_cells": self.layer_cells, "ds_max": self.ds_max,
-                    "check_every": self.check_every}
+                    # the inertia is computed at every branch point (the key stays in the
+                    # records: it was a setting, 2, of earlier runs)
+                    "check_every": 1, "locator": "critical.follow"}
         return {"model": "surface", "nu": self.nu, "rel_tol": self.rel_tol, "size": self.size,
                 "layer_elements": self.layer_elements}
 
@@ -244,34 +239,14 @@ def _ufl_vector(items: list[Any]) -> Any:
     return ufl.as_vector(items)
 
 
-@dataclass
-class _State:
-    w: np.ndarray
-    lam: float
-    dkds: float
-    step: float
-    counts: dict[int, int] | None
-
-
-def _hermite_extremum(A: _State, B: _State, sign: float) -> float:
-    """Extremum (max for sign > 0) of the cubic Hermite interpolant of λ(s) over one step."""
-    d = B.step
-    x = np.linspace(0.0, 1.0, 2001)
-    h00, h10 = 2 * x**3 - 3 * x**2 + 1, x**3 - 2 * x**2 + x
-    h01, h11 = -2 * x**3 + 3 * x**2, x**3 - x**2
-    lam = h00 * A.lam + h10 * d * A.dkds + h01 * B.lam + h11 * d * B.dkds
-    return float(sign * np.max(sign * lam))
-
-
 class _Branch:
-    """Model, solver and mode stability of one axisymmetric run."""
+    """Model and Newton solver of one axisymmetric run, and the curvatures of its state."""
 
     def __init__(self, theta: float, h_over_r: float, nu: float, cfg: PhaseDiagramConfig
                  ) -> None:
         from shells.axisym import AxisymModel, AxisymParameters
         from shells.geometry import SphericalCap
         from shells.solvers import NewtonSolver
-        from shells.stability import Stability
 
         self.shape = SphericalCap(1.0, theta)
         self.model = AxisymModel(self.shape, AxisymParameters(
@@ -280,78 +255,50 @@ class _Branch:
                                                     "snes_stol": 1e-12, "snes_max_it": 30})
         self.modes = list(range(cfg.m_max + 1))
         self.model.modes = tuple(self.modes)
-        self.stab = Stability(self.model)
         self.curv = _Curvatures(self.model)
+        self.settings = _settings(h_over_r, cfg, self.shape)
 
-    def set(self, w: np.ndarray, lam: float) -> None:
-        self.model.w.x.array[:] = w
-        self.model.kappa.value = lam
+    def follow(self, kappa_end: float, crit: Any, **kw: Any) -> Iterator[tuple]:
+        """``critical.follow`` from κ = 0 to ``kappa_end`` (R = 1: κ = κR), all m checked."""
+        from shells.critical import follow
 
-    def solve_at(self, lam: float, w0: np.ndarray) -> bool:
-        self.set(w0, lam)
-        ok, _ = self.ns.solve()
-        return ok
+        return follow(self.model, self.settings, kappa_end, crit, solver=self.ns,
+                      blocks=self.modes, **kw)
 
-    def counts(self, modes: Iterable[int] | None = None) -> dict[int, int]:
-        return self.stab.negative_counts(self.modes if modes is None else modes)
+    def curvatures_at(self, cp: Any) -> dict[str, float]:
+        """The curvatures of a critical point's state (the model's state is kept)."""
+        from shells.problem import get_state, set_state
+
+        keep = get_state(self.model)
+        set_state(self.model, cp.state)
+        try:
+            return self.curv()
+        finally:
+            set_state(self.model, keep)
 
     def destroy(self) -> None:
         self.ns.destroy()
-        self.stab.destroy()
 
 
 def _settings(h_over_r: float, cfg: PhaseDiagramConfig, shape: Any) -> Any:
     from shells.axisym import default_settings
 
-    # residual_tol: the penalty-tied C1 fields leave a round-off floor of the residual near
-    # 1e-8 as the rim rotates; convergence is judged on the Newton increment (1e-10) as well
-    return default_settings(shape, h_over_r, ds_max=cfg.ds_max, residual_tol=1e-6,
-                            max_steps=3000)
+    return default_settings(shape, h_over_r, ds_max=cfg.ds_max, max_steps=3000)
 
 
-def _locate_bifurcation(br: _Branch, A: _State, B: _State, lam_hi: float, rel_tol: float
-                        ) -> dict[str, Any]:
-    """Bisection in κ (natural Newton from the nearest stable-side state, secant predictor) on
-    the negative counts, between A and a κ ≤ B's where some count differs from A's."""
-    base = A.counts or {}
-    lo_w, lo = A.w.copy(), A.lam
-    hi_w, hi = B.w.copy(), lam_hi
-    br.set(hi_w, hi)
-    end = br.counts()
-    cand = [m for m in br.modes if end[m] != base[m]]
-    group = list(cand)
-    its = 0
-    while abs(hi - lo) > rel_tol * max(abs(hi), 1e-3) and its < 40:
-        its += 1
-        mid = 0.5 * (lo + hi)
-        guess = lo_w + (mid - lo) / (hi - lo) * (hi_w - lo_w)
-        if not br.solve_at(mid, guess):
-            break
-        now = [m for m in cand if br.stab.negative_count(m) != base[m]]
-        if now:
-            hi, hi_w, cand = mid, br.model.w.x.array.copy(), now
-        else:
-            lo, lo_w = mid, br.model.w.x.array.copy()
-    br.set(hi_w, hi)
-    curv = br.curv()
-    return {"kappa_R": 0.5 * (lo + hi), "bracket": [lo, hi], "mode_m": min(cand),
-            "modes": cand, "modes_at_step_end": group, **curv}
-
-
-def _near_fold(br: _Branch, A: _State, lam_f: float, m0_count: int
-               ) -> tuple[np.ndarray, float] | None:
-    """A converged state on A's side of the fold (its m = 0 count is still ``m0_count``), as
-    close to the fold as Newton allows."""
-    for frac in (0.999, 0.99, 0.95, 0.8):
-        lam = A.lam + frac * (lam_f - A.lam)
-        if br.solve_at(lam, A.w) and br.stab.negative_count(0) == m0_count:
-            return br.model.w.x.array.copy(), lam
-    return None
+def _bifurcation_record(br: _Branch, cp: Any, step_modes: list[int]) -> dict[str, Any]:
+    return {"kappa_R": cp.kappa, "bracket": [cp.kappa_lo, cp.kappa_hi], "mode_m": cp.mode_m,
+            "modes": [cp.mode_m], "modes_at_step_end": step_modes, "accuracy": cp.accuracy,
+            **br.curvatures_at(cp)}
 
 
 def _trace_axisym(task: Task, cfg: PhaseDiagramConfig) -> dict[str, Any]:
-    """Follow one branch; returns its first critical point, the fold and the first bifurcation."""
-    from shells.continuation import continuation
+    """Follow one branch; returns its first critical point, the fold and the first bifurcation.
+
+    Going down the first bifurcation ends the run; going up the branch is followed past its
+    first bifurcation (folds only) up to the snap fold, unless the cap is inverted (pole
+    curvature b11 R > 0) there: a smoothly inverting cap has no fold to look for."""
+    from shells.critical import CriticalSettings
 
     h = task.h_over_r
     tb = task.thetabar
@@ -364,45 +311,29 @@ def _trace_axisym(task: Task, cfg: PhaseDiagramConfig) -> dict[str, Any]:
     out: dict[str, Any] = {"fold": None, "bifurcation": None, "inverted_at_bifurcation": None,
                            "kappa_R_end": sign * bound, "branch_points": 0,
                            "dofs": br.model.num_dofs()}
-    prev: _State | None = None
-    checked: _State | None = None  # the last point whose inertia is known
-    check = True
+    crit = CriticalSettings(rel_tol=cfg.rel_tol, stop_at_fold=True,
+                            stop_at_first=task.direction == "down",
+                            folds_only_after_first=True)
+    prev_counts: dict[int, int] | None = None
     try:
-        for i, p in enumerate(continuation(br.model, _settings(h, cfg, br.shape),
-                                           kappa_start=0.0, kappa_end=sign * bound,
-                                           solver=br.ns)):
+        for _, res, cps in br.follow(sign * bound, crit):
             out["branch_points"] += 1
-            cur = _State(br.model.w.x.array.copy(), p.kappa_L, p.dkappa_ds, p.step, None)
-            if prev is None:
-                cur.counts = br.counts()
-                prev = checked = cur
-                continue
-            if prev.dkds * cur.dkds < 0:  # the fold
-                lam_f = _hermite_extremum(prev, cur, sign)
-                near = _near_fold(br, prev, lam_f, checked.counts[0])
-                fold = {"kappa_R": lam_f, **(br.curv() if near else {})}
-                if check and near is not None:
-                    br.set(*near)
-                    c_near = br.counts()
-                    if any(c_near[m] != checked.counts[m] for m in br.modes if m >= 1):
-                        nstate = _State(near[0], near[1], 0.0, 0.0, c_near)
-                        out["bifurcation"] = _locate_bifurcation(br, checked, nstate, near[1],
-                                                                 cfg.rel_tol)
-                out["fold"] = fold
-                break
-            if check and i % cfg.check_every == 0:
-                cur.counts = br.counts()
-                if cur.counts != checked.counts:
-                    bif = _locate_bifurcation(br, checked, cur, cur.lam, cfg.rel_tol)
+            stop = False
+            for c in cps:
+                if c.kind == "fold":
+                    out["fold"] = {"kappa_R": c.kappa, **br.curvatures_at(c)}
+                elif out["bifurcation"] is None:
+                    step = ([m for m in br.modes if res.counts[m] != prev_counts[m]]
+                            if res.counts and prev_counts else [c.mode_m])
+                    bif = _bifurcation_record(br, c, step)
                     out["bifurcation"] = bif
-                    check = False
                     inverted = bif.get("b11_pole_R", -1.0) > 0.0
                     out["inverted_at_bifurcation"] = inverted
-                    if task.direction == "down" or inverted:
-                        break
-                    br.set(cur.w, cur.lam)  # go on along the (now unstable) symmetric branch
-                checked = cur
-            prev = cur
+                    stop = task.direction == "down" or inverted
+            if res.counts is not None:
+                prev_counts = res.counts
+            if stop:
+                break
     finally:
         br.destroy()
     fold, bif = out["fold"], out["bifurcation"]
@@ -480,29 +411,33 @@ def everted_check(h_over_r: float, thetabar: float, cfg: PhaseDiagramConfig,
     """Follow the up-branch through the snap fold and its second fold onto the everted branch and
     locate the loss of symmetry there (first count change after the branch is stable again):
     checks κ_e R = 2 - κ_b R (mirror symmetry) directly. Costly for deep caps."""
-    from shells.continuation import continuation
+    from shells.critical import CriticalSettings
 
     task = Task(h_over_r, thetabar, "up", tag="everted")
     bound = kappa_max or 2.0 - 1.5 * buckling_kappa_R(thetabar, h_over_r) + 1.0
     br = _Branch(task.theta, h_over_r, cfg.nu, cfg)
     folds: list[float] = []
-    prev: _State | None = None
-    stable_again = False
+    stable_again = [False]
     result: dict[str, Any] = {"h_over_R": h_over_r, "thetabar": thetabar, "folds": folds,
                               "everted_bifurcation": None}
+
+    def everted_loss(p: Any, before: dict[int, int], after: dict[int, int]) -> bool:
+        # the only step searched for a crossing: the first instability of the everted branch
+        return stable_again[0] and not any(before.values()) and any(after.values())
+
+    crit = CriticalSettings(rel_tol=cfg.rel_tol, stop_at_fold=False)
+    prev_counts: dict[int, int] | None = None
     try:
-        for p in continuation(br.model, _settings(h_over_r, cfg, br.shape), kappa_start=0.0,
-                              kappa_end=bound, solver=br.ns):
-            cur = _State(br.model.w.x.array.copy(), p.kappa_L, p.dkappa_ds, p.step, br.counts())
-            if prev is not None and prev.dkds * cur.dkds < 0:
-                folds.append(_hermite_extremum(prev, cur, 1.0 if prev.dkds > 0 else -1.0))
-            if len(folds) >= 2 and not stable_again and not any(cur.counts.values()):
-                stable_again = True
-            elif stable_again and any(cur.counts.values()):
-                result["everted_bifurcation"] = _locate_bifurcation(br, prev, cur, cur.lam,
-                                                                    cfg.rel_tol)
+        for _, res, cps in br.follow(bound, crit, locate_when=everted_loss):
+            folds += [c.kappa for c in cps if c.kind == "fold"]
+            bifs = [c for c in cps if c.kind != "fold"]
+            if bifs:
+                step = [m for m in br.modes if prev_counts and res.counts[m] != prev_counts[m]]
+                result["everted_bifurcation"] = _bifurcation_record(br, bifs[0], step)
                 break
-            prev = cur
+            if len(folds) >= 2 and not any(res.counts.values()):
+                stable_again[0] = True
+            prev_counts = res.counts
     finally:
         br.destroy()
     return result

@@ -52,6 +52,8 @@ class StabilityResult:
     zero_count: int
     eigenvalues: list[float] = field(default_factory=list)
     modes: list[Any] | None = None
+    #: the negative count of each block (``critical.follow``); None where not computed
+    counts: dict[Hashable, int] | None = None
 
     def as_dict(self) -> dict[str, Any]:
         return {"stable": self.stable, "negative_count": self.negative_count,

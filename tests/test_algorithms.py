@@ -12,7 +12,7 @@ import math
 import numpy as np
 import pytest
 
-from shells.algebraic import FoldProblem, PitchforkProblem
+from shells.algebraic import FoldPitchforkProblem, FoldProblem, PitchforkProblem
 from shells.continuation import ContinuationSettings, continuation
 from shells.critical import CriticalSettings, follow, switch_branch
 from shells.problem import Problem
@@ -76,6 +76,43 @@ def test_pitchfork_located_to_1e8():
     assert [c.kappa for c in found] == pytest.approx([1.0, 2.0], rel=1e-8)
     assert [c.mode_m for c in found] == [1, 2]
     assert [(c.negative_before, c.negative_after) for c in found] == [(0, 1), (1, 2)]
+
+
+def test_a_bifurcation_and_a_fold_in_one_step_on_two_blocks():
+    """Block 1 (z) loses stability at κ = c = 0.995, block 0 (x) has its fold at κ = 1: one
+    step of 0.2 holds both. Both are found, in branch order, each to 1e-8, named by block;
+    ``max_critical`` 1 keeps the first; folds-only after it still finds the fold."""
+    P = FoldPitchforkProblem(c=0.995)
+    st = ContinuationSettings(ds=0.2, ds_max=0.2)
+    run = list(follow(P, st, 2.0, CriticalSettings(rel_tol=1e-8), blocks=(0, 1)))
+    steps = [cps for _, _, cps in run if cps]
+    assert len(steps) == 1  # one step: the bifurcation and the fold together
+    found = steps[0]
+    assert [c.kind for c in found] == ["bifurcation", "fold"]
+    assert [c.kappa for c in found] == pytest.approx([0.995, 1.0], rel=1e-8)
+    assert [c.block for c in found] == [1, None]
+    assert found[0].mode_m == 1
+    assert (found[0].negative_before, found[0].negative_after) == (0, 1)
+    assert run[0][1].counts == {0: 0, 1: 0}
+    first = [c for _, _, cps in follow(P, st, 2.0, CriticalSettings(rel_tol=1e-8,
+                                                                    max_critical=1),
+                                       blocks=(0, 1)) for c in cps]
+    assert [c.kind for c in first] == ["bifurcation"]
+    assert first[0].kappa == pytest.approx(0.995, rel=1e-8)
+    # with the Jacobian alone (block None) the z-crossing is found as well
+    whole = [c for _, _, cps in follow(P, st, 2.0, CriticalSettings(rel_tol=1e-8)) for c in cps]
+    assert [c.kind for c in whole] == ["bifurcation", "fold"]
+
+
+def test_folds_only_after_the_first_bifurcation():
+    """Pitchforks at κ = 1 (x) and 2 (z_1) and no fold: with
+    ``folds_only_after_first`` the second is not searched for."""
+    P = PitchforkProblem()
+    run = list(follow(P, STEPS, 2.5, CriticalSettings(rel_tol=1e-8, stop_at_fold=False,
+                                                      folds_only_after_first=True)))
+    found = [c for _, _, cps in run for c in cps]
+    assert [c.kappa for c in found] == pytest.approx([1.0], rel=1e-8)
+    assert run[-1][1].counts is None  # not computed past the first bifurcation
 
 
 def test_switching_onto_the_pitchfork_branch():

@@ -30,7 +30,7 @@ import numpy as np
 from shells.continuation import ContinuationSettings, Point, continuation
 from shells.errors import InputError
 from shells.fields import FieldWriter
-from shells.geometry import Shape, shape_from_description
+from shells.geometry import RunScales, Shape, shape_from_description
 from shells.mesh import MeshSpec, ShellMesh, generate
 from shells.store import append_record, json_default, read_with_header
 
@@ -40,7 +40,7 @@ log = logging.getLogger("shells")
 
 
 @dataclass(frozen=True)
-class BranchConfig:
+class BranchConfig(RunScales):
     """What a branch run computes (everything that decides its numbers).
 
     Attributes:
@@ -69,14 +69,6 @@ class BranchConfig:
             raise InputError(f"nu must lie in (-1, 0.5], got {self.nu!r}")
         if not (math.isfinite(self.kappa_end) and self.kappa_end != 0):
             raise InputError("the final kappa must be a nonzero number")
-
-    @property
-    def L(self) -> float:  # noqa: N802
-        return self.shape.characteristic_size()
-
-    @property
-    def h(self) -> float:
-        return self.h_over_r * self.L
 
     def mesh_spec(self) -> MeshSpec:
         return MeshSpec(self.shape, h=self.h, size=self.size, layer_elements=self.layer_elements)

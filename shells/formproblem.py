@@ -33,9 +33,30 @@ class FormProblem:
     dres_dkappa: Any
     bcs: list[Any]
 
+    W: Any
+
     @property
     def comm(self) -> Any:
         return self.shell.comm
+
+    def _derive_forms(self, energy: Any, jit_options: dict[str, Any] | None = None) -> None:
+        """From the energy (a UFL form of ``w`` and ``kappa``): ``energy_ufl``, the residual
+        R = ∂E/∂w, the Hessian ∂R/∂w and dR/dκ, as UFL and compiled forms. The energy is
+        quadratic in κ with a state-independent κ² term, so R is affine in κ and
+        R(κ=1) - R(κ=0) is dR/dκ exactly."""
+        import ufl
+        from dolfinx import fem
+
+        dw, w_ = ufl.TestFunction(self.W), ufl.TrialFunction(self.W)
+        self.energy_ufl = energy
+        self.residual_ufl = ufl.derivative(energy, self.w, dw)
+        self.hessian_ufl = ufl.derivative(self.residual_ufl, self.w, w_)
+        self.dres_dkappa_ufl = (ufl.replace(self.residual_ufl, {self.kappa: ufl.as_ufl(1.0)})
+                                - ufl.replace(self.residual_ufl, {self.kappa: ufl.as_ufl(0.0)}))
+        opts = {} if jit_options is None else {"jit_options": jit_options}
+        self.residual = fem.form(self.residual_ufl, **opts)
+        self.hessian = fem.form(self.hessian_ufl, **opts)
+        self.dres_dkappa = fem.form(self.dres_dkappa_ufl, **opts)
 
     @property
     def state(self) -> Any:

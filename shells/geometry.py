@@ -146,7 +146,22 @@ class Shape:
 
 
 @dataclass(frozen=True)
-class SphericalCap(Shape):
+class _AngleShape(Shape):
+    """A shape whose meridian parameter runs from the pole to the angle ``theta``: closed when
+    theta reaches π. The subclasses define the field ``theta`` after their others (a field
+    here would come first in their constructors' positional order)."""
+
+    @property
+    def closed(self) -> bool:
+        return self.theta >= math.pi * (1 - 1e-12)
+
+    @property
+    def t_max(self) -> float:
+        return self.theta
+
+
+@dataclass(frozen=True)
+class SphericalCap(_AngleShape):
     """Spherical cap of radius ``radius`` and half opening angle ``theta`` (pole to rim)."""
 
     radius: float = 1.0
@@ -156,14 +171,6 @@ class SphericalCap(Shape):
     def __post_init__(self) -> None:
         _positive("radius", self.radius)
         _check_theta(self.theta)
-
-    @property
-    def closed(self) -> bool:
-        return self.theta >= math.pi * (1 - 1e-12)
-
-    @property
-    def t_max(self) -> float:
-        return self.theta
 
     @property
     def R(self) -> float:  # noqa: N802
@@ -218,7 +225,7 @@ class Sphere(SphericalCap):
 
 
 @dataclass(frozen=True)
-class EllipsoidalCap(Shape):
+class EllipsoidalCap(_AngleShape):
     """Cap of the spheroid x^2/R^2 + y^2/R^2 + z^2/r3^2 = 1 down to parametric colatitude theta."""
 
     radius: float = 1.0
@@ -230,14 +237,6 @@ class EllipsoidalCap(Shape):
         _positive("radius", self.radius)
         _positive("r3", self.r3)
         _check_theta(self.theta)
-
-    @property
-    def closed(self) -> bool:
-        return self.theta >= math.pi * (1 - 1e-12)
-
-    @property
-    def t_max(self) -> float:
-        return self.theta
 
     @property
     def R(self) -> float:  # noqa: N802
@@ -337,6 +336,33 @@ class Disk(Shape):
 
     def describe(self) -> dict[str, Any]:
         return {"shape": self.kind, "radius": self.radius}
+
+
+class RunScales:
+    """The length scales of a run on ``self.shape`` with thickness ratio ``self.h_over_r``
+    (a mixin for the run configurations): L, the shape's ``characteristic_size`` (h/R is h/L
+    and the continuation runs in κL); h = (h/R) L; R, the length of κR: the pole radius of
+    curvature (the disk's radius)."""
+
+    shape: Shape
+    h_over_r: float
+
+    @property
+    def L(self) -> float:  # noqa: N802
+        return self.shape.characteristic_size()
+
+    @property
+    def h(self) -> float:
+        return self.h_over_r * self.L
+
+    @property
+    def R(self) -> float:  # noqa: N802
+        return kappa_length(self.shape)
+
+
+def kappa_length(shape: Shape) -> float:
+    """The length of κR: the pole radius of curvature R (the disk, flat: its radius)."""
+    return shape.R if math.isfinite(shape.R) else shape.characteristic_size()
 
 
 SHAPES = ("sphere", "cap", "ellipsoid", "disk")

@@ -221,17 +221,7 @@ class ShellModel(FormProblem):
         from dolfinx import fem
 
         dens = self.energy_density(self.w)
-        self.energy_ufl = dens["total"] * self.dx
-        dw, w_ = ufl.TestFunction(self.W), ufl.TrialFunction(self.W)
-        self.residual_ufl = ufl.derivative(self.energy_ufl, self.w, dw)
-        self.hessian_ufl = ufl.derivative(self.residual_ufl, self.w, w_)
-        # d(residual)/dκ, for pseudo-arclength continuation: the energy is quadratic in κ with a
-        # state-independent κ² term, so the residual is affine in κ and R(κ=1) - R(κ=0) is exact
-        self.dres_dkappa_ufl = (ufl.replace(self.residual_ufl, {self.kappa: ufl.as_ufl(1.0)})
-                                - ufl.replace(self.residual_ufl, {self.kappa: ufl.as_ufl(0.0)}))
-        self.residual = fem.form(self.residual_ufl)
-        self.hessian = fem.form(self.hessian_ufl)
-        self.dres_dkappa = fem.form(self.dres_dkappa_ufl)
+        self._derive_forms(dens["total"] * self.dx)
         self._scalar_forms = {k: fem.form(v * self.dx) for k, v in dens.items()}
         u, _ = self.split(self.w)
         self._scalar_forms["psi3_integral"] = fem.form(ufl.dot(u, self.n0) * self.dx)
@@ -241,6 +231,7 @@ class ShellModel(FormProblem):
         self._scalar_forms["area"] = fem.form(fem.Constant(self.shell.mesh, 1.0) * self.dx)
         self._scalar_forms.update(self._work_forms())
         # metric for eigenproblems: L2 mass of u and θ (SPD)
+        dw, w_ = ufl.TestFunction(self.W), ufl.TrialFunction(self.W)
         self.mass = fem.form(ufl.inner(w_, dw) * self.dx)
 
     def _work_forms(self) -> dict[str, Any]:

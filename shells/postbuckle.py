@@ -39,7 +39,7 @@ from pathlib import Path
 from typing import Any
 
 from shells.errors import InputError
-from shells.geometry import Shape
+from shells.geometry import RunScales, Shape
 from shells.store import append_record, read_with_header, write_header
 
 __all__ = ["PostbuckleConfig", "postbuckle", "read_postbuckle", "run_postbuckle"]
@@ -48,7 +48,7 @@ log = logging.getLogger("shells")
 
 
 @dataclass(frozen=True)
-class PostbuckleConfig:
+class PostbuckleConfig(RunScales):
     """One post-buckling run.
 
     Attributes:
@@ -103,19 +103,6 @@ class PostbuckleConfig:
                                                and self.kappa_end * sign > 0):
             raise InputError("the end of the kappa range must be a nonzero number of the sign "
                              "of --direction")
-
-    @property
-    def L(self) -> float:  # noqa: N802
-        return self.shape.characteristic_size()
-
-    @property
-    def h(self) -> float:
-        return self.h_over_r * self.L
-
-    @property
-    def R(self) -> float:  # noqa: N802
-        """The length of κR: the pole radius R (the disk's radius)."""
-        return self.shape.R if math.isfinite(self.shape.R) else self.L
 
     @property
     def kappa_stop(self) -> float:

@@ -1,0 +1,96 @@
+"""The meridian mesh of the axisymmetric model (problem layer): a 1D interval mesh of the
+meridian parameter, graded towards a free rim.
+
+Geometry. The reference meridian (r°(t), z°(t)) of a ``shells.geometry`` shape (Sphere,
+SphericalCap, EllipsoidalCap, Disk) is parametrised by its own parameter t (the colatitude of the
+sphere/cap, the parametric colatitude of the spheroid, the radius of the disk) on a 1D interval
+mesh of [0, t_max]; g(t) = |x°'(t)| converts to arclength, ds = g dt (g = R on a sphere, so the
+mesh is uniform/graded in arclength s = R t there). With a free rim the cells are graded towards
+it down to ``sqrt(R h) / layer_cells`` in arclength (the boundary layer).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from shells.errors import InputError
+from shells.geometry import Disk, EllipsoidalCap, Shape, SphericalCap
+
+__all__ = ["MeridianMesh", "make_meridian_nodes"]
+
+
+def _supported(shape: Any) -> None:
+    if not isinstance(shape, (SphericalCap, EllipsoidalCap, Disk)):
+        raise InputError(f"the axisymmetric model needs a sphere, cap, ellipsoid or disk, "
+                         f"got {type(shape).__name__}")
+
+
+def _arclength_table(shape: Shape, n: int = 4001) -> tuple[np.ndarray, np.ndarray]:
+    """(t, s(t)) on a fine grid: the meridian's arclength from the top pole."""
+    t = np.linspace(0.0, shape.t_max, n)
+    dr, dz = shape.meridian_derivative(t)
+    g = np.hypot(dr, dz)
+    s = np.concatenate([[0.0], np.cumsum(0.5 * (g[1:] + g[:-1]) * np.diff(t))])
+    return t, s
+
+
+def make_meridian_nodes(shape: Shape, h: float, cells: int, layer_cells: float,
+                        grading: float) -> np.ndarray:
+    """Sorted nodes in t of the meridian mesh.
+
+    Closed shapes: uniform in arclength. A free rim: from the rim inwards, cells of arclength
+    ``sqrt(R h) / layer_cells`` growing by ``grading`` up to the bulk size S / cells (S: the
+    meridian's length), then uniform; the nodes are mapped back to t through s(t).
+    """
+    t_tab, s_tab = _arclength_table(shape)
+    S = float(s_tab[-1])
+    if shape.closed:
+        s_nodes = np.linspace(0.0, S, cells + 1)
+    else:
+        R = shape.R if math.isfinite(shape.R) else shape.characteristic_size()
+        ell = math.sqrt(R * h)
+        bulk = S / cells
+        size = min(ell / layer_cells, bulk)
+        sizes, d = [], 0.0
+        while d < S:
+            sizes.append(size)
+            d += size
+            size = min(size * grading, bulk)
+        sizes = np.array(sizes)
+        sizes *= S / sizes.sum()  # fit exactly (the last, bulk-sized cells absorb the change)
+        d_from_rim = np.concatenate([[0.0], np.cumsum(sizes)])
+        s_nodes = np.sort(S - d_from_rim)
+        s_nodes[0], s_nodes[-1] = 0.0, S
+    t_nodes = np.interp(s_nodes, s_tab, t_tab)
+    t_nodes[0], t_nodes[-1] = 0.0, shape.t_max
+    return t_nodes
+
+
+@dataclass
+class MeridianMesh:
+    """The 1D mesh of the meridian, on ``comm`` (MPI.COMM_SELF: every rank holds all of it)."""
+
+    shape: Shape
+    nodes: np.ndarray
+    comm: Any = None
+    mesh: Any = field(init=False)
+
+    def __post_init__(self) -> None:
+        from dolfinx import mesh as dmesh
+        from mpi4py import MPI
+
+        if self.comm is None:
+            self.comm = MPI.COMM_SELF
+        if self.comm.size != 1:
+            raise InputError("the axisymmetric model runs on one process per communicator "
+                             "(use MPI.COMM_SELF)")
+        n = len(self.nodes) - 1
+        self.mesh = dmesh.create_interval(self.comm, n, [0.0, float(self.nodes[-1])])
+        self.mesh.topology.create_connectivity(0, 1)
+        x = self.mesh.geometry.x
+        idx = np.rint(x[:, 0] / float(self.nodes[-1]) * n).astype(int)
+        x[:, 0] = self.nodes[idx]

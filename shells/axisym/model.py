@@ -1,0 +1,454 @@
+"""The axisymmetric model's kinematics and energy (problem layer): ``AxisymModel``, a
+``shells.problem.Problem`` whose stability blocks are the Fourier modes m
+(``shells.axisym.modes``).
+
+Energy (same normalisation as ``shells.model``, Young's modulus scaled out, per reference area)::
+
+    U = ∫ (1-ν)|a - a°|² + ν tr²(a - a°) + (h²/3) [(1-ν)|b - b̄|² + ν tr²(b - b̄)] dω,
+    b̄ = b° + κ a°,   dω = r° g dt dφ,
+
+with a, b in the orthonormal reference frame (e_s, e_φ): a_11 = |x_t|²/g², a_12 = x_t·x_φ/(g r°),
+a_22 = |x_φ|²/r°², b_ij likewise with n·x_ij, n = x_t × x_φ / |x_t × x_φ| (outward), so energies,
+Ψ3 and the curvature potential agree with the surface model. The density is written once, in
+UFL, as a function of the displacement's "jet" at a point (values and t-, φ-derivatives of its
+cylindrical components u_r, u_φ, u_z); the rotation of the cylindrical frame is exact.
+
+Kirchhoff-Love C1 continuity: P3 displacements and P2 slope fields p ≈ ∂_t u, the second
+derivatives ∂_tt u taken from ∂_t p, tied by a stiff penalty ``penalty`` |p - ∂_t u|² / g². The
+constrained subspace is the C1 (Hermite) cubics, so there is no locking: the penalty only
+selects it (see benchmarks/axisym_convergence.py for the convergence study).
+
+Base state (axisymmetric): unknowns (u_r, u_z; p_r, p_z). Axis conditions u_r = 0 and p_z = 0 at
+each pole; the rigid z-translation is fixed by u_z = 0 at the top pole (a gauge). Residual, Hessian
+and dR/dκ are ``ufl.derivative`` of the energy; κ is a ``fem.Constant``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from shells.axisym.mesh import MeridianMesh, _supported, make_meridian_nodes
+from shells.errors import InputError
+from shells.formproblem import FormProblem
+from shells.geometry import Disk, EllipsoidalCap, Shape, SphericalCap
+from shells.problem import ModeInfo
+
+if TYPE_CHECKING:
+    from shells.axisym.modes import ModeForms
+
+__all__ = ["AxisymModel", "AxisymParameters", "Jet"]
+
+#: the mode Hessian's kernel is long (the second variation of the whole density at two phases)
+JIT_OPTIONS: dict[str, Any] = {"timeout": 300}
+
+
+# ------------------------------------------------------------------------------------------------
+# parameters and mesh
+# ------------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class AxisymParameters:
+    """Material and discretisation parameters of the axisymmetric model.
+
+    Attributes:
+        h: thickness (absolute, in the shape's length unit).
+        nu: Poisson ratio in (-1, 1/2].
+        cells: cells along the whole meridian at the bulk size (uniform for closed shapes).
+        layer_cells: cells per boundary-layer width sqrt(R h) at a free rim.
+        grading: size ratio of neighbouring cells in the graded zone (> 1).
+        penalty: weight of |p - ∂_t u|² / g² tying the slope fields to the derivatives.
+        quadrature_degree: quadrature degree of the energy.
+        slope_bending: the curvature b from the slope fields alone (x_t ≈ x°_t + p in the
+            normal and in ∂_t∂_φ x; the metric always uses ∂_t u); False: from ∂_t u.
+    """
+
+    h: float
+    nu: float = 0.5
+    cells: int = 200
+    layer_cells: float = 8.0
+    grading: float = 1.1
+    penalty: float = 1.0e4
+    quadrature_degree: int = 8
+    slope_bending: bool = True
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.h, (int, float)) and math.isfinite(self.h) and self.h > 0):
+            raise InputError(f"thickness h must be positive, got {self.h!r}")
+        if not (isinstance(self.nu, (int, float)) and -1.0 < self.nu <= 0.5):
+            raise InputError(f"Poisson ratio nu must lie in (-1, 0.5], got {self.nu!r}")
+        if not (isinstance(self.cells, int) and 4 <= self.cells <= 100000):
+            raise InputError(f"cells must be an integer in [4, 100000], got {self.cells!r}")
+        if not (math.isfinite(self.layer_cells) and self.layer_cells > 0):
+            raise InputError(f"layer_cells must be positive, got {self.layer_cells!r}")
+        if not (math.isfinite(self.grading) and 1.0 < self.grading <= 2.0):
+            raise InputError(f"grading must lie in (1, 2], got {self.grading!r}")
+        if not (math.isfinite(self.penalty) and self.penalty > 0):
+            raise InputError(f"penalty must be positive, got {self.penalty!r}")
+        if self.quadrature_degree not in range(2, 21):
+            raise InputError(f"quadrature_degree must be in [2, 20], got "
+                             f"{self.quadrature_degree!r}")
+
+
+# ------------------------------------------------------------------------------------------------
+# the energy density of a displacement jet
+# ------------------------------------------------------------------------------------------------
+@dataclass
+class Jet:
+    """Cylindrical components (r, φ, z) of a displacement and its derivatives at a point (UFL).
+
+    ``val``, ``t``, ``ph``, ``tph``, ``phph``: u, ∂_t u, ∂_φ u, ∂_t∂_φ u, ∂_φφ u; ``p``: the slope
+    field (≈ ∂_t u) and ``pt`` = ∂_t p, which replaces ∂_tt u (C1 by penalty).
+    """
+
+    val: tuple
+    t: tuple
+    ph: tuple
+    tph: tuple
+    phph: tuple
+    p: tuple
+    pt: tuple
+    pph: tuple
+
+    def __add__(self, other: Jet) -> Jet:
+        return Jet(*(tuple(a + b for a, b in zip(x, y, strict=True)) for x, y in
+                     zip(self.fields(), other.fields(), strict=True)))
+
+    def fields(self) -> tuple:
+        return (self.val, self.t, self.ph, self.tph, self.phph, self.p, self.pt, self.pph)
+
+
+def _meridian_ufl(shape: Shape, t: Any) -> tuple:
+    """r°, z° and their first and second t-derivatives as UFL expressions of t."""
+    import ufl
+
+    if isinstance(shape, Disk):
+        return t, 0.0 * t, 1.0 + 0.0 * t, 0.0 * t, 0.0 * t, 0.0 * t
+    if isinstance(shape, EllipsoidalCap):
+        a, c = shape.radius, shape.r3
+    else:
+        a = c = shape.radius
+    s, co = ufl.sin(t), ufl.cos(t)
+    return a * s, c * co, a * co, -c * s, -a * s, -c * co
+
+
+def _dot(a: tuple, b: tuple) -> Any:
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def _cross(a: tuple, b: tuple) -> tuple:
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+# ------------------------------------------------------------------------------------------------
+# the model
+# ------------------------------------------------------------------------------------------------
+class AxisymModel(FormProblem):
+    """Axisymmetric shell model, a ``shells.problem.Problem``.
+
+    Attributes: ``shape``, ``shell`` (the ``MeridianMesh``; ``shell.comm``), ``W``, ``w`` (state
+    (u_r, u_z; p_r, p_z)), ``kappa``, ``h``, ``nu`` (Constants), ``residual``, ``hessian``,
+    ``dres_dkappa`` (compiled forms), ``bcs``, ``mass``; methods ``scalars()``, ``num_dofs()``,
+    ``energy_density(jet)``. Assembly from ``FormProblem``; the stability blocks are the Fourier
+    modes m of ``modes`` (default 0..12), each with its Hessian H_m (``ModeForms``, compiled on
+    first use).
+    """
+
+    modes: tuple[int, ...] = tuple(range(13))
+
+    def __init__(self, shape: Shape, params: AxisymParameters, comm: Any = None) -> None:
+        import basix.ufl
+        import ufl
+        from dolfinx import default_scalar_type, fem
+
+        _supported(shape)
+        self.shape = shape
+        self.params = params
+        nodes = make_meridian_nodes(shape, params.h, params.cells, params.layer_cells,
+                                    params.grading)
+        self.shell = MeridianMesh(shape, nodes, comm)
+        mesh = self.shell.mesh
+        self.mesh = mesh
+        cell = mesh.basix_cell()
+        self._P3 = basix.ufl.element("Lagrange", cell, 3, shape=(2,))
+        self._P2 = basix.ufl.element("Lagrange", cell, 2, shape=(2,))
+        self.W = fem.functionspace(mesh, basix.ufl.mixed_element([self._P3, self._P2]))
+        self.w = fem.Function(self.W, name="state")
+        self.kappa = fem.Constant(mesh, default_scalar_type(0.0))
+        self.h = fem.Constant(mesh, default_scalar_type(params.h))
+        self.nu = fem.Constant(mesh, default_scalar_type(params.nu))
+        self.pen = fem.Constant(mesh, default_scalar_type(params.penalty))
+        self.dx = ufl.Measure("dx", domain=mesh,
+                              metadata={"quadrature_degree": params.quadrature_degree})
+        self.t = ufl.SpatialCoordinate(mesh)[0]
+        (self.r0, self.z0, self.r0t, self.z0t,
+         self.r0tt, self.z0tt) = _meridian_ufl(shape, self.t)
+        self.g = ufl.sqrt(self.r0t**2 + self.z0t**2)
+        self.area_density = 2 * math.pi * self.r0 * self.g  # dω = area_density dt
+        self._build_forms()
+        self.bcs = self._axis_conditions()
+        self._degree_forms: dict[Any, tuple] = {}
+
+    # -- kinematics ------------------------------------------------------------------------------
+    def base_jet(self, w: Any) -> Jet:
+        import ufl
+
+        u, p = ufl.split(w)
+        z = 0.0 * self.t
+        return Jet(val=(u[0], z, u[1]), t=(u[0].dx(0), z, u[1].dx(0)), ph=(z, z, z),
+                   tph=(z, z, z), phph=(z, z, z), p=(p[0], z, p[1]),
+                   pt=(p[0].dx(0), z, p[1].dx(0)), pph=(z, z, z))
+
+    def zero_jet(self) -> Jet:
+        z = (0.0 * self.t,) * 3
+        return Jet(z, z, z, z, z, z, z, z)
+
+    def strains(self, j: Jet) -> dict[str, Any]:
+        """a - a°, b - b° (orthonormal reference frame, components 11, 12, 22) of a jet."""
+        r0, g = self.r0, self.g
+
+        def geo(j: Jet) -> tuple:
+            ur, uph, uz = j.val
+            xt = (self.r0t + j.t[0], j.t[1], self.z0t + j.t[2])
+            xph = (j.ph[0] - uph, r0 + ur + j.ph[1], j.ph[2])
+            xtt = (self.r0tt + j.pt[0], j.pt[1], self.z0tt + j.pt[2])
+            xphph = (j.phph[0] - 2 * j.ph[1] - r0 - ur, j.phph[1] + 2 * j.ph[0] - uph, j.phph[2])
+            if self.params.slope_bending:  # bending from the slope fields: x_t ≈ x°_t + p
+                xtb = (self.r0t + j.p[0], j.p[1], self.z0t + j.p[2])
+                xtph = (j.pph[0] - j.p[1], j.pph[1] + self.r0t + j.p[0], j.pph[2])
+            else:
+                xtb = xt
+                xtph = (j.tph[0] - j.t[1], j.tph[1] + self.r0t + j.t[0], j.tph[2])
+            import ufl
+
+            c = _cross(xtb, xph)
+            nn = ufl.sqrt(_dot(c, c))
+            n = tuple(ci / nn for ci in c)
+            a = (_dot(xt, xt) / g**2, _dot(xt, xph) / (g * r0), _dot(xph, xph) / r0**2)
+            b = (_dot(n, xtt) / g**2, _dot(n, xtph) / (g * r0), _dot(n, xphph) / r0**2)
+            return a, b
+
+        a, b = geo(j)
+        a0, b0 = geo(self.zero_jet())
+        return {"a": tuple(x - y for x, y in zip(a, a0, strict=True)),
+                "b": tuple(x - y for x, y in zip(b, b0, strict=True)),
+                "slope_gap": tuple(pi - ti for pi, ti in zip(j.p, j.t, strict=True))}
+
+    def _quad(self, A: tuple) -> Any:
+        """(1-ν)|A|² + ν tr²A of a symmetric 2x2 tensor given as (A11, A12, A22)."""
+        return ((1 - self.nu) * (A[0] ** 2 + 2 * A[1] ** 2 + A[2] ** 2)
+                + self.nu * (A[0] + A[2]) ** 2)
+
+    def energy_density(self, j: Jet) -> dict[str, Any]:
+        """Energy densities per reference area dω of a jet (``total`` is minimised)."""
+        e = self.strains(j)
+        Ea, Eb = e["a"], e["b"]
+        gap = (Eb[0] - self.kappa, Eb[1], Eb[2] - self.kappa)  # b - b̄
+        stretch = self._quad(Ea)
+        bend_nat = self.h**2 / 3 * self._quad(gap)
+        pen = self.pen * _dot(e["slope_gap"], e["slope_gap"]) / self.g**2
+        return {"total": stretch + bend_nat + pen, "stretching": stretch,
+                "bending": self.h**2 / 3 * self._quad(Eb),
+                "curvature_potential": -2 * (1 + self.nu) / 3 * self.h**2 * self.kappa
+                * (Eb[0] + Eb[2]),
+                "penalty": pen}
+
+    # -- forms -----------------------------------------------------------------------------------
+    def _build_forms(self) -> None:
+        import ufl
+        from dolfinx import fem
+
+        dens = self.energy_density(self.base_jet(self.w))
+        self._derive_forms(dens["total"] * self.area_density * self.dx)
+        dw, w_ = ufl.TestFunction(self.W), ufl.TrialFunction(self.W)
+        self.mass = fem.form(ufl.inner(w_, dw) * self.area_density * self.dx)
+        u, _ = ufl.split(self.w)
+        n0r, n0z = -self.z0t / self.g, self.r0t / self.g
+        ad = self.area_density
+        sf = {k: v * ad * self.dx for k, v in dens.items()}
+        sf["psi3_integral"] = (u[0] * n0r + u[1] * n0z) * ad * self.dx
+        sf["uz_integral"] = u[1] * ad * self.dx
+        sf["nz_integral"] = n0z * ad * self.dx
+        sf["area"] = ad * self.dx
+        self._scalar_forms = {k: fem.form(v) for k, v in sf.items()}
+
+    def _axis_conditions(self) -> list[Any]:
+        """u_r = 0 and p_z = 0 on the axis (each pole); u_z = 0 at the top pole (gauge)."""
+        W = self.W
+        ur, uz, pz = W.sub(0).sub(0), W.sub(0).sub(1), W.sub(1).sub(1)
+        poles = self.axis_vertices()
+        top = self.vertices_at(0.0)
+        return (_dirichlet(ur, poles) + _dirichlet(pz, poles) + _dirichlet(uz, top))
+
+    def axis_vertices(self) -> np.ndarray:
+        pts = [0.0] + ([self.shape.t_max] if self.shape.closed else [])
+        return np.concatenate([self.vertices_at(t) for t in pts])
+
+    def widest_vertex(self) -> np.ndarray:
+        """The vertex of largest r° (rim of a cap up to a hemisphere, else the equator)."""
+        x = self.mesh.geometry.x[:, 0]
+        r0 = self.shape.meridian(x)[0]
+        return self.vertices_at(float(x[np.argmax(r0)]))
+
+    def vertices_at(self, t: float) -> np.ndarray:
+        from dolfinx import mesh as dmesh
+
+        tol = 1e-10 * max(1.0, self.shape.t_max)
+        return dmesh.locate_entities(self.mesh, 0, lambda x: np.abs(x[0] - t) < tol)
+
+    # -- scalars ---------------------------------------------------------------------------------
+    def assemble(self, name: str) -> float:
+        from dolfinx import fem
+
+        return float(fem.assemble_scalar(self._scalar_forms[name]))
+
+    def scalars(self) -> dict[str, float]:
+        """Energy split, Ψ3/h (mean normal displacement, translation-free), apex u_z/h, and the
+        pole's normal displacement Ψ3(pole)/h = (u_z(pole) - ū_z)/h (ū: the mean displacement,
+        i.e. relative to the centroid's translation)."""
+        out = {k: self.assemble(k) for k in ("total", "stretching", "bending",
+                                             "curvature_potential", "penalty")}
+        out["energy"] = out.pop("total")
+        area = self.assemble("area")
+        psi3 = (self.assemble("psi3_integral") / area
+                - self.assemble("uz_integral") * self.assemble("nz_integral") / area**2)
+        h = float(self.h.value)
+        out["psi3_over_h"] = psi3 / h
+        uz = self.uz_at(np.array([0.0, self.shape.t_max]))
+        disp = 0.5 * (uz[0] - uz[1]) if self.shape.closed else uz[0] - uz[1]
+        out["apex_uz_over_h"] = float(disp) / h
+        out["psi3_pole_over_h"] = float(uz[0] - self.assemble("uz_integral") / area) / h
+        return out
+
+    def meridian_profile(self) -> dict[str, np.ndarray]:
+        """The state on the meridian at the mesh vertices, pole to pole/rim: reference t, r°,
+        z° and displacement u_r, u_z (the mean u_z removed: no rigid translation)."""
+        Vu, dofs = self.W.sub(0).collapse()
+        t = Vu.tabulate_dof_coordinates()[:, 0]
+        u = self.w.x.array[np.asarray(dofs)].reshape(-1, 2)
+        verts = np.unique(self.mesh.geometry.x[:, 0])
+        idx = np.array([int(np.argmin(np.abs(t - tv))) for tv in verts])
+        r0, z0 = self.shape.meridian(verts)
+        area = self.assemble("area")
+        uz = u[idx, 1] - self.assemble("uz_integral") / area
+        return {"t": verts, "r0": np.asarray(r0), "z0": np.asarray(z0), "ur": u[idx, 0],
+                "uz": uz}
+
+    def uz_at(self, t: np.ndarray) -> np.ndarray:
+        """u_z at mesh nodes t (values of the P3 field at vertices)."""
+        Vz, dofs = self.W.sub(0).sub(1).collapse()
+        x = Vz.tabulate_dof_coordinates()[:, 0]
+        vals = self.w.x.array[dofs]
+        return np.array([vals[np.argmin(np.abs(x - ti))] for ti in np.atleast_1d(t)])
+
+    def num_dofs(self) -> int:
+        im = self.W.dofmap.index_map
+        return int(im.size_global * self.W.dofmap.index_map_bs)
+
+    # -- stability blocks: the Fourier modes m (shells.problem.Problem) ---------------------------
+    @property
+    def mode_forms(self) -> ModeForms:
+        from shells.axisym.modes import ModeForms
+
+        if not hasattr(self, "_mode_forms"):
+            self._mode_forms = ModeForms(self)
+        return self._mode_forms
+
+    # Block None is the Jacobian itself: the Hessian of the axisymmetric unknowns, i.e. H_0
+    # without the torsion D (the stability within rotational symmetry: folds and axisymmetric
+    # bifurcations, the block branch switching on the 1D model uses).
+    def stability_blocks(self) -> tuple[int, ...]:
+        return tuple(self.modes)
+
+    def block_layout(self, block: Any) -> str:
+        return "axisymmetric" if block is None else "modes"  # one form for every m
+
+    def create_hessian(self, block: Any) -> Any:
+        if block is None:
+            return self.create_jacobian()
+        from dolfinx.fem.petsc import create_matrix
+
+        return create_matrix(self.mode_forms.form)
+
+    def assemble_hessian(self, block: Any, H: Any) -> None:
+        if block is None:
+            self._assemble_symmetric(H, self.hessian, self.bcs)
+            return
+        bcs = self.mode_forms.set_mode(block)
+        self._assemble_symmetric(H, self.mode_forms.form, bcs)
+
+    def assemble_mass(self, block: Any) -> Any:
+        if block is None:
+            return self._assemble_mass(self.mass, self.bcs)
+        return self._assemble_mass(self.mode_forms.mass, self.mode_forms.conditions(block))
+
+    def classify_mode(self, vec: Any, block: Any) -> ModeInfo:
+        """m = the block's wavenumber (0 for the Jacobian); on a closed sphere also the degree
+        n of the mode from the Rayleigh quotient R² ∫ |∇w|² / ∫ w² = n(n+1) of its normal
+        component w, |∇w|² = (∂_s w)² + m² w² / r² (exact for the spherical harmonic Y_n^m)."""
+        m = 0 if block is None else int(block)
+        if not _is_sphere(self.shape):
+            return ModeInfo(m=m, n=None)
+        if block is None:
+            key, space, ur_uz = None, self.W, self._radial_axial
+        else:
+            mf = self.mode_forms
+            mf.set_mode(m)
+            key, space, ur_uz = "mode", mf.V, mf.radial_axial
+        if key not in self._degree_forms:
+            self._degree_forms[key] = self._degree_form(space, ur_uz, block is not None)
+        f, shift, m_c, forms = self._degree_forms[key]
+        m_c.value = float(m)
+        vec.copy(f.x.petsc_vec)
+        f.x.scatter_forward()
+        from dolfinx import fem
+
+        g2, w2, uz, area = forms
+        # the gauge u_z(pole) = 0 adds a translation (degree 1) to every axisymmetric mode:
+        # removed (m ≥ 1 modes vanish on the axis and have no such gauge)
+        shift.value = (float(fem.assemble_scalar(uz)) / float(fem.assemble_scalar(area))
+                       if m == 0 else 0.0)
+        x = (float(fem.assemble_scalar(g2)) / max(float(fem.assemble_scalar(w2)), 1e-300)
+             * self.shape.R ** 2)
+        n = int(round((-1 + math.sqrt(1 + 4 * max(x, 0.0))) / 2))
+        return ModeInfo(m=m, n=n, rayleigh={"x": x})
+
+    @staticmethod
+    def _radial_axial(f: Any) -> tuple[Any, Any]:
+        import ufl
+
+        u, _ = ufl.split(f)
+        return u[0], u[1]
+
+    def _degree_form(self, space: Any, ur_uz: Any, fourier: bool) -> tuple:
+        """(function, shift, m, forms) of the Rayleigh quotient of a mode in ``space``."""
+        from dolfinx import default_scalar_type, fem
+
+        f = fem.Function(space)
+        shift = fem.Constant(self.mesh, default_scalar_type(0.0))
+        m_c = fem.Constant(self.mesh, default_scalar_type(0.0))
+        ur, uz = ur_uz(f)
+        uz_s = uz - shift
+        wn = (ur * (-self.z0t) + uz_s * self.r0t) / self.g
+        grad2 = (wn.dx(0) / self.g) ** 2
+        if fourier:
+            grad2 = grad2 + (m_c * wn / self.r0) ** 2
+        ad = self.area_density
+        forms = (fem.form(grad2 * ad * self.dx), fem.form(wn * wn * ad * self.dx),
+                 fem.form(uz * ad * self.dx), fem.form(ad * self.dx))
+        return f, shift, m_c, forms
+
+
+def _dirichlet(V: Any, vertices: np.ndarray) -> list[Any]:
+    from dolfinx import default_scalar_type, fem
+
+    if len(vertices) == 0:
+        return []
+    dofs = fem.locate_dofs_topological(V, 0, vertices)
+    return [fem.dirichletbc(default_scalar_type(0.0), dofs, V)]
+
+
+def _is_sphere(shape: Shape) -> bool:
+    return isinstance(shape, SphericalCap) and shape.closed

@@ -1,0 +1,314 @@
+"""Drivers of the axisymmetric model (driver layer): one run's configuration and its numerics
+defaults, ``branch`` (the branch with per-m stability) and ``critical`` (its critical points),
+both on ``shells.critical.follow``."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from shells.axisym.mesh import _supported
+from shells.axisym.model import AxisymModel, AxisymParameters, _is_sphere
+from shells.errors import InputError
+from shells.geometry import RunScales, Shape
+from shells.theory import sphere_kappa_b_h, sphere_mode_n
+
+__all__ = ["SNES_OPTIONS", "RunConfig", "branch", "critical", "default_cells",
+           "default_settings"]
+
+
+# ------------------------------------------------------------------------------------------------
+# numerics of a run
+# ------------------------------------------------------------------------------------------------
+SNES_OPTIONS: dict[str, Any] = {"snes_rtol": 1.0e-9, "snes_atol": 1.0e-12, "snes_stol": 1.0e-10,
+                                "snes_max_it": 25}
+
+
+def default_cells(shape: Shape, h_over_r: float) -> int:
+    """Bulk cells: 200, and at least 5 per degree of the sphere's critical mode."""
+    if _is_sphere(shape):
+        return max(200, int(math.ceil(5 * sphere_mode_n(h_over_r, 0.0))))
+    return 200
+
+
+def default_settings(shape: Shape, h_over_r: float, **overrides: Any) -> Any:
+    """Continuation settings scaled to the problem: on a closed shell κ scales with 1/h."""
+    from shells.continuation import ContinuationSettings
+
+    scale = 1.0 / h_over_r if shape.closed else 1.0  # in λ = κ L
+    base = dict(method="arclength", ds=0.5 * scale if shape.closed else 0.05,
+                ds_max=1.0 * scale if shape.closed else 0.2, ds_min=1e-7 * scale,
+                target_newton_its=4, max_newton_its=12, newton_tol=1e-8)
+    base.update(overrides)
+    return ContinuationSettings(**base)
+
+
+def _check_common(shape: Any, h_over_r: Any, nu: Any) -> None:
+    if not isinstance(shape, Shape):
+        raise InputError(f"shape must be a shells.geometry shape, got {shape!r}")
+    _supported(shape)
+    if not (isinstance(h_over_r, (int, float)) and math.isfinite(h_over_r)
+            and 0 < h_over_r < 1):
+        raise InputError(f"h/R must lie in (0, 1), got {h_over_r!r}")
+    if not (isinstance(nu, (int, float)) and -1.0 < nu <= 0.5):
+        raise InputError(f"nu must lie in (-1, 0.5], got {nu!r}")
+
+
+# ------------------------------------------------------------------------------------------------
+# the branch with per-m stability, and critical points
+# ------------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class RunConfig(RunScales):
+    """One axisymmetric run (validated).
+
+    Attributes:
+        shape: a Sphere, SphericalCap, EllipsoidalCap or Disk.
+        h_over_r: thickness over the shape's length scale L (``characteristic_size``).
+        nu: Poisson ratio.
+        direction: "up" (κ > 0) or "down" (κ < 0).
+        m_max: Fourier modes 0..m_max are checked at every point.
+        kappa_max: end of the range, |κ| R (R: pole radius; the disk's radius).
+        cells, layer_cells, grading, penalty: discretisation (``AxisymParameters``).
+        rel_tol: location accuracy of critical points, relative in κ.
+        max_critical: stop after this many critical points (None: up to the first fold or the
+            end of range).
+        settings: continuation settings (None: ``default_settings``).
+    """
+
+    shape: Shape
+    h_over_r: float
+    nu: float = 0.5
+    direction: str = "up"
+    m_max: int | None = None
+    kappa_max: float | None = None
+    cells: int | None = None
+    layer_cells: float = 8.0
+    grading: float = 1.1
+    penalty: float = 1.0e4
+    rel_tol: float = 1.0e-4
+    max_critical: int | None = None
+    settings: Any = None
+
+    def __post_init__(self) -> None:
+        _check_common(self.shape, self.h_over_r, self.nu)
+        if self.direction not in ("up", "down"):
+            raise InputError(f"direction must be 'up' or 'down', got {self.direction!r}")
+        if self.m_max is not None and not (isinstance(self.m_max, (int, np.integer))
+                                           and 0 <= self.m_max <= 2000):
+            raise InputError(f"m_max must be an integer in [0, 2000], got {self.m_max!r}")
+        if self.kappa_max is not None and not (isinstance(self.kappa_max, (int, float))
+                                               and math.isfinite(self.kappa_max)
+                                               and self.kappa_max > 0):
+            raise InputError(f"kappa_max must be a positive number (|kappa| R at the end of "
+                             f"the range), got {self.kappa_max!r}")
+        if not (0 < self.rel_tol < 0.1):
+            raise InputError(f"rel_tol must lie in (0, 0.1), got {self.rel_tol!r}")
+        if self.max_critical is not None and not (isinstance(self.max_critical, int)
+                                                  and self.max_critical >= 1):
+            raise InputError(f"max_critical must be a positive integer, got {self.max_critical!r}")
+        AxisymParameters(h=self.h, nu=self.nu, cells=self.n_cells, layer_cells=self.layer_cells,
+                         grading=self.grading, penalty=self.penalty)
+
+    @property
+    def n_cells(self) -> int:
+        return self.cells if self.cells is not None else default_cells(self.shape, self.h_over_r)
+
+    @property
+    def modes(self) -> list[int]:
+        if self.m_max is not None:
+            return list(range(self.m_max + 1))
+        if _is_sphere(self.shape):
+            return list(range(int(math.ceil(1.3 * sphere_mode_n(self.h_over_r, self.nu))) + 5))
+        return list(range(13))
+
+    @property
+    def kappa_end(self) -> float:
+        """Signed κ at the end of the range."""
+        if self.kappa_max is not None:
+            mag = self.kappa_max / self.R
+        elif _is_sphere(self.shape):
+            mag = 1.25 * sphere_kappa_b_h(self.nu) / self.h
+        else:
+            tb = getattr(self.shape, "theta", 1.0) / math.sqrt(self.h_over_r)
+            mag = (2.0 * tb + 6.0) / self.R
+        return mag if self.direction == "up" else -mag
+
+    def params(self) -> AxisymParameters:
+        return AxisymParameters(h=self.h, nu=self.nu, cells=self.n_cells,
+                                layer_cells=self.layer_cells, grading=self.grading,
+                                penalty=self.penalty)
+
+
+@dataclass
+class _Run:
+    """The model and Newton solver of a run."""
+
+    cfg: RunConfig
+    model: AxisymModel = field(init=False)
+
+    def __post_init__(self) -> None:
+        from shells.solvers import NewtonSolver
+
+        self.model = AxisymModel(self.cfg.shape, self.cfg.params())
+        self.model.modes = tuple(self.cfg.modes)
+        self.ns = NewtonSolver(self.model, options=SNES_OPTIONS)
+        # the residual bound is the continuation's own (relative to the κ-load, plus the
+        # round-off floor of the penalty-stiff Jacobian): no model-specific tolerance here
+        self.settings = self.cfg.settings or default_settings(self.cfg.shape, self.cfg.h_over_r)
+
+    def follow(self, crit: Any = None, locate_points: bool = True) -> Iterator[tuple]:
+        """``critical.follow`` over the run's range with the inertia of every H_m."""
+        from shells.critical import follow
+
+        return follow(self.model, self.settings, self.cfg.kappa_end, crit, solver=self.ns,
+                      blocks=self.model.modes, locate_points=locate_points)
+
+    def record(self, p: Any, counts: dict[int, int]) -> dict[str, Any]:
+        d = p.as_dict()
+        d["kappa_R"] = p.kappa * self.cfg.R
+        d["kappa_h"] = p.kappa * self.cfg.h
+        d["negative_counts"] = [counts[m] for m in sorted(counts)]
+        d["unstable_modes"] = [m for m in sorted(counts) if counts[m] > 0]
+        return d
+
+    def destroy(self) -> None:
+        self.ns.destroy()
+
+
+def branch(shape: Shape, h_over_r: float, nu: float = 0.5, direction: str = "up",
+           m_max: int | None = None, kappa_max: float | None = None,
+           **numerics: Any) -> Iterator[dict[str, Any]]:
+    """Follow the axisymmetric branch from κ = 0 and check modes m = 0..m_max at every point.
+
+    Args:
+        shape: a ``shells.geometry`` Sphere, SphericalCap, EllipsoidalCap or Disk.
+        h_over_r: thickness over the shape's length scale (``characteristic_size``).
+        nu: Poisson ratio in (-1, 1/2].
+        direction: "up" (κ > 0) or "down" (κ < 0).
+        m_max: highest Fourier mode checked (default: 12; spheres: 1.3 n + 4).
+        kappa_max: end of the range, |κ| R (default: spheres 1.25 κ_b; caps 2 θ̄ + 6).
+        **numerics: ``cells``, ``layer_cells``, ``grading``, ``penalty``, ``settings``
+            (a ``ContinuationSettings``), see ``RunConfig``.
+
+    Yields:
+        One dict per converged point: ``kappa_R``, ``kappa_h``, ``kappa``, ``psi3_over_h`` (mean
+        normal displacement over h; the sphere's change of radius), ``apex_uz_over_h``,
+        ``energy`` and its split, ``newton_its``, ``dkappa_ds`` (κ-component of the unit
+        tangent: its sign change marks a fold), ``negative_counts`` (list indexed by m) and
+        ``unstable_modes`` (the m with a negative eigenvalue).
+
+    Raises:
+        InputError: bad parameters.
+    """
+    cfg = RunConfig(shape=shape, h_over_r=h_over_r, nu=nu, direction=direction, m_max=m_max,
+                    kappa_max=kappa_max, **_numerics(numerics, ("rel_tol", "max_critical")))
+    run = _Run(cfg)
+    try:
+        for p, res, _ in run.follow(locate_points=False):
+            yield run.record(p, res.counts)
+    finally:
+        run.destroy()
+
+
+def _numerics(numerics: dict[str, Any], extra: tuple[str, ...] = ()) -> dict[str, Any]:
+    allowed = {"cells", "layer_cells", "grading", "penalty", "settings", "rel_tol",
+               "max_critical"} - set(extra)
+    bad = set(numerics) - allowed
+    if bad:
+        raise InputError(f"unknown numerics option(s): {', '.join(sorted(bad))} "
+                         f"(allowed: {', '.join(sorted(allowed))})")
+    return numerics
+
+
+def critical(shape: Shape, h_over_r: float, nu: float = 0.5, direction: str = "up",
+             m_max: int | None = None, kappa_max: float | None = None,
+             **numerics: Any) -> dict[str, Any]:
+    """Critical points of the axisymmetric branch from κ = 0 (the first one, and all of them up
+    to and including the first fold or the end of the range).
+
+    At every branch point the inertia of H_m (m = 0..m_max) is computed; a change of a negative
+    count, or a sign change of dκ/ds, between two points is located by bisection along the
+    branch (chord-parametrised arclength) to |Δκ|/|κ| < ``rel_tol`` (default 1e-4). Kinds:
+    "fold" (dκ/ds changes sign; its mode is m = 0) and "bifurcation" (m ≥ 1, or m = 0 without a
+    fold). ``mode_m`` is the lowest m whose count changes at the point; for a closed sphere
+    ``mode_n`` is the largest m unstable just past it (the degree: all m ≤ n of Y_n^m share the
+    critical value).
+
+    Args:
+        shape: Sphere, SphericalCap, EllipsoidalCap or Disk (``shells.geometry``).
+        h_over_r: thickness over the shape's length scale (``characteristic_size``).
+        nu: Poisson ratio in (-1, 1/2].
+        direction: "up" (κ > 0) or "down" (κ < 0).
+        m_max: highest Fourier mode checked (default 12; spheres 1.3 n + 4).
+        kappa_max: end of the range in |κ| R (default: spheres 1.25 κ_b, caps 2 θ̄ + 6).
+        **numerics: ``cells``, ``layer_cells``, ``grading``, ``penalty``, ``rel_tol``,
+            ``settings`` (``ContinuationSettings``), ``max_critical`` (stop after this many
+            critical points; default 1 for closed spheres, whose perfect-sphere branch beyond
+            the first multiplet is of no interest, else unlimited).
+
+    Returns:
+        {"kind": "fold" | "bifurcation" | "none", "kappa_R", "kappa_h", "mode_m", "mode_n",
+        "h_over_R", "nu", "theta_deg", "model": "axisym", "dofs", "critical_points": [{"kind",
+        "kappa_R", "kappa_h", "mode_m", "mode_n"}, ...]}; the top-level values describe the
+        first critical point (None if there is none); ``theta_deg`` is None for a sphere or a
+        disk, ``mode_n`` None for non-spheres; ``dofs`` counts the base-state unknowns.
+
+    Raises:
+        InputError: bad parameters.
+    """
+    numerics = dict(_numerics(numerics))
+    if isinstance(shape, Shape) and _is_sphere(shape):
+        numerics.setdefault("max_critical", 1)
+    cfg = RunConfig(shape=shape, h_over_r=h_over_r, nu=nu, direction=direction, m_max=m_max,
+                    kappa_max=kappa_max, **numerics)
+    from shells.critical import CriticalSettings
+
+    run = _Run(cfg)
+    L = run.model.shape.characteristic_size()
+    # a closed sphere's axisymmetric modes of neighbouring degrees bifurcate within 1e-4 in κ:
+    # there the locator's corrector omits dominant components along the Jacobian's four
+    # eigenvectors nearest 0 (else it lands on a branch bifurcating close by). Elsewhere it
+    # must not: on a thin disk the soft axisymmetric bending modes are among them, and their
+    # components are the corrections Newton needs (measured: with it the h/R = 0.02 disk's
+    # m = 2 bifurcation came out 1.3e-3 low, at a state off the branch)
+    crit = CriticalSettings(rel_tol=cfg.rel_tol, stop_at_fold=True,
+                            max_critical=cfg.max_critical,
+                            deflate=0)
+    found: list[Any] = []
+    last = None
+    try:
+        for p, _, cps in run.follow(crit):
+            last = p
+            found.extend(cps)
+        stop = bool(found) and (found[-1].kind == "fold" or (
+            cfg.max_critical is not None and len(found) >= cfg.max_critical))
+        lam_end = cfg.kappa_end * L
+        if not stop and (last is None or abs(last.kappa_L - lam_end) > 1e-9 * abs(lam_end)):
+            # the continuation gave up (step below ds_min, or max_steps) short of the end:
+            # the critical points beyond are unknown, "none" would be a false claim
+            reached = None if last is None else last.kappa * cfg.R
+            raise RuntimeError(f"the axisymmetric continuation stopped at kappa R = {reached} "
+                               f"before the end of the range, kappa R = "
+                               f"{cfg.kappa_end * cfg.R:.6g}; critical points beyond it are "
+                               "not known")
+        dofs = run.model.num_dofs()
+    finally:
+        run.destroy()
+    R, h = cfg.R, cfg.h
+    pts = [{"kind": c.kind, "kappa_R": c.kappa * R, "kappa_h": c.kappa * h,
+            "mode_m": 0 if c.kind == "fold" else c.mode_m,
+            "mode_n": c.mode_n if c.kind != "fold" else None,
+            "kappa_R_bracket": [c.kappa_lo * R, c.kappa_hi * R], "accuracy": c.accuracy}
+           for c in found]
+    first = pts[0] if pts else {"kind": "none", "kappa_R": None, "kappa_h": None,
+                                "mode_m": None, "mode_n": None}
+    theta = getattr(cfg.shape, "theta", None)
+    return {"kind": first["kind"], "kappa_R": first["kappa_R"], "kappa_h": first["kappa_h"],
+            "mode_m": first["mode_m"], "mode_n": first["mode_n"], "h_over_R": cfg.h_over_r,
+            "nu": cfg.nu, "theta_deg": (None if theta is None or _is_sphere(cfg.shape)
+                                        else math.degrees(theta)),
+            "model": "axisym", "dofs": dofs, "critical_points": pts}

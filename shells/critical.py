@@ -2,25 +2,31 @@
 (algorithm layer, on ``shells.problem.Problem``).
 
 ``follow(problem, ...)`` runs the pseudo-arclength continuation and, at every point, the inertia of
-the Hessian (MUMPS LDLᵀ). A change of the negative count between two points brackets a critical
-point, which is then located inside that step:
+every stability block it is given (MUMPS LDLᵀ): the Hessian (block ``None``; the surface model's
+only block) or the axisymmetric model's Fourier blocks H_m. A change of a block's negative count
+between two points brackets a critical point, a sign change of dκ/ds a fold; both are located
+inside that step (``locate``):
 
 * the step is re-taken from its first point with a shorter arclength σ (same tangent, same
   bordered corrector), so σ parametrises the branch between the two points, through folds too;
-* **fold** (the κ-component of the tangent changes sign in the step): the zero of dκ/ds(σ) is
-  bracketed and refined (Illinois/secant steps, bisection safeguard) until the error bound of κ,
-  |dκ/ds| Δσ / 2, is below ``rel_tol`` |κ|; κ at a fold is stationary, so this is cheap;
-* **bifurcation** (no fold): the first σ where the negative count leaves its value at the start
-  of the step is bracketed by inertia (exact, decides the side) and refined with secant steps on
-  the eigenvalue nearest 0 (SLEPc), until |κ_hi - κ_lo| < ``rel_tol`` |κ|.
+* **fold**: the zero of dκ/ds(σ) is bracketed and refined (Illinois/secant steps, bisection
+  safeguard) until the error bound of κ, |dκ/ds| Δσ / 2, is below ``rel_tol`` |κ|; κ at a fold
+  is stationary, so this is cheap. The step is then searched for crossings up to the fold's
+  near side (a loss of symmetry just before a snap);
+* **bifurcation**: the first σ where the negative count of one of the changed blocks leaves its
+  value at the start of the step is bracketed by inertia (exact, decides the side) and refined
+  with secant steps on the crossing eigenvalue (SLEPc) until |κ_hi - κ_lo| < ``rel_tol`` |κ|
+  or until its root, interpolated through the trials nearest it, is that accurate. All changed
+  blocks are bracketed together, so the first crossing of any is found: a closed sphere's
+  2n+1 multiplet (split by the mesh by < 1e-4 in κ) and its neighbouring degrees spread over
+  dozens of Fourier blocks; a trial stops factorising at the first block that moved. Each other
+  changed block's first crossing is located as well unless ``max_critical`` says otherwise.
 
-Several eigenvalues crossing inside one step (the 2n+1-fold eigenvalue of a perfect sphere, split
-slightly by the mesh) are reported as one critical point whose ``multiplicity`` is the change of
-the negative count over the step; its κ is the first crossing.
-
-The mode: the eigenvector of the eigenvalue nearest 0 at the located point, named by the
-problem's ``classify_mode`` (the surface model: Rayleigh quotients of its normal component, n on
-a sphere, m on surfaces of revolution).
+Several eigenvalues of one block crossing inside one step are reported as one critical point
+whose ``multiplicity`` is the change of that block's negative count over the step; its κ is the
+first crossing. The mode: the eigenvector of the eigenvalue nearest 0 of the crossing block at
+the trial nearest the point, named by the problem's ``classify_mode`` (m from the block or the
+mode's Rayleigh quotients, n on spheres).
 """
 
 from __future__ import annotations

@@ -225,6 +225,91 @@ class Sphere(SphericalCap):
 
 
 @dataclass(frozen=True)
+class ImperfectSphere(SphericalCap):
+    """A sphere (or a cap, ``theta`` < π) whose stress-free reference surface is displaced
+    along its normal by w0(t) = -``amplitude`` f(t), t the angle from the pole: f = exp(-(t/β0)²)
+    (``profile`` "dimple", β0 = ``width`` in radians: the pressure-buckling literature's
+    localised dimple) or f = P_n(cos t) (``profile`` "mode", n = ``degree``: the shape of an
+    axisymmetric buckling mode). Amplitude > 0 is inward at the pole. The meridian is
+    (R + w0(t)) (sin t, cos t); its UFL form is differentiated symbolically, so the reference
+    metric and curvature of the imperfect surface enter the energy exactly. Axisymmetric model
+    only (the surface mesher has no imperfect surfaces yet)."""
+
+    radius: float = 1.0
+    theta: float = math.pi
+    amplitude: float = 0.0
+    profile: str = "dimple"
+    width: float = 0.1
+    degree: int = 2
+    kind = "imperfect-sphere"
+
+    def __post_init__(self) -> None:
+        _positive("radius", self.radius)
+        if not (0 < self.theta <= math.pi * (1 + 1e-12)):
+            raise InputError(f"theta must lie in (0, pi], got {self.theta!r}")
+        if self.profile not in ("dimple", "mode"):
+            raise InputError(f"imperfection profile must be 'dimple' or 'mode', got "
+                             f"{self.profile!r}")
+        if not (isinstance(self.amplitude, (int, float)) and math.isfinite(self.amplitude)
+                and abs(self.amplitude) < 0.1 * self.radius):
+            raise InputError(f"the imperfection amplitude must be a number below R/10 in size, "
+                             f"got {self.amplitude!r}")
+        _positive("width", self.width)
+        if not (isinstance(self.degree, int) and 0 <= self.degree <= 1000):
+            raise InputError(f"the mode degree must be an integer in [0, 1000], got "
+                             f"{self.degree!r}")
+
+    def _profile(self, c: Any, t: Any, exp: Any) -> Any:
+        """f(t) from cos t (``c``), t and an exp function: numpy or UFL alike."""
+        if self.profile == "dimple":
+            return exp(-((t / self.width) ** 2))
+        p0, p1 = 1.0 + 0.0 * c, c  # Legendre recurrence
+        if self.degree == 0:
+            return p0
+        for k in range(1, self.degree):
+            p0, p1 = p1, ((2 * k + 1) * c * p1 - k * p0) / (k + 1)
+        return p1
+
+    def _rho(self, t: np.ndarray) -> np.ndarray:
+        return self.radius - self.amplitude * self._profile(np.cos(t), t, np.exp)
+
+    def meridian(self, t):
+        rho = self._rho(np.asarray(t, dtype=float))
+        return rho * np.sin(t), rho * np.cos(t)
+
+    def meridian_derivative(self, t):
+        t = np.asarray(t, dtype=float)
+        eps = 1e-6
+        drho = (self._rho(t + eps) - self._rho(t - eps)) / (2 * eps)
+        rho = self._rho(t)
+        return drho * np.sin(t) + rho * np.cos(t), drho * np.cos(t) - rho * np.sin(t)
+
+    def area(self) -> float:
+        return Shape.area(self)
+
+    def meridian_ufl(self, t: Any) -> tuple[Any, Any]:
+        """(r°(t), z°(t)) as UFL expressions of the mesh coordinate t."""
+        import ufl
+
+        rho = self.radius - self.amplitude * self._profile(ufl.cos(t), t, ufl.exp)
+        return rho * ufl.sin(t), rho * ufl.cos(t)
+
+    def normal(self, x):
+        raise InputError("imperfect spheres are for the axisymmetric model (--model axisym)")
+
+    def principal_curvatures(self, x):
+        raise InputError("imperfect spheres are for the axisymmetric model (--model axisym)")
+
+    def normal_ufl(self, x):
+        raise InputError("imperfect spheres are for the axisymmetric model (--model axisym)")
+
+    def describe(self) -> dict[str, Any]:
+        return {"shape": self.kind, "R": self.radius, "theta": self.theta,
+                "amplitude": self.amplitude, "profile": self.profile, "width": self.width,
+                "degree": self.degree}
+
+
+@dataclass(frozen=True)
 class EllipsoidalCap(_AngleShape):
     """Cap of the spheroid x^2/R^2 + y^2/R^2 + z^2/r3^2 = 1 down to parametric colatitude theta."""
 

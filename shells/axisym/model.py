@@ -34,7 +34,7 @@ import numpy as np
 from shells.axisym.mesh import MeridianMesh, _supported, make_meridian_nodes
 from shells.errors import InputError
 from shells.formproblem import FormProblem
-from shells.geometry import Disk, EllipsoidalCap, Shape, SphericalCap
+from shells.geometry import Disk, EllipsoidalCap, ImperfectSphere, Shape, SphericalCap
 from shells.problem import ModeInfo
 
 if TYPE_CHECKING:
@@ -126,6 +126,9 @@ def _meridian_ufl(shape: Shape, t: Any) -> tuple:
 
     if isinstance(shape, Disk):
         return t, 0.0 * t, 1.0 + 0.0 * t, 0.0 * t, 0.0 * t, 0.0 * t
+    if isinstance(shape, ImperfectSphere):
+        r, z = shape.meridian_ufl(t)
+        return r, z, r.dx(0), z.dx(0), r.dx(0).dx(0), z.dx(0).dx(0)
     if isinstance(shape, EllipsoidalCap):
         a, c = shape.radius, shape.r3
     else:

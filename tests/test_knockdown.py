@@ -1,0 +1,79 @@
+"""Imperfection sensitivity of the closed sphere (shells.knockdown, 1D model): δ = 0 is the
+perfect sphere's bifurcation, an imperfection turns it into a fold below it, the knock-down
+grows with δ like an asymmetric bifurcation's (1 - κ_max/κ_b ∝ δ^½), and a rerun reads the
+stored points back. Each rank computes its own serial 1D problem."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from shells.errors import InputError
+from shells.geometry import ImperfectSphere
+from shells.knockdown import KnockdownConfig, knockdown
+
+H = 0.05
+
+
+@pytest.fixture(scope="module")
+def curve(tmp_path_factory):
+    out = tmp_path_factory.mktemp("knockdown")
+    cfg = KnockdownConfig(H, (0.0, 0.01, 0.04), imperfection="dimple", width=1.0)
+    return cfg, out, list(knockdown(cfg, out))
+
+
+def test_perfect_sphere_and_the_fold_below_it(curve):
+    from shells.axisym import critical
+    from shells.geometry import Sphere
+
+    _, _, recs = curve
+    perfect = recs[0]["perfect"]
+    assert perfect["kind"] == "bifurcation" and perfect["mode_n"] == 9
+    # the first axisymmetric crossing: within the location tolerance of the first crossing of
+    # all Fourier blocks (the mesh splits the 2n+1 multiplet by < 1e-4)
+    ref = critical(Sphere(1.0), H, 0.5)["kappa_h"]
+    assert perfect["kappa_h"] == pytest.approx(ref, rel=1e-4)
+    pts = {r["delta_over_h"]: r for r in recs[1:]}
+    assert pts[0.0]["knockdown"] == 1.0
+    k1, k4 = pts[0.01]["knockdown"], pts[0.04]["knockdown"]
+    assert pts[0.01]["kind"] == pts[0.04]["kind"] == "fold"
+    assert 0.95 < k4 < k1 < 1.0
+    # asymmetric bifurcation: 1 - κ_max/κ_b ∝ δ^½ for small δ (measured exponent 0.58 here)
+    slope = math.log((1 - k4) / (1 - k1)) / math.log(4.0)
+    assert 0.4 < slope < 0.75
+
+
+def test_rerun_reads_the_points_back(curve, monkeypatch):
+    import shells.knockdown as kd
+
+    cfg, out, recs = curve
+
+    def fail(*a, **k):
+        raise AssertionError("recomputed a stored point")
+
+    monkeypatch.setattr(kd, "fold_kappa", fail)
+    again = list(knockdown(cfg, out))
+    assert [r.get("kappa_max_h") for r in again[1:]] == [r.get("kappa_max_h") for r in recs[1:]]
+    with pytest.raises(InputError):
+        list(knockdown(KnockdownConfig(H, (0.02,), width=2.0), out))  # another curve
+
+
+def test_imperfect_meridian_and_bad_input():
+    s = ImperfectSphere(1.0, math.pi, 0.01, "mode", 0.1, 3)
+    t = np.linspace(0, math.pi, 7)
+    r, z = s.meridian(t)
+    p3 = 0.5 * (5 * np.cos(t) ** 3 - 3 * np.cos(t))
+    assert np.allclose(np.hypot(r, z), 1.0 - 0.01 * p3)
+    dr, dz = s.meridian_derivative(t)
+    eps = 1e-5
+    r1, z1 = s.meridian(t + eps)
+    r0, z0 = s.meridian(t - eps)
+    assert np.allclose(dr, (r1 - r0) / (2 * eps), atol=1e-8)
+    assert np.allclose(dz, (z1 - z0) / (2 * eps), atol=1e-8)
+    for bad in ({"profile": "bump"}, {"amplitude": 0.5}, {"width": -1.0}):
+        with pytest.raises(InputError):
+            ImperfectSphere(**{"amplitude": 0.01, **bad})
+    with pytest.raises(InputError):
+        KnockdownConfig(H, (-0.1,))

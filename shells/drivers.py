@@ -1,0 +1,298 @@
+"""The runs behind ``shells branch``, ``shells critical`` and ``shells postbuckle`` (driver layer):
+which problem to build, the files a run writes, the result dict its subcommand prints.
+
+Every function takes plain typed arguments (a shape, numbers, a folder, a library config), never
+an argparse namespace, and returns the JSON-serialisable result of the subcommand:
+
+* ``branch_surface(cfg, outdir, ...)``, ``branch_axisym(shape, ...)``: the branch in κ from 0
+  (``DIR/branch.jsonl``); ``folds(points)``: its turning points;
+* ``critical_run(shape, ...)``: the critical points of the fundamental branch, either model
+  (``DIR/critical.json``); ``critical_surface(shape, ...)`` the surface model's
+  (``DIR/branch.jsonl``, the first critical mode in ``DIR/modes.bp``);
+* ``postbuckle_run(cfg, outdir, fields)``: ``shells.postbuckle.run_postbuckle`` with the
+  bifurcated states written for ParaView (``ShapeWriter``).
+
+The command line (``shells.cli``) only parses, calls these and prints.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+import os
+import time
+from pathlib import Path
+from typing import Any
+
+from shells.errors import InputError
+from shells.store import json_default
+
+__all__ = ["ShapeWriter", "branch_axisym", "branch_surface", "critical_run", "critical_surface",
+           "folds", "postbuckle_run"]
+
+log = logging.getLogger("shells")
+
+
+def _rank() -> int:
+    from mpi4py import MPI
+
+    return MPI.COMM_WORLD.rank
+
+
+def _R_or_L(shape: Any) -> float:
+    """The length of κR: the pole radius R (the disk's radius)."""
+    return shape.R if math.isfinite(shape.R) else shape.characteristic_size()
+
+
+# --------------------------------------------------------------------------------------------
+# branches
+# --------------------------------------------------------------------------------------------
+def folds(points: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The turning points in κ of a branch (dκ/ds changes sign): kappa_R, kappa_h, index."""
+    return [{"kappa_R": p["kappa_R"], "kappa_h": p["kappa_h"], "index": p["index"]}
+            for a, p in zip(points, points[1:], strict=False)
+            if a["dkappa_ds"] * p["dkappa_ds"] < 0]
+
+
+def branch_surface(cfg: Any, outdir: str | os.PathLike, *, fields: str = "none",
+                   resume: bool = True) -> dict[str, Any]:
+    """The surface model's branch (``shells.branch.run_branch`` on ``cfg``, a ``BranchConfig``),
+    after the mesh-size check (before the run creates its folder)."""
+    from shells import branch
+    from shells.mesh import check_mesh_size
+
+    check_mesh_size(cfg.mesh_spec())
+    points = list(branch.run_branch(cfg, outdir, fields=fields, resume=resume))
+    header, _ = branch.read_branch(f"{outdir}/branch.jsonl")
+    return {"config": cfg.describe(), "dofs": header.get("dofs"),
+            "branch_file": f"{outdir}/branch.jsonl", "points": points, "folds": folds(points)}
+
+
+def branch_axisym(shape: Any, h_over_r: float, nu: float, kappa_R_end: float,
+                  outdir: str | os.PathLike) -> dict[str, Any]:
+    """The shell-of-revolution model's branch up to κR = ``kappa_R_end`` (its sign: the
+    direction), every point appended to ``outdir/branch.jsonl`` (rank 0) as computed."""
+    from shells import axisym
+
+    outdir = Path(outdir)
+    points = []
+    if _rank() == 0:
+        outdir.mkdir(parents=True, exist_ok=True)
+        (outdir / "branch.jsonl").write_text(json.dumps({"header": {
+            "model": "axisym", "shape": shape.describe(), "h_over_r": h_over_r,
+            "nu": nu, "kappa_R_end": kappa_R_end}}) + "\n")
+    for i, p in enumerate(axisym.branch(shape, h_over_r, nu,
+                                        direction="up" if kappa_R_end > 0 else "down",
+                                        kappa_max=abs(kappa_R_end))):
+        rec = {"index": i, **p}
+        points.append(rec)
+        if _rank() == 0:
+            with open(outdir / "branch.jsonl", "a") as f:
+                f.write(json.dumps(rec, default=json_default) + "\n")
+    return {"model": "axisym", "branch_file": str(outdir / "branch.jsonl"), "points": points,
+            "folds": folds(points)}
+
+
+# --------------------------------------------------------------------------------------------
+# critical points
+# --------------------------------------------------------------------------------------------
+def critical_run(shape: Any, h_over_r: float, nu: float, *, direction: str = "up",
+                 model: str = "surface", kappa_end: float | None = None,
+                 outdir: str | os.PathLike | None = None,
+                 **surface: Any) -> dict[str, Any]:
+    """The critical points of the fundamental branch from κ = 0 towards ``kappa_end`` (None:
+    ``shells.theory.default_kappa_range``; the 1D model then uses its own), with either model;
+    ``surface``: the keyword arguments of ``critical_surface``. Writes ``outdir/critical.json``
+    (rank 0)."""
+    L = shape.characteristic_size()
+    h = h_over_r * L
+    R_or_L = _R_or_L(shape)
+    user_range = kappa_end is not None
+    if kappa_end is None:
+        from shells.theory import default_kappa_range
+
+        kappa_end = default_kappa_range(shape, h_over_r, nu, direction)
+    theta_deg = math.degrees(shape.theta) if hasattr(shape, "theta") and not shape.closed \
+        else None
+    base = {"h_over_R": h_over_r, "nu": nu, "theta_deg": theta_deg,
+            "model": model, "shape": shape.describe(), "direction": direction,
+            "kappa_R_end": kappa_end * R_or_L, "kappa_h_end": kappa_end * h}
+    if model == "axisym":
+        try:
+            from shells import axisym
+        except ImportError as e:
+            raise InputError("--model axisym is not available in this installation") from e
+        result = {**base, **axisym.critical(
+            shape, h_over_r, nu, direction=direction,
+            kappa_max=abs(kappa_end) * R_or_L if user_range else None)}
+    elif model == "surface":
+        result = {**base, **critical_surface(shape, h_over_r, nu, kappa_end, outdir=outdir,
+                                             **surface)}
+    else:
+        raise InputError(f"--model must be surface or axisym, got {model!r}")
+    if outdir and _rank() == 0:
+        Path(outdir).mkdir(parents=True, exist_ok=True)
+        (Path(outdir) / "critical.json").write_text(
+            json.dumps(result, indent=1, default=json_default))
+    return result
+
+
+def critical_surface(shape: Any, h_over_r: float, nu: float, kappa_end: float, *,
+                     first_only: bool = False, size: float | None = None,
+                     layer_elements: float = 4.0, shear_penalty: float = 1.0e3,
+                     degree: int | None = None, ds: float | None = None,
+                     ds_max: float | None = None,
+                     outdir: str | os.PathLike | None = None) -> dict[str, Any]:
+    """The surface model's critical points up to ``kappa_end`` (``shells.critical.follow``):
+    meshes ``shape`` (``size``, ``degree`` None: ``shells.model.default_discretisation``),
+    follows the branch in steps ``ds`` .. ``ds_max`` in κL (None: range/16, range/10), writes
+    every point to ``outdir/branch.jsonl`` (rank 0) and the first critical mode to
+    ``outdir/modes.bp``; returns the first critical point's kind, κ and mode, every critical
+    point, the DOFs, the mesh and the wall time."""
+    from mpi4py import MPI
+
+    from shells.continuation import ContinuationSettings
+    from shells.critical import CriticalSettings, follow
+    from shells.mesh import MeshSpec, generate
+    from shells.model import ModelParameters, ShellModel, default_discretisation
+
+    comm = MPI.COMM_WORLD
+    L = shape.characteristic_size()
+    h = h_over_r * L
+    R_or_L = _R_or_L(shape)
+    degree, size = default_discretisation(shape, degree, size)
+    sm = generate(MeshSpec(shape, h=h, size=size, layer_elements=layer_elements), comm)
+    model = ShellModel(sm, ModelParameters(h=h, nu=nu, shear_penalty=shear_penalty,
+                                           degree=degree, quadrature_degree=2 * degree))
+    lam_end = abs(kappa_end) * L
+    ds = ds if ds is not None else lam_end / 16
+    ds_max = ds_max if ds_max is not None else max(ds, lam_end / 10)
+    st = ContinuationSettings(ds=ds, ds_max=max(ds, ds_max), ds_min=1e-7 * lam_end,
+                              ds_unit="kappa")
+    crit = CriticalSettings(stop_at_first=first_only)
+    log.info("critical: %s, %d DOFs, following kappa up to kappa R = %.4f", shape.describe(),
+             model.num_dofs(), kappa_end * R_or_L)
+    out = Path(outdir) if outdir else None
+    bfile = None
+    if out is not None and comm.rank == 0:
+        out.mkdir(parents=True, exist_ok=True)
+        bfile = out / "branch.jsonl"
+        bfile.write_text("")
+    cps = []
+    found_points: list[Any] = []
+    t0 = time.perf_counter()
+    for p, res, found in follow(model, st, kappa_end, crit):
+        rec = {"index": p.index, "kappa_R": p.kappa * R_or_L, "kappa_h": p.kappa * h,
+               "negative_count": res.negative_count, "dkappa_ds": p.dkappa_ds,
+               "newton_its": p.newton_its, **p.scalars}
+        if bfile is not None:
+            with open(bfile, "a") as f:
+                f.write(json.dumps(rec) + "\n")
+        log.info("  kappa R = %+.5f  kappa h = %+.5f  negative = %d  (%.0f s)", rec["kappa_R"],
+                 rec["kappa_h"], res.negative_count, time.perf_counter() - t0)
+        for c in found:
+            found_points.append(c)
+            d = c.as_dict()
+            d.update(kappa_R=c.kappa * R_or_L, kappa_h=c.kappa * h,
+                     kappa_R_bracket=[c.kappa_lo * R_or_L, c.kappa_hi * R_or_L])
+            cps.append(d)
+            log.info("  %s at kappa R = %.6f (kappa h = %.6f), m = %s, n = %s", c.kind,
+                     d["kappa_R"], d["kappa_h"], c.mode_m, c.mode_n)
+    first = cps[0] if cps else None
+    if out is not None and found_points:
+        from shells.fields import write_modes
+
+        first_cp = found_points[0]  # its state and critical mode
+        if first_cp.mode is not None:
+            write_modes(model, first_cp.state, [first_cp.mode], out / "modes.bp")
+            log.info("critical mode (ParaView, ADIOS2 VTX Reader): %s", out / "modes.bp")
+    return {"kind": first["kind"] if first else "none",
+            "kappa_R": first["kappa_R"] if first else None,
+            "kappa_h": first["kappa_h"] if first else None,
+            "mode_m": first["mode_m"] if first else None,
+            "mode_n": first["mode_n"] if first else None,
+            "dofs": model.num_dofs(), "critical_points": cps,
+            "mesh": {"size": size, "layer_elements": layer_elements, "degree": degree},
+            "wall_time": time.perf_counter() - t0}
+
+
+# --------------------------------------------------------------------------------------------
+# post-buckling
+# --------------------------------------------------------------------------------------------
+class ShapeWriter:
+    """Writes the requested bifurcated states while the model holds them (``all``), or the
+    last one of each side at the end (``last``): 1D, a revolved surface (.vts) and the meridian
+    (.csv); 2D, VTX fields (one .bp per side)."""
+
+    def __init__(self, out: Path | None, fields: str, model_kind: str, h: float) -> None:
+        self.out, self.fields, self.kind, self.h = out, fields, model_kind, h
+        self.files: list[str] = []
+        self.last: dict[int, tuple[Any, Any, dict[str, Any]]] = {}
+        self.writers: dict[int, Any] = {}
+
+    def __call__(self, model: Any, rec: dict[str, Any]) -> None:
+        if self.out is None or self.fields == "none" or rec["branch"] != "bifurcated":
+            return
+        if self.fields == "all":
+            self._write(model, rec)
+        else:
+            from shells.problem import get_state
+
+            self.last[rec["side"]] = (model, get_state(model), dict(rec))
+
+    def _write(self, model: Any, rec: dict[str, Any]) -> None:
+        from mpi4py import MPI
+
+        side = rec["side"]
+        if self.kind == "axisym":
+            if MPI.COMM_WORLD.rank != 0:
+                return
+            from shells.revolve import revolve, write_profile_csv, write_vts
+
+            prof = model.meridian_profile()
+            d = self.out / "shapes"
+            d.mkdir(parents=True, exist_ok=True)
+            stem = d / f"side{side:+d}_{rec['index']:03d}"
+            self.files.append(write_vts(revolve(prof), str(stem) + ".vts"))
+            write_profile_csv(prof, str(stem) + ".csv", self.h)
+            self.files.append(str(stem) + ".csv")
+            return
+        from shells.fields import FieldWriter
+
+        if side not in self.writers:
+            path = self.out / f"fields_side{side:+d}.bp"
+            self.writers[side] = FieldWriter(model, path)
+            self.files.append(str(path))
+        self.writers[side].write(float(rec["index"]))
+
+    def close(self) -> None:
+        from shells.problem import set_state
+
+        for model, state, rec in self.last.values():
+            set_state(model, state)
+            self._write(model, rec)
+        for w in self.writers.values():
+            w.close()
+
+
+def postbuckle_run(cfg: Any, outdir: str | os.PathLike | None = None,
+                   fields: str = "none") -> dict[str, Any]:
+    """``shells.postbuckle.run_postbuckle`` on ``cfg`` (a ``PostbuckleConfig``), the bifurcated
+    states written for ParaView (``fields``: none, last, all; needs ``outdir``); returns the
+    critical point, the points, the sides' summaries, the DOFs and the files written."""
+    from shells.postbuckle import run_postbuckle
+
+    out = Path(outdir) if outdir else None
+    shapes = ShapeWriter(out, fields, cfg.model, cfg.h_over_r * cfg.shape.characteristic_size())
+    try:
+        recs = run_postbuckle(cfg, out, on_point=shapes)
+    finally:
+        shapes.close()
+    cp = next(r["critical_point"] for r in recs if "critical_point" in r)
+    points = [r for r in recs if "branch" in r]
+    summary = recs[-1].get("summary", {})
+    return {"config": cfg.describe(), "critical_point": cp, "points": points,
+            "sides": summary.get("sides"), "dofs": summary.get("dofs"),
+            "branch_file": str(out / "postbuckle.jsonl") if out else None,
+            "files": shapes.files}

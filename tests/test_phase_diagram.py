@@ -19,7 +19,6 @@ from shells.errors import InputError
 from shells.phase_diagram import (
     PhaseDiagramConfig,
     Task,
-    add_subcommand,
     compute_task,
     fit_all,
     read_records,
@@ -138,7 +137,8 @@ def test_fits_recover_known_lines():
 def test_cli_contract_and_bad_input(diagram, capsys):
     """The subcommand on a parser: --json last line (rank 0) from the finished directory
     (nothing recomputed), bad input is an InputError."""
-    from shells.cli import _Parser
+    from shells.cli.common import Parser as _Parser
+    from shells.cli.phase_diagram import add_subcommand
 
     _, out, *_ = diagram
     parser = _Parser(prog="shells")

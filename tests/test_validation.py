@@ -152,9 +152,9 @@ def anything(v: str) -> None:
 
 
 THETA = in_range(0.1, 179.9)  # a cap (shells.geometry: THETA_MIN_DEG, CAP_THETA_MAX_DEG)
-H = in_range(0.0, 0.5, lo_open=True)  # shells.cli.H_OVER_R_MAX
+H = in_range(0.0, 0.5, lo_open=True)  # shells.cli.common.H_OVER_R_MAX
 NU = in_range(-1.0, 0.5, lo_open=True)
-RADIUS = in_range(0.5, 1e6)  # shells.cli.RADIUS_RANGE
+RADIUS = in_range(0.5, 1e6)  # shells.cli.common.RADIUS_RANGE
 
 MESH = ["mesh", "cap", "--theta-deg=30", "--h-over-r=0.01"]
 AXI = ["critical", "--shape=cap", "--theta-deg=30", "--h-over-r=0.04", "--model=axisym"]

@@ -1,0 +1,100 @@
+"""Command-line interface: ``shells <subcommand>``; ``main(argv=None) -> int`` (CLI layer: no
+library module imports it).
+
+Conventions for every analysis subcommand: human-readable output on rank 0 only; with ``--json``
+the last line of stdout is one JSON object; bad input is one line on stderr and exit status 2,
+never a traceback.
+
+Modules: ``common`` (the parser class, logging, ``emit``, argument types, the shape and physics
+arguments, the checks of ranges and paths), one per subcommand: ``mesh`` (mesh, info, render),
+``branch``, ``critical``, ``postbuckle``, ``phase_diagram``. They parse, call the library
+(``shells.drivers`` and the driver modules) and print.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from typing import Any
+
+from shells import __version__
+from shells.cli import branch, critical, mesh, phase_diagram, postbuckle
+from shells.cli.common import Parser, check_paths, check_ranges, rank, setup_logging
+from shells.errors import InputError
+
+__all__ = ["main"]
+
+
+def _build_parser() -> argparse.ArgumentParser:
+    p = Parser(prog="shells", description="Thin elastic shells with natural curvature "
+               "(FEniCSx): meshes, branches, buckling and snap-through.")
+    p.add_argument("--version", action="version", version=f"shells {__version__}")
+    p.add_argument("-v", "--verbose", action="store_true", help="more log output (rank 0)")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
+    mesh.add_mesh(sub)
+    mesh.add_info(sub)
+    branch.add_subcommand(sub)
+    critical.add_subcommand(sub)
+    phase_diagram.add_subcommand(sub)
+    postbuckle.add_subcommand(sub)
+    mesh.add_render(sub)
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the CLI; returns the exit status (0 ok, 2 bad input, 1 failure)."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    parser = _build_parser()
+    signalled: list[int] = []
+
+    def _terminate(signum: int, frame: Any) -> None:
+        signalled.append(signum)
+        raise KeyboardInterrupt
+
+    import signal
+    import threading
+
+    if threading.current_thread() is threading.main_thread():
+        old_term = signal.signal(signal.SIGTERM, _terminate)
+    try:
+        args = parser.parse_args(argv)
+        setup_logging(args.verbose)
+        if args.command is None:
+            if rank() == 0:
+                parser.print_help()
+            return 0
+        check_ranges(args)
+        check_paths(args)
+        return int(args.func(args) or 0)
+    except InputError as e:
+        msg = " ".join(str(e).splitlines())  # one line, whatever the message holds
+        if rank() == 0:
+            print(msg if msg.startswith("shells") else f"shells: error: {msg}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        # every file a run writes is whole at any moment (appended lines, renamed checkpoints):
+        # the same command resumes
+        if rank() == 0:
+            name = "SIGTERM" if signalled else "SIGINT"
+            print(f"shells: interrupted ({name}); rerun the same command to resume",
+                  file=sys.stderr)
+        return 143 if signalled else 130
+    except Exception as e:  # noqa: BLE001 - a failure is one line, never a traceback
+        import traceback
+
+        from mpi4py import MPI
+
+        comm = MPI.COMM_WORLD
+        if "-v" in argv or "--verbose" in argv:
+            traceback.print_exc()
+        msg = " ".join(f"{type(e).__name__}: {e}".splitlines())
+        where = f" (rank {comm.rank} of {comm.size})" if comm.size > 1 else ""
+        print(f"shells: failed{where}: {msg}", file=sys.stderr, flush=True)
+        if comm.size > 1:
+            # the other ranks may wait in a collective for this one: end them all now
+            comm.Abort(1)
+        return 1
+    finally:
+        if threading.current_thread() is threading.main_thread():
+            signal.signal(signal.SIGTERM, old_term)

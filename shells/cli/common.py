@@ -1,0 +1,264 @@
+"""What the subcommands share (CLI layer; no library module imports it): the parser class, logging
+on rank 0, ``emit``, argument types, the shape and physics arguments, and the checks of ranges
+and paths that run before any work.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import math
+import sys
+from collections.abc import Callable
+from typing import Any
+
+from shells import paths
+from shells.errors import InputError
+from shells.store import json_default
+
+log = logging.getLogger("shells")
+
+
+class Parser(argparse.ArgumentParser):
+    """ArgumentParser whose usage errors are a single line on stderr (exit 2)."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        raise InputError(f"{self.prog}: {message} (see {self.prog} --help)")
+
+
+def rank() -> int:
+    try:
+        from mpi4py import MPI
+
+        return MPI.COMM_WORLD.rank
+    except ImportError:  # pragma: no cover - the stack always has mpi4py
+        return 0
+
+
+class _StderrHandler(logging.StreamHandler):  # type: ignore[type-arg]
+    """Writes to whatever ``sys.stderr`` is at the time of the record, not at set-up (so a
+    replaced and closed stderr, as in a test harness, is never written to)."""
+
+    @property  # type: ignore[override]
+    def stream(self) -> Any:
+        return sys.stderr
+
+    @stream.setter
+    def stream(self, value: Any) -> None:
+        pass
+
+
+def setup_logging(verbose: bool) -> None:
+    """Progress and logs go to stderr on rank 0 only."""
+    handler: logging.Handler = _StderrHandler()
+    if rank() != 0:
+        handler = logging.NullHandler()
+    logging.basicConfig(format="%(message)s", handlers=[handler], force=True)
+    log.setLevel(logging.DEBUG if verbose else logging.INFO)
+
+
+def emit(result: dict[str, Any], args: argparse.Namespace, human: Callable[[], None]) -> None:
+    """Print a result on rank 0: the human summary, then (with --json) the JSON last line."""
+    if rank() != 0:
+        return
+    if not getattr(args, "json", False):
+        human()
+    else:
+        print(json.dumps(result, default=json_default), flush=True)
+
+
+# --------------------------------------------------------------------------------------------
+# argument types and shared arguments
+# --------------------------------------------------------------------------------------------
+def positive_float(name: str) -> Callable[[str], float]:
+    def conv(text: str) -> float:
+        try:
+            v = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} must be a number, got {text!r}") from None
+        if not (math.isfinite(v) and v > 0):
+            raise argparse.ArgumentTypeError(f"{name} must be positive, got {text}")
+        return v
+
+    return conv
+
+
+#: Accepted --radius (and --r3 up to the upper bound). Every result is dimensionless (kappa R,
+#: kappa h, h/R): the radius only sets the unit. The mesher's test that drops a cap's flat base
+#: (height < 1e-6 R, shells.mesh) fails against OCC's absolute bounding-box slack (~2e-7) below
+#: R = 0.25 (measured: R = 0.2 and 0.1 mesh a closed lens, twice the area, no rim; 0.25 and 0.3
+#: are right), and R = 1e200 fails in OCC ("Could not fix wire"); 1e6 .. 1e20 mesh correctly.
+RADIUS_RANGE = (0.5, 1.0e6)
+
+
+def length(name: str, lo: float | None) -> Callable[[str], float]:
+    """A length in [lo, RADIUS_RANGE[1]] (lo None: any positive value)."""
+    hi = RADIUS_RANGE[1]
+
+    def conv(text: str) -> float:
+        v = positive_float(name)(text)
+        if v > hi or (lo is not None and v < lo):
+            rng = f"[{lo:g}, {hi:g}]" if lo is not None else f"(0, {hi:g}]"
+            raise argparse.ArgumentTypeError(f"{name} must lie in {rng} (results are "
+                                             f"dimensionless: R sets the unit), got {text}")
+        return v
+
+    return conv
+
+
+def add_json(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--json", action="store_true", help="print a JSON object as the last line")
+
+
+def add_shape_args(p: argparse.ArgumentParser, positional: bool) -> None:
+    from shells.geometry import SHAPES
+
+    if positional:
+        p.add_argument("shape", metavar="SHAPE", help=f"one of: {', '.join(SHAPES)}")
+    else:
+        p.add_argument("--shape", required=True, help=f"one of: {', '.join(SHAPES)}")
+    p.add_argument("--radius", type=length("radius", RADIUS_RANGE[0]), default=1.0,
+                   help="sphere/cap radius R, ellipsoid semi-axes r1 = r2, disk radius (default 1)")
+    p.add_argument("--theta-deg", type=float, default=None,
+                   help="half opening angle theta from the pole to the rim, degrees (0, 180]")
+    p.add_argument("--r3", type=length("r3", None), default=None,
+                   help="ellipsoid semi-axis along the symmetry axis (default 1.5 R)")
+
+
+def shape_from_args(args: argparse.Namespace):
+    from shells.geometry import make_shape
+
+    theta = None
+    if args.theta_deg is not None:
+        if not math.isfinite(args.theta_deg) or not 0 < args.theta_deg <= 180:
+            raise InputError(f"--theta-deg must lie in (0, 180], got {args.theta_deg:g}")
+        theta = math.radians(args.theta_deg)
+    return make_shape(args.shape, radius=args.radius, theta=theta, r3=args.r3)
+
+
+def add_shell_args(p: argparse.ArgumentParser) -> None:
+    """--h-over-r (required) and --nu."""
+    p.add_argument("--h-over-r", type=positive_float("h/R"), required=True,
+                   help="thickness over R (disk: over its radius)")
+    p.add_argument("--nu", type=float, default=0.5, help="Poisson ratio (default 0.5)")
+
+
+def add_physics_args(p: argparse.ArgumentParser, model_default: str, model_help: str) -> None:
+    """The arguments of the analyses that start on the fundamental branch (critical,
+    postbuckle): --h-over-r, --nu, --direction and --model (default ``model_default``, listed
+    first among the choices)."""
+    add_shell_args(p)
+    p.add_argument("--direction", default="up", choices=("up", "down"),
+                   help="up: kappa > 0 (default), down: kappa < 0")
+    other = "axisym" if model_default == "surface" else "surface"
+    p.add_argument("--model", default=model_default, choices=(model_default, other),
+                   help=model_help)
+
+
+def add_kappa_range(p: argparse.ArgumentParser) -> None:
+    """--kappa-h-max | --kappa-r-max: the end of the range, in magnitude (--direction: sign)."""
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--kappa-h-max", type=float, default=None, help="end of the range, |kappa h|")
+    g.add_argument("--kappa-r-max", type=float, default=None, help="end of the range, |kappa R|")
+
+
+def kappa_end(shape: Any, h_over_r: float, kappa_h: float | None, kappa_r: float | None,
+              direction: str | None = None) -> float | None:
+    """The end of the kappa range given as kappa h or kappa R (None: neither given); with a
+    ``direction`` (up/down) its sign is the direction's, otherwise the given one's."""
+    L = shape.characteristic_size()
+    if kappa_h is not None:
+        k = kappa_h / (h_over_r * L)
+    elif kappa_r is not None:
+        k = kappa_r / (shape.R if math.isfinite(shape.R) else L)
+    else:
+        return None
+    return k if direction is None else abs(k) if direction == "up" else -abs(k)
+
+
+# --------------------------------------------------------------------------------------------
+# argument validation before any work: ranges common to the subcommands, every path argument
+# --------------------------------------------------------------------------------------------
+#: Largest h/R (h over the shape's length scale) accepted. The model is Koiter's thin-shell
+#: energy (bending h^3/12, no transverse shear or thickness change), an expansion in h/R: at
+#: h/R = 0.5 the faces lie at 0.75 R and 1.25 R and the expansion has no meaning any more. The
+#: thickest shells in tests/ and benchmarks/ have h/R = 0.05.
+H_OVER_R_MAX = 0.5
+
+#: Path arguments per subcommand: (attribute, label, kind, value used when the attribute is
+#: None). Kinds: "in" (a file read), "msh"/"png" (a file written, with that suffix), "dir" (an
+#: output folder), "shared" (only: shared with the host). Every one is checked by
+#: ``shells.paths`` before the subcommand starts; a subcommand not listed here has its -o
+#: (``output``), if any, checked as "shared".
+PATH_ARGS: dict[str, list[tuple[str, str, str, str | None]]] = {
+    "mesh": [("spec", "--spec", "in", None), ("output", "-o", "msh", None),
+             ("png", "--png", "png", None)],
+    "info": [("mesh", "mesh file", "in", None)],
+    "render": [("mesh", "mesh file", "in", None), ("output", "-o", "png", None)],
+    "branch": [("output", "-o", "dir", "results/branch")],
+    "critical": [("output", "-o", "dir", None)],
+    "phase-diagram": [("output", "-o", "dir", None)],
+    "postbuckle": [("output", "-o", "dir", None)],
+}
+
+
+def check_ranges(args: argparse.Namespace) -> None:
+    """Ranges shared by several subcommands (nu, the kappa range, h/R; the phase diagram's
+    smallest cap), before any work or any file is written."""
+    from shells.geometry import THETA_MIN_DEG
+
+    nu = getattr(args, "nu", None)
+    if nu is not None and not (math.isfinite(nu) and -1.0 < nu <= 0.5):
+        raise InputError(f"nu must lie in (-1, 0.5], got {nu:g}")
+    for opt in ("kappa_h_max", "kappa_r_max"):
+        k = getattr(args, opt, None)
+        if k is not None and not (math.isfinite(k) and k != 0):
+            raise InputError(f"--{opt.replace('_', '-')} must be a finite nonzero number, "
+                             f"got {k:g}")
+    hs = getattr(args, "h_over_r", None)
+    if hs is None:
+        return
+    for h in hs if isinstance(hs, list) else [hs]:
+        if not (math.isfinite(h) and 0 < h <= H_OVER_R_MAX):
+            raise InputError(f"--h-over-r must lie in (0, {H_OVER_R_MAX:g}] (a thin shell), "
+                             f"got {h:g}")
+    rng = getattr(args, "thetabar_range", None)
+    if args.command == "phase-diagram" and rng and all(math.isfinite(v) for v in rng):
+        theta_deg = math.degrees(min(rng) * math.sqrt(min(hs)))
+        if theta_deg < THETA_MIN_DEG:
+            raise InputError(f"theta-bar {min(rng):g} at h/R = {min(hs):g} is a cap of theta = "
+                             f"{theta_deg:.3g} deg, below the {THETA_MIN_DEG:g} deg minimum")
+
+
+def check_paths(args: argparse.Namespace) -> None:
+    """Every path argument of the subcommand (``PATH_ARGS``), checked on rank 0; the verdict is
+    broadcast so that all ranks stop (or go on) together."""
+    from mpi4py import MPI
+
+    specs = PATH_ARGS.get(args.command, [("output", "-o", "shared", None)])
+    comm = MPI.COMM_WORLD
+    err = None
+    if comm.rank == 0:
+        try:
+            for attr, label, kind, default in specs:
+                value = getattr(args, attr, None)
+                value = default if value is None else value
+                if value is None:
+                    continue
+                if kind == "in":
+                    paths.check_input_file(value, label)
+                elif kind == "shared":
+                    paths.check_shared(value, label)
+                elif kind == "dir":
+                    paths.check_output_dir(value, label)
+                else:
+                    paths.check_output_file(value, label, suffixes=(f".{kind}",))
+        except InputError as e:
+            err = str(e)
+        except Exception as e:  # never leave the other ranks waiting in the broadcast
+            err = f"cannot check the paths: {type(e).__name__}: {e}"
+    if comm.size > 1:
+        err = comm.bcast(err, root=0)
+    if err:
+        raise InputError(err)

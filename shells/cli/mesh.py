@@ -1,0 +1,166 @@
+"""``shells mesh``, ``shells info``, ``shells render`` (CLI layer; no library module imports it):
+mesh a shape with gmsh, read a mesh and report it, render it to PNG.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from typing import Any
+
+from shells.cli.common import (
+    RADIUS_RANGE,
+    add_json,
+    emit,
+    length,
+    log,
+    positive_float,
+    shape_from_args,
+)
+from shells.errors import InputError
+
+
+def add_mesh(sub: Any) -> argparse.ArgumentParser:
+    m = sub.add_parser("mesh", help="mesh a sphere, cap, ellipsoidal cap or disk with gmsh",
+                       description="Mesh a shape with gmsh (second-order geometry, refined in the "
+                       "rim boundary layer of width sqrt(R h)) and report area and rim errors.")
+    m.add_argument("shape", metavar="SHAPE", nargs="?", help="sphere, cap, ellipsoid or disk")
+    m.add_argument("--radius", type=length("radius", RADIUS_RANGE[0]), default=1.0,
+                   help="R (sphere, cap), r1 = r2 (ellipsoid), disk radius (default 1)")
+    m.add_argument("--theta-deg", type=float, default=None,
+                   help="half opening angle, pole to rim, in degrees (0, 180]")
+    m.add_argument("--r3", type=length("r3", None), default=None,
+                   help="ellipsoid semi-axis along z (default 1.5 R)")
+    m.add_argument("--h-over-r", type=positive_float("h/R"), default=None,
+                   help="thickness h/R: refines the rim layer of width sqrt(R h)")
+    m.add_argument("--size", type=positive_float("size"), default=0.1,
+                   help="bulk element size relative to R (default 0.1)")
+    m.add_argument("--layer-elements", type=positive_float("layer-elements"), default=4.0,
+                   help="elements across sqrt(R h) at the rim (default 4)")
+    m.add_argument("--order", type=int, default=2, choices=(1, 2), help="geometric order")
+    m.add_argument("--spec", default=None, help="read the parameters from a JSON file (meshes/)")
+    m.add_argument("-o", "--output", default=None, help="write a gmsh .msh file (+ .msh.json)")
+    m.add_argument("--png", default=None, help="render the mesh to a PNG")
+    add_json(m)
+    m.set_defaults(func=_cmd_mesh)
+    return m
+
+
+def add_info(sub: Any) -> argparse.ArgumentParser:
+    i = sub.add_parser("info", help="read a .msh file and report its size, area, rim")
+    i.add_argument("mesh", help="gmsh .msh file")
+    add_json(i)
+    i.set_defaults(func=_cmd_info)
+    return i
+
+
+def add_render(sub: Any) -> argparse.ArgumentParser:
+    r = sub.add_parser("render", help="render a .msh surface to PNG (off-screen)")
+    r.add_argument("mesh", help="gmsh .msh file")
+    r.add_argument("-o", "--output", required=True, help="PNG file")
+    add_json(r)
+    r.set_defaults(func=_cmd_render)
+    return r
+
+
+def _cmd_mesh(args: argparse.Namespace) -> int:
+    from mpi4py import MPI
+
+    from shells.mesh import MeshSpec, check_mesh_size, generate, load_mesh
+
+    if args.spec is not None:
+        spec = _load_spec(args.spec)
+    else:
+        if args.shape is None:
+            raise InputError("shells mesh: give a SHAPE or --spec FILE")
+        shape = shape_from_args(args)
+        h = None if args.h_over_r is None else args.h_over_r * shape.characteristic_size()
+        spec = MeshSpec(shape, h=h, size=args.size, layer_elements=args.layer_elements,
+                        order=args.order)
+    if args.output is not None and not str(args.output).endswith(".msh"):
+        raise InputError(f"-o must name a gmsh .msh file, got {args.output!r}")
+    check_mesh_size(spec)  # before the log line: a refused mesh is one line on stderr
+    log.info("meshing %s ...", spec.shape.describe())
+    sm = generate(spec, MPI.COMM_WORLD, msh_path=args.output)
+    if args.output is not None:
+        sm = load_mesh(args.output, MPI.COMM_WORLD)  # prove the file reads back
+    summary = sm.summary()
+    summary["file"] = args.output
+    if args.png:
+        from shells.render import render_mesh
+
+        render_mesh(sm, args.png)
+        summary["png"] = args.png
+
+    def human() -> None:
+        print(f"{spec.shape.kind}: {summary['cells']} cells, {summary['nodes']} nodes "
+              f"(order {spec.order})")
+        print(f"  area   {summary['area']:.10g}  exact {summary['area_exact']:.10g}  "
+              f"rel. error {summary['area_rel_error']:.2e}")
+        if summary.get("rim_length_exact"):
+            print(f"  rim    {summary['rim_length']:.10g}  exact {summary['rim_length_exact']:.10g}"
+                  f"  rel. error {summary['rim_rel_error']:.2e}")
+        if args.output:
+            print(f"  wrote {args.output} (+ {args.output}.json)")
+        if args.png:
+            print(f"  wrote {args.png}")
+
+    emit(summary, args, human)
+    return 0
+
+
+def _load_spec(path: str):
+    from pathlib import Path
+
+    from shells.mesh import MeshSpec
+
+    p = Path(path)
+    if not p.is_file():
+        raise InputError(f"mesh parameter file not found: {path!r}")
+    try:
+        d = json.loads(p.read_text())
+        if not isinstance(d, dict) or not isinstance(d.get("spec", d), dict):
+            raise TypeError("not a JSON object")
+        spec = MeshSpec.from_description(d.get("spec", d))
+        for name in ("radius", "r3"):  # the ranges of --radius and --r3
+            if hasattr(spec.shape, name):
+                lo = RADIUS_RANGE[0] if name == "radius" else None
+                try:
+                    length(name, lo)(repr(getattr(spec.shape, name)))
+                except argparse.ArgumentTypeError as e:
+                    raise InputError(str(e)) from None
+        return spec
+    except InputError as e:
+        raise InputError(f"{path!r}: {e}") from None
+    except (ValueError, KeyError, TypeError, AttributeError, OSError) as e:
+        # ValueError: bad JSON, not UTF-8, a value that is not a number
+        raise InputError(f"{path!r} is not a valid mesh parameter file: {e}") from None
+
+
+def _cmd_info(args: argparse.Namespace) -> int:
+    from mpi4py import MPI
+
+    from shells.mesh import load_mesh
+
+    sm = load_mesh(args.mesh, MPI.COMM_WORLD)
+    summary = sm.summary()
+    summary["file"] = args.mesh
+
+    def human() -> None:
+        for k, v in summary.items():
+            print(f"{k:18s} {v}")
+
+    emit(summary, args, human)
+    return 0
+
+
+def _cmd_render(args: argparse.Namespace) -> int:
+    from mpi4py import MPI
+
+    from shells.mesh import load_mesh
+    from shells.render import render_mesh
+
+    sm = load_mesh(args.mesh, MPI.COMM_WORLD)
+    render_mesh(sm, args.output)
+    emit({"png": args.output}, args, lambda: print(f"wrote {args.output}"))
+    return 0

@@ -1,0 +1,108 @@
+"""``shells postbuckle``: the command line of ``shells.postbuckle`` (CLI layer; no library module
+imports it); the run is ``shells.drivers.postbuckle_run``.
+
+    shells postbuckle --shape S --h-over-r H [--nu NU] [--theta-deg T] [--direction up|down]
+        [--model axisym|surface] [--at K] [--kappa-r-max X | --kappa-h-max X] [-o DIR]
+        [--fields none|last|all] [--json]
+
+Follows the fundamental branch, locates its K-th bifurcation, switches and follows the
+bifurcated branch on both sides. JSON (last line with --json): ``critical_point`` (the keys of
+an entry of ``shells critical``'s ``critical_points``), ``points`` (fundamental and bifurcated:
+the keys of ``shells branch``'s points plus ``branch``, ``stable``, ``negative_count``,
+``psi3_pole_over_h``, ``mode_amplitude``, and on bifurcated points ``side``, ``start``,
+``subcritical``), ``sides`` (per side: points, how it ended, up/down), ``branch_file``, and the
+shapes written. With -o, every point is appended to DIR/postbuckle.jsonl as computed; with
+``--fields``, the 1D model writes each bifurcated state (``last``: the last one of each side) as
+a 3D surface DIR/shapes/side{+1,-1}_NNN.vts (arrays ``displacement``, ``normal_displacement``)
+and its meridian as CSV; the surface model writes VTX fields DIR/fields_side{+1,-1}.bp.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from typing import Any
+
+from shells.cli.common import (
+    add_json,
+    add_kappa_range,
+    add_physics_args,
+    add_shape_args,
+    emit,
+    kappa_end,
+    positive_float,
+    shape_from_args,
+)
+from shells.errors import InputError
+
+__all__ = ["add_subcommand"]
+
+
+def add_subcommand(sub: Any) -> argparse.ArgumentParser:
+    p = sub.add_parser("postbuckle", help="follow the branch that bifurcates from the "
+                       "fundamental one (post-buckling), both sides",
+                       description="Follow the fundamental branch from kappa = 0, locate its "
+                       "K-th bifurcation, switch onto the bifurcated branch along the critical "
+                       "mode and follow it on both sides by pseudo-arclength, with the "
+                       "stability at every point. The 1D model (axisym) follows axisymmetric "
+                       "branches only (a closed sphere's buckling with rotational symmetry "
+                       "enforced, as in the paper).")
+    add_shape_args(p, positional=False)
+    add_physics_args(p, "axisym", "axisym (1D, default) or surface (2D mesh)")
+    p.add_argument("--at", type=int, default=1, help="the K-th bifurcation (default 1)")
+    add_kappa_range(p)
+    p.add_argument("--kappa-min-ratio", type=float, default=0.5,
+                   help="bifurcated branches end below this kappa/kappa_c (default 0.5)")
+    p.add_argument("--max-points", type=int, default=60,
+                   help="points per side of the bifurcated branch (default 60)")
+    p.add_argument("--size", type=positive_float("size"), default=0.2,
+                   help="surface model: bulk element size / R (default 0.2)")
+    p.add_argument("--layer-elements", type=positive_float("layer-elements"), default=3.0,
+                   help="surface model: elements across sqrt(R h) at the rim (default 3)")
+    p.add_argument("--degree", type=int, choices=(2, 3), default=2,
+                   help="surface model: polynomial degree (default 2)")
+    p.add_argument("--fields", default="none", choices=("none", "last", "all"),
+                   help="write the bifurcated states for ParaView (needs -o)")
+    p.add_argument("-o", "--output", default=None,
+                   help="directory: postbuckle.jsonl (points as computed) and shapes")
+    add_json(p)
+    p.set_defaults(func=_cmd_postbuckle)
+    return p
+
+
+def _cmd_postbuckle(args: argparse.Namespace) -> int:
+    from shells.drivers import postbuckle_run
+    from shells.postbuckle import PostbuckleConfig
+
+    shape = shape_from_args(args)
+    k_end = kappa_end(shape, args.h_over_r, args.kappa_h_max, args.kappa_r_max, args.direction)
+    if k_end is not None and not (math.isfinite(k_end) and k_end != 0):
+        raise InputError("the end of the kappa range must be a nonzero number")
+    if args.fields != "none" and args.output is None:
+        raise InputError("--fields needs an output directory (-o DIR)")
+    cfg = PostbuckleConfig(shape=shape, h_over_r=args.h_over_r, nu=args.nu, model=args.model,
+                           direction=args.direction, at=args.at, kappa_end=k_end,
+                           kappa_min_ratio=args.kappa_min_ratio, max_points=args.max_points,
+                           size=args.size, layer_elements=args.layer_elements,
+                           degree=args.degree)
+    result = postbuckle_run(cfg, args.output, fields=args.fields)
+    cp, points, sides = result["critical_point"], result["points"], result["sides"]
+
+    def human() -> None:
+        print(f"{shape.kind} h/L = {args.h_over_r}, nu = {args.nu}, {args.model}: "
+              f"{cp['kind']} at kappa R = {cp['kappa_R']:.6f} (kappa h = {cp['kappa_h']:.6f}), "
+              f"m = {cp['mode_m']}, n = {cp['mode_n']}")
+        print(f"{'branch':>11} {'side':>4} {'kappa R':>10} {'kappa/kc':>8} {'Psi3 pole/h':>11} "
+              f"{'amplitude':>9} {'neg':>4}")
+        for p in points:
+            if p["branch"] == "fundamental" and p is not points[-1] and p["index"] % 10:
+                continue
+            print(f"{p['branch']:>11} {p.get('side', ''):>4} {p['kappa_R']:10.4f} "
+                  f"{p['kappa'] / cp['kappa']:8.4f} {p['psi3_pole_over_h']:11.4f} "
+                  f"{p['mode_amplitude']:9.3f} {p['negative_count']:4d}")
+        for side, s in (sides or {}).items():
+            print(f"side {int(side):+d}: {s['points']} points, starts {s['start']}, "
+                  f"ended: {s['ended']}")
+
+    emit(result, args, human)
+    return 0

@@ -288,7 +288,8 @@ def _sphere_exact(h: float, nu: float = 0.5) -> tuple[float, int]:
 
 def render(data: dict[str, Any]) -> str:
     """The comparison document from the benchmark's JSON (fits recomputed from the points)."""
-    from shells.phase_diagram import _fit_snap, fit_all
+    from shells.phase_diagram import fit_all
+    from shells.phase_diagram.fits import _fit_snap
 
     d = data["diagram"]
     pts = d["points"]
@@ -552,7 +553,7 @@ def _worst_convergence(conv: list[dict[str, Any]]) -> float:
 def explanations(pts: list[dict[str, Any]], fit: dict[str, Any],
                  conv: list[dict[str, Any]]) -> str:
     """The evidence-backed explanations, with the measured numbers."""
-    from shells.phase_diagram import _fit_snap
+    from shells.phase_diagram.fits import _fit_snap
     from shells.theory import buckling_kappa_R
 
     f, x = fit["fits"], fit["extra"]

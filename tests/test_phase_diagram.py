@@ -21,9 +21,9 @@ from shells.phase_diagram import (
     Task,
     compute_task,
     fit_all,
-    read_records,
     run_phase_diagram,
 )
+from shells.store import read_records
 
 SMALL = dict(h_over_r=(0.04,), thetabar_range=(1.5, 3.5), points=3, refine=1)
 

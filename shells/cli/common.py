@@ -111,6 +111,14 @@ def add_json(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", action="store_true", help="print a JSON object as the last line")
 
 
+def add_mesh_size_args(p: argparse.ArgumentParser, size_default: float | None,
+                       size_help: str) -> None:
+    """``--size`` (bulk element size / R) and ``--layer-elements`` (across sqrt(R h))."""
+    p.add_argument("--size", type=positive_float("size"), default=size_default, help=size_help)
+    p.add_argument("--layer-elements", type=positive_float("layer-elements"), default=4.0,
+                   help="elements across sqrt(R h) at the rim (default 4)")
+
+
 def add_shape_args(p: argparse.ArgumentParser, positional: bool) -> None:
     from shells.geometry import SHAPES
 

@@ -7,16 +7,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from shells.cli.common import (
-    add_json,
-    add_kappa_range,
-    add_physics_args,
-    add_shape_args,
-    emit,
-    kappa_end,
-    positive_float,
-    shape_from_args,
-)
+from shells.cli import common
 
 
 def add_subcommand(sub: Any) -> argparse.ArgumentParser:
@@ -25,27 +16,26 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
                        "kappa = 0 with the Hessian inertia at every point; locate every critical "
                        "point (to 1e-4 in kappa) up to the first fold or the end of the range, "
                        "classify it (fold/bifurcation) and its mode (n on spheres, m otherwise).")
-    add_shape_args(c, positional=False)
-    add_physics_args(c, "surface", "surface (2D mesh, default) or axisym (shell of revolution)")
-    add_kappa_range(c)
+    common.add_shape_args(c, positional=False)
+    common.add_physics_args(c, "surface",
+                            "surface (2D mesh, default) or axisym (shell of revolution)")
+    common.add_kappa_range(c)
     c.add_argument("--first-only", action="store_true", help="stop at the first critical point")
-    c.add_argument("--size", type=positive_float("size"), default=None,
-                   help="bulk element size / R (default 0.1; closed spheres 0.21)")
-    c.add_argument("--layer-elements", type=positive_float("layer-elements"), default=4.0,
-                   help="elements across sqrt(R h) at the rim (default 4)")
-    c.add_argument("--shear-penalty", type=positive_float("shear-penalty"), default=1.0e3,
+    common.add_mesh_size_args(c, None, "bulk element size / R (default 0.1; closed spheres "
+                              "0.21)")
+    c.add_argument("--shear-penalty", type=common.positive_float("shear-penalty"), default=1.0e3,
                    help="Kirchhoff-Love penalty, times the Naghdi shear stiffness (default 1e3)")
     c.add_argument("--degree", type=int, choices=(2, 3), default=None,
                    help="surface model: polynomial degree, full quadrature 2 x degree (default "
                    "2; closed spheres 3: P2 locks there, docs/model.md)")
-    c.add_argument("--ds", type=positive_float("ds"), default=None,
+    c.add_argument("--ds", type=common.positive_float("ds"), default=None,
                    help="initial step, in kappa L (default: range/16)")
-    c.add_argument("--ds-max", type=positive_float("ds-max"), default=None,
+    c.add_argument("--ds-max", type=common.positive_float("ds-max"), default=None,
                    help="largest step, in kappa L (default: range/10)")
     c.add_argument("-o", "--output", default=None,
                    help="directory for branch.jsonl (points as computed), critical.json and "
                    "the critical modes for ParaView (modes.bp)")
-    add_json(c)
+    common.add_json(c)
     c.set_defaults(func=_cmd_critical)
     return c
 
@@ -53,14 +43,14 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
 def _cmd_critical(args: argparse.Namespace) -> int:
     from shells.drivers import critical_run
 
-    shape = shape_from_args(args)
+    shape = common.shape_from_args(args)
     surface = {} if args.model != "surface" else dict(
         first_only=args.first_only, size=args.size, layer_elements=args.layer_elements,
         shear_penalty=args.shear_penalty, degree=args.degree, ds=args.ds, ds_max=args.ds_max)
     result = critical_run(shape, args.h_over_r, args.nu, direction=args.direction,
                           model=args.model, outdir=args.output,
-                          kappa_end=kappa_end(shape, args.h_over_r, args.kappa_h_max,
-                                              args.kappa_r_max, args.direction),
+                          kappa_end=common.kappa_end(shape, args.h_over_r, args.kappa_h_max,
+                                                     args.kappa_r_max, args.direction),
                           **surface)
 
     def human() -> None:
@@ -76,5 +66,5 @@ def _cmd_critical(args: argparse.Namespace) -> int:
             print(f"{c['kind']:>12} at kappa R = {c['kappa_R']:.6f}, kappa h = "
                   f"{c['kappa_h']:.6f}  ({mode})")
 
-    emit(result, args, human)
+    common.emit(result, args, human)
     return 0

@@ -8,15 +8,7 @@ import argparse
 import json
 from typing import Any
 
-from shells.cli.common import (
-    RADIUS_RANGE,
-    add_json,
-    emit,
-    length,
-    log,
-    positive_float,
-    shape_from_args,
-)
+from shells.cli import common
 from shells.errors import InputError
 
 
@@ -25,42 +17,44 @@ def add_mesh(sub: Any) -> argparse.ArgumentParser:
                        description="Mesh a shape with gmsh (second-order geometry, refined in the "
                        "rim boundary layer of width sqrt(R h)) and report area and rim errors.")
     m.add_argument("shape", metavar="SHAPE", nargs="?", help="sphere, cap, ellipsoid or disk")
-    m.add_argument("--radius", type=length("radius", RADIUS_RANGE[0]), default=1.0,
+    m.add_argument("--radius", type=common.length("radius", common.RADIUS_RANGE[0]), default=1.0,
                    help="R (sphere, cap), r1 = r2 (ellipsoid), disk radius (default 1)")
     m.add_argument("--theta-deg", type=float, default=None,
                    help="half opening angle, pole to rim, in degrees (0, 180]")
-    m.add_argument("--r3", type=length("r3", None), default=None,
+    m.add_argument("--r3", type=common.length("r3", None), default=None,
                    help="ellipsoid semi-axis along z (default 1.5 R)")
-    m.add_argument("--h-over-r", type=positive_float("h/R"), default=None,
+    m.add_argument("--h-over-r", type=common.positive_float("h/R"), default=None,
                    help="thickness h/R: refines the rim layer of width sqrt(R h)")
-    m.add_argument("--size", type=positive_float("size"), default=0.1,
-                   help="bulk element size relative to R (default 0.1)")
-    m.add_argument("--layer-elements", type=positive_float("layer-elements"), default=4.0,
-                   help="elements across sqrt(R h) at the rim (default 4)")
+    common.add_mesh_size_args(m, 0.1, "bulk element size relative to R (default 0.1)")
     m.add_argument("--order", type=int, default=2, choices=(1, 2), help="geometric order")
     m.add_argument("--spec", default=None, help="read the parameters from a JSON file (meshes/)")
     m.add_argument("-o", "--output", default=None, help="write a gmsh .msh file (+ .msh.json)")
     m.add_argument("--png", default=None, help="render the mesh to a PNG")
-    add_json(m)
+    common.add_json(m)
     m.set_defaults(func=_cmd_mesh)
     return m
 
 
+def _add_reader(sub: Any, name: str, help_: str, func: Any, png: bool
+                ) -> argparse.ArgumentParser:
+    """A subcommand that reads one .msh file (``png``: and writes a PNG, ``-o``)."""
+    p = sub.add_parser(name, help=help_)
+    p.add_argument("mesh", help="gmsh .msh file")
+    if png:
+        p.add_argument("-o", "--output", required=True, help="PNG file")
+    common.add_json(p)
+    p.set_defaults(func=func)
+    return p
+
+
 def add_info(sub: Any) -> argparse.ArgumentParser:
-    i = sub.add_parser("info", help="read a .msh file and report its size, area, rim")
-    i.add_argument("mesh", help="gmsh .msh file")
-    add_json(i)
-    i.set_defaults(func=_cmd_info)
-    return i
+    return _add_reader(sub, "info", "read a .msh file and report its size, area, rim",
+                       _cmd_info, png=False)
 
 
 def add_render(sub: Any) -> argparse.ArgumentParser:
-    r = sub.add_parser("render", help="render a .msh surface to PNG (off-screen)")
-    r.add_argument("mesh", help="gmsh .msh file")
-    r.add_argument("-o", "--output", required=True, help="PNG file")
-    add_json(r)
-    r.set_defaults(func=_cmd_render)
-    return r
+    return _add_reader(sub, "render", "render a .msh surface to PNG (off-screen)", _cmd_render,
+                       png=True)
 
 
 def _cmd_mesh(args: argparse.Namespace) -> int:
@@ -73,14 +67,14 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
     else:
         if args.shape is None:
             raise InputError("shells mesh: give a SHAPE or --spec FILE")
-        shape = shape_from_args(args)
+        shape = common.shape_from_args(args)
         h = None if args.h_over_r is None else args.h_over_r * shape.characteristic_size()
         spec = MeshSpec(shape, h=h, size=args.size, layer_elements=args.layer_elements,
                         order=args.order)
     if args.output is not None and not str(args.output).endswith(".msh"):
         raise InputError(f"-o must name a gmsh .msh file, got {args.output!r}")
-    check_mesh_size(spec)  # before the log line: a refused mesh is one line on stderr
-    log.info("meshing %s ...", spec.shape.describe())
+    check_mesh_size(spec)  # before the common.log line: a refused mesh is one line on stderr
+    common.log.info("meshing %s ...", spec.shape.describe())
     sm = generate(spec, MPI.COMM_WORLD, msh_path=args.output)
     if args.output is not None:
         sm = load_mesh(args.output, MPI.COMM_WORLD)  # prove the file reads back
@@ -105,7 +99,7 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
         if args.png:
             print(f"  wrote {args.png}")
 
-    emit(summary, args, human)
+    common.emit(summary, args, human)
     return 0
 
 
@@ -124,9 +118,9 @@ def _load_spec(path: str):
         spec = MeshSpec.from_description(d.get("spec", d))
         for name in ("radius", "r3"):  # the ranges of --radius and --r3
             if hasattr(spec.shape, name):
-                lo = RADIUS_RANGE[0] if name == "radius" else None
+                lo = common.RADIUS_RANGE[0] if name == "radius" else None
                 try:
-                    length(name, lo)(repr(getattr(spec.shape, name)))
+                    common.length(name, lo)(repr(getattr(spec.shape, name)))
                 except argparse.ArgumentTypeError as e:
                     raise InputError(str(e)) from None
         return spec
@@ -150,7 +144,7 @@ def _cmd_info(args: argparse.Namespace) -> int:
         for k, v in summary.items():
             print(f"{k:18s} {v}")
 
-    emit(summary, args, human)
+    common.emit(summary, args, human)
     return 0
 
 
@@ -162,5 +156,5 @@ def _cmd_render(args: argparse.Namespace) -> int:
 
     sm = load_mesh(args.mesh, MPI.COMM_WORLD)
     render_mesh(sm, args.output)
-    emit({"png": args.output}, args, lambda: print(f"wrote {args.output}"))
+    common.emit({"png": args.output}, args, lambda: print(f"wrote {args.output}"))
     return 0

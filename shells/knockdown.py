@@ -26,7 +26,7 @@ from shells.store import append_record, json_default, read_with_header, write_he
 
 log = logging.getLogger("shells")
 
-__all__ = ["KnockdownConfig", "fold_kappa", "knockdown"]
+__all__ = ["KnockdownConfig", "fold_kappa", "knockdown", "run_knockdown"]
 
 
 @dataclass(frozen=True)
@@ -179,3 +179,42 @@ def knockdown(cfg: KnockdownConfig, outdir: str | Path | None = None
         if out is not None:
             append_record(out, rec)
         yield rec
+
+
+def run_knockdown(cfg: KnockdownConfig, outdir: str | Path | None, figure: bool = True
+                  ) -> dict[str, Any]:
+    """The whole curve (``knockdown``) as one result: {"kappa_b", "kappa_b_h", "degree",
+    "points": [{"delta_over_h", "kappa_max_h", "knockdown", ...}], "config", "points_file",
+    "figures"}; with ``figure`` and ``outdir`` also ``outdir``/knockdown.png (log δ axis)."""
+    recs = list(knockdown(cfg, outdir))
+    head, pts = recs[0], sorted(recs[1:], key=lambda r: r["delta_over_h"])
+    h = cfg.h_over_r  # R = 1
+    out: dict[str, Any] = {"kappa_b": head["perfect"]["kappa_h"] / h,
+                           "kappa_b_h": head["perfect"]["kappa_h"], "degree": head["degree"],
+                           "points": pts, "config": cfg.describe(), "figures": []}
+    if outdir is not None:
+        out["points_file"] = str(Path(outdir) / "points.jsonl")
+        if figure:
+            out["figures"] = [_figure(out, Path(outdir) / "knockdown.png")]
+    return out
+
+
+def _figure(res: dict[str, Any], path: Path) -> str:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    pts = [p for p in res["points"] if p["delta_over_h"] > 0]
+    fig, ax = plt.subplots(figsize=(5, 3.5))
+    ax.semilogx([p["delta_over_h"] for p in pts], [p["knockdown"] for p in pts], "o-")
+    c = res["config"]
+    ax.set_title(f"closed sphere, h/R = {c['h_over_r']:g}, ν = {c['nu']:g}, "
+                 f"{c['imperfection']}", fontsize=9)
+    ax.set_xlabel("imperfection amplitude δ/h")
+    ax.set_ylabel("κ_max / κ_b")
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=150)
+    plt.close(fig)
+    return str(path)

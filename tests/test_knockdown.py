@@ -77,3 +77,32 @@ def test_imperfect_meridian_and_bad_input():
             ImperfectSphere(**{"amplitude": 0.01, **bad})
     with pytest.raises(InputError):
         KnockdownConfig(H, (-0.1,))
+
+
+def test_knockdown_cli_json_contract_and_bad_input(tmp_path, capsys):
+    import json
+
+    from mpi4py import MPI
+
+    from shells.cli import main
+
+    out = str(MPI.COMM_WORLD.bcast(str(tmp_path) if MPI.COMM_WORLD.rank == 0 else None))
+    rc = main(["knockdown", "--h-over-r", "0.1", "--imperfection", "mode", "--amplitudes",
+               "0.02", "-o", out, "--json"])
+    assert rc == 0
+    lines = capsys.readouterr().out.strip().splitlines()
+    if MPI.COMM_WORLD.rank == 0:
+        res = json.loads(lines[-1])
+        assert {"kappa_b", "points"} <= set(res)
+        (p,) = res["points"]
+        assert {"delta_over_h", "kappa_max_h", "knockdown"} <= set(p)
+        assert p["delta_over_h"] == 0.02 and 0.9 < p["knockdown"] < 1.0
+        assert res["kappa_b"] == pytest.approx(res["kappa_b_h"] / 0.1)
+    for bad in (["--imperfection", "bump"], ["--imperfection", "mode", "--model", "surface"],
+                ["--imperfection", "dimple", "--width", "-1"]):
+        with pytest.raises(SystemExit) as e:
+            code = main(["knockdown", "--h-over-r", "0.1", "--amplitudes", "0.1", *bad])
+            raise SystemExit(code)
+        assert e.value.code == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err

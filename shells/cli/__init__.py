@@ -7,8 +7,8 @@ never a traceback.
 
 Modules: ``common`` (the parser class, logging, ``emit``, argument types, the shape and physics
 arguments, the checks of ranges and paths), one per subcommand: ``mesh`` (mesh, info, render),
-``branch``, ``critical``, ``postbuckle``, ``phase_diagram``. They parse, call the library
-(``shells.drivers`` and the driver modules) and print.
+``branch``, ``critical``, ``postbuckle``, ``phase_diagram``, ``knockdown``. They parse, call
+the library (``shells.drivers`` and the driver modules) and print.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from shells import __version__
-from shells.cli import branch, critical, mesh, phase_diagram, postbuckle
+from shells.cli import branch, critical, knockdown, mesh, phase_diagram, postbuckle
 from shells.cli.common import Parser, check_paths, check_ranges, rank, setup_logging
 from shells.errors import InputError
 
@@ -38,6 +38,7 @@ def _build_parser() -> argparse.ArgumentParser:
     critical.add_subcommand(sub)
     phase_diagram.add_subcommand(sub)
     postbuckle.add_subcommand(sub)
+    knockdown.add_subcommand(sub)
     mesh.add_render(sub)
     return p
 

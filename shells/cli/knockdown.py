@@ -1,0 +1,65 @@
+"""``shells knockdown`` (CLI layer; no library module imports it): the knock-down of a closed
+sphere's curvature buckling by an axisymmetric imperfection; the run is
+``shells.knockdown.run_knockdown``.
+"""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from shells.cli import common
+from shells.errors import InputError
+
+__all__ = ["add_subcommand"]
+
+
+def add_subcommand(sub: Any) -> argparse.ArgumentParser:
+    p = sub.add_parser("knockdown", help="knock-down of a closed sphere's buckling curvature by "
+                       "an imperfection", description="For each imperfection amplitude delta/h: "
+                       "follow the imperfect sphere (rotational symmetry enforced) from kappa = 0 "
+                       "to its limit point kappa_max and report kappa_max / kappa_b, kappa_b the "
+                       "perfect sphere's bifurcation. Points are appended to DIR/points.jsonl as "
+                       "computed and a rerun skips them.")
+    p.add_argument("--shape", default="sphere", choices=("sphere",),
+                   help="sphere (the only shape so far)")
+    p.add_argument("--h-over-r", type=common.positive_float("h/R"), required=True,
+                   help="thickness over R")
+    p.add_argument("--nu", type=float, default=0.5, help="Poisson ratio (default 0.5)")
+    p.add_argument("--imperfection", required=True, choices=("mode", "dimple"),
+                   help="mode: the buckling mode's shape P_n(cos beta); dimple: "
+                   "-delta h exp(-(beta/beta0)^2) at the pole")
+    p.add_argument("--width", type=common.positive_float("width"), default=1.0,
+                   help="dimple width beta0 in units of sqrt(h/R) (default 1)")
+    p.add_argument("--amplitudes", type=float, nargs="+", required=True, metavar="A",
+                   help="imperfection amplitudes delta/h")
+    p.add_argument("--model", default="axisym", choices=("axisym", "surface"),
+                   help="axisym (1D, default); surface: not available yet")
+    p.add_argument("--no-figure", action="store_true", help="skip the figure")
+    p.add_argument("-o", "--output", default=None, help="output directory (points, figure)")
+    common.add_json(p)
+    p.set_defaults(func=_cmd_knockdown)
+    return p
+
+
+def _cmd_knockdown(args: argparse.Namespace) -> int:
+    from shells.knockdown import KnockdownConfig, run_knockdown
+
+    if args.model == "surface":
+        raise InputError("knockdown: the surface model has no imperfect geometries yet; use "
+                         "--model axisym")
+    cfg = KnockdownConfig(args.h_over_r, tuple(args.amplitudes), nu=args.nu,
+                          imperfection=args.imperfection, width=args.width)
+    # the 1D model is serial: rank 0 computes and writes, the others compute without files
+    outdir = args.output if common.rank() == 0 else None
+    res = run_knockdown(cfg, outdir, figure=not args.no_figure)
+
+    def human() -> None:
+        print(f"closed sphere h/R = {cfg.h_over_r:g}, nu = {cfg.nu:g}, {cfg.imperfection} "
+              f"(n = {res['degree']}): kappa_b h = {res['kappa_b_h']:.6f}")
+        print(f"{'delta/h':>9} {'kappa_max h':>12} {'knock-down':>11}")
+        for q in res["points"]:
+            print(f"{q['delta_over_h']:9g} {q['kappa_max_h']:12.6f} {q['knockdown']:11.5f}")
+
+    common.emit(res, args, human)
+    return 0

@@ -28,6 +28,11 @@ log = logging.getLogger("shells")
 
 __all__ = ["KnockdownConfig", "fold_kappa", "knockdown", "run_knockdown"]
 
+#: how a point is computed; part of a points file's key, so that a rerun never reads back
+#: points of another method (the first critical point located on all counts, shorter steps
+#: when a crossing comes before the fold)
+METHOD = "first-critical-point/2"
+
 
 @dataclass(frozen=True)
 class KnockdownConfig:
@@ -102,27 +107,37 @@ def fold_kappa(cfg: KnockdownConfig, amplitude: float, degree: int) -> dict[str,
     h = run.h
     end = 1.25 * sphere_kappa_b_h(cfg.nu) / h
     perfect = amplitude == 0
-    # the imperfect branch turns sharply near κ_b (its fold lies within a few 1e-2 of it in
-    # κh): steps of at most 0.02 in κh, else the corrector can land past the fold on another
-    # branch (measured at h/R = 0.05, delta/h = 0.1: 1.507 with the perfect sphere's steps of
-    # 0.5, 1.432 with these); the perfect sphere's branch is the uniform shrink
-    steps = {} if perfect else {"ds": 0.02 / cfg.h_over_r, "ds_max": 0.02 / cfg.h_over_r}
-    st = default_settings(Sphere(1.0), cfg.h_over_r, **steps)
-    crit = CriticalSettings(stop_at_fold=True, max_critical=1 if perfect else None)
-    found = []
+    # Every critical point of the axisymmetric problem is located, and the first one decides.
+    # For δ > 0 it must be the fold: the imperfect branch is stable up to its limit point. A
+    # crossing first means a step went past the fold, which turns ever more sharply as δ → 0,
+    # onto the neighbouring branch of the broken bifurcation (measured at h/R = 0.01, δ/h =
+    # 0.001: a "fold" 5 % above κ_b with steps of 0.02 in κh): the run is repeated with
+    # steps 4 and 16 times shorter. The perfect sphere's branch is the uniform shrink.
+    found: list[Any] = []
     n = 0
     try:
-        for _, _, cps in follow(model, st, end, crit, solver=ns,
-                                locate_when=None if perfect else (lambda *a: False)):
-            n += 1
-            found += cps
-            if found:
+        for ds_h in ((None,) if perfect else (0.02, 0.005, 0.00125)):
+            steps = {} if ds_h is None else {"ds": ds_h / cfg.h_over_r,
+                                             "ds_max": ds_h / cfg.h_over_r}
+            st = default_settings(Sphere(1.0), cfg.h_over_r, **steps)
+            crit = CriticalSettings(stop_at_fold=True, max_critical=1)
+            model.w.x.array[:] = 0.0
+            model.set_kappa(0.0)
+            found, n = [], 0
+            for _, _, cps in follow(model, st, end, crit, solver=ns):
+                n += 1
+                found += cps
+                if found:
+                    break
+            if perfect or (found and found[0].kind == "fold"):
                 break
+            log.info("knockdown: delta/h = %g: %s first with steps of %g in kappa h; shorter "
+                     "steps", amplitude, found[0].kind if found else "no critical point", ds_h)
     finally:
         ns.destroy()
-    if not found:
-        raise RuntimeError(f"no critical point up to kappa h = {end * h:.4g} at delta/h = "
-                           f"{amplitude:g}")
+    if not found or (not perfect and found[0].kind != "fold"):
+        raise RuntimeError(f"no limit point of the imperfect sphere found up to kappa h = "
+                           f"{end * h:.4g} at delta/h = {amplitude:g}")
     c = found[0]
     return {"kind": c.kind, "kappa_h": c.kappa * h, "mode_n": c.mode_n,
             "accuracy": c.accuracy, "branch_points": n}
@@ -141,6 +156,7 @@ def knockdown(cfg: KnockdownConfig, outdir: str | Path | None = None
     done: dict[float, dict[str, Any]] = {}
     # the curve's key: everything but the amplitudes (a rerun may add amplitudes), as stored
     key = {k: v for k, v in cfg.describe().items() if k != "amplitudes"}
+    key["method"] = METHOD
     header = json.loads(json.dumps({"config": key}, default=json_default))
     if out is not None:
         out.parent.mkdir(parents=True, exist_ok=True)

@@ -82,8 +82,9 @@ def run(outdir: str | Path = "results/demo", quick: bool = False) -> dict:
         f"asymptotic n = {theory.sphere_mode_n(h):.1f})")
 
     # 2. phase diagram
+    # m ≤ 8: the first instabilities of these caps have m ≤ 3 (the full diagram checks 0..12)
     cfg = PhaseDiagramConfig(h_over_r=(0.04,), thetabar_range=(1.5, 7.0),
-                             points=3 if quick else 6, refine=0 if quick else 2)
+                             points=3 if quick else 6, refine=0 if quick else 2, m_max=8)
     pd = run_phase_diagram(cfg, outdir / "phase", comm=MPI.COMM_WORLD,
                            progress=say if not quick else None)
     out["phase"] = pd

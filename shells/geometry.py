@@ -287,11 +287,13 @@ class ImperfectSphere(SphericalCap):
     def area(self) -> float:
         return Shape.area(self)
 
-    def meridian_ufl(self, t: Any) -> tuple[Any, Any]:
-        """(r°(t), z°(t)) as UFL expressions of the mesh coordinate t."""
+    def meridian_ufl(self, t: Any, amplitude: Any = None) -> tuple[Any, Any]:
+        """(r°(t), z°(t)) as UFL expressions of the mesh coordinate t; ``amplitude``: a UFL
+        value (a Constant) standing for ``self.amplitude``."""
         import ufl
 
-        rho = self.radius - self.amplitude * self._profile(ufl.cos(t), t, ufl.exp)
+        amp = self.amplitude if amplitude is None else amplitude
+        rho = self.radius - amp * self._profile(ufl.cos(t), t, ufl.exp)
         return rho * ufl.sin(t), rho * ufl.cos(t)
 
     def normal(self, x):

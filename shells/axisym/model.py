@@ -120,14 +120,19 @@ class Jet:
         return (self.val, self.t, self.ph, self.tph, self.phph, self.p, self.pt, self.pph)
 
 
-def _meridian_ufl(shape: Shape, t: Any) -> tuple:
-    """r°, z° and their first and second t-derivatives as UFL expressions of t."""
+def _meridian_ufl(shape: Shape, t: Any, mesh: Any = None) -> tuple:
+    """r°, z° and their first and second t-derivatives as UFL expressions of t. An imperfect
+    sphere's amplitude is a ``fem.Constant`` on ``mesh``: one compiled kernel for every
+    amplitude of a knock-down curve."""
     import ufl
 
     if isinstance(shape, Disk):
         return t, 0.0 * t, 1.0 + 0.0 * t, 0.0 * t, 0.0 * t, 0.0 * t
     if isinstance(shape, ImperfectSphere):
-        r, z = shape.meridian_ufl(t)
+        from dolfinx import default_scalar_type, fem
+
+        amp = fem.Constant(mesh, default_scalar_type(shape.amplitude)) if mesh else None
+        r, z = shape.meridian_ufl(t, amp)
         return r, z, r.dx(0), z.dx(0), r.dx(0).dx(0), z.dx(0).dx(0)
     if isinstance(shape, EllipsoidalCap):
         a, c = shape.radius, shape.r3
@@ -187,7 +192,7 @@ class AxisymModel(FormProblem):
                               metadata={"quadrature_degree": params.quadrature_degree})
         self.t = ufl.SpatialCoordinate(mesh)[0]
         (self.r0, self.z0, self.r0t, self.z0t,
-         self.r0tt, self.z0tt) = _meridian_ufl(shape, self.t)
+         self.r0tt, self.z0tt) = _meridian_ufl(shape, self.t, mesh)
         self.g = ufl.sqrt(self.r0t**2 + self.z0t**2)
         self.area_density = 2 * math.pi * self.r0 * self.g  # dω = area_density dt
         self._build_forms()

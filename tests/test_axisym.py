@@ -26,7 +26,7 @@ from shells.axisym import (
 )
 from shells.continuation import ContinuationSettings
 from shells.errors import InputError
-from shells.geometry import Disk, Sphere, SphericalCap
+from shells.geometry import Disk, EllipsoidalCap, Sphere, SphericalCap
 from shells.solvers import NewtonSolver
 from shells.stability import Stability
 
@@ -63,6 +63,19 @@ def test_sphere_buckling_matches_the_paper(sphere_results, nu):
     assert abs(r["mode_n"] - sphere_mode_n(0.002, nu)) <= 1.0
     assert r["kappa_R"] == pytest.approx(r["kappa_h"] / 0.002, rel=1e-12)
     assert r["theta_deg"] is None and r["h_over_R"] == 0.002 and r["nu"] == nu
+
+
+def test_closed_spheroid_tends_to_the_sphere(sphere_results):
+    """A closed spheroid (the 1D locator used to fail on it): as r3 -> R its first critical
+    point is the sphere's (same κh to 1e-4 at h/R = 0.05); a prolate one (r3 = 1.5 R) loses
+    stability first to a non-axisymmetric mode, as a closed shell's bifurcation."""
+    near = critical(EllipsoidalCap(1.0, 1.0001, math.pi), 0.05, 0.5, "up", max_critical=1)
+    same_on_all_ranks(near["kappa_h"])
+    assert near["kind"] == "bifurcation"
+    assert near["kappa_h"] == pytest.approx(sphere_results[0.05, 0.5]["kappa_h"], rel=1e-4)
+    prolate = critical(EllipsoidalCap(1.0, 1.5, math.pi), 0.05, 0.5, "up", max_critical=1)
+    assert prolate["kind"] == "bifurcation" and prolate["mode_m"] >= 1
+    assert len(prolate["critical_points"]) == 1
 
 
 def test_sphere_buckling_approaches_the_limit_as_h_over_r(sphere_results):

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from shells.knockdown import KnockdownConfig, knockdown
+from shells.knockdown import KnockdownConfig, run_knockdown
 
 RESULTS = Path("benchmarks/results")
 
@@ -33,19 +33,20 @@ def main() -> None:
         for kind in ("dimple", "mode"):
             t0 = time.perf_counter()
             cfg = KnockdownConfig(h, (0.0, *amps), nu=nu, imperfection=kind, width=1.0)
-            recs = list(knockdown(cfg, Path("results/knockdown") / f"{kind}-{h}-{nu}"))
-            head, pts = recs[0], recs[1:]
+            res = run_knockdown(cfg, Path("results/knockdown") / f"{kind}-{h}-{nu}",
+                                figure=False)
+            pts = res["points"]
             small = [p for p in pts if 0 < p["delta_over_h"] <= 0.01]
             x = np.log([p["delta_over_h"] for p in small])
             y = np.log([1 - p["knockdown"] for p in small])
             slope = float(np.polyfit(x, y, 1)[0]) if len(small) >= 2 else math.nan
             out["curves"].append({"h_over_R": h, "nu": nu, "imperfection": kind,
-                                  "kappa_b_h": head["perfect"]["kappa_h"],
-                                  "degree": head["degree"], "points": pts,
+                                  "kappa_b_h": res["kappa_b_h"],
+                                  "degree": res["degree"], "points": pts,
                                   "small_delta_exponent": slope,
                                   "wall_time": time.perf_counter() - t0})
             print(f"h/R = {h:5}  nu = {nu}  {kind:6}  kappa_b h = "
-                  f"{head['perfect']['kappa_h']:.5f}  n = {head['degree']:3d}  exponent "
+                  f"{res['kappa_b_h']:.5f}  n = {res['degree']:3d}  exponent "
                   f"{slope:.3f}  ({time.perf_counter() - t0:.0f} s)", flush=True)
             print("   delta/h: " + "  ".join(f"{p['delta_over_h']:7g}" for p in pts))
             print("   knock-down: " + "  ".join(f"{p['knockdown']:.4f}" for p in pts))

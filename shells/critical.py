@@ -227,9 +227,9 @@ class _Locator:
         """Corrector on the hyperplane at arclength σ of the step, then the negative count of
         each of ``blocks`` (eigenvalues: ``eigs_at``, on demand), up to the first whose count
         differs from ``base`` when that is given (``complete`` False if some were left
-        unchecked); starts from ``near``'s state
-        (shifted along the tangent) when given: Newton is slow next to a bifurcation, where
-        the Jacobian is singular, so the closest known solution is the best start."""
+        unchecked); starts from ``near``'s state (shifted along the tangent) when given:
+        Newton is slow next to a bifurcation, where the Jacobian is singular, so the closest
+        known solution is the best start."""
         ar = self.ar
         w = ar.w
         self.w0.copy(w)
@@ -336,18 +336,17 @@ def locate(loc: _Locator, p0: Point, w0: np.ndarray, counts0: dict[Hashable, int
     counts_end = counts1
     if fold:
         fold_cp, near = _locate_fold(loc, p0, w0, p1, w1)
-        fold_cp.negative_before = _total(counts0)
-        fold_cp.negative_after = fold_cp.negative_before + 1
-        if counts1 is not None:
-            fold_cp.negative_after = _total(counts1)
-            fold_cp.multiplicity = max(1, abs(fold_cp.negative_after - _total(counts0)))
-        if counts1 is not None and near.sigma > 0:
-            end = near
-            counts_end = loc.counts_at(near, tuple(counts0))
-            fold_cp.negative_before = _total(counts_end)
-            fold_cp.multiplicity = max(1, abs(_total(counts1) - _total(counts_end)))
-        elif counts1 is not None:
-            counts_end = counts0  # no trial on the near side: its crossings are unknown
+        if counts1 is None:
+            before, after = _total(counts0), _total(counts0) + 1
+        else:
+            if near.sigma > 0:
+                end = near
+                counts_end = loc.counts_at(near, tuple(counts0))
+            else:
+                counts_end = counts0  # no trial on the near side: its crossings are unknown
+            before, after = _total(counts_end), _total(counts1)
+        fold_cp.negative_before, fold_cp.negative_after = before, after
+        fold_cp.multiplicity = max(1, abs(after - before))
     if counts_end is not None and (limit is None or limit > 0):
         changed = sorted((b for b in counts0 if counts_end[b] != counts0[b]), key=_block_key)
         if changed:
@@ -372,11 +371,6 @@ def _locate_crossings(loc: _Locator, p0: Point, w0: np.ndarray, lo: _Eval, end: 
         if limit is not None:
             found = found[:limit]
     return found
-
-
-def _before(a: CriticalPoint, b: CriticalPoint, p0: Point) -> bool:
-    """``a`` comes before ``b`` along the step from ``p0`` (no fold inside)."""
-    return (a.kappa - b.kappa) * (1.0 if p0.dkappa_ds >= 0 else -1.0) < 0
 
 
 def _locate_fold(loc: _Locator, p0: Point, w0: np.ndarray, p1: Point, w1: np.ndarray
@@ -440,10 +434,11 @@ def _locate_crossing(loc: _Locator, p0: Point, w0: np.ndarray, lo: _Eval, hi: _E
                      blocks: tuple[Hashable, ...], c0: dict[Hashable, int],
                      c1: dict[Hashable, int]) -> CriticalPoint:
     """The first σ in (lo, hi) where the negative count of one of ``blocks`` leaves its value
-    ``c0``: bracketed by inertia (exact, decides the side) and refined with secant steps on
-    the crossing eigenvalue (SLEPc; the smallest over the blocks) until
-    |κ_hi - κ_lo| < ``rel_tol`` |κ|, or until its root, interpolated through the samples
-    nearest it, is that accurate. The block is the one whose eigenvalue crosses first."""
+    ``c0``: bracketed by the inertia of all of them (exact, decides the side) and refined with
+    secant steps on the crossing eigenvalue (SLEPc) of the first block that moved by the
+    bracket's high end, until |κ_hi - κ_lo| < ``rel_tol`` |κ|, or until that eigenvalue's
+    root, interpolated through the samples nearest it, is that accurate and no other block
+    moved inside the bracket. The point's block is that block."""
     t0 = time.perf_counter()
     crit = loc.crit
     loc.start(w0, p0.kappa_L, p0.dkappa_ds, fold=False)

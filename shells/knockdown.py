@@ -158,21 +158,18 @@ def knockdown(cfg: KnockdownConfig, outdir: str | Path | None = None
     key = {k: v for k, v in cfg.describe().items() if k != "amplitudes"}
     key["method"] = METHOD
     header = json.loads(json.dumps({"config": key}, default=json_default))
+    perfect = None
     if out is not None:
         out.parent.mkdir(parents=True, exist_ok=True)
-        if out.exists():
+        if not out.exists():
+            write_header(out, header)
+        else:
             head, recs = read_with_header(out)
-            if head == header:
-                done = {r["delta_over_h"]: r for r in recs if "delta_over_h" in r}
-                perfect = next((r["perfect"] for r in recs if "perfect" in r), None)
-            else:
+            if head != header:
                 raise InputError(f"{out} holds another configuration: choose another "
                                  "directory or remove it")
-        else:
-            write_header(out, header)
-            perfect = None
-    else:
-        perfect = None
+            done = {r["delta_over_h"]: r for r in recs if "delta_over_h" in r}
+            perfect = next((r["perfect"] for r in recs if "perfect" in r), None)
     degree = cfg.degree if cfg.degree is not None else int(round(sphere_mode_n(cfg.h_over_r,
                                                                                cfg.nu)))
     if perfect is None:

@@ -42,15 +42,8 @@ def check(out):
     if not any(abs(t - exp["time"]) <= 1e-12 * max(1.0, abs(exp["time"])) for t in times):
         errors.append(f"time {exp['time']} not among the file's steps {times}")
     reader.UpdatePipeline(exp["time"])
-    info = reader.GetDataInformation()
-    for what, got in (("points", info.GetNumberOfPoints()), ("cells", info.GetNumberOfCells())):
-        if got != exp[what]:
-            errors.append(f"{what}: ParaView reads {got}, dolfinx has {exp[what]}")
-
-    pd = reader.PointData
-    print(f"pv_check: {exp['file']} at t = {exp['time']}: {info.GetNumberOfPoints()} points, "
-          f"{info.GetNumberOfCells()} cells, point arrays {sorted(pd.keys())}")
-    _compare_arrays(pd, exp["arrays"], RTOL, errors)
+    info = _check_read(reader, exp, f"{exp['file']} at t = {exp['time']}", "dolfinx has", RTOL,
+                       errors)
     if errors:
         raise AssertionError("ParaView check failed:\n  " + "\n  ".join(errors))
 
@@ -125,6 +118,20 @@ def _compare_arrays(pd, expected, rtol, errors):
                 errors.append(f"{name} {lab}: ParaView {g}, expected {w} (tolerance {tol:.1e})")
 
 
+def _check_read(reader, exp, label, source, rtol, errors):
+    """Point and cell counts and the point arrays' names and ranges of what ``reader`` read,
+    against ``exp``; appends to ``errors``; returns the reader's data information."""
+    info = reader.GetDataInformation()
+    for what, got in (("points", info.GetNumberOfPoints()), ("cells", info.GetNumberOfCells())):
+        if got != exp[what]:
+            errors.append(f"{what}: ParaView reads {got}, {source} {exp[what]}")
+    pd = reader.PointData
+    print(f"pv_check: {label}: {info.GetNumberOfPoints()} points, "
+          f"{info.GetNumberOfCells()} cells, point arrays {sorted(pd.keys())}")
+    _compare_arrays(pd, exp["arrays"], rtol, errors)
+    return info
+
+
 def check_shape(exp):
     """The 1D model's post-buckled sphere (.vts, a revolved meridian) in ParaView's own XML
     structured-grid reader: point and cell counts, array names and ranges."""
@@ -132,16 +139,9 @@ def check_shape(exp):
 
     reader = XMLStructuredGridReader(FileName=[exp["file"]])
     reader.UpdatePipeline()
-    info = reader.GetDataInformation()
     errors = []
-    for what, got in (("points", info.GetNumberOfPoints()), ("cells", info.GetNumberOfCells())):
-        if got != exp[what]:
-            errors.append(f"{what}: ParaView reads {got}, shells wrote {exp[what]}")
-    pd = reader.PointData
-    print(f"pv_check: {exp['file']}: {info.GetNumberOfPoints()} points, "
-          f"{info.GetNumberOfCells()} cells, point arrays {sorted(pd.keys())}")
     # the CSV the expectation is rebuilt from holds 10 significant digits
-    _compare_arrays(pd, exp["arrays"], 1e-8, errors)
+    _check_read(reader, exp, exp["file"], "shells wrote", 1e-8, errors)
     if errors:
         raise AssertionError("ParaView check of the post-buckled shape failed:\n  "
                              + "\n  ".join(errors))

@@ -21,9 +21,9 @@ from __future__ import annotations
 import logging
 import math
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import asdict, dataclass, field, replace
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -301,99 +301,178 @@ def _arclength(ns, st, lam0, lam_end, L, point, its0, direction, initial_tangent
         ar.tangent((ref, tl), direction)
     if not skip_first:
         yield point(its0, 0.0, ar.tl)
-    w = ar.w
     if st.ds_unit == "kappa":
         scale = 1.0 / max(abs(ar.tl), 1e-6)
         st = replace(st, ds_unit="arclength", ds=st.ds * scale, ds_min=st.ds_min * scale,
                      ds_max=st.ds_max * scale)
+    for its, step, tl, _ in arclength_steps(ar, st, lam0, lam_end, direction):
+        yield point(its, step, tl)
+
+
+def arclength_steps(ar: _Arclength, st: ContinuationSettings, lam: float, lam_end: float,
+                    direction: float, *, secant_from: tuple[Any, float] | None = None,
+                    reject: Callable[[], bool] | None = None, **corrector: Any
+                    ) -> Iterator[tuple[int, float, float, np.ndarray]]:
+    """The pseudo-arclength loop, from the converged state in ``ar`` at λ = ``lam``.
+
+    Predictor along the unit tangent (τ_w, τ_λ), the corrector (``_bordered_newton`` with
+    ``corrector``'s keywords: pins, singular_ok, ...) on the hyperplane orthogonal to it, the
+    step adapted to the corrector's iterations (halved after a failure, the run ends below
+    ``ds_min``). The tangent is the Jacobian's (J z = -R_λ, oriented like the previous one;
+    ``ar.tangent`` must have been called at the start), or with ``secant_from`` = (w, λ) of the
+    previous point the secant through the last two points (needed when the corrector carries
+    constraints the Jacobian tangent does not know: the pins). The run lands exactly on
+    λ_end when the predictor, or the corrector, crosses it while moving towards it (a
+    corrector at fixed λ from the chord's interpolant). ``reject()``, asked after each
+    converged corrector, may refuse the point (a jump to another branch): the step is halved,
+    at most 3 times. Yields (iterations, step, τ_λ, the pins' multipliers) per point; the
+    problem's state holds the point.
+    """
+    w = ar.w
+    secant = secant_from is not None
+    tw_prev = w.duplicate()
+    zero = w.duplicate()
+    zero.set(0.0)
+    if secant:
+        secant_from[0].copy(tw_prev)  # the previous point's state
+        lam_prev = secant_from[1]
     ds = st.ds
-    lam = lam0
     n = 0
-    tw_prev = ar.tw.duplicate()
-    while n < st.max_steps:
-        # predictor
-        w.copy(ar.w_old)
-        lam_old = lam
-        w.axpy(ds, ar.tw)
-        lam_p = lam + ds * ar.tl
-        crossing = (lam_p - lam_end) * direction >= 0
-        if crossing:
-            # land exactly on the end: a natural step at κ_end from the interpolated predictor
-            frac = (lam_end - lam) / (lam_p - lam) if lam_p != lam else 1.0
-            ar.w_old.copy(w)
-            w.axpy(frac * ds, ar.tw)
-            ar.sync()
-            ar.set_lambda(lam_end)
-            ok, its = ns.solve()
-            if ok and its <= st.max_newton_its:
-                yield point(its, frac * ds, ar.tl)
+    try:
+        while n < st.max_steps:
+            if secant:
+                w.copy(ar.tw)
+                ar.tw.axpy(-1.0, tw_prev)
+                tl = lam - lam_prev
+                norm = math.sqrt(ar.cw * ar.tw.dot(ar.tw) + tl * tl)
+                ar.tw.scale(1.0 / norm)
+                ar.tl = tl / norm
+            w.copy(ar.w_old)
+            jumps = 0
+            while True:
+                lam_p = lam + ds * ar.tl
+                landing = (lam_p - lam_end) * direction >= 0 and ar.tl * direction > 0
+                step = ds * ((lam_end - lam) / (lam_p - lam) if landing else 1.0)
+                ar.w_old.copy(w)
+                w.axpy(step, ar.tw)
+                w.copy(ar.wp)
+                ar.sync()
+                if landing:  # λ = λ_end: the hyperplane τ = (0, 1)
+                    c = _bordered_newton(ar, st, lam_end, plane=(zero, 1.0, zero), **corrector)
+                else:
+                    c = _bordered_newton(ar, st, lam_p, **corrector)
+                if c.ok and not landing and (c.lam - lam_end) * direction > 0:
+                    # the corrector crossed λ_end: land on it from the chord's interpolant
+                    f = (lam_end - lam) / (c.lam - lam)
+                    w.copy(ar.wp)
+                    ar.wp.axpy(-1.0, ar.w_old)
+                    ar.w_old.copy(w)
+                    w.axpy(f, ar.wp)
+                    ar.sync()
+                    landing = True
+                    step *= f
+                    c = _bordered_newton(ar, st, lam_end, plane=(zero, 1.0, zero), **corrector)
+                if c.ok and (reject is None or jumps >= 3 or not reject()):
+                    break
+                jumps += c.ok
+                ar.restore(lam)
+                ds *= 0.5
+                if ds < st.ds_min:
+                    log.info("continuation: step below ds_min at kappa L = %.6g", lam)
+                    return
+            if secant:
+                ar.w_old.copy(tw_prev)
+                lam_prev = lam
+            else:
+                ar.tw.copy(tw_prev)
+                ar.tangent((tw_prev, ar.tl), direction)
+            lam = c.lam
+            n += 1
+            yield c.its, step, ar.tl, c.multipliers
+            if landing:
                 return
-            ar.restore(lam)
-            ds *= 0.5
-            if ds < st.ds_min:
-                return
-            continue
-        w.copy(ar.wp)
-        ar.sync()
-        ar.set_lambda(lam_p)
-        ok, its, lam_new = _bordered_newton(ar, st, lam_p)
-        if not ok:
-            ar.restore(lam_old)
-            ds *= 0.5
-            if ds < st.ds_min:
-                return
-            continue
-        lam = lam_new
-        ar.tw.copy(tw_prev)
-        tl_prev = ar.tl
-        ar.tangent((tw_prev, tl_prev), direction)
-        n += 1
-        yield point(its, ds, ar.tl)
-        ds = min(st.ds_max, max(st.ds_min, ds * _growth(its, st.target_newton_its)))
+            ds = min(st.ds_max, max(st.ds_min, ds * _growth(c.its, st.target_newton_its)))
+    finally:
+        tw_prev.destroy()
+        zero.destroy()
+
+
+class Correction(NamedTuple):
+    """The outcome of a corrector: converged, iterations, λ, and the pins' multipliers s_j."""
+
+    ok: bool
+    its: int
+    lam: float
+    multipliers: np.ndarray
 
 
 def _bordered_newton(ar: _Arclength, st: ContinuationSettings, lam_p: float,
                      lam_start: float | None = None, singular_ok: bool = False,
-                     deflate: Any = None) -> tuple[bool, int, float]:
-    """Keller's bordered Newton on R(w, λ) = 0, τ·(w - w_p, λ - λ_p) = 0.
+                     deflate: Any = None, *, plane: tuple[Any, float, Any] | None = None,
+                     pins: Sequence[Any] = (), wc: Any = None,
+                     max_dlam: float | None = None, keep_best: bool | None = None
+                     ) -> Correction:
+    """The corrector: Newton on R(w, λ) + Σ_j s_j ψ_j = 0 with the step's hyperplane
+    cw τ_w·(w - w_p) + τ_λ (λ - λ_p) = 0 and, for each pin ψ_j, cw ψ_j·(w - w_c) = 0; unknowns
+    w, λ and the multipliers s_j. Without pins this is Keller's bordered Newton.
 
-    Starts from the problem's current state and ``lam_start`` (default: the predictor λ_p).
-    ``singular_ok``: next to a bifurcation the Jacobian is nearly singular and round-off is
-    amplified along the critical mode, so the increment stalls above ``newton_tol`` although the
-    residual is converged; then a residual below the residual bound after 3 iterations is
-    accepted, and if Newton diverges (next to a cluster of singular modes, a closed sphere's)
-    the iterate of smallest residual is kept when that residual is below the bound (every
-    iterate, and the start, lies on the hyperplane: the constraint is linear). The residual
-    bound is ``_Arclength.residual_bound`` (relative to the κ-load and the round-off floor, or
-    ``residual_tol``). ``deflate(a, b)``, when given, may remove components from the two
-    solves J a = -R, J b = -R_λ of each iteration (the locator's safeguard against Newton
-    steps that switch to a branch bifurcating close by).
+    ``plane`` = (τ_w, τ_λ, w_p): the hyperplane (default: the ``_Arclength``'s tangent and
+    predictor). (0, 1, ·) fixes λ = λ_p (landing on a given κ); (φ, 0, w_c + a φ) fixes the
+    amplitude a along φ and leaves λ free, which parametrises a pitchfork regularly (branch
+    switching). The pins ψ_j hold the other directions of a (nearly) multiple critical
+    eigenspace at their value in w_c: a phase condition, the orientation of a buckling pattern
+    on a shape of revolution (``shells.critical.switch_branch``); s_j ψ_j is the force that
+    holds it. One LU factorisation and 2 + len(pins) solves per iteration; the constraints are
+    linear, so every iterate after the first satisfies them.
+
+    Starts from the problem's current state and ``lam_start`` (default: λ_p). ``singular_ok``:
+    next to a singular point the Jacobian is nearly singular and round-off is amplified along
+    the critical mode, so the increment stalls above ``newton_tol`` although the residual is
+    converged; then a residual below the residual bound after 3 iterations is accepted, and if
+    Newton diverges (next to a cluster of singular modes, a closed sphere's) the iterate of
+    smallest residual is kept when that residual is below the bound. The residual bound is
+    ``_Arclength.residual_bound`` (relative to the κ-load and the round-off floor, or
+    ``residual_tol``). An iterate with |λ - λ_p| > ``max_dlam`` (default 10 max(1, |λ_p|))
+    counts as divergence. ``deflate(a, b, ...)``, when given, may remove components from the
+    solves of each iteration (the locator's safeguard against Newton steps that switch to a
+    branch bifurcating close by).
     """
     ns, w = ar.ns, ar.w
+    tw, tl, wp = plane if plane is not None else (ar.tw, ar.tl, ar.wp)
+    k = len(pins)
+    s = np.zeros(k)
     lam = lam_p if lam_start is None else lam_start
     ar.set_lambda(lam)
+    dlam_max = 10.0 * max(1.0, abs(lam_p)) if max_dlam is None else max_dlam
     F = ns.b
-    best_w = w.duplicate() if singular_ok else None
-    best = (math.inf, lam)  # (residual, λ) of the best iterate, its state in best_w
+    xs = [ar.b, *(w.duplicate() for _ in range(k))]  # the solves J x = -R_λ, -ψ_j
+    keep = singular_ok if keep_best is None else keep_best
+    best_w = w.duplicate() if keep else None
+    best = (math.inf, lam, s)  # (residual, λ, s) of the best iterate, its state in best_w
 
-    def fail(it: int) -> tuple[bool, int, float]:
+    def residual() -> float:
+        ns.assemble_residual(F)
+        for j in range(k):
+            F.axpy(s[j], pins[j])
+        return F.norm()
+
+    def fail(it: int) -> Correction:
         if best_w is None or not best[0] <= ar.residual_bound(st, best[1]):
-            return False, it, lam
+            return Correction(False, it, lam, s)
         best_w.copy(w)
         ar.sync()
         ar.set_lambda(best[1])
-        log.debug("bordered newton: diverged; kept the iterate of residual %.3e", best[0])
-        return True, it, best[1]
+        log.debug("corrector: diverged; kept the iterate of residual %.3e", best[0])
+        return Correction(True, it, best[1], best[2])
 
     try:
         for it in range(1, st.max_newton_its + 1):
-            ns.assemble_residual(F)
-            fn = F.norm()
+            fn = residual()
             if not np.isfinite(fn) or not ns.factor():
                 return fail(it)
             if best_w is not None and fn < best[0]:
                 w.copy(best_w)
-                best = (fn, lam)
+                best = (fn, lam, s.copy())
             elif best_w is not None and it > 3 and fn > 1e3 * best[0]:
                 return fail(it)  # diverging from a good iterate: more steps only go further
             F.scale(-1.0)
@@ -401,36 +480,64 @@ def _bordered_newton(ar: _Arclength, st: ContinuationSettings, lam_p: float,
             ar.dres_dlambda()
             ar.Fl.scale(-1.0)
             ns.lin_solve(ar.Fl, ar.b)
+            for j in range(k):
+                pins[j].copy(ar.Fl)
+                ar.Fl.scale(-1.0)
+                ns.lin_solve(ar.Fl, xs[j + 1])
             if deflate is not None:
-                deflate(ar.a, ar.b)
-            # hyperplane constraint N = cw τw·(w - wp) + τl (λ - λp)
+                deflate(ar.a, *xs)
+            # the constraints' rows in (δλ, δs_1, ...): the hyperplane, then the pins
             w.copy(ar.Fl)
-            ar.Fl.axpy(-1.0, ar.wp)
-            Nc = ar.cw * ar.tw.dot(ar.Fl) + ar.tl * (lam - lam_p)
-            denom = ar.tl + ar.cw * ar.tw.dot(ar.b)
-            if denom == 0 or not math.isfinite(denom):
+            ar.Fl.axpy(-1.0, wp)
+            A = np.empty((k + 1, k + 1))
+            r = np.empty(k + 1)
+            A[0] = [ar.cw * tw.dot(x) for x in xs]
+            A[0, 0] += tl
+            # (k = 0 keeps the bordered formula's order of operations, k > 0 the pinned one's:
+            # next to a closed sphere's cluster of singular modes the state along the nearly
+            # singular directions is set by round-off, and the branch switched onto from it
+            # depends on it; measured: reordering moved the h/R = 0.01 sphere's critical
+            # state's eigenvalue from 6.2e-7 to 4.5e-7 and sent its switch onto another branch)
+            r[0] = -(ar.cw * (tw.dot(ar.Fl) + tw.dot(ar.a)) + tl * (lam - lam_p)) if k else \
+                -((ar.cw * tw.dot(ar.Fl) + tl * (lam - lam_p)) + ar.cw * tw.dot(ar.a))
+            if k:
+                w.copy(ar.Fl)
+                ar.Fl.axpy(-1.0, wc)
+            for j in range(k):
+                A[j + 1] = [ar.cw * pins[j].dot(x) for x in xs]
+                r[j + 1] = -ar.cw * (pins[j].dot(ar.Fl) + pins[j].dot(ar.a))
+            if k == 0:
+                c = np.array([r[0] / A[0, 0]]) if A[0, 0] != 0 else np.array([math.nan])
+            else:
+                try:
+                    c = np.linalg.solve(A, r)
+                except np.linalg.LinAlgError:
+                    return fail(it)
+            if not np.all(np.isfinite(c)):
                 return fail(it)
-            dlam = -(Nc + ar.cw * ar.tw.dot(ar.a)) / denom
-            w.axpy(1.0, ar.a)
-            w.axpy(dlam, ar.b)
-            lam += dlam
+            if k == 0:
+                w.axpy(1.0, ar.a)
+                w.axpy(c[0], ar.b)
+                ar.a.axpy(c[0], ar.b)
+            else:
+                for j in range(k + 1):
+                    ar.a.axpy(c[j], xs[j])  # the full state increment
+                w.axpy(1.0, ar.a)
+            lam += c[0]
+            s = s + c[1:]
             ar.sync()
             ar.set_lambda(lam)
-            ar.a.axpy(dlam, ar.b)  # the full state increment
             rms = ar.a.norm() / math.sqrt(w.getSize()) / ar.L
             if not (math.isfinite(rms) and math.isfinite(lam)):
                 return fail(it)
-            if abs(lam - lam_p) > 10.0 * max(1.0, abs(lam_p)):
+            if abs(lam - lam_p) > dlam_max:
                 return fail(it)  # diverging: its iterates would only poison the factor
-            if rms < st.newton_tol and abs(dlam) < st.newton_tol * max(1.0, abs(lam)):
-                ns.assemble_residual(F)
-                if F.norm() <= ar.residual_bound(st, lam):
-                    return True, it, lam
-            elif singular_ok and it >= 3:
-                ns.assemble_residual(F)
-                if F.norm() <= ar.residual_bound(st, lam):
-                    return True, it, lam
+            small = rms < st.newton_tol and abs(c[0]) < st.newton_tol * max(1.0, abs(lam))
+            if (small or (singular_ok and it >= 3)) and residual() <= ar.residual_bound(st, lam):
+                return Correction(True, it, lam, s)
         return fail(st.max_newton_its)
     finally:
+        for v in xs[1:]:
+            v.destroy()
         if best_w is not None:
             best_w.destroy()

@@ -45,7 +45,7 @@ from shells.continuation import (
     Point,
     _Arclength,
     _bordered_newton,
-    _growth,
+    arclength_steps,
     continuation,
 )
 from shells.errors import InputError
@@ -245,8 +245,8 @@ class _Locator:
         t0 = time.perf_counter()
         deflate = (_Deflation(self.problem, self.stab, self.crit.deflate)
                    if self.crit.deflate and not self.fold else None)
-        ok, its, lam = _bordered_newton(ar, st, self.lam0 + sigma * ar.tl, lam_start=lam_p,
-                                        singular_ok=True, deflate=deflate)
+        ok, its, lam, _ = _bordered_newton(ar, st, self.lam0 + sigma * ar.tl, lam_start=lam_p,
+                                           singular_ok=True, deflate=deflate)
         log.debug("locate: sigma = %.6g  kappa L = %.8g  converged %s in %d its (%.1f s)",
                   sigma, lam, ok, its, time.perf_counter() - t0)
         if not ok:
@@ -833,102 +833,6 @@ def _m_inner(M: Any, x: Any, y: Any) -> float:
     return out
 
 
-def _pinned_newton(ar: _Arclength, st: ContinuationSettings, lam: float, *, tw: Any, tl: float,
-                   wp: Any, lam_p: float, pins: list[Any], wc: Any,
-                   max_dlam: float = math.inf, deflate: Any = None
-                   ) -> tuple[bool, int, float, np.ndarray]:
-    """Newton on R(w, λ) + Σ_j s_j ψ_j = 0 with
-    cw τ_w·(w - w_p) + τ_λ (λ - λ_p) = 0 (the step's hyperplane) and cw ψ_j·(w - w_c) = 0;
-    unknowns w, λ and the multipliers s_j.
-
-    The hyperplane with τ = (φ_0, 0), w_p = w_c + a φ_0 fixes the amplitude a along the critical
-    mode φ_0 and leaves λ free: that parametrises a pitchfork regularly (λ - λ_c ∝ a², one λ for
-    each a ≠ 0; the fundamental branch, with no φ_0-component, does not meet it). τ = (0, 1)
-    fixes λ = λ_p. The pins ψ_j are the other directions of a (nearly) multiple critical
-    eigenspace, held at their value in w_c: on a shape of revolution the partner of the (cos mφ,
-    sin mφ) pair, i.e. the orientation of the buckling pattern, a nearly neutral direction of
-    the Hessian along the new branch (a phase condition, as for any continuous symmetry). s_j ψ_j
-    is then the force needed to hold the orientation: what the mesh's broken symmetry exerts.
-    Without pins this is Keller's bordered Newton. Starts from the model's current state; one
-    LU factorisation and 2 + len(pins) solves per iteration. An iterate with
-    |λ - λ_start| > ``max_dlam`` counts as divergence (the residual bound is relative to the
-    κ-load, which grows with |λ|). Returns (converged, iterations, λ, multipliers).
-    """
-    ns, w = ar.ns, ar.w
-    k = len(pins)
-    s = np.zeros(k)
-    F = ns.b
-    dw, rhs, dev = w.duplicate(), w.duplicate(), w.duplicate()
-    xs = [w.duplicate() for _ in range(k + 1)]
-    ar.set_lambda(lam)
-    lam0 = lam
-    nglob = math.sqrt(w.getSize())
-
-    def residual() -> float:
-        ns.assemble_residual(F)
-        for j in range(k):
-            F.axpy(s[j], pins[j])
-        return F.norm()
-
-    try:
-        for it in range(1, st.max_newton_its + 1):
-            fn = residual()
-            if not math.isfinite(fn):
-                return False, it, lam, s
-            ns.factor()
-            F.scale(-1.0)
-            ns.lin_solve(F, dw)
-            ar.dres_dlambda()
-            ar.Fl.scale(-1.0)
-            ns.lin_solve(ar.Fl, xs[0])
-            for j in range(k):
-                pins[j].copy(rhs)
-                rhs.scale(-1.0)
-                ns.lin_solve(rhs, xs[j + 1])
-            if deflate is not None:
-                deflate(dw, *xs)
-            # the constraints are linear: their rows in (δλ, δs_1 ...)
-            w.copy(dev)
-            dev.axpy(-1.0, wp)
-            A = np.zeros((k + 1, k + 1))
-            r = np.zeros(k + 1)
-            A[0] = [ar.cw * tw.dot(x) for x in xs]
-            A[0, 0] += tl
-            r[0] = -(ar.cw * (tw.dot(dev) + tw.dot(dw)) + tl * (lam - lam_p))
-            w.copy(dev)
-            dev.axpy(-1.0, wc)
-            for j in range(k):
-                A[j + 1] = [ar.cw * pins[j].dot(x) for x in xs]
-                r[j + 1] = -ar.cw * (pins[j].dot(dev) + pins[j].dot(dw))
-            try:
-                c = np.linalg.solve(A, r)
-            except np.linalg.LinAlgError:
-                return False, it, lam, s
-            if not np.all(np.isfinite(c)):
-                return False, it, lam, s
-            for j in range(k + 1):
-                dw.axpy(c[j], xs[j])
-            w.axpy(1.0, dw)
-            lam += c[0]
-            s += c[1:]
-            ar.sync()
-            ar.set_lambda(lam)
-            rms = dw.norm() / nglob / ar.L
-            log.debug("pinned newton %d: |F| = %.3e, kappa L = %.8g, s = %s, increment %.3e",
-                      it, fn, lam, np.array2string(s, precision=3), rms)
-            if not (math.isfinite(rms) and abs(lam - lam0) <= max_dlam):
-                return False, it, lam, s
-            small = rms < st.newton_tol and abs(c[0]) < st.newton_tol * max(1.0, abs(lam))
-            # next to a singular point round-off along the nearly singular directions keeps the
-            # increment above newton_tol although the residual has converged (_bordered_newton)
-            if (small or it >= 3) and residual() <= ar.residual_bound(st, lam):
-                return True, it, lam, s
-        return False, st.max_newton_its, lam, s
-    finally:
-        for v in (dw, rhs, dev, *xs):
-            v.destroy()
-
-
 def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSettings,
                   kappa_end: float, *, ds: float = 0.25, solver: NewtonSolver | None = None,
                   sign: float = 1.0, pinned: int | None = None,
@@ -943,13 +847,15 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
        k = ``cp.multiplicity`` (or ``pinned``) > 1, the k - 1 other eigenvectors nearest 0.
     3. The first point at mode amplitude a = ``sign`` × ``ds`` (continuation norm: RMS in
        thicknesses, ``settings.state_weight``): Newton from w_c + a φ_0 on R(w, λ) = 0 with
-       cw φ_0·(w - w_c) = a and λ free (``_pinned_newton``): for a pitchfork λ - λ_c ≈ β a², a
-       regular equation in λ for a ≠ 0 that the fundamental branch (no φ_0-component) does not
-       satisfy. If it fails, a is retried with ``ds`` times each of ``factors``.
-    4. Pseudo-arclength continuation with secant predictors from (w_c, λ_c) and that point
-       onwards, adaptive steps from ``settings`` (arclength units: ``ds_unit`` must be
-       "arclength"; the first step is |a|), landing on ``kappa_end`` exactly when the branch
-       crosses it, or ending after ``settings.max_steps`` points or when the step falls below
+       cw φ_0·(w - w_c) = a and λ free (the corrector ``continuation._bordered_newton`` on
+       that hyperplane): for a pitchfork λ - λ_c ≈ β a², a regular equation in λ for a ≠ 0
+       that the fundamental branch (no φ_0-component) does not satisfy. If it fails, a is
+       retried with ``ds`` times each of ``factors``.
+    4. Pseudo-arclength continuation (``continuation.arclength_steps``) with secant
+       predictors from (w_c, λ_c) and that point onwards, adaptive steps from ``settings``
+       (arclength units: ``ds_unit`` must be "arclength"; the first step is |a|), landing on
+       ``kappa_end`` exactly when the branch crosses it, or ending after ``settings.max_steps``
+       points or when the step falls below
        ``ds_min``. Each yielded point carries in ``scalars``: ``mode_amplitude`` =
        cw φ_0·(w - w_c), ``residual`` = ||R(w, λ)|| and ``residual_bound`` (the corrector's
        bound, ``ContinuationSettings``) and ``pin_force`` = ||Σ s_j ψ_j||. If the amplitude falls
@@ -1000,9 +906,9 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
     ar = _Arclength(ns, L, settings.state_weight)
     n = ar.w.getLocalSize()
     wc = ar.w.duplicate()
-    tw, wp, w_prev, w_last = (wc.duplicate() for _ in range(4))
+    wp = wc.duplicate()
     dirs: list[Any] = []
-    amp_dir = pred = defl_stab = None
+    amp_dir = pred = defl_stab = steps = None
     t_start = time.perf_counter()
     try:
         ar.w.array_w[:] = cp.state[:n]
@@ -1019,7 +925,10 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
         defl = _Deflation(problem, defl_stab, deflate, keep=dirs[0]) if deflate else None
         log.info("switch: critical state at kappa L = %.6g, eigenvalues %s", lam_c,
                  ", ".join(f"{v:.3e}" for v in vals))
-        st = replace(settings, max_newton_its=max(settings.max_newton_its, 30))
+        # the first corrector starts off the branch, from the mode's linear prediction
+        st_first = replace(settings, max_newton_its=max(settings.max_newton_its, 30))
+        corrector = dict(pins=pins, wc=wc, singular_ok=True, deflate=defl, max_dlam=max_dlam,
+                         keep_best=False)
         sgn = 1.0 if sign >= 0 else -1.0
 
         # the amplitude is measured along φ_0 made orthogonal (in the continuation norm's
@@ -1047,7 +956,7 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
             sc["pin_force"] = float(wp.norm())
             sc["residual"] = ns.residual_norm()
             # (with the corrector's last Jacobian and ∂R/∂λ)
-            sc["residual_bound"] = ar.residual_bound(st, ar.get_lambda())
+            sc["residual_bound"] = ar.residual_bound(settings, ar.get_lambda())
             return Point(index=index, kappa=ar.get_lambda() / L, kappa_L=ar.get_lambda(),
                          newton_its=its, step=step, dkappa_ds=tl,
                          wall_time=time.perf_counter() - t_start, scalars=sc)
@@ -1056,89 +965,30 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
         first = None
         for f in factors:
             a = sgn * ds * f
-            amp_dir.copy(tw)
             wc.copy(wp)
             wp.axpy(a, pred)
             wp.copy(ar.w)
             ar.sync()
-            ok, its, lam, s = _pinned_newton(ar, st, lam_c, tw=tw, tl=0.0, wp=wp, lam_p=lam_c,
-                                             pins=pins, wc=wc, max_dlam=max_dlam, deflate=defl)
+            c = _bordered_newton(ar, st_first, lam_c, plane=(amp_dir, 0.0, wp), **corrector)
             log.info("switch: amplitude %.4g: %s in %d its, kappa L = %.6g", a,
-                     "converged" if ok else "failed", its, lam)
-            if ok:
+                     "converged" if c.ok else "failed", c.its, c.lam)
+            if c.ok:
                 first = a
                 break
         if first is None:
             raise RuntimeError("branch switching: the corrector did not converge off the "
                                f"fundamental branch at amplitudes {ds} x {factors}")
         a1 = first
-        direction = 1.0 if lam_end >= lam else -1.0
-        wc.copy(w_prev)
-        lam_prev = lam_c
-        ar.w.copy(w_last)
+        direction = 1.0 if lam_end >= c.lam else -1.0
         index = 0
-        yield point(index, its, abs(a1), 0.0, s)
-        ds_cur = min(max(abs(a1), st.ds_min), st.ds_max)
-        while index < st.max_steps:
-            # secant tangent from the previous point, unit in the continuation norm
-            w_last.copy(tw)
-            tw.axpy(-1.0, w_prev)
-            tl = lam - lam_prev
-            norm = math.sqrt(ar.cw * tw.dot(tw) + tl * tl)
-            tw.scale(1.0 / norm)
-            tl /= norm
-            jumps = 0
-            while True:
-                lam_p = lam + ds_cur * tl
-                landing = (lam_p - lam_end) * direction >= 0 and tl * direction > 0
-                frac = (lam_end - lam) / (lam_p - lam) if landing else 1.0
-                w_last.copy(ar.w)
-                ar.w.axpy(frac * ds_cur, tw)
-                ar.w.copy(wp)
-                ar.sync()
-                if landing:  # λ = λ_end: the hyperplane τ = (0, 1)
-                    wp.set(0.0)
-                    ok, its, lam_new, s_new = _pinned_newton(
-                        ar, st, lam_end, tw=wp, tl=1.0, wp=wp, lam_p=lam_end, pins=pins,
-                        wc=wc, max_dlam=max_dlam, deflate=defl)
-                else:
-                    ok, its, lam_new, s_new = _pinned_newton(
-                        ar, st, lam_p, tw=tw, tl=tl, wp=wp, lam_p=lam_p, pins=pins, wc=wc,
-                        max_dlam=max_dlam, deflate=defl)
-                step = frac * ds_cur
-                if ok and its <= settings.max_newton_its and not landing \
-                        and (lam_new - lam_end) * direction > 0:
-                    # the corrector crossed κ_end: land on it from the chord's interpolant
-                    f = (lam_end - lam) / (lam_new - lam)
-                    ar.w.copy(wp)
-                    wp.axpy(-1.0, w_last)
-                    w_last.copy(ar.w)
-                    ar.w.axpy(f, wp)
-                    ar.sync()
-                    wp.set(0.0)
-                    landing = True
-                    step *= f
-                    ok, its, lam_new, s_new = _pinned_newton(
-                        ar, st, lam_end, tw=wp, tl=1.0, wp=wp, lam_p=lam_end, pins=pins,
-                        wc=wc, max_dlam=max_dlam, deflate=defl)
-                if ok and its <= settings.max_newton_its:
-                    if amplitude() * a1 >= 0 or jumps >= 3:
-                        break
-                    # the corrector crossed the fundamental branch onto the other side of the
-                    # mode: a jump to another branch (a long step next to a cluster of
-                    # bifurcations), not the end of this one: a shorter step first
-                    jumps += 1
-                ds_cur *= 0.5
-                if ds_cur < st.ds_min:
-                    w_last.copy(ar.w)
-                    ar.sync()
-                    ar.set_lambda(lam)
-                    log.info("switch: step below ds_min at kappa L = %.6g", lam)
-                    return
-            w_last.copy(w_prev)
-            lam_prev = lam
-            ar.w.copy(w_last)
-            lam, s = lam_new, s_new
+        yield point(index, c.its, abs(a1), 0.0, c.multipliers)
+        st = replace(settings, ds=min(max(abs(a1), settings.ds_min), settings.ds_max))
+        # a corrector that crosses the fundamental branch onto the other side of the mode
+        # jumped to another branch (a long step next to a cluster of bifurcations): it is
+        # refused and the step shortened; it does not end this branch
+        steps = arclength_steps(ar, st, c.lam, lam_end, direction, secant_from=(wc, lam_c),
+                                reject=lambda: amplitude() * a1 < 0, **corrector)
+        for its, step, tl, s in steps:
             index += 1
             p = point(index, its, step, tl, s)
             amp = p.scalars["mode_amplitude"]
@@ -1147,13 +997,12 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
                     f"branch switching: back on the fundamental branch at kappa = {p.kappa:.6g}"
                     f" (mode amplitude {amp:.3g}, first point {a1:.3g})")
             yield p
-            if landing:
-                return
             if release_pins is not None and index >= release_pins and pins:
-                pins, s = [], np.zeros(0)
-            ds_cur = min(st.ds_max, max(st.ds_min, ds_cur * _growth(its, st.target_newton_its)))
+                pins.clear()
     finally:
-        for v in (wc, tw, wp, w_prev, w_last, *dirs):
+        if steps is not None:
+            steps.close()
+        for v in (wc, wp, *dirs):
             v.destroy()
         for obj in (amp_dir, pred, defl_stab):
             if obj is not None:

@@ -161,7 +161,8 @@ class AxisymModel(FormProblem):
     ``dres_dkappa`` (compiled forms), ``bcs``, ``mass``; methods ``scalars()``, ``num_dofs()``,
     ``energy_density(jet)``. Assembly from ``FormProblem``; the stability blocks are the Fourier
     modes m of ``modes`` (default 0..12), each with its Hessian H_m (``ModeForms``, compiled on
-    first use).
+    first use; for m ≥ 1 a polynomial in m whose coefficient matrices are assembled once per
+    state).
     """
 
     modes: tuple[int, ...] = tuple(range(13))
@@ -384,8 +385,7 @@ class AxisymModel(FormProblem):
         if block is None:
             self._assemble_symmetric(H, self.hessian, self.bcs)
             return
-        bcs = self.mode_forms.set_mode(block)
-        self._assemble_symmetric(H, self.mode_forms.form, bcs)
+        self.mode_forms.assemble_hessian(block, H)  # m ≥ 1: Σ m^k C_k, C_k once per state
 
     def assemble_mass(self, block: Any) -> Any:
         if block is None:

@@ -1,5 +1,6 @@
 """Stability of the axisymmetric model against every Fourier mode m (problem layer): the
-mode Hessians H_m of ``AxisymModel``, one compiled form for all m.
+mode Hessians H_m of ``AxisymModel``, one compiled form for all m and, for m ≥ 1, H_m as a
+polynomial in m whose matrix coefficients are assembled once per base state.
 
 Stability. Perturbations U(t) cos mφ e_r + V(t) sin mφ e_φ + W(t) cos mφ e_z about the base
 state. For an axisymmetric base state the φ-integral of the second-variation density Q equals
@@ -15,6 +16,22 @@ inertia): m = 0: W = 0 at the top pole (z-translation), D = 0 on the widest para
 about z); m = 1: D = 0 at the top pole (translation) and W = 0 on the widest parallel (tilt). A
 slope constraint at the pole would do for the tilt in principle, but a point has no capacity
 for slopes in 2D: it leaves a spurious near-zero eigenvalue. Inertia per m by MUMPS LDLᵀ.
+
+Assembly. m = 0 (its own phases) is assembled from that form directly. For m ≥ 1 the phases
+are fixed and m enters the perturbation's jet linearly (φ-derivatives ∝ m, ∂_φφ ∝ m²) while
+the second variation is quadratic in the jet, so H_m = Σ_{k=0..4} m^k C_k before the boundary
+conditions. The C_k are exact forms: the Hessian's UFL with the m ≥ 1 phases put in as numbers,
+the (zero) perturbation as 0 and m as a coefficient, differentiated k times in m by
+``ufl.derivative``, at m = 0, over k! (no sampling of m, so no round-off amplified by m^k); one
+compiled kernel each. They are assembled without conditions, once per base state: the matrices
+remember the inputs they were assembled from (every coefficient array, Constant value and the
+mesh geometry the forms read) and are reassembled as soon as any of them differs, so no
+state change (Newton, ``set_kappa``, a vector written directly) can be served a stale C_k. Each
+H_m is then C_0 + Σ m^k C_k (MatAXPY, one nonzero pattern: that of the direct form) with mode
+m's conditions applied as direct assembly does (rows and columns zeroed, 1 on the diagonal:
+MatZeroRowsColumns), flagged symmetric. It equals the direct assembly to round-off (relative
+Frobenius difference ~1e-16, tests/test_axisym_modes.py) at ~5 assemblies per state instead of
+one per m (benchmarks/axisym_mode_assembly.py).
 """
 
 from __future__ import annotations
@@ -29,6 +46,14 @@ from shells.errors import InputError
 
 __all__ = ["ModeForms"]
 
+#: the phase Constants of mode 0 and of every m ≥ 1 (``ModeForms.set_mode``)
+_PHASES: dict[int, dict[str, float]] = {
+    0: dict(a0=1.0, b0=1.0, a1=1.0, b1=1.0, cSU=1.0, cDU=0.0, cSV=0.0, cDV=1.0),
+    1: dict(a0=1.0, b0=0.0, a1=0.0, b1=1.0, cSU=1.0, cDU=1.0, cSV=1.0, cDV=-1.0),
+}
+#: H_m of m ≥ 1 is a polynomial of this degree in m
+DEGREE = 4
+
 
 # ------------------------------------------------------------------------------------------------
 # stability against Fourier modes
@@ -38,7 +63,10 @@ class ModeForms:
 
     Unknowns (S, D, W; P_S, P_D, P_W) in P3³ x P2³: U = S + D, V = S - D for m ≥ 1 and U = S,
     V = D for m = 0 (see the module docstring for the axis conditions). One compiled form for
-    every m: m and the phases are Constants (``set_mode``).
+    every m: m and the phases are Constants (``set_mode``). ``assemble_hessian(m, H)``: m = 0
+    from that form, m ≥ 1 as Σ m^k C_k from the coefficient forms ``coefficient_forms``
+    (compiled on first use) and their matrices, reassembled whenever the state they were
+    assembled at changed (module docstring).
     """
 
     def __init__(self, model: AxisymModel) -> None:
@@ -81,6 +109,122 @@ class ModeForms:
         self.form = fem.form(self.hessian_ufl, jit_options=JIT_OPTIONS)
         self.mass = fem.form(ufl.inner(v_, v) * model.r0 * model.g * model.dx)
         self._bcs = {k: self._conditions(k) for k in (0, 1, 2, 3)}
+        self._coefficient_forms: list[Any] | None = None
+        self._C: list[Any] | None = None  # the matrices C_k
+        self._C_inputs: list[np.ndarray] | None = None  # what they were assembled from
+        self._read: tuple[list, list] = ([], [])  # the coefficients and Constants they read
+        self._rows: dict[int, Any] = {}  # the constrained rows of each class of m
+
+    # -- H_m = Σ m^k C_k for m ≥ 1 --------------------------------------------------------
+    def coefficient_ufl(self) -> list[Any]:
+        """The UFL forms of C_0..C_4, H_m = Σ m^k C_k (m ≥ 1, no boundary conditions): the
+        Hessian with the m ≥ 1 phases as numbers and the zero perturbation as 0, its k-th
+        derivative in m (m a coefficient; ``ufl.derivative`` in the direction 1) at m = 0,
+        over k!. Exact: the derivatives are symbolic, nothing is sampled."""
+        import ufl
+        from dolfinx import fem
+        from ufl.algorithms import expand_derivatives
+
+        c = self.c
+        m = fem.Function(fem.functionspace(self.model.mesh, ("DG", 0)))  # symbolic only
+        rep: dict[Any, Any] = {c[k]: ufl.as_ufl(v) for k, v in _PHASES[1].items()}
+        rep[c["m"]] = m
+        rep[self.pert] = ufl.zero(*self.pert.ufl_shape)
+        h = ufl.replace(expand_derivatives(self.hessian_ufl), rep)
+        out = []
+        for k in range(DEGREE + 1):
+            out.append((1.0 / math.factorial(k)) * ufl.replace(h, {m: ufl.zero()}))
+            if k < DEGREE:
+                h = expand_derivatives(ufl.derivative(h, m, ufl.as_ufl(1.0)))
+        return out
+
+    @property
+    def coefficient_forms(self) -> list[Any]:
+        """The compiled forms of C_0..C_4 (``coefficient_ufl``), one kernel each."""
+        from dolfinx import fem
+
+        if self._coefficient_forms is None:
+            ufl_forms = self.coefficient_ufl()
+            self._coefficient_forms = [fem.form(f, jit_options=JIT_OPTIONS) for f in ufl_forms]
+            coefficients = {id(w): w for f in ufl_forms for w in f.coefficients()}
+            constants = {id(k): k for f in ufl_forms for k in f.constants()}
+            self._read = (list(coefficients.values()), list(constants.values()))
+        return self._coefficient_forms
+
+    def _inputs(self) -> list[np.ndarray]:
+        """Everything the coefficient forms read (views, not copies): each coefficient's local
+        array (ghosts included), each Constant's value, the mesh geometry."""
+        coefficients, constants = self._read
+        return ([w.x.array for w in coefficients] + [np.atleast_1d(k.value) for k in constants]
+                + [self.model.mesh.geometry.x])
+
+    def coefficient_matrices(self) -> list[Any]:
+        """C_0..C_4 at the model's current state: assembled (no boundary conditions) on first
+        use and again whenever any input of the coefficient forms differs from the one they
+        were assembled from (compared exactly; collective: a change on any rank counts)."""
+        from dolfinx.fem.petsc import assemble_matrix, create_matrix
+        from mpi4py import MPI
+
+        forms = self.coefficient_forms
+        inputs = self._inputs()
+        old = self._C_inputs
+        stale = old is None or len(old) != len(inputs) or not all(
+            a.shape == b.shape and np.array_equal(a, b) for a, b in zip(old, inputs, strict=True))
+        comm = self.model.comm
+        if comm.size > 1:
+            stale = comm.allreduce(stale, op=MPI.LOR)
+        if stale:
+            if self._C is None:  # the direct form's pattern: that of every H_m's matrix
+                self._C = [create_matrix(self.form) for _ in forms]
+            self._C_inputs = None  # not valid while being assembled
+            for C, f in zip(self._C, forms, strict=True):
+                C.zeroEntries()
+                assemble_matrix(C, f)
+                C.assemble()
+            self._C_inputs = [a.copy() for a in inputs]
+        return self._C
+
+    def _constrained_rows(self, m: int) -> Any:
+        """Global indices of the owned DOFs constrained in mode m (a PETSc IS)."""
+        from petsc4py import PETSc
+
+        key = min(int(m), 3)
+        if key not in self._rows:
+            im, bs = self.V.dofmap.index_map, self.V.dofmap.index_map_bs
+            local = []
+            for bc in self.conditions(m):
+                dofs, first_ghost = bc.dof_indices()
+                local.append(np.asarray(dofs[:first_ghost]))
+            local = np.unique(np.concatenate(local)) if local else np.zeros(0, np.int32)
+            blocks, comp = np.divmod(local, bs)
+            rows = im.local_to_global(blocks.astype(np.int32)) * bs + comp
+            self._rows[key] = PETSc.IS().createGeneral(rows.astype(PETSc.IntType),
+                                                       comm=self.model.comm)
+        return self._rows[key]
+
+    def assemble_hessian(self, m: int, H: Any, direct: bool = False) -> None:
+        """H_m at the model's state into H (a matrix of ``create_matrix(self.form)``) with mode
+        m's conditions (zero rows and columns, unit diagonal), flagged symmetric. m = 0, or
+        ``direct``: from ``form``; m ≥ 1: Σ m^k C_k (``coefficient_matrices``)."""
+        from petsc4py import PETSc
+
+        from shells.formproblem import FormProblem
+
+        bcs = self.set_mode(m)
+        if m == 0 or direct:
+            FormProblem._assemble_symmetric(H, self.form, bcs)
+            return
+        C = self.coefficient_matrices()
+        same = PETSc.Mat.Structure.SAME_NONZERO_PATTERN
+        if H.assembled:
+            C[0].copy(H, structure=same)
+        else:  # a new matrix, only preallocated: C_0's values (and pattern) inserted
+            H.setValuesCSR(*C[0].getValuesCSR())
+            H.assemble()
+        for k in range(1, DEGREE + 1):
+            H.axpy(float(m) ** k, C[k], structure=same)
+        H.zeroRowsColumns(self._constrained_rows(m), diag=1.0)
+        H.setOption(H.Option.SYMMETRIC, True)
 
     def radial_axial(self, f: Any) -> tuple[Any, Any]:
         """(u_r, u_z) amplitudes of a mode ``f`` in ``V`` (U and W; phases as last set)."""
@@ -116,10 +260,6 @@ class ModeForms:
                              f"got {m!r}")
         c = self.c
         c["m"].value = float(m)
-        if m == 0:
-            vals = dict(a0=1.0, b0=1.0, a1=1.0, b1=1.0, cSU=1.0, cDU=0.0, cSV=0.0, cDV=1.0)
-        else:
-            vals = dict(a0=1.0, b0=0.0, a1=0.0, b1=1.0, cSU=1.0, cDU=1.0, cSV=1.0, cDV=-1.0)
-        for k, v in vals.items():
+        for k, v in _PHASES[min(int(m), 1)].items():
             c[k].value = v
         return self.conditions(m)

@@ -472,11 +472,42 @@ class ShellModel(FormProblem):
             out["x"] = vals["grad2"] / w2 * R * R
         return out
 
+    def orbit_overlap(self, vec: Any) -> float:
+        """|cos| of the angle (L² of the normal components) between a mode and the tangent of
+        the current state's orbit under rotations about the axis: a rotation by ε moves the
+        normal displacement w = u·n° by -ε ∂_φ w (n° and the reference surface are
+        axisymmetric). 1: the mode only turns the pattern (a neutral direction of the
+        continuum, broken by the mesh); 0 for an axisymmetric state, which has no orbit."""
+        import ufl
+        from dolfinx import fem
+        from mpi4py import MPI
+
+        if not hasattr(self, "_orbit_forms"):
+            self._orbit_v = fem.Function(self.W)
+            uv, _ = self.split(self._orbit_v)
+            us, _ = self.split(self.w)
+            x = self._x
+            e_phi = ufl.as_vector([-x[1], x[0], 0.0])
+            wv, dws = ufl.dot(uv, self.n0), ufl.dot(e_phi, ufl.grad(ufl.dot(us, self.n0)))
+            ws = ufl.dot(us, self.n0)
+            self._orbit_forms = [fem.form(f * self.dx) for f in (wv * dws, wv * wv, dws * dws,
+                                                                   ws * ws)]
+        vec.copy(self._orbit_v.x.petsc_vec)
+        self._orbit_v.x.scatter_forward()
+        comm = self.shell.comm
+        cross, v2, t2, s2 = (comm.allreduce(fem.assemble_scalar(f), op=MPI.SUM)
+                             for f in self._orbit_forms)
+        if t2 <= 1e-12 * max(s2, 1e-300) or v2 <= 0:
+            return 0.0
+        return abs(cross) / math.sqrt(v2 * t2)
+
     def classify_mode(self, vec: Any, block: Any = None) -> ModeInfo:
-        """n on closed spheres (m is not defined on a degenerate eigenspace), else m."""
+        """n on closed spheres (m is not defined on a degenerate eigenspace), else m;
+        ``rayleigh["orbit"]``: ``orbit_overlap``."""
         from shells.geometry import Sphere
 
         q = self.mode_rayleigh(vec)
+        q["orbit"] = self.orbit_overlap(vec)
         if isinstance(self.shape, Sphere):
             x = q["x"]
             return ModeInfo(None, int(round((-1 + math.sqrt(1 + 4 * max(x, 0.0))) / 2)), q)

@@ -165,6 +165,28 @@ class Stability:
         vecs = [vecs[i] for i in order][:nev] if modes else []
         return vals, vecs
 
+    def negative_count_modulo_orbit(self, block: Hashable = None, threshold: float = 0.9
+                                    ) -> tuple[int, int]:
+        """(negative count, how many of those eigenvectors lie along the state's symmetry
+        orbit): ``classify_mode(v).rayleigh["orbit"]`` ≥ ``threshold``, the problem's overlap
+        with the orbit tangent (a pattern's rotation about the axis of a shell of revolution,
+        neutral in the continuum, of either sign on a mesh). The second is 0 for problems that
+        report no orbit; eigenpairs are computed only when the count is positive."""
+        n = self.negative_count(block)
+        if n == 0:
+            return 0, 0
+        vals, vecs = self.eigenpairs(n + 2, modes=True, assemble=False, block=block)
+        orbit = 0
+        try:
+            for val, v in zip(vals, vecs, strict=True):
+                info = self.problem.classify_mode(v, block)
+                if val < 0 and (info.rayleigh or {}).get("orbit", 0.0) >= threshold:
+                    orbit += 1
+        finally:
+            for v in vecs:
+                v.destroy()
+        return n, orbit
+
     def check(self, nev: int = 0, modes: bool = False, block: Hashable = None
               ) -> StabilityResult:
         """Inertia (always) and, with ``nev`` > 0, the eigenpairs nearest 0, of one block."""

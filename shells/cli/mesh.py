@@ -27,6 +27,9 @@ def add_mesh(sub: Any) -> argparse.ArgumentParser:
                    help="thickness h/R: refines the rim layer of width sqrt(R h)")
     common.add_mesh_size_args(m, 0.1, "bulk element size relative to R (default 0.1)")
     m.add_argument("--order", type=int, default=2, choices=(1, 2), help="geometric order")
+    m.add_argument("--sectors", type=int, default=8,
+                   help="mesh invariant under rotations by 360/K degrees about the axis: K "
+                        "congruent sectors (a multiple of 4; 1: one piece; default 8)")
     m.add_argument("--spec", default=None, help="read the parameters from a JSON file (meshes/)")
     m.add_argument("-o", "--output", default=None, help="write a gmsh .msh file (+ .msh.json)")
     m.add_argument("--png", default=None, help="render the mesh to a PNG")
@@ -70,7 +73,7 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
         shape = common.shape_from_args(args)
         h = None if args.h_over_r is None else args.h_over_r * shape.characteristic_size()
         spec = MeshSpec(shape, h=h, size=args.size, layer_elements=args.layer_elements,
-                        order=args.order)
+                        order=args.order, sectors=args.sectors)
     if args.output is not None and not str(args.output).endswith(".msh"):
         raise InputError(f"-o must name a gmsh .msh file, got {args.output!r}")
     check_mesh_size(spec)  # before the common.log line: a refused mesh is one line on stderr

@@ -8,9 +8,11 @@
    (fold) or loss of symmetry going up, buckling going down; figure OUTDIR/phase/phase_diagram.png.
 3. Shapes for ParaView on the 2D surface model (cap θ = 30°, h/R = 0.04, coarse mesh): the shell
    just before its snap-through fold (κR = 1.35), the snapped (everted) shell at κR = 2 (Newton
-   from the cap mirrored through its rim plane) and a buckled one at κR = -1.2, past the m = 2
-   loss of symmetry: OUTDIR/{snap_onset,snapped,buckled}/fields.bp (ADIOS2 VTX Reader; Warp By
-   Vector on `displacement`).
+   from the cap mirrored through its rim plane), and at κR = -1.2, past the m = 2 loss of
+   symmetry at κR ≈ -0.66, both the axisymmetric state (natural continuation: unstable) and the
+   buckled one on the m = 2 post-buckled branch (located bifurcation, branch switching, one side
+   of the pitchfork): OUTDIR/{snap_onset,snapped,axisymmetric}/fields.bp and
+   OUTDIR/buckled/fields_side+1.bp (ADIOS2 VTX Reader; Warp By Vector on `displacement`).
 
 ``quick=True`` (the test suite) uses fewer points and a coarser mesh. Ends with asserts.
 """
@@ -27,8 +29,10 @@ from mpi4py import MPI
 from shells import axisym, theory
 from shells.branch import BranchConfig, run_branch
 from shells.continuation import ContinuationSettings
+from shells.drivers import postbuckle_run
 from shells.geometry import Sphere, SphericalCap
 from shells.phase_diagram import PhaseDiagramConfig, run_phase_diagram
+from shells.postbuckle import PostbuckleConfig
 
 
 def say(msg: str) -> None:
@@ -100,8 +104,10 @@ def run(outdir: str | Path = "results/demo", quick: bool = False) -> dict:
     cap = SphericalCap(1.0, math.radians(30))
     size, layer = (0.25, 4.0) if quick else (0.15, 4.0)
     # natural-parameter steps: the shell just before its snap-through fold (κR ≈ 1.39 here), and
-    # past the m = 2 loss of symmetry at κR ≈ -0.66, where the path turns onto the buckled branch
-    runs = (("snap_onset", 1.35, (0.5, 1.0)), ("buckled", -1.2, (-0.4, -0.8)))
+    # past the m = 2 loss of symmetry at κR ≈ -0.66 (the mesh is exactly 8-fold symmetric, so
+    # the path stays axisymmetric there: the unstable fundamental state)
+    kr_buckled = -0.72 if quick else -1.2
+    runs = (("snap_onset", 1.35, (0.5, 1.0)), ("axisymmetric", kr_buckled, (-0.4, -0.8)))
     out["snapped"] = snapped_shape(cap, 0.04, 2.0, size, layer,
                                    outdir / "snapped" / "fields.bp")
     say(f"snapped: kappa R = +2.000, everted shell (stable: {out['snapped']['stable']}), apex "
@@ -117,6 +123,19 @@ def run(outdir: str | Path = "results/demo", quick: bool = False) -> dict:
         out[name] = pts[-1]
         say(f"{name}: kappa R = {pts[-1]['kappa_R']:+.3f}, apex displacement "
             f"{pts[-1]['apex_uz_over_h']:+.2f} h -> {outdir / name / 'fields.bp'}")
+    # the buckled shell: the m = 2 branch switched onto at the located bifurcation
+    pb = postbuckle_run(PostbuckleConfig(cap, 0.04, model="surface", direction="down",
+                                         kappa_end=kr_buckled, sides=(1,), size=size,
+                                         layer_elements=layer, kappa_min_ratio=0.1),
+                        outdir / "buckled", fields="last")
+    bif = [p for p in pb["points"] if p["branch"] == "bifurcated"]
+    out["buckled"] = {**bif[-1], "critical_point": pb["critical_point"], "points": len(bif)}
+    b = out["buckled"]
+    say(f"buckled: m = {pb['critical_point']['mode_m']} bifurcation at kappa R = "
+        f"{pb['critical_point']['kappa_R']:+.4f}; on its branch at kappa R = {b['kappa_R']:+.3f}"
+        f" ({len(bif)} points): energy {b['energy']:.4e} against "
+        f"{out['axisymmetric']['energy']:.4e} axisymmetric, stable: {b['stable']} -> "
+        f"{outdir / 'buckled'}")
     say(f"done in {time.perf_counter() - t0:.0f} s; figure: "
         f"{outdir / 'phase' / 'phase_diagram.png'}")
 
@@ -128,11 +147,20 @@ def run(outdir: str | Path = "results/demo", quick: bool = False) -> dict:
     assert out["snapped"]["apex_uz_over_h"] < -1.5 * (1 - math.cos(math.radians(30))) / 0.04
     # before the snap the apex has moved down by a fraction of the rim height (3.3 h)
     assert -(1 - math.cos(math.radians(30))) / 0.04 < out["snap_onset"]["apex_uz_over_h"] < 0
-    assert abs(out["buckled"]["kappa_R"] + 1.2) < 1e-9
+    assert abs(out["axisymmetric"]["kappa_R"] - kr_buckled) < 1e-9
+    # the post-buckled branch: from the m = 2 bifurcation (the 1D model's -0.6622 to 1 %) to
+    # κR = -1.2 (quick: -0.72), where it is stable (but for the pattern's orientation), its
+    # deviation from the
+    # critical state has m = 2, and its energy is below the axisymmetric state's
+    cp = b["critical_point"]
+    assert cp["mode_m"] == 2 and abs(cp["kappa_R"] / -0.6622 - 1) < 0.01, cp
+    assert abs(b["kappa_R"] - kr_buckled) < 1e-9 and b["stable"] and b["deviation_m"] == 2, b
+    assert b["energy"] < out["axisymmetric"]["energy"], (b["energy"], out["axisymmetric"])
     if MPI.COMM_WORLD.rank == 0:
         assert (outdir / "phase" / "phase_diagram.png").stat().st_size > 10_000
-        for name in ("snap_onset", "snapped", "buckled"):
+        for name in ("snap_onset", "snapped", "axisymmetric"):
             assert (outdir / name / "fields.bp").is_dir()
+        assert (outdir / "buckled" / "fields_side+1.bp").is_dir()
     return out
 
 

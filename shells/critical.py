@@ -950,6 +950,8 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
             sc = problem.scalars()
             sc["mode_amplitude"] = amplitude()
             sc["kappa_c"] = lam_c / L  # where the branch leaves the fundamental one
+            info = problem.classify_mode(wp, None)  # wp: w - w_c (left by amplitude())
+            sc["deviation_m"], sc["deviation_n"] = info.m, info.n
             wp.set(0.0)
             for j, pin in enumerate(pins):
                 wp.axpy(s[j], pin)

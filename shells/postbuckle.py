@@ -65,6 +65,8 @@ class PostbuckleConfig(RunScales):
         kappa_end: end of the range (signed κ, absolute); None: ``theory.default_kappa_range``.
         kappa_min_ratio: bifurcated branches end where κ/κ_c falls below this.
         max_points: at most this many points per side of the bifurcated branch.
+        sides: the sides of the critical mode followed, +1 and/or -1 (a pitchfork's two are
+            mirror images: one may do).
         amplitude: first mode amplitude (RMS in thicknesses) of the bifurcated branch.
         cells, size, layer_elements, degree: discretisation of the 1D / surface model (None:
             the model's defaults; the surface model: size 0.2, 3 layer elements, P2).
@@ -86,8 +88,13 @@ class PostbuckleConfig(RunScales):
     size: float = 0.2
     layer_elements: float = 3.0
     degree: int = 2
+    sides: tuple[int, ...] = (1, -1)
 
     def __post_init__(self) -> None:
+        if not (isinstance(self.sides, tuple) and self.sides
+                and all(s in (1, -1) for s in self.sides) and len(set(self.sides)) == len(
+                    self.sides)):
+            raise InputError(f"sides must be (1,), (-1,) or (1, -1), got {self.sides!r}")
         if self.model not in ("axisym", "surface"):
             raise InputError(f"model must be axisym or surface, got {self.model!r}")
         if self.direction not in ("up", "down"):
@@ -119,6 +126,7 @@ class PostbuckleConfig(RunScales):
     def describe(self) -> dict[str, Any]:
         d = asdict(self)
         d["shape"] = self.shape.describe()
+        d["sides"] = list(self.sides)  # as JSON reads it back (a resumed file's header)
         return d
 
 
@@ -202,7 +210,9 @@ def _settings(cfg: PostbuckleConfig, kappa_stop: float) -> tuple[Any, Any]:
     # a closed sphere's axisymmetric modes of neighbouring degrees bifurcate within 1e-4 in κ:
     # short steps, and the locator's corrector deflates the near-null modes (else it lands on
     # the branches bifurcating close by; measured: 2e-4 low at 1/6 of the range per step)
-    frac = 1.0 / 80 if closed else 1.0 / 40
+    # (the surface model: 1/20, its steps cost a factorisation of 10⁴-10⁵ DOFs each, and the
+    # locator brackets a bifurcation to 1e-4 within a step of any length)
+    frac = 1.0 / 80 if closed else 1.0 / 40 if cfg.model == "axisym" else 1.0 / 20
     st = ContinuationSettings(ds=frac * lam, ds_max=frac * lam, ds_min=1e-8 * lam,
                               ds_unit="kappa", newton_tol=1e-8)
     crit = CriticalSettings(stop_at_fold=True, deflate=4 if cfg.model == "axisym" else 0)
@@ -280,7 +290,7 @@ def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], 
         # its first 3 points is retried with other amplitudes (its points are kept back until
         # then); the surface model takes one amplitude and streams its points
         factors = (1.0, 1.4, 2.0, 0.6) if cfg.model == "axisym" else (1.0,)
-        for side in (1.0, -1.0):
+        for side in (float(s) for s in cfg.sides):
             for f in factors:
                 amp = f * cfg.amplitude
                 held: list[dict[str, Any]] = []

@@ -63,6 +63,9 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
                    help="surface model: polynomial degree (default 2)")
     p.add_argument("--fields", default="none", choices=("none", "last", "all"),
                    help="write the bifurcated states for ParaView (needs -o)")
+    p.add_argument("--sides", default="both", choices=("both", "+1", "-1"),
+                   help="the sides of the critical mode to follow (default both; a "
+                        "pitchfork's are mirror images)")
     p.add_argument("-o", "--output", default=None,
                    help="directory: postbuckle.jsonl (points as computed) and shapes")
     add_json(p)
@@ -84,7 +87,8 @@ def _cmd_postbuckle(args: argparse.Namespace) -> int:
                            direction=args.direction, at=args.at, kappa_end=k_end,
                            kappa_min_ratio=args.kappa_min_ratio, max_points=args.max_points,
                            size=args.size, layer_elements=args.layer_elements,
-                           degree=args.degree)
+                           degree=args.degree,
+                           sides=(1, -1) if args.sides == "both" else (int(args.sides),))
     result = postbuckle_run(cfg, args.output, fields=args.fields)
     cp, points, sides = result["critical_point"], result["points"], result["sides"]
 

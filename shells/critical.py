@@ -479,6 +479,11 @@ def _locate_crossing(loc: _Locator, p0: Point, w0: np.ndarray, lo: _Eval, hi: _E
         if b not in e.eigs:  # on demand: a few of the blocks need them, near the crossing
             e.eigs.update(loc.eigs_at(e, nev, (b,)))
         vals = e.eigs[b]
+        if rising and k <= 0 and sum(v < 0 for v in vals) > e.counts.get(b, c0[b]):
+            # more negative eigenvalues than the inertia counts: the one nearest 0 lies at
+            # round-off (|μ| ~ 1e-17 ||H||, measured on a deep cap's m = 2 block next to its
+            # crossing), where the factorisation's sign is arbitrary; it has crossed
+            return max(v for v in vals if v < 0)
         if not rising:
             vals, k = tuple(-v for v in vals), -k
         if k <= 0:
@@ -533,6 +538,17 @@ def _locate_crossing(loc: _Locator, p0: Point, w0: np.ndarray, lo: _Eval, hi: _E
     while evals < crit.max_evaluations:
         width = hi.sigma - lo.sigma
         if abs(hi.lam - lo.lam) <= crit.rel_tol * abs(lo.lam) * 0.5 and evals >= 1:
+            break
+        b_t = tracked()[0]
+        fl, fh = crossing(lo, b_t), crossing(hi, b_t)
+        if fl * fh > 0 and (fl < 0) == (c1[b_t] > c0[b_t]):
+            # the crossing eigenvalue has crossed at the low end already (its inertia there
+            # was decided by round-off): the crossing lies just before it, extrapolated
+            # linearly with the eigenvalue's slope over the bracket
+            slope = (fh - fl) / (hi.lam - lo.lam)
+            interpolated = (lo.lam - fl / slope, abs(fl / slope))
+            log.info("critical point at the bracket's low end kappa L = %.8g: its crossing "
+                     "eigenvalue %.3e has the sign of the high end", lo.lam, fl)
             break
         if width <= 1e-7 * max(hi.sigma, 1e-300):
             # κ jumps across a vanishing arclength interval: the path turns sharply, as at a

@@ -107,3 +107,14 @@ def test_bad_spec_values():
         MeshSpec(SHAPES["sphere"], h=-0.1)
     with pytest.raises(InputError, match="order"):
         MeshSpec(SHAPES["sphere"], order=3)
+
+
+@pytest.mark.parametrize("radius", [0.01, 0.1, 1000.0])
+def test_any_radius_meshes_the_cap(radius):
+    """The flat base is dropped and the rim found at any scale: OCC pads bounding boxes by an
+    absolute tolerance, and a bound relative to R alone failed below R = 0.25 (the base kept,
+    area error 93 %, no rim)."""
+    shape = SphericalCap(radius, math.radians(30))
+    sm = generate(MeshSpec(shape, h=0.02 * radius, size=0.2))
+    assert sm.area() == pytest.approx(shape.area(), rel=1e-6)
+    assert sm.rim_length() == pytest.approx(shape.rim_length(), rel=1e-7)

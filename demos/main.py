@@ -109,20 +109,19 @@ def run(outdir: str | Path = "results/demo", quick: bool = False) -> dict:
     kr_buckled = -0.72 if quick else -1.2
     # the buckled shell and its axisymmetric comparison on one mesh (quick: a coarser one)
     size_b, layer_b = (0.35, 3.0) if quick else (size, layer)
-    runs = (("snap_onset", 1.35, (0.5, 1.0)), ("axisymmetric", kr_buckled, (-0.4, -0.8)))
+    runs = (("snap_onset", 1.35, (0.5, 1.0), size, layer),
+            ("axisymmetric", kr_buckled, (-0.4, -0.8), size_b, layer_b))
     out["snapped"] = snapped_shape(cap, 0.04, 2.0, size, layer,
                                    outdir / "snapped" / "fields.bp")
     say(f"snapped: kappa R = +2.000, everted shell (stable: {out['snapped']['stable']}), apex "
         f"displacement {out['snapped']['apex_uz_over_h']:+.2f} h -> "
         f"{outdir / 'snapped' / 'fields.bp'}")
-    for name, kr, stops in runs:
+    for name, kr, stops, run_size, run_layer in runs:
         # steps of at most 0.4 in κR, grown while Newton needs at most 5 iterations
         st = ContinuationSettings(method="natural", ds=0.4, ds_max=0.4, kappa_stops=stops,
                                   target_newton_its=5, max_newton_its=25)
-        bc = BranchConfig(shape=cap, h_over_r=0.04, kappa_end=kr,
-                          size=size_b if name == "axisymmetric" else size,
-                          layer_elements=layer_b if name == "axisymmetric" else layer,
-                          continuation=st)
+        bc = BranchConfig(shape=cap, h_over_r=0.04, kappa_end=kr, size=run_size,
+                          layer_elements=run_layer, continuation=st)
         pts = list(run_branch(bc, outdir / name, fields="last", resume=False, label=name))
         out[name] = pts[-1]
         say(f"{name}: kappa R = {pts[-1]['kappa_R']:+.3f}, apex displacement "

@@ -330,11 +330,12 @@ def arclength_steps(ar: _Arclength, st: ContinuationSettings, lam: float, lam_en
     """
     w = ar.w
     secant = secant_from is not None
-    tw_prev = w.duplicate()
+    # the previous point's state (secant tangent) or tangent (Jacobian tangent: its orientation)
+    prev = w.duplicate()
     zero = w.duplicate()
     zero.set(0.0)
     if secant:
-        secant_from[0].copy(tw_prev)  # the previous point's state
+        secant_from[0].copy(prev)
         lam_prev = secant_from[1]
     ds = st.ds
     n = 0
@@ -342,7 +343,7 @@ def arclength_steps(ar: _Arclength, st: ContinuationSettings, lam: float, lam_en
         while n < st.max_steps:
             if secant:
                 w.copy(ar.tw)
-                ar.tw.axpy(-1.0, tw_prev)
+                ar.tw.axpy(-1.0, prev)
                 tl = lam - lam_prev
                 norm = math.sqrt(ar.cw * ar.tw.dot(ar.tw) + tl * tl)
                 ar.tw.scale(1.0 / norm)
@@ -381,11 +382,11 @@ def arclength_steps(ar: _Arclength, st: ContinuationSettings, lam: float, lam_en
                     log.info("continuation: step below ds_min at kappa L = %.6g", lam)
                     return
             if secant:
-                ar.w_old.copy(tw_prev)
+                ar.w_old.copy(prev)
                 lam_prev = lam
             else:
-                ar.tw.copy(tw_prev)
-                ar.tangent((tw_prev, ar.tl), direction)
+                ar.tw.copy(prev)
+                ar.tangent((prev, ar.tl), direction)
             lam = c.lam
             n += 1
             yield c.its, step, ar.tl, c.multipliers
@@ -393,7 +394,7 @@ def arclength_steps(ar: _Arclength, st: ContinuationSettings, lam: float, lam_en
                 return
             ds = min(st.ds_max, max(st.ds_min, ds * _growth(c.its, st.target_newton_its)))
     finally:
-        tw_prev.destroy()
+        prev.destroy()
         zero.destroy()
 
 

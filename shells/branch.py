@@ -93,8 +93,7 @@ class BranchConfig(RunScales):
 def point_record(p: Point, cfg: BranchConfig) -> dict[str, Any]:
     """The JSON record of a point; public keys: kappa_R, kappa_h, psi3_over_h, energy, ..."""
     d = p.as_dict()
-    R = cfg.shape.R
-    d["kappa_R"] = p.kappa * (R if math.isfinite(R) else cfg.L)
+    d["kappa_R"] = p.kappa * cfg.R
     d["kappa_h"] = p.kappa * cfg.h
     return d
 

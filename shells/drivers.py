@@ -41,8 +41,10 @@ def _rank() -> int:
 
 
 def _R_or_L(shape: Any) -> float:
-    """The length of κR: the pole radius R (the disk's radius)."""
-    return shape.R if math.isfinite(shape.R) else shape.characteristic_size()
+    """The length of κR (``shells.geometry.kappa_length``)."""
+    from shells.geometry import kappa_length
+
+    return kappa_length(shape)
 
 
 # --------------------------------------------------------------------------------------------

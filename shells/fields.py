@@ -1,4 +1,11 @@
-"""Fields for ParaView: displacement, director and curvature quantities of a shell state.
+"""Fields for ParaView: displacement, director, curvature and energy densities of a shell state
+(output layer).
+
+Energy densities per reference area, dimensionless as the energy: ``bending_energy_density``
+e_b, the paper's colouring of its ellipsoids, the last two terms of Eq. (S-energy), (h²/3)
+[(1-ν)|b - b°|² + ν tr²(b - b°)] - (2(1+ν)/3) h² κ tr(b - b°) (it can be negative: it is the
+bending energy relative to the natural curvature, less a constant), and
+``stretching_energy_density`` (1-ν)|a - a°|² + ν tr²(a - a°).
 
 ``FieldWriter`` interpolates onto the mesh's own (P2) Lagrange space and writes one time step per
 call (the caller's time value: ``shells branch`` uses the point's index). The format is VTX
@@ -34,18 +41,24 @@ class FieldWriter:
         self.d = fem.Function(Vv, name="director")
         self.H = fem.Function(Vs, name="mean_curvature_change")
         self.Hbar = fem.Function(Vs, name="natural_curvature_mismatch")
+        self.eb = fem.Function(Vs, name="bending_energy_density")
+        self.es = fem.Function(Vs, name="stretching_energy_density")
         k, r = model.kinematics(model.w), model.reference()
+        dens = model.energy_density(model.w)
+        spts = Vs.element.interpolation_points()
         pts = Vv.element.interpolation_points()
         self._exprs = [
             (self.u, fem.Expression(k["u"], pts)),
             (self.d, fem.Expression(k["d"], pts)),
             (self.H, fem.Expression(0.5 * ufl.tr(k["b"] - r["b"]),
-                                    Vs.element.interpolation_points())),
+                                    spts)),
             (self.Hbar, fem.Expression(0.5 * ufl.tr(k["b"] - r["b"] - model.kappa * model.P0),
-                                       Vs.element.interpolation_points())),
+                                       spts)),
+            (self.eb, fem.Expression(dens["bending"] + dens["curvature_potential"], spts)),
+            (self.es, fem.Expression(dens["stretching"], spts)),
         ]
         Path(path).parent.mkdir(parents=True, exist_ok=True)
-        self.writer = io.VTXWriter(mesh.comm, str(path), [self.u, self.d, self.H, self.Hbar],
+        self.writer = io.VTXWriter(mesh.comm, str(path), [f for f, _ in self._exprs],
                                    engine="BP4")
 
     def update(self) -> dict[str, Any]:

@@ -144,6 +144,12 @@ class Shape:
         """A length scale of the whole shape, for mesh sizes."""
         return self.R
 
+    def layer_radius(self) -> float:
+        """R of the rim boundary layer's width sqrt(R h): the azimuthal radius of curvature at
+        the rim (a sphere's R; flat shapes: the characteristic size). Both models' meshes are
+        graded with it."""
+        return self.R if math.isfinite(self.R) else self.characteristic_size()
+
 
 @dataclass(frozen=True)
 class _AngleShape(Shape):
@@ -333,6 +339,13 @@ class EllipsoidalCap(_AngleShape):
     def characteristic_size(self) -> float:
         return min(self.radius, self.r3)
 
+    def layer_radius(self) -> float:
+        # the azimuthal radius of curvature at the rim: a sqrt(D)/c at colatitude theta
+        # (the equatorial radius r1 at theta = pi/2)
+        t = self.theta
+        D = self.radius**2 * math.cos(t) ** 2 + self.r3**2 * math.sin(t) ** 2
+        return self.radius * math.sqrt(D) / self.r3
+
     def meridian(self, t):
         return self.radius * np.sin(t), self.r3 * np.cos(t)
 
@@ -429,7 +442,7 @@ class RunScales:
     """The length scales of a run on ``self.shape`` with thickness ratio ``self.h_over_r``
     (a mixin for the run configurations): L, the shape's ``characteristic_size`` (h/R is h/L
     and the continuation runs in κL); h = (h/R) L; R, the length of κR: the pole radius of
-    curvature (the disk's radius)."""
+    curvature (the disk's radius; the ellipsoid's equatorial radius r1, as in the paper)."""
 
     shape: Shape
     h_over_r: float
@@ -448,7 +461,10 @@ class RunScales:
 
 
 def kappa_length(shape: Shape) -> float:
-    """The length of κR: the pole radius of curvature R (the disk, flat: its radius)."""
+    """The length of κR: the pole radius of curvature R of spheres and caps; the ellipsoid's
+    equatorial radius r1 (the paper's R = r1 = r2); the disk's radius."""
+    if isinstance(shape, EllipsoidalCap):
+        return shape.radius
     return shape.R if math.isfinite(shape.R) else shape.characteristic_size()
 
 

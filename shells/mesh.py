@@ -95,10 +95,11 @@ class MeshSpec:
 
     @property
     def layer_width(self) -> float | None:
-        """Boundary-layer width sqrt(R h) (R: the rim's scale), or None without thickness."""
+        """Boundary-layer width sqrt(R h) (R: ``Shape.layer_radius``), or None without
+        thickness."""
         if self.h is None or self.shape.closed:
             return None
-        return math.sqrt(self.shape.characteristic_size() * self.h)
+        return math.sqrt(self.shape.layer_radius() * self.h)
 
     @property
     def layer_size(self) -> float:

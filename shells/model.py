@@ -14,10 +14,15 @@ potential P_κ = -(2(1+ν)/3) h² κ ∫ tr(b - b°), the paper's Eq. (1).
 Discretisation (frame-free, valid on closed surfaces): the unknown is w = (u, θ) in a blocked P2⁶
 Lagrange space on the (second-order) surface mesh: u the Cartesian displacement, θ a Cartesian
 director increment. Deformation gradient F = P° + ∇u (P° = J J⁺ the tangential projector), metric
-a = Fᵀ F, director d = normalize(n° + (I - n°⊗n°) θ) with n° the analytic outward normal,
-curvature b = -sym(Fᵀ ∇d P°), shear γ = Fᵀ d. Reference quantities (a°, b°, γ°) use the same
-formulas at w = 0, so the reference state is exactly stress-free. The normal part of θ does not
-enter d; a unit-weight term ∫ (θ·n°)² removes that null direction.
+a = Fᵀ F, director d = v/|v| with v = A n° + θ (n° the analytic outward normal, A a constant
+matrix, the identity but on the everted branch), curvature b = -sym(Fᵀ ∇d P°), shear γ = Fᵀ d.
+The director is any unit vector: it can rotate by any angle (a snapped cap turns its rim by twice
+its opening angle), and only |v| → 0 is singular, which the unit-weight term ∫ ((|v|² - 1)/2)²
+keeps away while it removes the null direction of θ (the length of v, which d does not see).
+Reference quantities (a°, b°, γ°) use the same formulas at w = 0, so the reference state is
+exactly stress-free. ``ModelParameters.director = "tangent"`` is the earlier chart d =
+normalize(n° + (I - n°⊗n°) θ) with the gauge ∫ (θ·n°)², limited to rotations below 90°; both
+charts give the same stability answer at an equilibrium (docs/model.md, "Director charts").
 
 Kirchhoff-Love limit: the shear term is c_s = shear_penalty · (10/3)(1-ν), i.e. ``shear_penalty``
 times the natural Naghdi shear stiffness (shear factor 5/6). A shear-flexible Naghdi model with
@@ -81,6 +86,8 @@ class ModelParameters:
         shear_penalty: multiple of the natural Naghdi shear stiffness (Kirchhoff-Love limit).
         degree: polynomial degree of u and θ.
         quadrature_degree: quadrature degree of the energy (full integration).
+        director: ``"free"`` (d = v/|v|, v = A n° + θ: rotations of any size) or ``"tangent"``
+            (d = normalize(n° + (I - n°⊗n°) θ): rotations below 90°, the earlier chart).
     """
 
     h: float
@@ -88,6 +95,7 @@ class ModelParameters:
     shear_penalty: float = 1.0e3
     degree: int = 2
     quadrature_degree: int = 4
+    director: str = "free"
 
     def __post_init__(self) -> None:
         if not (isinstance(self.h, (int, float)) and math.isfinite(self.h) and self.h > 0):
@@ -98,6 +106,8 @@ class ModelParameters:
             raise InputError(f"shear_penalty must be positive, got {self.shear_penalty!r}")
         if self.degree not in (1, 2, 3):
             raise InputError(f"degree must be 1, 2 or 3, got {self.degree!r}")
+        if self.director not in ("free", "tangent"):
+            raise InputError(f"director must be 'free' or 'tangent', got {self.director!r}")
 
 
 @dataclass
@@ -129,6 +139,10 @@ class ShellModel(FormProblem):
         self.W = fem.functionspace(mesh, el)
         self.w = fem.Function(self.W, name="state")
         self.kappa = fem.Constant(mesh, default_scalar_type(0.0))
+        # the director chart: base A (v = A n° + θ) and the sign of the reference shear, the
+        # identity and +1, or the mirror -M and -1 (set_everted_guess)
+        self.director_base = fem.Constant(mesh, np.eye(3, dtype=default_scalar_type))
+        self.shear_sign = fem.Constant(mesh, default_scalar_type(1.0))
         self.pressure = fem.Constant(mesh, default_scalar_type(0.0))
         self.h = fem.Constant(mesh, default_scalar_type(p.h))
         self.nu = fem.Constant(mesh, default_scalar_type(p.nu))
@@ -166,14 +180,27 @@ class ShellModel(FormProblem):
         u, th = self.split(w)
         n0, P0 = self.n0, self.P0
         F = P0 + ufl.grad(u)
-        v = n0 + th - ufl.dot(th, n0) * n0
+        if self.params.director == "free":
+            v = self.director_base * n0 + th
+            gauge = 0.25 * (ufl.dot(v, v) - 1.0) ** 2
+        else:
+            v = n0 + th - ufl.dot(th, n0) * n0
+            gauge = ufl.dot(th, n0) ** 2
         d = v / ufl.sqrt(ufl.dot(v, v))
         grad_d = ufl.grad(d) * P0
         b = -0.5 * (F.T * grad_d + grad_d.T * F)
-        return {"u": u, "theta": th, "F": F, "a": F.T * F, "b": b, "gamma": F.T * d, "d": d}
+        return {"u": u, "theta": th, "F": F, "a": F.T * F, "b": b, "gamma": F.T * d, "d": d,
+                "gauge": gauge}
 
     def reference(self) -> dict[str, Any]:
-        """a°, b°, γ° from the same formulas at w = 0."""
+        """a°, b°, γ° from the same formulas at w = 0.
+
+        γ° = P°ᵀ n° is not exactly 0: the analytic normal is not exactly normal to the
+        second-order mesh (an angle O(size²)), and the stiff shear term must not see that as
+        strain. On the mirror chart (``set_everted_guess``) the base state is the mirrored
+        reference surface with the mirrored director -M n°, whose shear is -γ°: each chart's
+        base state is shear-free, and the discrete problem is exactly mirror-symmetric.
+        """
         import ufl
 
         n0, P0 = self.n0, self.P0
@@ -182,7 +209,7 @@ class ShellModel(FormProblem):
         else:  # the disk's constant normal carries no mesh for ufl.grad
             grad_n = ufl.as_matrix([[0.0] * 3] * 3) * P0
         b0 = -0.5 * (P0.T * grad_n + grad_n.T * P0)
-        return {"a": P0.T * P0, "b": b0, "gamma": P0.T * n0}
+        return {"a": P0.T * P0, "b": b0, "gamma": self.shear_sign * (P0.T * n0)}
 
     def _quad(self, A: Any) -> Any:
         """(1-ν) tr(A²) + ν tr²(A) for a symmetric tangential tensor A."""
@@ -198,11 +225,11 @@ class ShellModel(FormProblem):
         Ea = k["a"] - r["a"]
         Eb = k["b"] - r["b"]
         bbar_gap = Eb - self.kappa * self.P0  # b - b̄
-        u, th = k["u"], k["theta"]
+        u = k["u"]
         stretch = self._quad(Ea)
         bend_nat = self.h**2 / 3 * self._quad(bbar_gap)
         shear = self.c_shear * ufl.dot(k["gamma"] - r["gamma"], k["gamma"] - r["gamma"])
-        gauge = ufl.dot(th, self.n0) ** 2
+        gauge = k["gauge"]
         load = 8 * (1 - self.nu**2) * self.pressure / self.h * ufl.dot(u, self.n0)
         return {
             "total": stretch + bend_nat + shear + gauge + load,
@@ -230,6 +257,14 @@ class ShellModel(FormProblem):
             self._scalar_forms[f"n{i}_integral"] = fem.form(self.n0[i] * self.dx)
         self._scalar_forms["area"] = fem.form(fem.Constant(self.shell.mesh, 1.0) * self.dx)
         self._scalar_forms.update(self._work_forms())
+        if not self.shape.closed and self.shell.facet_tags is not None:
+            # the director's rotation from the reference normal, averaged over the rim: a snapped
+            # cap turns its rim by about twice its opening angle
+            cos_rot = ufl.max_value(-1.0, ufl.min_value(1.0, ufl.dot(self.kinematics(self.w)["d"],
+                                                                     self.n0)))
+            self._scalar_forms["rim_rotation"] = fem.form(ufl.acos(cos_rot) * self.ds(RIM_TAG))
+            self._scalar_forms["rim_length"] = fem.form(
+                fem.Constant(self.shell.mesh, 1.0) * self.ds(RIM_TAG))
         # metric for eigenproblems: L2 mass of u and θ (SPD)
         dw, w_ = ufl.TestFunction(self.W), ufl.TrialFunction(self.W)
         self.mass = fem.form(ufl.inner(w_, dw) * self.dx)
@@ -351,6 +386,9 @@ class ShellModel(FormProblem):
         h = float(self.h.value)
         out["psi3_over_h"] = psi3 / h
         out.update(self._apex(float(mean_u[2])))
+        if "rim_rotation" in self._scalar_forms:
+            out["rim_rotation_deg"] = math.degrees(self.assemble("rim_rotation")
+                                                   / self.assemble("rim_length"))
         if "W_bulk" in self._scalar_forms:
             self._u_shift.value[:] = mean_u
             for k in ("W_bulk", "W_edge"):
@@ -398,11 +436,16 @@ class ShellModel(FormProblem):
     def set_everted_guess(self) -> None:
         """Set the state to the open shell mirrored through its rim plane (an isometry).
 
-        u = (0, 0, 2(z_rim - z)); the director keeps the material orientation, d = (-n_x, -n_y,
-        n_z) (unchanged at the pole, rotated by twice the rim angle at the rim: below 90° for
-        caps with θ < 45°, which the director parametrisation can represent). A Newton start
-        for the everted (snapped) branch, which continuation from κ = 0 reaches only through
-        two folds.
+        u = (0, 0, 2(z_rim - z)) and the director keeps the material orientation, d = -M n° =
+        (-n_x, -n_y, n_z) with M the mirror (unchanged at the pole, rotated by twice the rim
+        angle at the rim). With the free director this is the mirror chart: director base
+        A = -M, reference shear -γ° (``reference``) and θ = 0; the mirror maps the original
+        chart's states onto it exactly, so its equilibrium at κ is the image of the original
+        one at 2/R - κ on sphere caps, up to the mesh's departure from the sphere (b° ≠ -a°/R by
+        O(size³): energies 3-4e-6 apart at size 0.2, docs/model.md). The tangent chart
+        represents the mirror only for caps below 45° (θ = d/(d·n°) - n°). A Newton start for
+        the everted (snapped) branch, which continuation from κ = 0 reaches only through two
+        folds.
         """
         import ufl
         from dolfinx import fem
@@ -411,9 +454,14 @@ class ShellModel(FormProblem):
             raise InputError("a closed shell has no rim plane to evert through")
         z_rim = float(self.shape.meridian(np.array(self.shape.t_max))[1])
         x, n0 = self._x, self.n0
-        d = ufl.as_vector([-n0[0], -n0[1], n0[2]])
-        th = d / ufl.dot(d, n0) - n0
         zero = 0.0 * x[0]
+        if self.params.director == "free":
+            self.director_base.value[:] = np.diag([-1.0, -1.0, 1.0])
+            self.shear_sign.value = -1.0
+            th = ufl.as_vector([zero, zero, zero])
+        else:
+            d = ufl.as_vector([-n0[0], -n0[1], n0[2]])
+            th = d / ufl.dot(d, n0) - n0
         e = ufl.as_vector([zero, zero, 2 * (z_rim - x[2]), th[0], th[1], th[2]])
         self.w.interpolate(fem.Expression(e, self.W.element.interpolation_points()))
         self.w.x.scatter_forward()

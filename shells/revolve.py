@@ -4,9 +4,11 @@
 ``revolve(profile, m=None, ...)`` turns a meridian state (``AxisymModel.meridian_profile()``)
 into a pyvista ``StructuredGrid`` of the deformed surface, with the point arrays of the surface
 model's fields where they exist: ``displacement`` (Cartesian, 3 components) and
-``normal_displacement`` (u·n°). ``write_vts`` writes it as VTK XML structured grid (``.vts``),
-which ParaView opens with its default reader; ``write_profile_csv`` writes the meridian as CSV.
-A mode m ≥ 1 can be superposed as ``amplitude`` cos(mφ) times a given meridian mode shape.
+``normal_displacement`` (u·n°), and where the profile has them, ``bending_energy_density`` and
+``stretching_energy_density`` (of the axisymmetric state). ``write_vts`` writes it as VTK XML
+structured grid (``.vts``), which ParaView opens with its default reader;
+``write_profile_csv`` writes the meridian as CSV. A mode m ≥ 1 can be superposed as
+``amplitude`` cos(mφ) times a given meridian mode shape.
 """
 
 from __future__ import annotations
@@ -51,6 +53,10 @@ def revolve(profile: dict[str, np.ndarray], n_phi: int = 97, mode: dict[str, Any
     grid.point_data["displacement"] = np.stack([U[..., k].ravel(order="F") for k in range(3)],
                                                axis=1)
     grid.point_data["normal_displacement"] = np.sum(U * N, axis=-1).ravel(order="F")
+    for key, name in (("eb", "bending_energy_density"), ("es", "stretching_energy_density")):
+        if key in profile:
+            grid.point_data[name] = np.repeat(profile[key][:, None], n_phi, axis=1).ravel(
+                order="F")
     return grid
 
 

@@ -51,8 +51,7 @@ def make_meridian_nodes(shape: Shape, h: float, cells: int, layer_cells: float,
     if shape.closed:
         s_nodes = np.linspace(0.0, S, cells + 1)
     else:
-        R = shape.R if math.isfinite(shape.R) else shape.characteristic_size()
-        ell = math.sqrt(R * h)
+        ell = math.sqrt(shape.layer_radius() * h)
         bulk = S / cells
         size = min(ell / layer_cells, bulk)
         sizes, d = [], 0.0

@@ -333,7 +333,9 @@ class AxisymModel(FormProblem):
 
     def meridian_profile(self) -> dict[str, np.ndarray]:
         """The state on the meridian at the mesh vertices, pole to pole/rim: reference t, r°,
-        z° and displacement u_r, u_z (the mean u_z removed: no rigid translation)."""
+        z° and displacement u_r, u_z (the mean u_z removed: no rigid translation); the energy
+        densities per reference area ``eb`` (bending, the last two terms of Eq. (S-energy)) and
+        ``es`` (stretching), cell averages (midpoint values) averaged onto the vertices."""
         Vu, dofs = self.W.sub(0).collapse()
         t = Vu.tabulate_dof_coordinates()[:, 0]
         u = self.w.x.array[np.asarray(dofs)].reshape(-1, 2)
@@ -342,8 +344,36 @@ class AxisymModel(FormProblem):
         r0, z0 = self.shape.meridian(verts)
         area = self.assemble("area")
         uz = u[idx, 1] - self.assemble("uz_integral") / area
-        return {"t": verts, "r0": np.asarray(r0), "z0": np.asarray(z0), "ur": u[idx, 0],
-                "uz": uz}
+        out = {"t": verts, "r0": np.asarray(r0), "z0": np.asarray(z0), "ur": u[idx, 0],
+               "uz": uz}
+        out.update(self._vertex_densities(verts))
+        return out
+
+    def _vertex_densities(self, verts: np.ndarray) -> dict[str, np.ndarray]:
+        """e_b and e_s at the vertices ``verts`` (sorted): the densities at the cells'
+        midpoints (no vertex evaluation: the pole has r° = 0), averaged over neighbouring
+        cells."""
+        from dolfinx import fem
+
+        if not hasattr(self, "_density_fns"):
+            V0 = fem.functionspace(self.mesh, ("DG", 0))
+            dens = self.energy_density(self.base_jet(self.w))
+            pts = V0.element.interpolation_points()
+            self._density_fns = {
+                k: (fem.Function(V0), fem.Expression(e, pts))
+                for k, e in (("eb", dens["bending"] + dens["curvature_potential"]),
+                             ("es", dens["stretching"]))}
+            self._density_mid = V0.tabulate_dof_coordinates()[:, 0]
+        order = np.argsort(self._density_mid)
+        out = {}
+        for k, (f, e) in self._density_fns.items():
+            f.interpolate(e)
+            cells = f.x.array[order]  # cell j spans verts j, j + 1
+            v = np.empty(len(verts))
+            v[0], v[-1] = cells[0], cells[-1]
+            v[1:-1] = 0.5 * (cells[:-1] + cells[1:])
+            out[k] = v
+        return out
 
     def uz_at(self, t: np.ndarray) -> np.ndarray:
         """u_z at mesh nodes t (values of the P3 field at vertices)."""

@@ -5,7 +5,6 @@ either model; the run is ``shells.drivers.branch_surface`` / ``branch_axisym``.
 from __future__ import annotations
 
 import argparse
-import math
 from collections.abc import Callable
 from typing import Any
 
@@ -62,7 +61,9 @@ def _cmd_branch(args: argparse.Namespace) -> int:
     outdir = args.output or "results/branch"
     if args.model == "axisym":
         L = shape.characteristic_size()
-        R_or_L = shape.R if math.isfinite(shape.R) else L
+        from shells.geometry import kappa_length
+
+        R_or_L = kappa_length(shape)
         kr = (args.kappa_h_max * R_or_L / (args.h_over_r * L) if args.kappa_h_max is not None
               else args.kappa_r_max)
         result = drivers.branch_axisym(shape, args.h_over_r, args.nu, kr, outdir)

@@ -179,7 +179,9 @@ def kappa_end(shape: Any, h_over_r: float, kappa_h: float | None, kappa_r: float
     if kappa_h is not None:
         k = kappa_h / (h_over_r * L)
     elif kappa_r is not None:
-        k = kappa_r / (shape.R if math.isfinite(shape.R) else L)
+        from shells.geometry import kappa_length
+
+        k = kappa_r / kappa_length(shape)
     else:
         return None
     return k if direction is None else abs(k) if direction == "up" else -abs(k)

@@ -48,7 +48,10 @@ class BranchConfig(RunScales):
         h_over_r: thickness over the shape's length scale L (R; the disk's radius).
         nu: Poisson ratio.
         kappa_end: final natural curvature κ (absolute, 1/length); its sign is the direction.
-        size, layer_elements: mesh parameters (see ``MeshSpec``).
+        size, layer_elements: mesh parameters (see ``MeshSpec``; size None: the default of
+            ``shells.model.default_discretisation``).
+        degree: polynomial degree of the surface model (None: ``default_discretisation``'s,
+            P3 on closed spheres, deep caps and ellipsoids, where P2 locks).
         shear_penalty: Kirchhoff-Love penalty factor of the surface model.
         continuation: continuation settings.
     """
@@ -57,12 +60,19 @@ class BranchConfig(RunScales):
     h_over_r: float
     nu: float = 0.5
     kappa_end: float = 1.0
-    size: float = 0.1
+    size: float | None = None
     layer_elements: float = 4.0
     shear_penalty: float = 1.0e3
     continuation: ContinuationSettings = field(default_factory=ContinuationSettings)
+    degree: int | None = None
 
     def __post_init__(self) -> None:
+        from shells.model import default_discretisation
+
+        if self.degree is None or self.size is None:
+            deg, size = default_discretisation(self.shape, self.h_over_r, self.degree, self.size)
+            object.__setattr__(self, "degree", self.degree or deg)
+            object.__setattr__(self, "size", self.size or size)
         if not (math.isfinite(self.h_over_r) and 0 < self.h_over_r < 1):
             raise InputError(f"h/R must lie in (0, 1), got {self.h_over_r!r}")
         if not (-1.0 < self.nu <= 0.5):
@@ -87,7 +97,8 @@ class BranchConfig(RunScales):
         c["kappa_stops"] = tuple(c.get("kappa_stops", ()))
         return cls(shape=shape_from_description(d["shape"]), h_over_r=d["h_over_r"], nu=d["nu"],
                    kappa_end=d["kappa_end"], size=d["size"], layer_elements=d["layer_elements"],
-                   shear_penalty=d["shear_penalty"], continuation=ContinuationSettings(**c))
+                   shear_penalty=d["shear_penalty"], continuation=ContinuationSettings(**c),
+                   degree=d.get("degree", 2))
 
 
 def point_record(p: Point, cfg: BranchConfig) -> dict[str, Any]:
@@ -239,7 +250,9 @@ def run_branch(cfg: BranchConfig, outdir: str | os.PathLike, *, comm: Any = None
     t0 = time.perf_counter()
     shell = shell or generate(cfg.mesh_spec(), comm)
     model = ShellModel(shell, ModelParameters(h=cfg.h, nu=cfg.nu,
-                                              shear_penalty=cfg.shear_penalty))
+                                              shear_penalty=cfg.shear_penalty,
+                                              degree=cfg.degree,
+                                              quadrature_degree=2 * cfg.degree))
     header["dofs"] = model.num_dofs()
     log.info("%s: %s, %d DOFs on %d rank(s), set-up %.1f s", label, cfg.shape.describe(),
              header["dofs"], comm.size, time.perf_counter() - t0)

@@ -26,7 +26,8 @@ __all__ = ["FieldWriter"]
 class FieldWriter:
     """VTX (ADIOS2) output of displacement, director and curvature fields for ParaView."""
 
-    def __init__(self, model: Any, path: str | os.PathLike) -> None:
+    def __init__(self, model: Any, path: str | os.PathLike | None) -> None:
+        """``path`` None: the fields only (``update``), no file."""
         import basix.ufl
         import ufl
         from dolfinx import fem, io
@@ -57,9 +58,11 @@ class FieldWriter:
             (self.eb, fem.Expression(dens["bending"] + dens["curvature_potential"], spts)),
             (self.es, fem.Expression(dens["stretching"], spts)),
         ]
-        Path(path).parent.mkdir(parents=True, exist_ok=True)
-        self.writer = io.VTXWriter(mesh.comm, str(path), [f for f, _ in self._exprs],
-                                   engine="BP4")
+        self.writer = None
+        if path is not None:
+            Path(path).parent.mkdir(parents=True, exist_ok=True)
+            self.writer = io.VTXWriter(mesh.comm, str(path), [f for f, _ in self._exprs],
+                                       engine="BP4")
 
     def update(self) -> dict[str, Any]:
         """Interpolate the fields of the model's current state; returns name -> dolfinx Function."""
@@ -72,7 +75,8 @@ class FieldWriter:
         self.writer.write(t)
 
     def close(self) -> None:
-        self.writer.close()
+        if self.writer is not None:
+            self.writer.close()
 
 
 def write_modes(model: Any, state: Any, modes: list[Any], path: str | os.PathLike) -> None:

@@ -55,24 +55,38 @@ from shells.problem import ModeInfo
 __all__ = ["ModelParameters", "ShellModel", "default_discretisation"]
 
 
-def default_discretisation(shape: Shape, degree: int | None = None, size: float | None = None
+#: caps deeper than this θ̄ = θ/√(h/R) get P3 by default (P2 locks on deep shells)
+P2_THETABAR_MAX = 3.0
+
+
+def default_discretisation(shape: Shape, h_over_r: float | None = None,
+                           degree: int | None = None, size: float | None = None
                            ) -> tuple[int, float]:
     """(degree, bulk mesh size / R) of the surface model that give right answers on ``shape``.
 
-    Closed spheres: P3 at size 0.21. P2 with the stiff Kirchhoff-Love penalty locks there:
-    κ_b h of the h/R = 0.05 sphere is 1.71 / 1.61 / 1.56 on refining meshes against a converged
-    1.484, while P3 at size 0.21 gives 1.4901 (+0.4 %; docs/model.md,
-    benchmarks/results/sphere_buckling.json); an explicit degree 2 is refused. Other shapes:
-    P2 at size 0.1 (the 30-degree cap's fold within 0.1 % of P3).
+    P2 with the stiff Kirchhoff-Love penalty locks on deep shells (bending-dominated states of a
+    curved surface). Closed spheres: P3 at size 0.21: κ_b h of the h/R = 0.05 sphere is 1.4901
+    (+0.4 % of the converged 1.484) where P2 gives 1.71 / 1.61 / 1.56 on refining meshes
+    (docs/model.md, benchmarks/results/sphere_buckling.json); an explicit degree 2 is refused.
+    Caps of θ̄ ≤ 3 and the flat disk: P2 at size 0.1 (the 30° cap at h/R = 0.04, θ̄ = 2.6: its
+    fold within 0.1 % of the converged value). Deeper caps and ellipsoids: P3 at size 0.2 (the
+    ellipsoid r3 = 1.5 R at h/R = 0.04: m = 2 buckling at κR = -0.57382 against the 1D model's
+    -0.57386, where P2 gives -0.6226, +8.5 %; the θ̄ = 5 cap's fold +5.1 % with P2:
+    benchmarks/shapes_3d.py).
     """
+    from shells.geometry import EllipsoidalCap, SphericalCap
+
     sphere = shape.closed and shape.kind == "sphere"
     if sphere and degree == 2:
         raise InputError("P2 locks on a closed sphere (kappa_b h 1.56-1.71 against a converged "
                          "1.484 at h/R = 0.05, docs/model.md): use --degree 3 (the default)")
+    deep = isinstance(shape, EllipsoidalCap) or (
+        isinstance(shape, SphericalCap) and not sphere and h_over_r is not None
+        and shape.theta / math.sqrt(h_over_r) > P2_THETABAR_MAX)
     if degree is None:
-        degree = 3 if sphere else 2
+        degree = 3 if sphere or deep else 2
     if size is None:
-        size = 0.21 if sphere else 0.1
+        size = 0.21 if sphere else 0.2 if deep else 0.1
     return degree, size
 
 

@@ -69,7 +69,8 @@ class PostbuckleConfig(RunScales):
             mirror images: one may do).
         amplitude: first mode amplitude (RMS in thicknesses) of the bifurcated branch.
         cells, size, layer_elements, degree: discretisation of the 1D / surface model (None:
-            the model's defaults; the surface model: size 0.2, 3 layer elements, P2).
+            the model's defaults; the surface model: 3 layer elements, size and degree of
+            ``shells.model.default_discretisation``, P3 where P2 locks).
         penalty: the 1D model's C1 penalty (None: 1e6 on closed shells, else its default).
     """
 
@@ -85,9 +86,9 @@ class PostbuckleConfig(RunScales):
     amplitude: float = 0.25
     cells: int | None = None
     penalty: float | None = None
-    size: float = 0.2
+    size: float | None = None
     layer_elements: float = 3.0
-    degree: int = 2
+    degree: int | None = None
     sides: tuple[int, ...] = (1, -1)
 
     def __post_init__(self) -> None:
@@ -114,6 +115,15 @@ class PostbuckleConfig(RunScales):
                                                and self.kappa_end * sign > 0):
             raise InputError("the end of the kappa range must be a nonzero number of the sign "
                              "of --direction")
+        if self.model == "surface" and (self.degree is None or self.size is None):
+            from shells.model import default_discretisation
+
+            # size 0.2 with 3 layer elements: the 30° cap's m = 2 bifurcation within 3e-4 of
+            # the 1D model's (P2), the ellipsoid's within 1e-4 (P3)
+            deg, size = default_discretisation(self.shape, self.h_over_r, self.degree,
+                                               0.2 if self.size is None else self.size)
+            object.__setattr__(self, "degree", deg)
+            object.__setattr__(self, "size", size)
 
     @property
     def kappa_stop(self) -> float:

@@ -18,7 +18,7 @@ import numpy as np
 if TYPE_CHECKING:
     from shells.mesh import ShellMesh
 
-__all__ = ["ensure_display", "gather_vtk_mesh", "render_mesh"]
+__all__ = ["ensure_display", "gather_vtk_mesh", "render_mesh", "render_state"]
 
 _xvfb: subprocess.Popen | None = None
 
@@ -53,11 +53,13 @@ def gather_vtk_mesh(mesh: Any, values: np.ndarray | None = None
                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None] | None:
     """(cells, cell types, points, point values) of the whole mesh on rank 0, None elsewhere.
 
-    ``values`` are per geometry node (local, owned + ghost) as from ``dolfinx.plot.vtk_mesh``.
+    ``mesh``: a dolfinx mesh, or a Lagrange function space (points: its DOF nodes).
+    ``values`` are per point (local, owned + ghost) as from ``dolfinx.plot.vtk_mesh``.
     """
     from dolfinx import plot
 
     topology, cell_types, x = plot.vtk_mesh(mesh)
+    mesh = getattr(mesh, "mesh", mesh)
     comm = mesh.comm
     num_cells_local = mesh.topology.index_map(mesh.topology.dim).size_local
     # keep owned cells only; their point indices are local: offset them per rank
@@ -101,5 +103,54 @@ def render_mesh(sm: ShellMesh, png: str | os.PathLike, *, title: str | None = No
         pl.add_text(title, font_size=10, color="black")
     pl.camera_position = "iso"
     pl.camera.elevation = 15
+    pl.screenshot(str(png))
+    pl.close()
+
+
+def render_state(model: Any, png: str | os.PathLike | None, *, vtu: str | os.PathLike | None = None,
+                 color_by: str = "bending_energy_density", title: str | None = None,
+                 view: str = "xz") -> None:
+    """The surface model's current state, deformed, coloured by one of its fields
+    (``shells.fields.FieldWriter``'s arrays) to ``png``; with ``vtu`` also the deformed
+    surface with every field as VTK XML (``.vtu``, ParaView's default reader). Rank 0 writes."""
+    from shells.fields import FieldWriter
+
+    funcs = FieldWriter(model, None).update()
+    V = funcs["displacement"].function_space
+    local = {k: f.x.array.reshape(-1, f.function_space.dofmap.index_map_bs)
+             for k, f in funcs.items()}
+    n = local["displacement"].shape[0]
+    stacked = np.concatenate([local[k].reshape(n, -1) for k in funcs], axis=1)
+    data = gather_vtk_mesh(V, stacked)
+    if data is None:
+        return
+    import pyvista
+
+    ensure_display()
+    pyvista.OFF_SCREEN = True
+    cells, types, pts, vals = data
+    grid = pyvista.UnstructuredGrid(cells, types, pts)
+    col = 0
+    for k in funcs:
+        width = local[k].reshape(n, -1).shape[1]
+        grid.point_data[k] = vals[:, col:col + width] if width > 1 else vals[:, col]
+        col += width
+    warped = grid.warp_by_vector("displacement", factor=1.0)
+    if vtu is not None:
+        Path(vtu).parent.mkdir(parents=True, exist_ok=True)
+        warped.save(str(vtu))
+    if png is None:
+        return
+    surf = warped.extract_surface(nonlinear_subdivision=2)
+    Path(png).parent.mkdir(parents=True, exist_ok=True)
+    pl = pyvista.Plotter(off_screen=True, window_size=(900, 700))
+    pl.set_background("white")
+    pl.add_mesh(surf, scalars=color_by, cmap="viridis", smooth_shading=True,
+                scalar_bar_args={"title": color_by.replace("_", " "), "color": "black"})
+    if title:
+        pl.add_text(title, font_size=10, color="black")
+    pl.camera_position = view
+    pl.camera.elevation = 25
+    pl.camera.azimuth = 30
     pl.screenshot(str(png))
     pl.close()

@@ -20,8 +20,8 @@ def _last_json(out):
 def test_branch_cli_json_contract(capsys, shared_tmp):
     out = shared_tmp / "b"
     rc = main(["branch", "--shape", "sphere", "--h-over-r", "0.05", "--nu", "0.5",
-               "--kappa-h-max", "0.5", "--size", "0.3", "--method", "natural", "--ds", "5",
-               "--ds-max", "5", "-o", str(out), "--json"])
+               "--kappa-h-max", "0.5", "--size", "0.3", "--degree", "2", "--method", "natural",
+               "--ds", "5", "--ds-max", "5", "-o", str(out), "--json"])
     assert rc == 0
     if MPI.COMM_WORLD.rank == 0:
         d = _last_json(capsys.readouterr().out)
@@ -54,7 +54,7 @@ def test_branch_bad_input(capsys, argv, needle):
 
 def test_resume_after_interruption(shared_tmp):
     """A run stopped after 3 points resumes from its checkpoint and ends where a full run does."""
-    cfg = BranchConfig(shape=Sphere(1.0), h_over_r=0.05, kappa_end=20.0, size=0.3,
+    cfg = BranchConfig(shape=Sphere(1.0), h_over_r=0.05, kappa_end=20.0, size=0.3, degree=2,
                        continuation=ContinuationSettings(method="natural", ds=4.0, ds_max=4.0))
     full = list(run_branch(cfg, shared_tmp / "full"))
     gen = run_branch(cfg, shared_tmp / "cut")
@@ -76,7 +76,7 @@ def test_resume_after_interruption(shared_tmp):
 def test_resume_on_another_rank_count(shared_tmp):
     """The checkpoint is keyed by node coordinates: a run interrupted on all ranks resumes on
     one (on 2 ranks: written by 2, read by 1) and ends where the uninterrupted run does."""
-    cfg = BranchConfig(shape=Sphere(1.0), h_over_r=0.05, kappa_end=20.0, size=0.3,
+    cfg = BranchConfig(shape=Sphere(1.0), h_over_r=0.05, kappa_end=20.0, size=0.3, degree=2,
                        continuation=ContinuationSettings(method="natural", ds=4.0, ds_max=4.0))
     c = MPI.COMM_WORLD
     gen = run_branch(cfg, shared_tmp / "cut")

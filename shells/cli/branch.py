@@ -37,8 +37,12 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
     b.add_argument("--method", default="arclength", choices=("arclength", "natural"))
     b.add_argument("--ds", type=positive_float("ds"), default=0.1, help="initial step")
     b.add_argument("--ds-max", type=positive_float("ds-max"), default=1.0, help="largest step")
-    b.add_argument("--size", type=positive_float("size"), default=0.1,
-                   help="bulk element size / R (default 0.1)")
+    b.add_argument("--size", type=positive_float("size"), default=None,
+                   help="bulk element size / R (default 0.1; caps deeper than thetabar = 3 and "
+                   "ellipsoids 0.2; closed spheres 0.21)")
+    b.add_argument("--degree", type=int, choices=(2, 3), default=None,
+                   help="polynomial degree (default 2; closed spheres, caps deeper than "
+                   "thetabar = 3 and ellipsoids 3: P2 locks there, docs/model.md)")
     b.add_argument("--layer-elements", type=positive_float("layer-elements"), default=4.0,
                    help="elements across sqrt(R h) at the rim (default 4)")
     b.add_argument("--shear-penalty", type=positive_float("shear-penalty"), default=1.0e3,
@@ -84,7 +88,8 @@ def _cmd_branch(args: argparse.Namespace) -> int:
                            kappa_end=kappa_end(shape, args.h_over_r, args.kappa_h_max,
                                                args.kappa_r_max),
                            size=args.size, layer_elements=args.layer_elements,
-                           shear_penalty=args.shear_penalty, continuation=cont)
+                           shear_penalty=args.shear_penalty, continuation=cont,
+                           degree=args.degree)
         result = drivers.branch_surface(cfg, outdir, fields=args.fields,
                                         resume=not args.restart)
         header = (f"{'kappa R':>10} {'kappa h':>10} {'Psi3/h':>12} {'apex/h':>10} "

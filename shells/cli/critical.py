@@ -21,13 +21,14 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
                             "surface (2D mesh, default) or axisym (shell of revolution)")
     common.add_kappa_range(c)
     c.add_argument("--first-only", action="store_true", help="stop at the first critical point")
-    common.add_mesh_size_args(c, None, "bulk element size / R (default 0.1; closed spheres "
-                              "0.21)")
+    common.add_mesh_size_args(c, None, "bulk element size / R (default 0.1; caps deeper than "
+                              "thetabar = 3 and ellipsoids 0.2; closed spheres 0.21)")
     c.add_argument("--shear-penalty", type=common.positive_float("shear-penalty"), default=1.0e3,
                    help="Kirchhoff-Love penalty, times the Naghdi shear stiffness (default 1e3)")
     c.add_argument("--degree", type=int, choices=(2, 3), default=None,
                    help="surface model: polynomial degree, full quadrature 2 x degree (default "
-                   "2; closed spheres 3: P2 locks there, docs/model.md)")
+                   "2; closed spheres, caps deeper than thetabar = 3 and ellipsoids 3: P2 locks "
+                   "there, docs/model.md)")
     c.add_argument("--ds", type=common.positive_float("ds"), default=None,
                    help="initial step, in kappa L (default: range/16)")
     c.add_argument("--ds-max", type=common.positive_float("ds-max"), default=None,

@@ -55,12 +55,13 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
                    help="bifurcated branches end below this kappa/kappa_c (default 0.5)")
     p.add_argument("--max-points", type=int, default=60,
                    help="points per side of the bifurcated branch (default 60)")
-    p.add_argument("--size", type=positive_float("size"), default=0.2,
+    p.add_argument("--size", type=positive_float("size"), default=None,
                    help="surface model: bulk element size / R (default 0.2)")
     p.add_argument("--layer-elements", type=positive_float("layer-elements"), default=3.0,
                    help="surface model: elements across sqrt(R h) at the rim (default 3)")
-    p.add_argument("--degree", type=int, choices=(2, 3), default=2,
-                   help="surface model: polynomial degree (default 2)")
+    p.add_argument("--degree", type=int, choices=(2, 3), default=None,
+                   help="surface model: polynomial degree (default 2; closed spheres, caps "
+                   "deeper than thetabar = 3 and ellipsoids 3: P2 locks there)")
     p.add_argument("--fields", default="none", choices=("none", "last", "all"),
                    help="write the bifurcated states for ParaView (needs -o)")
     p.add_argument("--sides", default="both", choices=("both", "+1", "-1"),

@@ -21,12 +21,13 @@ from pathlib import Path
 import numpy as np
 
 RUN = ["branch", "--shape", "sphere", "--h-over-r", "0.05", "--nu", "0.5", "--kappa-h-max", "0.5",
-       "--size", "0.2",
+       "--size", "0.2", "--degree", "2",
        "--fields", "last", "--restart"]
 #: a closed sphere's axisymmetric post-buckling on the 1D model, the last state of each side
 PB_RUN = ["postbuckle", "--shape", "sphere", "--h-over-r", "0.05", "--max-points", "4",
           "--fields", "last"]
-ARRAYS = ("displacement", "director", "mean_curvature_change", "natural_curvature_mismatch")
+ARRAYS = ("displacement", "director", "mean_curvature_change", "natural_curvature_mismatch",
+          "bending_energy_density", "stretching_energy_density")
 
 
 def main(out: Path) -> None:
@@ -46,7 +47,8 @@ def main(out: Path) -> None:
     last = points[-1]
     cfg = BranchConfig.from_description(header)
     model = ShellModel(generate(cfg.mesh_spec(), comm),
-                       ModelParameters(h=cfg.h, nu=cfg.nu, shear_penalty=cfg.shear_penalty))
+                       ModelParameters(h=cfg.h, nu=cfg.nu, shear_penalty=cfg.shear_penalty,
+                                       degree=cfg.degree, quadrature_degree=2 * cfg.degree))
     # the run's last state, read back through the branch module's own checkpoint reader
     ck = _load_checkpoint(run, model)
     assert ck is not None, "no usable checkpoint"

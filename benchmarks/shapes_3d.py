@@ -1,0 +1,185 @@
+"""The paper's 3D results on the surface model: Fig. 1 (c) the spindle-like buckled cap (κ < 0,
+on its m = 2 post-buckled branch), Fig. 1 (d) the snap-through of a θ̄ = 5 cap at h/R = 0.04
+followed through the snap onto the everted side, and the ellipsoids of Fig. S5 (r1 = r2 = R,
+r3 = 1.5 R, h/R = 0.04, θ = π/2; κR with R = r1): buckled for κ < 0, snapped for κ > 0.
+
+    scripts/in-env mpirun -n 2 python3 benchmarks/shapes_3d.py [CASE ...] [--quick]
+
+Cases: cap_buckled, cap_snap, ellipsoid_down, ellipsoid_up (default: all). Each case: the 1D
+model's first critical point (converged in seconds), the surface model's (P3, bulk size 0.2 R,
+3 elements across the rim layer: P2 locks on deep shells, docs/model.md), then the post-critical
+states: the m-branch by branch switching (``shells.postbuckle``), or the fundamental branch by
+pseudo-arclength through the snap fold and its second fold onto the everted side (rim rotation
+above 90°). Renders (pyvista, off-screen, coloured by the bending energy density e_b) in
+``benchmarks/results/shapes_3d/CASE_*.png``, the same states as ``.vtu`` (ParaView's default
+reader; not committed), the numbers merged into ``benchmarks/results/shapes_3d.json``, a table
+printed. ``--quick``: a coarser mesh (size 0.3, P2), to try the script.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+import time
+from pathlib import Path
+
+from mpi4py import MPI
+
+from shells import axisym
+from shells.continuation import ContinuationSettings
+from shells.critical import CriticalSettings, follow
+from shells.geometry import EllipsoidalCap, SphericalCap, kappa_length
+from shells.mesh import MeshSpec, generate
+from shells.model import ModelParameters, ShellModel
+from shells.postbuckle import PostbuckleConfig, postbuckle
+from shells.render import render_state
+
+HERE = Path(__file__).parent
+OUT = HERE / "results" / "shapes_3d"
+JSON = HERE / "results" / "shapes_3d.json"
+H = 0.04
+CAP = SphericalCap(1.0, 5.0 * math.sqrt(H))  # θ̄ = 5: θ = 1 rad = 57.3°
+ELL = EllipsoidalCap(1.0, 1.5, math.pi / 2)
+CASES = {
+    "cap_buckled": (CAP, "down", -1.0, "branch"),
+    "cap_snap": (CAP, "up", 4.0, "snap"),
+    "ellipsoid_down": (ELL, "down", -1.0, "branch"),
+    "ellipsoid_up": (ELL, "up", 8.0, "snap"),
+}
+
+
+def say(msg: str) -> None:
+    if MPI.COMM_WORLD.rank == 0:
+        print(msg, flush=True)
+
+
+def _cp(c, R: float) -> dict:
+    return {"kind": c.kind, "kappa_R": c.kappa * R, "mode_m": c.mode_m}
+
+
+def snap_case(name: str, shape, kappa_end: float, mesh: dict) -> dict:
+    """Follow the fundamental branch from κ = 0 through the first critical points and the snap
+    onto the everted side, up to ``kappa_end`` (κR); renders at the snap fold and at the end."""
+    R = kappa_length(shape)
+    sm = generate(MeshSpec(shape, h=H * shape.characteristic_size(), size=mesh["size"],
+                           layer_elements=mesh["layer"]), MPI.COMM_WORLD)
+    model = ShellModel(sm, ModelParameters(h=H * shape.characteristic_size(), nu=0.5,
+                                           degree=mesh["degree"],
+                                           quadrature_degree=2 * mesh["degree"]))
+    st = ContinuationSettings(ds=0.15, ds_max=0.3, ds_min=1e-7, ds_unit="kappa",
+                              target_newton_its=5, max_steps=400)
+    # after the first bifurcation the inertia is no longer computed: folds are located, and
+    # the branch is followed through the snap to the end of the range
+    crit = CriticalSettings(stop_at_fold=False, folds_only_after_first=True)
+    found, path, snap_rendered = [], [], False
+    for p, res, cps in follow(model, st, kappa_end / R, crit):
+        s = p.scalars
+        path.append({"kappa_R": p.kappa * R, "rim_rotation_deg": s.get("rim_rotation_deg"),
+                     "energy": s["energy"], "negative_count": res.negative_count,
+                     "dkappa_ds": p.dkappa_ds})
+        found.extend(cps)
+        say(f"  {name}: kappa R = {p.kappa * R:+.4f}  rim rotation = "
+            f"{s.get('rim_rotation_deg', float('nan')):7.2f} deg  negative = "
+            f"{res.negative_count}")
+        if not snap_rendered and any(c.kind == "fold" for c in found):
+            # the first point past the snap fold: the snap's onset shape (just beyond the fold)
+            render_state(model, OUT / f"{name}_snap_onset.png", vtu=OUT / f"{name}_snap_onset.vtu",
+                         title=f"{name}: past the snap fold, kappa R = {p.kappa * R:.3f}")
+            snap_rendered = True
+    render_state(model, OUT / f"{name}_everted.png", vtu=OUT / f"{name}_everted.vtu",
+                 title=f"{name}: everted, kappa R = {path[-1]['kappa_R']:.3f}, rim rotation "
+                 f"{path[-1]['rim_rotation_deg']:.1f} deg")
+    return {"dofs": model.num_dofs(), "critical_points": [_cp(c, R) for c in found],
+            "path": path, "rim_rotation_end_deg": path[-1]["rim_rotation_deg"],
+            "kappa_R_end": path[-1]["kappa_R"]}
+
+
+def branch_case(name: str, shape, kappa_end: float, mesh: dict) -> dict:
+    """The bifurcated branch of the first bifurcation going down (one side), to ``kappa_end``;
+    renders its last state."""
+    R = kappa_length(shape)
+    cfg = PostbuckleConfig(shape=shape, h_over_r=H, nu=0.5, model="surface", direction="down",
+                           kappa_end=kappa_end / R, size=mesh["size"],
+                           layer_elements=mesh["layer"], degree=mesh["degree"], sides=(1,),
+                           max_points=mesh["points"])
+    last: dict = {}
+
+    def on_point(model, rec):
+        if rec.get("branch") == "bifurcated":
+            last.update(rec)
+            last["model"] = model
+            say(f"  {name}: bifurcated kappa R = {rec['kappa_R']:+.4f}  stable = "
+                f"{rec.get('stable')}  m = {rec.get('deviation_m')}")
+
+    cp, points = None, []
+    for rec in postbuckle(cfg, on_point):
+        if "critical_point" in rec:
+            cp = rec["critical_point"]
+            say(f"  {name}: {cp['kind']} at kappa R = {cp['kappa_R']:.6f}, m = {cp.get('mode_m')}")
+        elif rec.get("branch") == "bifurcated":
+            points.append({k: rec.get(k) for k in ("kappa_R", "stable", "negative_count",
+                                                   "orientation_modes", "deviation_m",
+                                                   "mode_amplitude", "energy")})
+    model = last.pop("model", None)
+    if model is not None and name.startswith("ellipsoid"):
+        from shells.render import render_mesh  # the undeformed shell (Fig. S5 b)
+
+        render_mesh(model.shell, OUT / f"{name}_undeformed.png", title=f"{name}: undeformed")
+    if model is not None:
+        render_state(model, OUT / f"{name}_buckled.png", vtu=OUT / f"{name}_buckled.vtu",
+                     title=f"{name}: m = {last.get('deviation_m')} branch, kappa R = "
+                     f"{last['kappa_R']:.3f}")
+    return {"critical_points": [{"kind": cp["kind"], "kappa_R": cp["kappa_R"],
+                                 "mode_m": cp.get("mode_m")}] if cp else [],
+            "branch": points, "end": {k: v for k, v in last.items() if k != "model"}}
+
+
+def main(argv: list[str]) -> int:
+    quick = "--quick" in argv
+    names = [a for a in argv if not a.startswith("--")] or list(CASES)
+    mesh = ({"size": 0.3, "layer": 2.0, "degree": 2, "points": 8} if quick
+            else {"size": 0.2, "layer": 3.0, "degree": 3, "points": 80})
+    results = json.loads(JSON.read_text()) if JSON.exists() and not quick else {}
+    for name in names:
+        if name not in CASES:
+            say(f"unknown case {name!r}: choose from {', '.join(CASES)}")
+            return 2
+        shape, direction, kend, kind = CASES[name]
+        say(f"=== {name}: {shape.describe()}, h/R = {H}, {direction} to kappa R = {kend}")
+        t0 = time.perf_counter()
+        one_d = axisym.critical(shape, H, 0.5, direction=direction, kappa_max=abs(kend))
+        t1 = time.perf_counter()
+        two_d = (snap_case if kind == "snap" else branch_case)(name, shape, kend, mesh)
+        t2 = time.perf_counter()
+        first2 = two_d["critical_points"][0] if two_d["critical_points"] else None
+        rec = {"shape": shape.describe(), "h_over_R": H, "direction": direction,
+               "mesh": mesh, "ranks": MPI.COMM_WORLD.size,
+               "axisym": {"kind": one_d["kind"], "kappa_R": one_d["kappa_R"],
+                          "mode_m": one_d["mode_m"], "time_s": t1 - t0,
+                          "critical_points": one_d["critical_points"][:3]},
+               "surface": {**two_d, "time_s": t2 - t1},
+               "relative_difference": (abs(first2["kappa_R"] / one_d["kappa_R"] - 1)
+                                       if first2 and one_d["kappa_R"] else None)}
+        results[name] = rec
+        if MPI.COMM_WORLD.rank == 0 and not quick:
+            JSON.write_text(json.dumps(results, indent=1))
+    say(f"\n{'case':16} {'1D first':>24} {'surface first':>24} {'rel diff':>9} "
+        f"{'end':>24} {'time':>7}")
+    for name in names:
+        r = results[name]
+        a, s = r["axisym"], r["surface"]
+        f2 = s["critical_points"][0] if s["critical_points"] else {}
+        end = (f"rim {s['rim_rotation_end_deg']:.1f} deg at {s['kappa_R_end']:.2f}"
+               if "rim_rotation_end_deg" in s else
+               f"m = {s['end'].get('deviation_m')} at {s['end'].get('kappa_R', math.nan):.3f}")
+        rd = r["relative_difference"]
+        say(f"{name:16} {a['kind']:>12} {a['kappa_R']:8.4f} m{a['mode_m']!s:<2} "
+            f"{f2.get('kind', '-'):>12} {f2.get('kappa_R', math.nan):8.4f} "
+            f"m{f2.get('mode_m')!s:<2} {rd if rd is None else f'{rd:9.2e}'} {end:>24} "
+            f"{s['time_s']:6.0f}s")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

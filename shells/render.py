@@ -82,21 +82,33 @@ def gather_vtk_mesh(mesh: Any, values: np.ndarray | None = None
             np.concatenate(vals) if vals else None)
 
 
-def render_mesh(sm: ShellMesh, png: str | os.PathLike, *, title: str | None = None) -> None:
-    """Render the surface with its edges to ``png`` (rank 0 writes)."""
-    data = gather_vtk_mesh(sm.mesh)
-    if data is None:
-        return
+def _unstructured(data: tuple) -> Any:
+    """A pyvista grid of ``gather_vtk_mesh``'s cells and points, with a display for VTK."""
     import pyvista
 
     ensure_display()
     pyvista.OFF_SCREEN = True
     cells, types, pts, _ = data
-    grid = pyvista.UnstructuredGrid(cells, types, pts)
-    surf = grid.extract_surface(nonlinear_subdivision=2)
+    return pyvista.UnstructuredGrid(cells, types, pts)
+
+
+def _plotter(png: str | os.PathLike) -> Any:
+    import pyvista
+
     Path(png).parent.mkdir(parents=True, exist_ok=True)
     pl = pyvista.Plotter(off_screen=True, window_size=(900, 700))
     pl.set_background("white")
+    return pl
+
+
+def render_mesh(sm: ShellMesh, png: str | os.PathLike, *, title: str | None = None) -> None:
+    """Render the surface with its edges to ``png`` (rank 0 writes)."""
+    data = gather_vtk_mesh(sm.mesh)
+    if data is None:
+        return
+    grid = _unstructured(data)
+    surf = grid.extract_surface(nonlinear_subdivision=2)
+    pl = _plotter(png)
     pl.add_mesh(surf, color="#8fb8de", show_edges=False, smooth_shading=True)
     pl.add_mesh(grid.extract_all_edges(), color="#203040", line_width=0.5)
     if title:
@@ -124,12 +136,7 @@ def render_state(model: Any, png: str | os.PathLike | None, *, vtu: str | os.Pat
     data = gather_vtk_mesh(V, stacked)
     if data is None:
         return
-    import pyvista
-
-    ensure_display()
-    pyvista.OFF_SCREEN = True
-    cells, types, pts, vals = data
-    grid = pyvista.UnstructuredGrid(cells, types, pts)
+    grid, vals = _unstructured(data), data[3]
     col = 0
     for k in funcs:
         width = local[k].reshape(n, -1).shape[1]
@@ -142,9 +149,7 @@ def render_state(model: Any, png: str | os.PathLike | None, *, vtu: str | os.Pat
     if png is None:
         return
     surf = warped.extract_surface(nonlinear_subdivision=2)
-    Path(png).parent.mkdir(parents=True, exist_ok=True)
-    pl = pyvista.Plotter(off_screen=True, window_size=(900, 700))
-    pl.set_background("white")
+    pl = _plotter(png)
     pl.add_mesh(surf, scalars=color_by, cmap="viridis", smooth_shading=True,
                 scalar_bar_args={"title": color_by.replace("_", " "), "color": "black"})
     if title:

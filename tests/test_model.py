@@ -96,6 +96,27 @@ def test_energy_split_and_curvature_potential(sphere_model, sphere_solver):
     assert s["curvature_potential"] < 0  # the stimulus does work
 
 
+def test_energy_density_fields_integrate_to_the_energies(sphere_model, sphere_solver):
+    """The fields written for ParaView: e_b (the last two terms of Eq. (S-energy)) and the
+    stretching density, interpolated on the mesh's P2 space, integrate to the model's own
+    energies (interpolation error only: the shrunk sphere's densities are nearly uniform)."""
+    import ufl
+    from dolfinx import fem
+    from mpi4py import MPI
+
+    from shells.fields import FieldWriter
+
+    s = _solve_at(sphere_model, sphere_solver, 1.0 / H)
+    funcs = FieldWriter(sphere_model, None).update()
+    dx = ufl.Measure("dx", domain=sphere_model.shell.mesh)
+    comm = sphere_model.shell.comm
+    for name, expected in (("bending_energy_density", s["bending"] + s["curvature_potential"]),
+                           ("stretching_energy_density", s["stretching"])):
+        got = comm.allreduce(fem.assemble_scalar(fem.form(funcs[name] * dx)), op=MPI.SUM)
+        assert got == pytest.approx(expected, rel=1e-3), name
+    assert s["bending"] + s["curvature_potential"] < 0 < s["stretching"]
+
+
 def _cap_works(h, theta_deg=30.0, kappa_R=0.05):
     cap = SphericalCap(1.0, math.radians(theta_deg))
     sm = generate(MeshSpec(cap, h=h, size=0.2, layer_elements=3))

@@ -106,6 +106,14 @@ def test_postbuckle_cli_json_contract_and_shapes(capsys, shared_tmp):
         assert "header" in json.loads(lines[0]) and "summary" in json.loads(lines[-1])
         shapes = sorted((out / "shapes").glob("*.vts"))
         assert shapes and all(f in d["files"] for f in map(str, shapes))
+        import numpy as np
+        import pyvista
+
+        g = pyvista.read(shapes[-1])  # the energy densities of the axisymmetric state
+        for name in ("bending_energy_density", "stretching_energy_density"):
+            assert np.all(np.isfinite(g.point_data[name])), name
+        assert g.point_data["stretching_energy_density"].min() >= 0
+        assert np.ptp(g.point_data["bending_energy_density"]) > 0
 
 
 def test_postbuckle_cli_refuses_what_the_1d_model_cannot_follow(capsys):

@@ -7,7 +7,9 @@ run's header and checkpoint (the state at the last point), interpolates the fiel
 ``FieldWriter`` and writes DIR/expected.json: the file to open, its time value, point and cell
 counts, and for each array its component count and per-component and magnitude ranges — what
 tests/paraview/pv_check.py, in ParaView, must find in the file. Likewise (``"shape"``) for a
-1D post-buckled sphere written as a 3D surface (.vts) by ``shells postbuckle --fields last``.
+1D post-buckled sphere written as a 3D surface (.vts) by ``shells postbuckle --fields last``, and
+(``"postbuckled_cap"``) for the surface model's post-buckled 30° cap (the m = 2 branch, fields
+written as ``shells postbuckle --model surface --fields last`` does).
 """
 
 from __future__ import annotations
@@ -59,6 +61,18 @@ def main(out: Path) -> None:
     funcs = writer.update()
     writer.close()
     shutil.rmtree(out / "expected-scratch.bp", ignore_errors=True)
+    expected = {"file": str((run / "fields.bp").resolve()), "time": float(last["index"]),
+                "kappa_h": last["kappa_h"], **_field_ranges(model, funcs)}
+    expected["shape"] = postbuckled_shape(out)
+    expected["postbuckled_cap"] = postbuckled_cap(out)
+    (out / "expected.json").write_text(json.dumps(expected, indent=1) + "\n")
+    print(f"make_fields: {expected['file']}: {expected['points']} points, {expected['cells']} "
+          f"cells, kappa h = {last['kappa_h']:.3g}; expected ranges in {out / 'expected.json'}")
+
+
+def _field_ranges(model, funcs) -> dict:
+    """Point and cell counts of the fields' space and mesh, and each array's component count,
+    per-component and magnitude ranges (this rank's owned values: run serially)."""
     mesh = model.shell.mesh
     arrays = {}
     for name in ARRAYS:
@@ -73,18 +87,38 @@ def main(out: Path) -> None:
                           float(np.linalg.norm(a, axis=1).max())],
         }
     V = funcs["displacement"].function_space
-    expected = {
-        "file": str((run / "fields.bp").resolve()),
-        "time": float(last["index"]),
-        "kappa_h": last["kappa_h"],
-        "points": V.dofmap.index_map.size_local,
-        "cells": mesh.topology.index_map(mesh.topology.dim).size_local,
-        "arrays": arrays,
-    }
-    expected["shape"] = postbuckled_shape(out)
-    (out / "expected.json").write_text(json.dumps(expected, indent=1) + "\n")
-    print(f"make_fields: {expected['file']}: {expected['points']} points, {expected['cells']} "
-          f"cells, kappa h = {last['kappa_h']:.3g}; expected ranges in {out / 'expected.json'}")
+    return {"points": V.dofmap.index_map.size_local,
+            "cells": mesh.topology.index_map(mesh.topology.dim).size_local, "arrays": arrays}
+
+
+def postbuckled_cap(out: Path) -> dict:
+    """The surface model's 30° cap (h/R = 0.04) past its m = 2 bifurcation, on the buckled
+    branch (one side, two points, a coarse mesh): its fields written by the driver's own
+    ``ShapeWriter`` (as ``shells postbuckle --model surface --fields last``), and what they
+    must hold, interpolated again from the same state."""
+    import math
+
+    from shells.drivers import ShapeWriter
+    from shells.fields import FieldWriter
+    from shells.geometry import SphericalCap
+    from shells.postbuckle import PostbuckleConfig, run_postbuckle
+    from shells.problem import set_state
+
+    run = out / "postbuckle_surface"
+    shutil.rmtree(run, ignore_errors=True)  # a finished run would be reused, not recomputed
+    cfg = PostbuckleConfig(SphericalCap(1.0, math.radians(30)), 0.04, model="surface",
+                           direction="down", kappa_end=-0.72, size=0.35, layer_elements=3.0,
+                           degree=2, sides=(1,), max_points=2)
+    shapes = ShapeWriter(run, "last", "surface", 0.04)
+    try:
+        run_postbuckle(cfg, run, on_point=shapes)
+    finally:
+        shapes.close()
+    model, state, rec = shapes.last[1]
+    set_state(model, state)
+    funcs = FieldWriter(model, None).update()
+    return {"file": str((run / "fields_side+1.bp").resolve()), "time": float(rec["index"]),
+            "kappa_R": rec["kappa_R"], **_field_ranges(model, funcs)}
 
 
 def postbuckled_shape(out: Path) -> dict:

@@ -88,6 +88,7 @@ def check(out):
         raise AssertionError(f"screenshot {png} is (nearly) blank: {covered:.1%} covered")
     print("pv_check: ParaView opens the fields; names and ranges match dolfinx")
     check_shape(exp["shape"])
+    check_postbuckled_cap(exp["postbuckled_cap"])
 
 
 def _compare_arrays(pd, expected, rtol, errors):
@@ -130,6 +131,21 @@ def _check_read(reader, exp, label, source, rtol, errors):
           f"{info.GetNumberOfCells()} cells, point arrays {sorted(pd.keys())}")
     _compare_arrays(pd, exp["arrays"], rtol, errors)
     return info
+
+
+def check_postbuckled_cap(exp):
+    """The surface model's post-buckled cap (VTX, as ``shells postbuckle --model surface``
+    writes it) in ParaView's ADIOS2VTXReader: its time step, counts, array names and ranges."""
+    reader = ADIOS2VTXReader(FileName=exp["file"])
+    reader.UpdatePipelineInformation()
+    reader.UpdatePipeline(exp["time"])
+    errors = []
+    _check_read(reader, exp, f"{exp['file']} at t = {exp['time']}", "dolfinx has", RTOL, errors)
+    if errors:
+        raise AssertionError("ParaView check of the post-buckled cap failed:\n  "
+                             + "\n  ".join(errors))
+    print("pv_check: ParaView opens the surface model's post-buckled cap; names and ranges "
+          "match")
 
 
 def check_shape(exp):

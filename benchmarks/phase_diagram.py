@@ -199,6 +199,46 @@ def _fmt(v: Any, err: Any = None, nd: int = 3) -> str:
     return s + (f" ± {err:.{nd}f}" if err is not None and math.isfinite(err) else "")
 
 
+def _shapes_3d_rows(d: dict) -> list[str]:
+    """The paper's 3D results on the surface model (benchmarks/shapes_3d.py): a row per case."""
+    what = {"cap_buckled": "Fig. 1 (c): θ̄ = 5 cap, h/R = 0.04, κ < 0, buckled (spindle-like)",
+            "cap_snap": "Fig. 1 (d): θ̄ = 5 cap, h/R = 0.04, κ > 0, snap-through",
+            "ellipsoid_down": "Fig. S5 (a): ellipsoid r3 = 1.5 R, θ = 90°, h/R = 0.04, κ < 0",
+            "ellipsoid_up": "Fig. S5 (c, d): ellipsoid r3 = 1.5 R, θ = 90°, h/R = 0.04, κ > 0"}
+    paper = {"cap_buckled": "buckles (loss of rotational symmetry)",
+             "cap_snap": "snaps, breaking the rotational symmetry (θ̄ > θ̄_c)",
+             "ellipsoid_down": "buckles into a spindle-like shape",
+             "ellipsoid_up": "snaps"}
+    rows = []
+    for name, r in d.items():
+        a, s = r["axisym"], r["surface"]
+        f2 = s["critical_points"][0] if s["critical_points"] else None
+        first = (f"{f2['kind']} at κR = {f2['kappa_R']:.5f} (m = {f2['mode_m']})" if f2
+                 else "none")
+        if "path" in s:
+            ev = s.get("everted", {})
+            post = (f"followed through the snap fold to a rim rotation of "
+                    f"{s['rim_rotation_path_max_deg']:.1f}° (the unstable branch); snapped "
+                    f"(everted, Newton from the mirrored shell) at κR = "
+                    f"{ev.get('kappa_R', float('nan')):.3f}: rim rotation "
+                    f"{ev.get('rim_rotation_deg', float('nan')):.1f}°, "
+                    f"{ev.get('negative_count')} negative eigenvalues (m = "
+                    f"{ev.get('unstable_m')})")
+        else:
+            e = s.get("end", {})
+            post = (f"m = {e.get('deviation_m')} post-buckled branch to κR = "
+                    f"{e.get('kappa_R', float('nan')):.3f}, stable: {e.get('stable')}")
+        rd = r.get("relative_difference")
+        rows.append(
+            f"| {what.get(name, name)} | {paper.get(name, '')} | surface (P{r['mesh']['degree']}, "
+            f"{s.get('dofs', '')} DOFs): {first}; {post} | "
+            f"{'–' if rd is None else f'{rd:.1e} from the 1D model'} | 1D model: {a['kind']} at "
+            f"κR = {a['kappa_R']:.5f} (m = {a['mode_m']}); {s['time_s']:.0f} s on "
+            f"{r['ranks']} ranks; renders coloured by e_b: benchmarks/results/shapes_3d/"
+            f"{name}_*.png (`benchmarks/shapes_3d.py`) |")
+    return rows
+
+
 def _postbuckling_rows(d: dict) -> list[str]:
     """The closed sphere's Ψ3 law and post-buckling branch (benchmarks/sphere_postbuckling.py)."""
     rows = []
@@ -392,6 +432,10 @@ def render(data: dict[str, Any]) -> str:
     pb = RESULTS / "sphere_postbuckling.json"
     if pb.exists():
         for row in _postbuckling_rows(json.loads(pb.read_text())):
+            w(row)
+    s3 = RESULTS / "shapes_3d.json"
+    if s3.exists():
+        for row in _shapes_3d_rows(json.loads(s3.read_text())):
             w(row)
     w("")
     # -- details

@@ -9,11 +9,14 @@ Cases: cap_buckled, cap_snap, ellipsoid_down, ellipsoid_up (default: all). Each 
 model's first critical point (converged in seconds), the surface model's (P3, bulk size 0.2 R,
 3 elements across the rim layer: P2 locks on deep shells, docs/model.md), then the post-critical
 states: the m-branch by branch switching (``shells.postbuckle``), or the fundamental branch by
-pseudo-arclength through the snap fold and its second fold onto the everted side (rim rotation
-above 90°). Renders (pyvista, off-screen, coloured by the bending energy density e_b) in
-``benchmarks/results/shapes_3d/CASE_*.png``, the same states as ``.vtu`` (ParaView's default
-reader; not committed), the numbers merged into ``benchmarks/results/shapes_3d.json``, a table
-printed. ``--quick``: a coarser mesh (size 0.3, P2), to try the script.
+pseudo-arclength through the snap fold to rim rotations above 90° and the snapped (everted)
+state just past the fold's κ, from the mirrored shell (the connected axisymmetric path winds
+through a dozen folds before it reaches the stable everted branch: the 1D model's branch of the
+θ̄ = 5 cap, ``shells branch --model axisym``). Renders (pyvista, off-screen, coloured by the
+bending energy density e_b) in ``benchmarks/results/shapes_3d/CASE_*.png``, the same states as
+``.vtu`` (ParaView's default reader; not committed), the numbers merged into
+``benchmarks/results/shapes_3d.json``, a table printed. ``--quick``: a coarser mesh (size
+0.3, P2), to try the script.
 """
 
 from __future__ import annotations
@@ -59,20 +62,27 @@ def _cp(c, R: float) -> dict:
 
 
 def snap_case(name: str, shape, kappa_end: float, mesh: dict) -> dict:
-    """Follow the fundamental branch from κ = 0 through the first critical points and the snap
-    onto the everted side, up to ``kappa_end`` (κR); renders at the snap fold and at the end."""
+    """Follow the fundamental branch from κ = 0 through its first critical points and the snap
+    fold, on past a rim rotation of 90° (the earlier director could not turn that far); then
+    the snapped (everted) state at 1.1 times the fold's κ, by Newton from the shell mirrored
+    through its rim plane (the mirror chart), with its stability. The connected axisymmetric
+    path would reach the stable everted branch only through many more folds (the 1D model's
+    branch of the θ̄ = 5 cap turns a dozen times first); a snap jumps there at once."""
+    from shells.solvers import NewtonSolver
+    from shells.stability import Stability
+
     R = kappa_length(shape)
-    sm = generate(MeshSpec(shape, h=H * shape.characteristic_size(), size=mesh["size"],
-                           layer_elements=mesh["layer"]), MPI.COMM_WORLD)
-    model = ShellModel(sm, ModelParameters(h=H * shape.characteristic_size(), nu=0.5,
-                                           degree=mesh["degree"],
-                                           quadrature_degree=2 * mesh["degree"]))
+    h = H * shape.characteristic_size()
+    sm = generate(MeshSpec(shape, h=h, size=mesh["size"], layer_elements=mesh["layer"]),
+                  MPI.COMM_WORLD)
+    params = ModelParameters(h=h, nu=0.5, degree=mesh["degree"],
+                             quadrature_degree=2 * mesh["degree"])
+    model = ShellModel(sm, params)
     st = ContinuationSettings(ds=0.15, ds_max=0.3, ds_min=1e-7, ds_unit="kappa",
                               target_newton_its=5, max_steps=400)
-    # after the first bifurcation the inertia is no longer computed: folds are located, and
-    # the branch is followed through the snap to the end of the range
+    # after the first bifurcation the inertia is no longer computed: folds are located
     crit = CriticalSettings(stop_at_fold=False, folds_only_after_first=True)
-    found, path, snap_rendered = [], [], False
+    found, path, past_90 = [], [], 0
     for p, res, cps in follow(model, st, kappa_end / R, crit):
         s = p.scalars
         path.append({"kappa_R": p.kappa * R, "rim_rotation_deg": s.get("rim_rotation_deg"),
@@ -82,17 +92,51 @@ def snap_case(name: str, shape, kappa_end: float, mesh: dict) -> dict:
         say(f"  {name}: kappa R = {p.kappa * R:+.4f}  rim rotation = "
             f"{s.get('rim_rotation_deg', float('nan')):7.2f} deg  negative = "
             f"{res.negative_count}")
-        if not snap_rendered and any(c.kind == "fold" for c in found):
-            # the first point past the snap fold: the snap's onset shape (just beyond the fold)
-            render_state(model, OUT / f"{name}_snap_onset.png", vtu=OUT / f"{name}_snap_onset.vtu",
+        folded = any(c.kind == "fold" for c in found)
+        if folded and len(path) and past_90 == 0:
+            # the first point past the snap fold: the shape as it starts to snap
+            render_state(model, OUT / f"{name}_snap_onset.png",
+                         vtu=OUT / f"{name}_snap_onset.vtu",
                          title=f"{name}: past the snap fold, kappa R = {p.kappa * R:.3f}")
-            snap_rendered = True
-    render_state(model, OUT / f"{name}_everted.png", vtu=OUT / f"{name}_everted.vtu",
-                 title=f"{name}: everted, kappa R = {path[-1]['kappa_R']:.3f}, rim rotation "
-                 f"{path[-1]['rim_rotation_deg']:.1f} deg")
-    return {"dofs": model.num_dofs(), "critical_points": [_cp(c, R) for c in found],
-            "path": path, "rim_rotation_end_deg": path[-1]["rim_rotation_deg"],
-            "kappa_R_end": path[-1]["kappa_R"]}
+            past_90 = 1
+        if folded and s["rim_rotation_deg"] > 90:
+            past_90 += 1
+            if past_90 > 3:
+                break
+    fold = next((c for c in found if c.kind == "fold"), None)
+    out = {"dofs": model.num_dofs(), "critical_points": [_cp(c, R) for c in found],
+           "path": path, "rim_rotation_path_max_deg": max(q["rim_rotation_deg"] for q in path)}
+    if fold is None:
+        return out
+    # the snapped state: the mirror chart at 1.1 κ_fold (natural steps from the fold's κ/2)
+    ev = ShellModel(sm, params)
+    ev.set_everted_guess()
+    ns = NewtonSolver(ev)
+    ok = False
+    for f in (0.5, 0.8, 1.0, 1.1):
+        ev.kappa.value = f * fold.kappa
+        ok, _ = ns.solve()
+        if not ok:
+            break
+    ns.destroy()
+    if ok:
+        stab = Stability(ev)
+        neg = stab.inertia()[0]
+        vals = stab.eigenpairs(4, modes=True)
+        modes = [ev.classify_mode(v).m for v in vals[1][:neg]] if neg else []
+        stab.destroy()
+        s = ev.scalars()
+        out["everted"] = {"kappa_R": 1.1 * fold.kappa * R, "negative_count": neg,
+                          "unstable_m": modes, "rim_rotation_deg": s["rim_rotation_deg"],
+                          "energy": s["energy"]}
+        say(f"  {name}: everted at kappa R = {1.1 * fold.kappa * R:.4f}: rim rotation "
+            f"{s['rim_rotation_deg']:.1f} deg, negative {neg} (m = {modes})")
+        render_state(ev, OUT / f"{name}_everted.png", vtu=OUT / f"{name}_everted.vtu",
+                     title=f"{name}: everted, kappa R = {1.1 * fold.kappa * R:.3f}, rim "
+                     f"rotation {s['rim_rotation_deg']:.1f} deg")
+    else:
+        out["everted"] = {"kappa_R": ev.kappa.value * R, "converged": False}
+    return out
 
 
 def branch_case(name: str, shape, kappa_end: float, mesh: dict) -> dict:
@@ -170,8 +214,9 @@ def main(argv: list[str]) -> int:
         r = results[name]
         a, s = r["axisym"], r["surface"]
         f2 = s["critical_points"][0] if s["critical_points"] else {}
-        end = (f"rim {s['rim_rotation_end_deg']:.1f} deg at {s['kappa_R_end']:.2f}"
-               if "rim_rotation_end_deg" in s else
+        ev = s.get("everted", {})
+        end = (f"path rim {s['rim_rotation_path_max_deg']:.0f}, everted "
+               f"{ev.get('rim_rotation_deg', math.nan):.0f} deg" if "path" in s else
                f"m = {s['end'].get('deviation_m')} at {s['end'].get('kappa_R', math.nan):.3f}")
         rd = r["relative_difference"]
         say(f"{name:16} {a['kind']:>12} {a['kappa_R']:8.4f} m{a['mode_m']!s:<2} "

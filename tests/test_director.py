@@ -12,6 +12,7 @@ depend on the director's parametrisation (docs/model.md, "Director charts").
 On 1 and 2 ranks (every compared number is reduced over the communicator).
 """
 
+import functools
 import math
 
 import numpy as np
@@ -42,16 +43,26 @@ def _equilibrium(model: ShellModel, kappas: list[float]) -> dict:
     return {"scalars": model.scalars(), "negative": neg, "eigenvalues": vals}
 
 
+@functools.cache
+def _mesh(theta_deg: float):
+    shape = SphericalCap(1.0, math.radians(theta_deg))
+    return generate(MeshSpec(shape, h=H, size=0.2, layer_elements=3.0), MPI.COMM_WORLD)
+
+
+@functools.cache
+def _original(theta_deg: float, kappa_r: float, chart: str) -> dict:
+    """The symmetric cap at κR from the reference state (computed once per module run; every
+    rank asks in the same order)."""
+    model = ShellModel(_mesh(theta_deg), ModelParameters(h=H, nu=0.5, director=chart))
+    return _equilibrium(model, [kappa_r / 2, kappa_r])
+
+
 @pytest.mark.parametrize("theta_deg, kappa_r", [(60, 2.6), (90, 1.5)])
 def test_everted_cap_is_the_mirror_image(theta_deg, kappa_r):
     """The 60° cap at κR = 2.6 mirrors the original at -0.6, past its m = 2 loss of symmetry
     (κ_b R ≈ -0.49): two negative eigenvalues on both sides; the 90° cap at 1.5 mirrors 0.5."""
-    shape = SphericalCap(1.0, math.radians(theta_deg))
-    sm = generate(MeshSpec(shape, h=H, size=0.2, layer_elements=3.0), MPI.COMM_WORLD)
-    k_orig = 2.0 - kappa_r
-    orig = _equilibrium(ShellModel(sm, ModelParameters(h=H, nu=0.5)),
-                        [k_orig / 2, k_orig])
-    model = ShellModel(sm, ModelParameters(h=H, nu=0.5))
+    orig = _original(theta_deg, round(2.0 - kappa_r, 12), "free")
+    model = ShellModel(_mesh(theta_deg), ModelParameters(h=H, nu=0.5))
     model.set_everted_guess()
     ever = _equilibrium(model, [2.0, (2.0 + kappa_r) / 2, kappa_r])
     eo, ee = orig["scalars"]["energy"], ever["scalars"]["energy"]
@@ -80,11 +91,7 @@ def test_stability_does_not_depend_on_the_director_chart():
     equilibria differ at the mesh's accuracy: the 30° cap's fold 2.4e-4 apart). The same
     negative count, and the lowest eigenvalues alike to that accuracy (measured: 0.6-0.8 %;
     these eigenvalues are 1e-3 of the Hessian's scale, next to a crossing)."""
-    shape = SphericalCap(1.0, math.radians(60))
-    sm = generate(MeshSpec(shape, h=H, size=0.2, layer_elements=3.0), MPI.COMM_WORLD)
-    res = {chart: _equilibrium(ShellModel(sm, ModelParameters(h=H, nu=0.5, director=chart)),
-                               [-0.3, -0.6]) for chart in ("free", "tangent")}
-    f, t = res["free"], res["tangent"]
+    f, t = _original(60, -0.6, "free"), _original(60, -0.6, "tangent")
     assert f["negative"] == t["negative"] == 2
     assert np.allclose(f["eigenvalues"], t["eigenvalues"], rtol=0.02, atol=0), (
         f["eigenvalues"], t["eigenvalues"])

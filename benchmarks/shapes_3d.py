@@ -68,7 +68,6 @@ def snap_case(name: str, shape, kappa_end: float, mesh: dict) -> dict:
     through its rim plane (the mirror chart), with its stability. The connected axisymmetric
     path would reach the stable everted branch only through many more folds (the 1D model's
     branch of the θ̄ = 5 cap turns a dozen times first); a snap jumps there at once."""
-    from shells.solvers import NewtonSolver
     from shells.stability import Stability
 
     R = kappa_length(shape)
@@ -108,17 +107,20 @@ def snap_case(name: str, shape, kappa_end: float, mesh: dict) -> dict:
            "path": path, "rim_rotation_path_max_deg": max(q["rim_rotation_deg"] for q in path)}
     if fold is None:
         return out
-    # the snapped state: the mirror chart at 1.1 κ_fold (natural steps from the fold's κ/2)
+    # the snapped state: the mirror chart at 1.1 κ_fold, by natural continuation (steps of at
+    # most 0.1 κ_fold, halved where Newton fails) from κ_fold/2
+    from shells.continuation import continuation
+
     ev = ShellModel(sm, params)
     ev.set_everted_guess()
-    ns = NewtonSolver(ev)
+    nat = ContinuationSettings(method="natural", ds=0.1 * fold.kappa_L, ds_max=0.1 * fold.kappa_L,
+                               ds_min=1e-4 * fold.kappa_L, max_newton_its=25)
     ok = False
-    for f in (0.5, 0.8, 1.0, 1.1):
-        ev.kappa.value = f * fold.kappa
-        ok, _ = ns.solve()
-        if not ok:
-            break
-    ns.destroy()
+    try:
+        for q in continuation(ev, nat, kappa_start=0.5 * fold.kappa, kappa_end=1.1 * fold.kappa):
+            ok = abs(q.kappa - 1.1 * fold.kappa) <= 1e-9 * abs(fold.kappa)
+    except RuntimeError as e:
+        say(f"  {name}: the everted state was not reached: {e}")
     if ok:
         stab = Stability(ev)
         neg = stab.inertia()[0]

@@ -512,8 +512,7 @@ class ShellModel(FormProblem):
         if not hasattr(self, "_mode_forms"):
             import ufl
 
-            self._mode_v = fem.Function(self.W)
-            u, _ = self.split(self._mode_v)
+            u, _ = self.split(self._mode_function())
             wn = ufl.dot(u, self.n0)
             x = self._x
             grad_s = self.P0 * ufl.grad(wn)
@@ -522,8 +521,7 @@ class ShellModel(FormProblem):
                 "w2": fem.form(wn * wn * self.dx),
                 "grad2": fem.form(ufl.dot(grad_s, grad_s) * self.dx),
                 "dphi2": fem.form(ufl.dot(e_phi, ufl.grad(wn)) ** 2 * self.dx)}
-        vec.copy(self._mode_v.x.petsc_vec)
-        self._mode_v.x.scatter_forward()
+        self._load_mode(vec)
         comm = self.shell.comm
         vals = {k: comm.allreduce(fem.assemble_scalar(f), op=MPI.SUM)
                 for k, f in self._mode_forms.items()}
@@ -563,9 +561,69 @@ class ShellModel(FormProblem):
             return 0.0
         return abs(cross) / math.sqrt(v2 * t2)
 
+    def azimuthal_spectrum(self, vec: Any, m_max: int = 12, radial: int = 8) -> np.ndarray:
+        """The power of a mode's normal component w = u·n° in each azimuthal wavenumber m =
+        0..m_max: P_m = Σ_j |∫ w e^{-imφ} cos(jπ s) dω|² (j < ``radial``; s ∈ [0, 1] the
+        meridian coordinate from the pole), normalised so that f(t) and f(t) cos(mφ) have equal
+        power. From nodal values and the lumped mass of the mesh's Lagrange space, summed over
+        ranks. Unlike the Rayleigh quotient m² = ∫(∂_φ w)²/∫w², which a mixture of m = 0 and
+        m = 2 (two critical points 3e-4 apart) puts at m ≈ 1, this names the m present."""
+        import ufl
+        from dolfinx import fem, la
+        from mpi4py import MPI
+
+        if not hasattr(self, "_spectrum"):
+            V = fem.functionspace(self.shell.mesh, ("Lagrange", self.params.degree))
+            fw = fem.Function(V)
+            u, _ = self.split(self._mode_function())
+            expr = fem.Expression(ufl.dot(u, self.n0), V.element.interpolation_points())
+            lumped = fem.assemble_vector(fem.form(ufl.TestFunction(V) * self.dx))
+            lumped.scatter_reverse(la.InsertMode.add)
+            n = V.dofmap.index_map.size_local
+            x = V.tabulate_dof_coordinates()[:n]
+            self._spectrum = (fw, expr, lumped.array[:n].copy(), np.arctan2(x[:, 1], x[:, 0]),
+                              self._meridian_coordinate(x), n)
+        fw, expr, mass, phi, s, n = self._spectrum
+        self._load_mode(vec)
+        fw.interpolate(expr)
+        aw = mass * fw.x.array[:n]
+        ms, js = np.arange(m_max + 1), np.arange(radial)
+        c = (np.exp(-1j * np.outer(ms, phi)) * aw) @ np.cos(np.pi * np.outer(js, s)).T
+        comm = self.shell.comm
+        c = comm.allreduce(c.real, op=MPI.SUM) + 1j * comm.allreduce(c.imag, op=MPI.SUM)
+        p = np.sum(np.abs(c) ** 2, axis=1)
+        p[0] /= 2 * np.pi
+        p[1:] *= 2 / np.pi
+        return p
+
+    def _meridian_coordinate(self, x: np.ndarray) -> np.ndarray:
+        """s ∈ [0, 1] from the pole to the rim (the south pole of a closed shape) at points x."""
+        from shells.geometry import Disk, EllipsoidalCap
+
+        if isinstance(self.shape, Disk):
+            return np.hypot(x[:, 0], x[:, 1]) / self.shape.radius
+        if isinstance(self.shape, EllipsoidalCap):
+            t = np.arccos(np.clip(x[:, 2] / self.shape.r3, -1, 1))
+        else:
+            t = np.arccos(np.clip(x[:, 2] / np.linalg.norm(x, axis=1), -1, 1))
+        return t / self.shape.t_max
+
+    def _mode_function(self) -> Any:
+        from dolfinx import fem
+
+        if not hasattr(self, "_mode_v"):
+            self._mode_v = fem.Function(self.W)
+        return self._mode_v
+
+    def _load_mode(self, vec: Any) -> None:
+        vec.copy(self._mode_function().x.petsc_vec)
+        self._mode_v.x.scatter_forward()
+
     def classify_mode(self, vec: Any, block: Any = None) -> ModeInfo:
-        """n on closed spheres (m is not defined on a degenerate eigenspace), else m;
-        ``rayleigh["orbit"]``: ``orbit_overlap``."""
+        """n on closed spheres (m is not defined on a degenerate eigenspace), else m, the
+        azimuthal wavenumber of largest power (``azimuthal_spectrum``); ``rayleigh``: the
+        Rayleigh quotients (``m2``, ``x``), ``orbit`` (``orbit_overlap``) and the power
+        fraction of the chosen m (``m_power``)."""
         from shells.geometry import Sphere
 
         q = self.mode_rayleigh(vec)
@@ -573,4 +631,7 @@ class ShellModel(FormProblem):
         if isinstance(self.shape, Sphere):
             x = q["x"]
             return ModeInfo(None, int(round((-1 + math.sqrt(1 + 4 * max(x, 0.0))) / 2)), q)
-        return ModeInfo(int(round(math.sqrt(max(q["m2"], 0.0)))), None, q)
+        p = self.azimuthal_spectrum(vec)
+        m = int(np.argmax(p))
+        q["m_power"] = float(p[m] / max(p.sum(), 1e-300))
+        return ModeInfo(m, None, q)

@@ -108,19 +108,24 @@ def snap_case(name: str, shape, kappa_end: float, mesh: dict) -> dict:
     if fold is None:
         return out
     # the snapped state: the mirror chart at 1.1 κ_fold, by natural continuation (steps of at
-    # most 0.1 κ_fold, halved where Newton fails) from κ_fold/2
+    # most 0.1 κ_fold, halved where Newton fails) from a κ where Newton converges from the
+    # mirrored shell (a sphere cap's mirror is an equilibrium at 2/R; an ellipsoid's at none)
     from shells.continuation import continuation
 
     ev = ShellModel(sm, params)
-    ev.set_everted_guess()
     nat = ContinuationSettings(method="natural", ds=0.1 * fold.kappa_L, ds_max=0.1 * fold.kappa_L,
                                ds_min=1e-4 * fold.kappa_L, max_newton_its=25)
     ok = False
-    try:
-        for q in continuation(ev, nat, kappa_start=0.5 * fold.kappa, kappa_end=1.1 * fold.kappa):
-            ok = abs(q.kappa - 1.1 * fold.kappa) <= 1e-9 * abs(fold.kappa)
-    except RuntimeError as e:
-        say(f"  {name}: the everted state was not reached: {e}")
+    for start in (0.5, 0.35, 0.25):
+        ev.set_everted_guess()
+        try:
+            for q in continuation(ev, nat, kappa_start=start * fold.kappa,
+                                  kappa_end=1.1 * fold.kappa):
+                ok = abs(q.kappa - 1.1 * fold.kappa) <= 1e-9 * abs(fold.kappa)
+        except RuntimeError as e:
+            say(f"  {name}: from {start} kappa_fold, the everted state was not reached: {e}")
+        if ok:
+            break
     if ok:
         stab = Stability(ev)
         neg = stab.inertia()[0]

@@ -229,9 +229,10 @@ def _shapes_3d_rows(d: dict) -> list[str]:
             post = (f"m = {e.get('deviation_m')} post-buckled branch to κR = "
                     f"{e.get('kappa_R', float('nan')):.3f}, stable: {e.get('stable')}")
         rd = r.get("relative_difference")
+        dofs = f", {s['dofs']} DOFs" if s.get("dofs") else ""
         rows.append(
-            f"| {what.get(name, name)} | {paper.get(name, '')} | surface (P{r['mesh']['degree']}, "
-            f"{s.get('dofs', '')} DOFs): {first}; {post} | "
+            f"| {what.get(name, name)} | {paper.get(name, '')} | surface (P{r['mesh']['degree']}"
+            f"{dofs}): {first}; {post} | "
             f"{'–' if rd is None else f'{rd:.1e} from the 1D model'} | 1D model: {a['kind']} at "
             f"κR = {a['kappa_R']:.5f} (m = {a['mode_m']}); {s['time_s']:.0f} s on "
             f"{r['ranks']} ranks; renders coloured by e_b: benchmarks/results/shapes_3d/"

@@ -183,7 +183,8 @@ def branch_case(name: str, shape, kappa_end: float, mesh: dict) -> dict:
                      f"{last['kappa_R']:.3f}")
     return {"critical_points": [{"kind": cp["kind"], "kappa_R": cp["kappa_R"],
                                  "mode_m": cp.get("mode_m")}] if cp else [],
-            "branch": points, "end": {k: v for k, v in last.items() if k != "model"}}
+            "branch": points, "end": {k: v for k, v in last.items() if k != "model"},
+            "dofs": model.num_dofs() if model is not None else None}
 
 
 def main(argv: list[str]) -> int:

@@ -28,8 +28,9 @@ from shells.stability import Stability
 H = 0.04
 
 
-def _equilibrium(model: ShellModel, kappas: list[float]) -> dict:
-    """Newton through ``kappas`` from the model's current state; scalars, inertia, eigenvalues."""
+def _equilibrium(model: ShellModel, kappas: list[float], eigenvalues: bool = True) -> dict:
+    """Newton through ``kappas`` from the model's current state; scalars, inertia and (with
+    ``eigenvalues``) the three eigenvalues nearest 0."""
     ns = NewtonSolver(model)
     for k in kappas:
         model.kappa.value = k
@@ -38,7 +39,7 @@ def _equilibrium(model: ShellModel, kappas: list[float]) -> dict:
     ns.destroy()
     stab = Stability(model)
     neg = stab.inertia()[0]
-    vals = np.sort(np.asarray(stab.eigenpairs(3)[0], dtype=float))
+    vals = np.sort(np.asarray(stab.eigenpairs(3)[0], dtype=float)) if eigenvalues else None
     stab.destroy()
     return {"scalars": model.scalars(), "negative": neg, "eigenvalues": vals}
 
@@ -50,21 +51,24 @@ def _mesh(theta_deg: float):
 
 
 @functools.cache
-def _original(theta_deg: float, kappa_r: float, chart: str) -> dict:
+def _original(theta_deg: float, kappa_r: float, chart: str, eigenvalues: bool) -> dict:
     """The symmetric cap at κR from the reference state (computed once per module run; every
     rank asks in the same order)."""
     model = ShellModel(_mesh(theta_deg), ModelParameters(h=H, nu=0.5, director=chart))
-    return _equilibrium(model, [kappa_r / 2, kappa_r])
+    return _equilibrium(model, [kappa_r / 2, kappa_r], eigenvalues)
 
 
 @pytest.mark.parametrize("theta_deg, kappa_r", [(60, 2.6), (90, 1.5)])
 def test_everted_cap_is_the_mirror_image(theta_deg, kappa_r):
     """The 60° cap at κR = 2.6 mirrors the original at -0.6, past its m = 2 loss of symmetry
     (κ_b R ≈ -0.49): two negative eigenvalues on both sides; the 90° cap at 1.5 mirrors 0.5."""
-    orig = _original(theta_deg, round(2.0 - kappa_r, 12), "free")
+    # eigenvalues where there is an instability to compare (the 60° cap): SLEPc is the
+    # dearest part of a point
+    eig = theta_deg == 60
+    orig = _original(theta_deg, round(2.0 - kappa_r, 12), "free", eig)
     model = ShellModel(_mesh(theta_deg), ModelParameters(h=H, nu=0.5))
     model.set_everted_guess()
-    ever = _equilibrium(model, [2.0, (2.0 + kappa_r) / 2, kappa_r])
+    ever = _equilibrium(model, [2.0, (2.0 + kappa_r) / 2, kappa_r], eig)
     eo, ee = orig["scalars"]["energy"], ever["scalars"]["energy"]
     # measured 3.4e-6 (60°) and 4.2e-6 (90°): the P2 mesh's departure from the sphere in the
     # rim layer (b° = -a°/R to O(size³)); with b° = -a°/R imposed the two agree to 1e-12
@@ -75,9 +79,10 @@ def test_everted_cap_is_the_mirror_image(theta_deg, kappa_r):
     assert rot > 90 and 0 < rot0 < 10
     assert abs(rot - 2 * theta_deg) == pytest.approx(rot0, abs=0.05), (rot, rot0)
     assert ever["negative"] == orig["negative"] == (2 if theta_deg == 60 else 0)
-    scale = np.max(np.abs(orig["eigenvalues"]))
-    assert np.allclose(ever["eigenvalues"], orig["eigenvalues"], rtol=0, atol=1e-4 * scale), (
-        ever["eigenvalues"], orig["eigenvalues"])
+    if eig:
+        scale = np.max(np.abs(orig["eigenvalues"]))
+        assert np.allclose(ever["eigenvalues"], orig["eigenvalues"], rtol=0,
+                           atol=1e-4 * scale), (ever["eigenvalues"], orig["eigenvalues"])
     for r in (orig, ever):  # the same answer on every rank
         e = r["scalars"]["energy"]
         assert MPI.COMM_WORLD.allreduce(e, op=MPI.MAX) == MPI.COMM_WORLD.allreduce(e, op=MPI.MIN)
@@ -91,7 +96,7 @@ def test_stability_does_not_depend_on_the_director_chart():
     equilibria differ at the mesh's accuracy: the 30° cap's fold 2.4e-4 apart). The same
     negative count, and the lowest eigenvalues alike to that accuracy (measured: 0.6-0.8 %;
     these eigenvalues are 1e-3 of the Hessian's scale, next to a crossing)."""
-    f, t = _original(60, -0.6, "free"), _original(60, -0.6, "tangent")
+    f, t = _original(60, -0.6, "free", True), _original(60, -0.6, "tangent", True)
     assert f["negative"] == t["negative"] == 2
     assert np.allclose(f["eigenvalues"], t["eigenvalues"], rtol=0.02, atol=0), (
         f["eigenvalues"], t["eigenvalues"])

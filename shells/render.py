@@ -1,4 +1,5 @@
-"""Off-screen pictures of surface meshes and fields with pyvista (PNG).
+"""Off-screen pictures of surface meshes and of the surface model's states, deformed and coloured
+by a field, with pyvista (PNG; the state also as VTU for ParaView) (output layer).
 
 VTK needs an X display for OpenGL here; without one, a private Xvfb is started once per process
 (``xvfb`` is in the package list). Rendering happens on rank 0 from data gathered to it.

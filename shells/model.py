@@ -71,8 +71,8 @@ def default_discretisation(shape: Shape, h_over_r: float | None = None,
     Caps of θ̄ ≤ 3 and the flat disk: P2 at size 0.1 (the 30° cap at h/R = 0.04, θ̄ = 2.6: its
     fold within 0.1 % of the converged value). Deeper caps and ellipsoids: P3 at size 0.2 (the
     ellipsoid r3 = 1.5 R at h/R = 0.04: m = 2 buckling at κR = -0.57382 against the 1D model's
-    -0.57386, where P2 gives -0.6226, +8.5 %; the θ̄ = 5 cap's fold +5.1 % with P2:
-    benchmarks/shapes_3d.py).
+    -0.57386, where P2 gives -0.6226, +8.5 %, measured with `shells critical`; the θ̄ = 5
+    cap's fold +5.1 % with P2, issue 13's measurement; P3 runs of both: benchmarks/shapes_3d.py).
     """
     from shells.geometry import EllipsoidalCap, SphericalCap
 

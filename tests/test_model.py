@@ -177,3 +177,31 @@ def test_cap_snaps_through_a_fold():
     # the apex keeps moving down through the fold (snap-through direction)
     apex = [p.scalars["apex_uz_over_h"] for p in pts]
     assert np.all(np.diff(apex) < 0)
+
+
+def test_modes_are_named_by_their_azimuthal_spectrum():
+    """f(t) cos(m φ + 0.3) normal modes are named m (every m up to 3, radial sign changes
+    included); a mixture of m = 0 (55 % of the power) and m = 2, whose Rayleigh quotient
+    m² = ∫(∂_φ w)²/∫w² ≈ 1.15 would name a phantom m = 1, is named m = 0."""
+    import ufl
+    from dolfinx import fem
+
+    cap = SphericalCap(1.0, math.radians(60))
+    model = ShellModel(generate(MeshSpec(cap, h=0.04, size=0.3, layer_elements=2.0)),
+                       ModelParameters(h=0.04, nu=0.5))
+    x = ufl.SpatialCoordinate(model.shell.mesh)
+    phi, t = ufl.atan2(x[1], x[0]), ufl.acos(x[2] / ufl.sqrt(ufl.dot(x, x)))
+    v = fem.Function(model.W)
+
+    def named(amp):
+        n0 = model.n0
+        e = ufl.as_vector([amp * n0[0], amp * n0[1], amp * n0[2], 0.0, 0.0, 0.0])
+        v.interpolate(fem.Expression(e, model.W.element.interpolation_points()))
+        return model.classify_mode(v.x.petsc_vec)
+
+    for m, f in ((0, ufl.sin(3 * t)), (1, t), (2, ufl.sin(3 * t)), (3, ufl.cos(5 * t))):
+        info = named(f * ufl.cos(m * phi + 0.3))
+        assert info.m == m and info.rayleigh["m_power"] > 0.99, (m, info)
+    mix = named(ufl.sin(3 * t) * (1.0 + 0.9 * ufl.cos(2 * phi)))
+    assert round(math.sqrt(mix.rayleigh["m2"])) == 1  # the Rayleigh quotient's phantom
+    assert mix.m == 0 and 0.5 < mix.rayleigh["m_power"] < 0.6

@@ -699,9 +699,10 @@ def follow(problem: Any, settings: ContinuationSettings, kappa_end: float,
            crit: CriticalSettings | None = None, *, solver: NewtonSolver | None = None,
            nev: int = 0, blocks: Iterable[Hashable] | None = None,
            locate_when: Callable[[Point, dict[Hashable, int], dict[Hashable, int]], bool]
-           | None = None, locate_points: bool = True
+           | None = None, locate_points: bool = True, kappa_start: float = 0.0
            ) -> Iterator[tuple[Point, StabilityResult, list[CriticalPoint]]]:
-    """Follow the branch from κ = 0 to ``kappa_end`` with stability at every point.
+    """Follow the branch from κ = ``kappa_start`` (default 0; the problem's state must then be
+    near the branch's state there) to ``kappa_end`` with stability at every point.
 
     Yields (point, stability, critical points located in the step that ended at this point).
     The problem's state is the point's state at each yield. Stability: the negative count of
@@ -723,7 +724,7 @@ def follow(problem: Any, settings: ContinuationSettings, kappa_end: float,
     n_found = 0
     folds_only = False
     try:
-        for p in continuation(problem, settings, kappa_start=0.0, kappa_end=kappa_end,
+        for p in continuation(problem, settings, kappa_start=kappa_start, kappa_end=kappa_end,
                               solver=ns):
             if folds_only:
                 counts = dict(prev[2]) if prev is not None else {}

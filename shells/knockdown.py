@@ -9,6 +9,14 @@ common algorithm layer (``shells.critical.follow``, folds only) up to its fold �
 knock-down is κ_max/κ_b, κ_b the perfect sphere's first axisymmetric bifurcation (same mesh,
 same code path, δ = 0). Points are appended to a JSON-lines file as computed; a rerun with the
 same configuration skips the amplitudes already there.
+
+Asymptotics: at the perfect sphere's bifurcation Koiter's reduced equation is computed
+(``shells.asymptotics``; ∂R/∂δ from two imperfect models at ±δ on the same mesh): its kind
+(asymmetric for an even buckling degree n, symmetric at that order for an odd one) and, where
+it gives one, the small-δ law 1 - κ_max/κ_b = C √δ, reported beside every computed point. The
+law also sets the steps near the fold: at small δ the fold lies within C √δ κ_b of κ_b and
+turns sharply, so the branch is taken there by natural steps and followed from 4 C √δ below
+κ_b with steps of a quarter of that distance.
 """
 
 from __future__ import annotations
@@ -30,8 +38,11 @@ __all__ = ["KnockdownConfig", "fold_kappa", "knockdown", "run_knockdown"]
 
 #: how a point is computed; part of a points file's key, so that a rerun never reads back
 #: points of another method (the first critical point located on all counts, shorter steps
-#: when a crossing comes before the fold)
-METHOD = "first-critical-point/2"
+#: when a crossing comes before the fold; /3: one mesh for all amplitudes, steps near the
+#: fold from the asymptotic law)
+METHOD = "first-critical-point/3"
+#: ∂R/∂δ by central differences at δ/h = ±this (R is linear in δ to 1e-7 there, measured)
+DELTA_FD = 1.0e-3
 
 
 @dataclass(frozen=True)
@@ -45,7 +56,11 @@ class KnockdownConfig:
         imperfection: "dimple" (w0 = -δ h exp(-(β/β0)²)) or "mode" (w0 = -δ h P_n(cos β)).
         width: the dimple's β0 in units of sqrt(h/R).
         degree: the mode's degree n (None: the perfect sphere's critical degree, located).
-        cells, penalty: the 1D mesh's bulk cells (None: the default) and C1 penalty.
+        cells, penalty: the 1D mesh's bulk cells (None: the default) and C1 penalty. The
+            penalty ties the slopes to the displacement to O(1/penalty), which on a closed
+            sphere acts as a pole-localised imperfection of its own: with 1e4 the perfect
+            sphere's bifurcation is shifted by 6e-4 and the knock-down at δ/h ≤ 1e-4 is 30 %
+            off the asymptotic law (h/R = 0.1, measured); 1e6 (default) puts it out of reach.
     """
 
     h_over_r: float
@@ -55,7 +70,7 @@ class KnockdownConfig:
     width: float = 1.0
     degree: int | None = None
     cells: int | None = None
-    penalty: float = 1.0e4
+    penalty: float = 1.0e6
 
     def __post_init__(self) -> None:
         if not (isinstance(self.h_over_r, (int, float)) and 0 < self.h_over_r <= 0.2):
@@ -92,13 +107,68 @@ def _model(cfg: KnockdownConfig, amplitude: float, degree: int) -> Any:
     return model, run
 
 
-def fold_kappa(cfg: KnockdownConfig, amplitude: float, degree: int) -> dict[str, Any]:
-    """The first axisymmetric critical point of the sphere with imperfection ``amplitude``
-    (δ/h): for δ > 0 its fold (limit point), for δ = 0 its bifurcation. Returns {"kind",
-    "kappa_h", "mode_n", "accuracy", "branch_points"}."""
-    from shells.axisym import SNES_OPTIONS, default_settings
+def _imperfection_derivative(cfg: KnockdownConfig, degree: int, model: Any) -> Any:
+    """A callable giving ∂R/∂(δ/h) at ``model``'s current state and κ (central differences of
+    two imperfect models on the same mesh)."""
+    plus, _ = _model(cfg, DELTA_FD, degree)
+    minus, _ = _model(cfg, -DELTA_FD, degree)
+
+    def derivative() -> Any:
+        out = model.create_vector()
+        tmp = model.create_vector()
+        for m, sign in ((plus, 1.0), (minus, -1.0)):
+            model.state.copy(m.state)
+            m.sync()
+            m.set_kappa(model.get_kappa())
+            m.assemble_residual(tmp)
+            out.axpy(sign / (2 * DELTA_FD), tmp)
+        tmp.destroy()
+        return out
+
+    return derivative
+
+
+def _first_critical(model: Any, ns: Any, cfg: KnockdownConfig, end: float,
+                    ds_h: float | None, kappa_start: float = 0.0) -> tuple[list[Any], int]:
+    """The first axisymmetric critical point from κ = ``kappa_start`` (the model's state is
+    the branch's there), steps of ``ds_h`` in κh (None: the defaults)."""
+    from shells.axisym import default_settings
     from shells.critical import CriticalSettings, follow
     from shells.geometry import Sphere
+
+    steps = {} if ds_h is None else {"ds": ds_h / cfg.h_over_r, "ds_max": ds_h / cfg.h_over_r}
+    st = default_settings(Sphere(1.0), cfg.h_over_r, **steps)
+    crit = CriticalSettings(stop_at_fold=True, max_critical=1)
+    found: list[Any] = []
+    n = 0
+    for _, _, cps in follow(model, st, end, crit, solver=ns, kappa_start=kappa_start):
+        n += 1
+        found += cps
+        if found:
+            break
+    return found, n
+
+
+def _approach(model: Any, ns: Any, kappa: float) -> None:
+    """Natural continuation from κ = 0 to ``kappa`` (far from any critical point)."""
+    from shells.continuation import ContinuationSettings, continuation
+
+    lam = kappa * model.length_scale()
+    st = ContinuationSettings(method="natural", ds=0.1 * lam, ds_max=0.1 * lam,
+                              kappa_stops=(lam,))
+    for _ in continuation(model, st, kappa_start=0.0, kappa_end=kappa, solver=ns):
+        pass
+
+
+def fold_kappa(cfg: KnockdownConfig, amplitude: float, degree: int,
+               predicted: float | None = None, kappa_b: float | None = None
+               ) -> dict[str, Any]:
+    """The first axisymmetric critical point of the sphere with imperfection ``amplitude``
+    (δ/h): for δ > 0 its fold (limit point), for δ = 0 its bifurcation. ``predicted``: the
+    asymptotic law's κ_max/κ_b and ``kappa_b`` (absolute), which set the steps near a fold
+    close to κ_b. Returns {"kind", "kappa_h", "mode_n", "accuracy", "branch_points"} (and for
+    δ = 0 the located point itself as "point")."""
+    from shells.axisym import SNES_OPTIONS
     from shells.solvers import NewtonSolver
     from shells.theory import sphere_kappa_b_h
 
@@ -112,35 +182,64 @@ def fold_kappa(cfg: KnockdownConfig, amplitude: float, degree: int) -> dict[str,
     # crossing first means a step went past the fold, which turns ever more sharply as δ → 0,
     # onto the neighbouring branch of the broken bifurcation (measured at h/R = 0.01, δ/h =
     # 0.001: a "fold" 5 % above κ_b with steps of 0.02 in κh): the run is repeated with
-    # steps 4 and 16 times shorter. The perfect sphere's branch is the uniform shrink.
+    # steps 4 and 16 times shorter. Where the asymptotic law puts the fold within 0.08 in κh
+    # of κ_b, the steps are a quarter of that distance (and 4 times shorter on a retry), from
+    # 4 times that distance below κ_b. The perfect sphere's branch is the uniform shrink.
+    start = 0.0
+    ladder: tuple[float | None, ...] = (None,) if perfect else (0.02, 0.005, 0.00125)
+    if not perfect and predicted is not None and kappa_b is not None:
+        gap_h = (1.0 - predicted) * kappa_b * h
+        if 0 < gap_h < 0.08:
+            ladder = (gap_h / 4, gap_h / 16)
+            start = kappa_b * (1.0 - 4.0 * (1.0 - predicted))
     found: list[Any] = []
     n = 0
     try:
-        for ds_h in ((None,) if perfect else (0.02, 0.005, 0.00125)):
-            steps = {} if ds_h is None else {"ds": ds_h / cfg.h_over_r,
-                                             "ds_max": ds_h / cfg.h_over_r}
-            st = default_settings(Sphere(1.0), cfg.h_over_r, **steps)
-            crit = CriticalSettings(stop_at_fold=True, max_critical=1)
+        for ds_h in ladder:
             model.w.x.array[:] = 0.0
             model.set_kappa(0.0)
-            found, n = [], 0
-            for _, _, cps in follow(model, st, end, crit, solver=ns):
-                n += 1
-                found += cps
-                if found:
-                    break
+            if start > 0:
+                _approach(model, ns, start)
+            found, n = _first_critical(model, ns, cfg, end, ds_h, start)
             if perfect or (found and found[0].kind == "fold"):
                 break
-            log.info("knockdown: delta/h = %g: %s first with steps of %g in kappa h; shorter "
+            log.info("knockdown: delta/h = %g: %s first with steps of %s in kappa h; shorter "
                      "steps", amplitude, found[0].kind if found else "no critical point", ds_h)
+        if perfect and found:
+            ns_out = {"point": found[0], "model": model, "solver": ns}
     finally:
-        ns.destroy()
+        if not (perfect and found):
+            ns.destroy()
     if not found or (not perfect and found[0].kind != "fold"):
         raise RuntimeError(f"no limit point of the imperfect sphere found up to kappa h = "
                            f"{end * h:.4g} at delta/h = {amplitude:g}")
     c = found[0]
-    return {"kind": c.kind, "kappa_h": c.kappa * h, "mode_n": c.mode_n,
-            "accuracy": c.accuracy, "branch_points": n}
+    out = {"kind": c.kind, "kappa_h": c.kappa * h, "mode_n": c.mode_n,
+           "accuracy": c.accuracy, "branch_points": n}
+    if perfect:
+        out.update(ns_out)
+    return out
+
+
+def perfect_sphere(cfg: KnockdownConfig, degree: int) -> dict[str, Any]:
+    """The perfect sphere's first axisymmetric bifurcation and Koiter's reduced equation there
+    (``shells.asymptotics``) with the imperfection of ``cfg`` (its profile of degree
+    ``degree``): {"kind", "kappa_h", "mode_n", "accuracy", "branch_points", "asymptotics"}."""
+    from shells.asymptotics import reduced_equation
+
+    r = fold_kappa(cfg, 0.0, degree)
+    point, model, ns = r.pop("point"), r.pop("model"), r.pop("solver")
+    try:
+        n = point.mode_n if cfg.degree is None and point.mode_n else degree
+        red = reduced_equation(model, point, ns, _imperfection_derivative(cfg, n, model))
+    finally:
+        ns.destroy()
+    r["asymptotics"] = red.as_dict()
+    # κ_b: the refined κ_c (the eigenvalue's zero on the fundamental branch, to ~1e-10; the
+    # located bracket is 1e-4 wide), the reference of the knock-downs and of the law
+    r["kappa_h_located"] = r["kappa_h"]
+    r["kappa_h"] = r["asymptotics"]["kappa_c_h"] = red.kappa_c * cfg.h_over_r
+    return r
 
 
 def knockdown(cfg: KnockdownConfig, outdir: str | Path | None = None
@@ -173,20 +272,28 @@ def knockdown(cfg: KnockdownConfig, outdir: str | Path | None = None
     degree = cfg.degree if cfg.degree is not None else int(round(sphere_mode_n(cfg.h_over_r,
                                                                                cfg.nu)))
     if perfect is None:
-        perfect = fold_kappa(cfg, 0.0, degree)
+        perfect = json.loads(json.dumps(perfect_sphere(cfg, degree), default=json_default))
         if out is not None:
             append_record(out, {"perfect": perfect})
     if cfg.degree is None and perfect.get("mode_n"):
         degree = int(perfect["mode_n"])
     yield {"perfect": perfect, "degree": degree}
     kb = perfect["kappa_h"]
+    from shells.asymptotics import ReducedEquation
+
+    law = ReducedEquation(**{k: v for k, v in perfect["asymptotics"].items()
+                             if k not in ("coefficient", "kappa_c_h")})
     for a in cfg.amplitudes:
         if a in done:
             yield done[a]
             continue
-        r = fold_kappa(cfg, a, degree) if a > 0 else dict(perfect)
+        pred = law.knockdown(a)
+        r = (fold_kappa(cfg, a, degree, pred, law.kappa_c) if a > 0
+             else {k: perfect[k] for k in ("kind", "kappa_h", "accuracy")})
         rec = {"delta_over_h": a, "kappa_max_h": r["kappa_h"], "knockdown": r["kappa_h"] / kb,
-               "kind": r["kind"], "accuracy": r["accuracy"], "degree": degree}
+               "kind": r["kind"], "accuracy": r["accuracy"], "degree": degree,
+               # the law's κ_max/κ_b (None where it predicts no fold at this order)
+               "knockdown_asymptotic": pred}
         log.info("knockdown: delta/h = %g: kappa_max h = %.6f, knock-down %.4f (%s)", a,
                  rec["kappa_max_h"], rec["knockdown"], r["kind"])
         if out is not None:
@@ -204,6 +311,7 @@ def run_knockdown(cfg: KnockdownConfig, outdir: str | Path | None, figure: bool 
     h = cfg.h_over_r  # R = 1
     out: dict[str, Any] = {"kappa_b": head["perfect"]["kappa_h"] / h,
                            "kappa_b_h": head["perfect"]["kappa_h"], "degree": head["degree"],
+                           "asymptotics": head["perfect"]["asymptotics"],
                            "points": pts, "config": cfg.describe(), "figures": []}
     if outdir is not None:
         out["points_file"] = str(Path(outdir) / "points.jsonl")
@@ -220,7 +328,17 @@ def _figure(res: dict[str, Any], path: Path) -> str:
 
     pts = [p for p in res["points"] if p["delta_over_h"] > 0]
     fig, ax = plt.subplots(figsize=(5, 3.5))
-    ax.semilogx([p["delta_over_h"] for p in pts], [p["knockdown"] for p in pts], "o-")
+    ax.semilogx([p["delta_over_h"] for p in pts], [p["knockdown"] for p in pts], "o-",
+                label="computed")
+    law = res.get("asymptotics", {}).get("coefficient")
+    if law and pts:
+        import numpy as np
+
+        d = np.geomspace(min(p["delta_over_h"] for p in pts),
+                         max(p["delta_over_h"] for p in pts), 50)
+        ax.semilogx(d, 1 - law * np.sqrt(d), "k--", lw=1,
+                    label=f"Koiter: 1 - {law:.3g} √(δ/h)")
+        ax.legend(fontsize=8)
     c = res["config"]
     ax.set_title(f"closed sphere, h/R = {c['h_over_r']:g}, ν = {c['nu']:g}, "
                  f"{c['imperfection']}", fontsize=9)

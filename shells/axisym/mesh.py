@@ -29,6 +29,15 @@ def _supported(shape: Any) -> None:
                          f"got {type(shape).__name__}")
 
 
+def _base_shape(shape: Shape) -> Shape:
+    """The shape whose arclength places the nodes: an imperfect sphere's perfect sphere."""
+    from shells.geometry import ImperfectSphere, Sphere
+
+    if isinstance(shape, ImperfectSphere):
+        return Sphere(shape.radius) if shape.closed else SphericalCap(shape.radius, shape.theta)
+    return shape
+
+
 def _arclength_table(shape: Shape, n: int = 4001) -> tuple[np.ndarray, np.ndarray]:
     """(t, s(t)) on a fine grid: the meridian's arclength from the top pole."""
     t = np.linspace(0.0, shape.t_max, n)
@@ -46,7 +55,11 @@ def make_meridian_nodes(shape: Shape, h: float, cells: int, layer_cells: float,
     ``sqrt(R h) / layer_cells`` growing by ``grading`` up to the bulk size S / cells (S: the
     meridian's length), then uniform; the nodes are mapped back to t through s(t).
     """
-    t_tab, s_tab = _arclength_table(shape)
+    # an imperfect sphere is meshed as its perfect sphere (nodes uniform in the angle from the
+    # pole): every amplitude of a knock-down curve shares one mesh, so that states, residuals
+    # and the imperfection's derivative dR/dδ compare DOF by DOF (the arclength changes by
+    # O(δ²) only)
+    t_tab, s_tab = _arclength_table(_base_shape(shape))
     S = float(s_tab[-1])
     if shape.closed:
         s_nodes = np.linspace(0.0, S, cells + 1)

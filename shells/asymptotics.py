@@ -44,9 +44,11 @@ from shells.errors import InputError
 
 __all__ = ["ReducedEquation", "reduced_equation"]
 
-#: |dκ/dξ| / κ_c below this (ξ in RMS thicknesses) is a symmetric bifurcation: measured on the
-#: 1D sphere, about 1e-2 for even n and below 1e-5 for odd n (round-off and mesh asymmetry)
-SYMMETRIC_BELOW = 1.0e-4
+#: a symmetric bifurcation: φᵀR(w_c ± ξφ) is odd in ξ, its even part below this fraction of
+#: its size (an asymmetric one has an even part ~ c2 ξ² that dominates at the critical point,
+#: where the odd part is ~ ξ³; measured on the 1D sphere at ξ = 0.01 h: 1.8 for even degrees
+#: n, 0.009 for n = 9)
+SYMMETRIC_BELOW = 0.1
 
 
 @dataclass(frozen=True)
@@ -61,6 +63,8 @@ class ReducedEquation:
     kappa_c_accuracy: float
     #: the bifurcated branch's initial slope relative to κ_c: (dκ/dξ)/κ_c = -c2/(c1 κ_c)
     slope: float
+    #: the even part of φᵀR(w_c ± ξφ) over its size at the finite-difference amplitude
+    asymmetry: float
     kind: str  # "asymmetric" or "symmetric"
 
     @property
@@ -201,11 +205,12 @@ def reduced_equation(problem: Any, cp: Any, solver: Any,
             g = imperfection()
             c3 = float(phi.dot(g))
         slope = -c2 / (c1 * kappa)
+        asym = abs(rp + rm - 2 * r0) / max(abs(rp - r0), abs(rm - r0), 1e-300)
         set_point(w, kappa)
         return ReducedEquation(kappa_c=kappa, c1=float(c1), c2=float(c2), c3=c3,
                                kappa_c_accuracy=float(correction), slope=float(slope),
-                               kind="symmetric" if abs(slope) < SYMMETRIC_BELOW
-                               else "asymmetric")
+                               asymmetry=float(asym),
+                               kind="symmetric" if asym < SYMMETRIC_BELOW else "asymmetric")
     finally:
         ksp.destroy()
         for v in (w, phi, t, rk, tmp, y):

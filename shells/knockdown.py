@@ -25,7 +25,7 @@ import json
 import logging
 import math
 from collections.abc import Iterator
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -54,6 +54,10 @@ class KnockdownConfig:
         amplitudes: imperfection amplitudes δ/h (≥ 0; 0 is the perfect sphere).
         nu: Poisson ratio.
         imperfection: "dimple" (w0 = -δ h exp(-(β/β0)²)) or "mode" (w0 = -δ h P_n(cos β)).
+        load: "curvature" (the natural curvature κ) or "pressure" (a dead external pressure,
+            continued in its equivalent curvature κ_p of the paper's Eq. (5); κ_b is then the
+            buckling pressure's, classically 12 (1-ν)/√(3(1-ν²)) in κ_p h): the same code
+            path, one load parameter of the 1D model (``AxisymParameters.load``).
         width: the dimple's β0 in units of sqrt(h/R).
         degree: the mode's degree n (None: the perfect sphere's critical degree, located).
         cells, penalty: the 1D mesh's bulk cells (None: the default) and C1 penalty. The
@@ -68,6 +72,7 @@ class KnockdownConfig:
     nu: float = 0.5
     imperfection: str = "dimple"
     width: float = 1.0
+    load: str = "curvature"
     degree: int | None = None
     cells: int | None = None
     penalty: float = 1.0e6
@@ -81,6 +86,8 @@ class KnockdownConfig:
         object.__setattr__(self, "amplitudes", amps)
         if not (-1.0 < self.nu <= 0.5):
             raise InputError(f"nu must lie in (-1, 0.5], got {self.nu!r}")
+        if self.load not in ("curvature", "pressure"):
+            raise InputError(f"load must be 'curvature' or 'pressure', got {self.load!r}")
         if self.imperfection not in ("dimple", "mode"):
             raise InputError(f"imperfection must be 'dimple' or 'mode', got "
                              f"{self.imperfection!r}")
@@ -102,9 +109,16 @@ def _model(cfg: KnockdownConfig, amplitude: float, degree: int) -> Any:
                              degree))
     run = RunConfig(shape=shape, h_over_r=cfg.h_over_r, nu=cfg.nu, cells=cfg.cells,
                     penalty=cfg.penalty, m_max=0)
-    model = AxisymModel(shape, run.params())
+    model = AxisymModel(shape, replace(run.params(), load=cfg.load))
     model.modes = (0,)
     return model, run
+
+
+def _kappa_scale(cfg: KnockdownConfig) -> float:
+    """The thin-shell κ_b h of the load (sets the followed range)."""
+    from shells.theory import sphere_kappa_b_h, sphere_pressure_kappa_h
+
+    return (sphere_pressure_kappa_h if cfg.load == "pressure" else sphere_kappa_b_h)(cfg.nu)
 
 
 def _imperfection_derivative(cfg: KnockdownConfig, degree: int, model: Any) -> Any:
@@ -170,12 +184,11 @@ def fold_kappa(cfg: KnockdownConfig, amplitude: float, degree: int,
     δ = 0 the located point itself as "point")."""
     from shells.axisym import SNES_OPTIONS
     from shells.solvers import NewtonSolver
-    from shells.theory import sphere_kappa_b_h
 
     model, run = _model(cfg, amplitude, degree)
     ns = NewtonSolver(model, options=SNES_OPTIONS)
     h = run.h
-    end = 1.25 * sphere_kappa_b_h(cfg.nu) / h
+    end = 1.25 * _kappa_scale(cfg) / h
     perfect = amplitude == 0
     # Every critical point of the axisymmetric problem is located, and the first one decides.
     # For δ > 0 it must be the fold: the imperfect branch is stable up to its limit point. A
@@ -185,22 +198,28 @@ def fold_kappa(cfg: KnockdownConfig, amplitude: float, degree: int,
     # steps 4 and 16 times shorter. Where the asymptotic law puts the fold within 0.08 in κh
     # of κ_b, the steps are a quarter of that distance (and 4 times shorter on a retry), from
     # 4 times that distance below κ_b. The perfect sphere's branch is the uniform shrink.
-    start = 0.0
-    ladder: tuple[float | None, ...] = (None,) if perfect else (0.02, 0.005, 0.00125)
+    # (start κ, step in κh) of each attempt
+    ladder: list[tuple[float, float | None]] = (
+        [(0.0, None)] if perfect else [(0.0, 0.02), (0.0, 0.005), (0.0, 0.00125)])
     if not perfect and predicted is not None and kappa_b is not None:
         gap_h = (1.0 - predicted) * kappa_b * h
         if 0 < gap_h < 0.08:
-            ladder = (gap_h / 4, gap_h / 16)
             start = kappa_b * (1.0 - 4.0 * (1.0 - predicted))
+            ladder = [(start, gap_h / 4), (start, gap_h / 16), *ladder]
     found: list[Any] = []
     n = 0
     try:
-        for ds_h in ladder:
+        for start, ds_h in ladder:
             model.w.x.array[:] = 0.0
             model.set_kappa(0.0)
-            if start > 0:
-                _approach(model, ns, start)
-            found, n = _first_critical(model, ns, cfg, end, ds_h, start)
+            try:
+                if start > 0:
+                    _approach(model, ns, start)
+                found, n = _first_critical(model, ns, cfg, end, ds_h, start)
+            except RuntimeError as e:  # a failed Newton: the next attempt
+                log.info("knockdown: delta/h = %g: %s; next attempt", amplitude, e)
+                found = []
+                continue
             if perfect or (found and found[0].kind == "fold"):
                 break
             log.info("knockdown: delta/h = %g: %s first with steps of %s in kappa h; shorter "
@@ -309,7 +328,11 @@ def run_knockdown(cfg: KnockdownConfig, outdir: str | Path | None, figure: bool 
     recs = list(knockdown(cfg, outdir))
     head, pts = recs[0], sorted(recs[1:], key=lambda r: r["delta_over_h"])
     h = cfg.h_over_r  # R = 1
-    out: dict[str, Any] = {"kappa_b": head["perfect"]["kappa_h"] / h,
+    kbh = head["perfect"]["kappa_h"]
+    out: dict[str, Any] = {"kappa_b": head["perfect"]["kappa_h"] / h, "load": cfg.load,
+                           # the load at κ_b as a pressure (Eq. (5)), and the classical p_c
+                           "p_b_over_E": kbh * h**2 / (6 * (1 - cfg.nu)),
+                           "p_c_over_E_classical": 2 / math.sqrt(3 * (1 - cfg.nu**2)) * h**2,
                            "kappa_b_h": head["perfect"]["kappa_h"], "degree": head["degree"],
                            "asymptotics": head["perfect"]["asymptotics"],
                            "points": pts, "config": cfg.describe(), "figures": []}

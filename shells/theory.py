@@ -105,6 +105,12 @@ def sphere_kappa_b_h(nu: float = 0.5) -> float:
     return 4.0 * math.sqrt(3.0 * (1 - nu) / ((1 + nu) * (5 + 4 * nu)))
 
 
+def sphere_pressure_kappa_h(nu: float = 0.5) -> float:
+    """The classical buckling pressure p_c = 2E/√(3(1-ν²)) (h/R)² of a sphere as its equivalent
+    curvature (the paper's Eq. (5), κh = 6 (1-ν) (R/h)² p/E): 12 (1-ν)/√(3(1-ν²))."""
+    return 12.0 * (1 - nu) / math.sqrt(3.0 * (1 - nu * nu))
+
+
 def sphere_mode_x(h_over_r: float, nu: float = 0.5) -> float:
     """x = n(n+1) = 2/(1+2ν) (R/h) √(3(5+4ν)(1-ν²)) minimising the dispersion relation."""
     return 2.0 / (1 + 2 * nu) / h_over_r * math.sqrt(3 * (5 + 4 * nu) * (1 - nu * nu))

@@ -137,3 +137,22 @@ def test_knockdown_cli_json_contract_and_bad_input(tmp_path, capsys):
         assert e.value.code == 2
     err = capsys.readouterr().err
     assert "Traceback" not in err
+
+
+def test_pressure_through_the_same_code_path(curve):
+    """The same sphere under a dead external pressure, continued in its equivalent curvature
+    (Eq. (5)) by the same code: at δ = 0 the classical p_c = 2E/√(3(1-ν²)) (h/R)² to O(h/R)
+    (measured 1 - 0.86 h/R at h/R = 0.05, 0.02 and 0.01), and the pressure's knock-down by the
+    same dimple is far larger than the curvature's (0.949 against 0.9915 at δ/h = 0.01)."""
+    from shells.theory import sphere_pressure_kappa_h
+
+    recs = list(knockdown(KnockdownConfig(H, (0.01,), imperfection="dimple", width=1.0,
+                                          load="pressure")))
+    perfect = recs[0]["perfect"]
+    assert perfect["kind"] == "bifurcation"
+    ratio = perfect["kappa_h"] / sphere_pressure_kappa_h(0.5)
+    assert 1 - 1.5 * H < ratio < 1
+    (p,) = recs[1:]
+    curvature = {r["delta_over_h"]: r for r in curve[2][1:]}
+    assert p["kind"] == "fold"
+    assert p["knockdown"] < curvature[0.01]["knockdown"] - 0.02

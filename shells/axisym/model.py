@@ -63,6 +63,11 @@ class AxisymParameters:
         quadrature_degree: quadrature degree of the energy.
         slope_bending: the curvature b from the slope fields alone (x_t ≈ x°_t + p in the
             normal and in ∂_t∂_φ x; the metric always uses ∂_t u); False: from ∂_t u.
+        load: what the load parameter (the Constant ``kappa``) imposes: "curvature" (the
+            natural curvature κ, b̄ = b° + κ a°) or "pressure" (a dead external pressure p,
+            normal to the reference surface, given as its equivalent curvature of the paper's
+            Eq. (5), κ_p h = 6 (1-ν) (R/h)² p/E, R the shape's length scale; no natural
+            curvature): one parameter, so that both loads go through the same algorithms.
     """
 
     h: float
@@ -73,8 +78,11 @@ class AxisymParameters:
     penalty: float = 1.0e4
     quadrature_degree: int = 8
     slope_bending: bool = True
+    load: str = "curvature"
 
     def __post_init__(self) -> None:
+        if self.load not in ("curvature", "pressure"):
+            raise InputError(f"load must be 'curvature' or 'pressure', got {self.load!r}")
         if not (isinstance(self.h, (int, float)) and math.isfinite(self.h) and self.h > 0):
             raise InputError(f"thickness h must be positive, got {self.h!r}")
         if not (isinstance(self.nu, (int, float)) and -1.0 < self.nu <= 0.5):
@@ -254,15 +262,24 @@ class AxisymModel(FormProblem):
         """Energy densities per reference area dω of a jet (``total`` is minimised)."""
         e = self.strains(j)
         Ea, Eb = e["a"], e["b"]
-        gap = (Eb[0] - self.kappa, Eb[1], Eb[2] - self.kappa)  # b - b̄
+        pressure = self.params.load == "pressure"
+        kn = 0.0 if pressure else self.kappa  # the natural curvature
+        gap = (Eb[0] - kn, Eb[1], Eb[2] - kn)  # b - b̄
         stretch = self._quad(Ea)
         bend_nat = self.h**2 / 3 * self._quad(gap)
         pen = self.pen * _dot(e["slope_gap"], e["slope_gap"]) / self.g**2
-        return {"total": stretch + bend_nat + pen, "stretching": stretch,
-                "bending": self.h**2 / 3 * self._quad(Eb),
-                "curvature_potential": -2 * (1 + self.nu) / 3 * self.h**2 * self.kappa
-                * (Eb[0] + Eb[2]),
-                "penalty": pen}
+        out = {"total": stretch + bend_nat + pen, "stretching": stretch,
+               "bending": self.h**2 / 3 * self._quad(Eb),
+               "curvature_potential": -2 * (1 + self.nu) / 3 * self.h**2 * kn
+               * (Eb[0] + Eb[2]),
+               "penalty": pen}
+        if pressure:
+            # + 8 (1-ν²) p/(E h) u·n° (energy per E h / (8 (1-ν²))), p/E from κ_p by Eq. (5)
+            L = self.shape.characteristic_size()
+            un = (j.val[0] * (-self.z0t) + j.val[2] * self.r0t) / self.g
+            out["pressure_work"] = 4 * (1 + self.nu) / 3 * (self.h / L) ** 2 * self.kappa * un
+            out["total"] = out["total"] + out["pressure_work"]
+        return out
 
     # -- forms -----------------------------------------------------------------------------------
     def _build_forms(self) -> None:

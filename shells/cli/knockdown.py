@@ -33,6 +33,10 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
                    help="dimple width beta0 in units of sqrt(h/R) (default 1)")
     p.add_argument("--amplitudes", type=float, nargs="+", required=True, metavar="A",
                    help="imperfection amplitudes delta/h")
+    p.add_argument("--load", default="curvature", choices=("curvature", "pressure"),
+                   help="curvature (natural curvature, default) or pressure (a dead external "
+                   "pressure, reported as its equivalent curvature of Eq. (5): kappa h = "
+                   "6 (1 - nu) (R/h)^2 p/E)")
     p.add_argument("--model", default="axisym", choices=("axisym", "surface"),
                    help="axisym (1D, default); surface: not available yet")
     p.add_argument("--no-figure", action="store_true", help="skip the figure")
@@ -49,17 +53,29 @@ def _cmd_knockdown(args: argparse.Namespace) -> int:
         raise InputError("knockdown: the surface model has no imperfect geometries yet; use "
                          "--model axisym")
     cfg = KnockdownConfig(args.h_over_r, tuple(args.amplitudes), nu=args.nu,
-                          imperfection=args.imperfection, width=args.width)
+                          imperfection=args.imperfection, width=args.width, load=args.load)
     # the 1D model is serial: rank 0 computes and writes, the others compute without files
     outdir = args.output if common.rank() == 0 else None
     res = run_knockdown(cfg, outdir, figure=not args.no_figure)
 
     def human() -> None:
-        print(f"closed sphere h/R = {cfg.h_over_r:g}, nu = {cfg.nu:g}, {cfg.imperfection} "
-              f"(n = {res['degree']}): kappa_b h = {res['kappa_b_h']:.6f}")
-        print(f"{'delta/h':>9} {'kappa_max h':>12} {'knock-down':>11}")
+        load = "" if cfg.load == "curvature" else (
+            f" (pressure: p_b/E = {res['p_b_over_E']:.5g}, classical "
+            f"{res['p_c_over_E_classical']:.5g})")
+        print(f"closed sphere h/R = {cfg.h_over_r:g}, nu = {cfg.nu:g}, {cfg.load}, "
+              f"{cfg.imperfection} (n = {res['degree']}): kappa_b h = {res['kappa_b_h']:.6f}"
+              f"{load}")
+        law = res["asymptotics"]
+        c = law.get("coefficient")
+        print(f"Koiter: {law['kind']} bifurcation" + (
+            f", 1 - kappa_max/kappa_b = {c:.4g} sqrt(delta/h)" if c else
+            ", no sqrt(delta) law for this imperfection's sign" if law["kind"] == "asymmetric"
+            else " (knock-down ~ delta^(2/3))"))
+        print(f"{'delta/h':>9} {'kappa_max h':>12} {'knock-down':>11} {'Koiter':>9}")
         for q in res["points"]:
-            print(f"{q['delta_over_h']:9g} {q['kappa_max_h']:12.6f} {q['knockdown']:11.5f}")
+            k = q.get("knockdown_asymptotic")
+            print(f"{q['delta_over_h']:9g} {q['kappa_max_h']:12.6f} {q['knockdown']:11.5f} "
+                  f"{'-':>9}" if k is None else f"{k:9.5f}")
 
     common.emit(res, args, human)
     return 0

@@ -833,11 +833,12 @@ def _critical_directions(problem: Any, ar: _Arclength, mode: np.ndarray, k: int
     return dirs, [vals[i] for i in [first, *others[: k - 1]]]
 
 
-def _off_branch_direction(problem: Any, ns: NewtonSolver, ar: _Arclength, phi: Any) -> Any:
+def _off_branch_direction(problem: Any, ns: NewtonSolver, ar: _Arclength, phi: Any
+                          ) -> tuple[Any, Any]:
     """φ made orthogonal (cw inner product) to the fundamental branch's state tangent z at the
-    current (critical) state, unit in the continuation norm. z = -J⁻¹ ∂R/∂λ with its
-    component along φ (M-orthogonal, M the mass of block None) removed: J is singular along
-    φ there, so that component of the solve is undetermined."""
+    current (critical) state, unit in the continuation norm, and z itself (dw/dλ). z = -J⁻¹
+    ∂R/∂λ with its component along φ (M-orthogonal, M the mass of block None) removed: J is
+    singular along φ there, so that component of the solve is undetermined."""
     z = phi.duplicate()
     ns.factor()
     ar.dres_dlambda()
@@ -853,9 +854,10 @@ def _off_branch_direction(problem: Any, ns: NewtonSolver, ar: _Arclength, phi: A
     zz = z.dot(z)
     if zz > 0 and math.isfinite(zz):
         out.axpy(-phi.dot(z) / zz, z)
-    z.destroy()
+    else:
+        z.set(0.0)
     out.scale(1.0 / math.sqrt(max(ar.cw * out.dot(out), 1e-300)))
-    return out
+    return out, z
 
 
 def _m_inner(M: Any, x: Any, y: Any) -> float:
@@ -892,10 +894,15 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
        points or when the step falls below
        ``ds_min``. Each yielded point carries in ``scalars``: ``mode_amplitude`` =
        cw φ_0·(w - w_c), ``residual`` = ||R(w, λ)|| and ``residual_bound`` (the corrector's
-       bound, ``ContinuationSettings``) and ``pin_force`` = ||Σ s_j ψ_j||. If the amplitude falls
-       below ``min_amplitude`` times the first one (or changes sign), the branch has led back
-       to the fundamental branch and a RuntimeError is raised. ``release_pins``: after that
-       many points the pins are dropped (below). ``deflate`` > 0: every corrector omits
+       bound, ``ContinuationSettings``) and ``pin_force`` = ||Σ s_j ψ_j||. If the state's
+       distance from the fundamental branch (its linear prediction w_c + (λ - λ_c) dw/dλ) falls
+       below ``min_amplitude`` times the first point's, or the state lies along -φ_0 (the
+       amplitude changed sign and makes up at least half of that distance), the branch has
+       led back to the fundamental branch and a RuntimeError is raised (a step that would jump
+       to the -φ_0 side is refused and shortened instead). The distance, not the amplitude:
+       a dimple localised at one pole of a sphere leaves the shape of P_n, and its amplitude
+       along P_n shrinks and changes sign far from the fundamental branch. ``release_pins``:
+       after that many points the pins are dropped (below). ``deflate`` > 0: every corrector omits
        dominant components along that many near-null eigenvectors of the Jacobian other than
        the followed mode (``_Deflation``; for clusters of nearly simultaneous bifurcations,
        the closed sphere's neighbouring degrees on the 1D model).
@@ -942,7 +949,7 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
     wc = ar.w.duplicate()
     wp = wc.duplicate()
     dirs: list[Any] = []
-    amp_dir = pred = defl_stab = steps = None
+    amp_dir = tangent = pred = defl_stab = steps = None
     t_start = time.perf_counter()
     try:
         ar.w.array_w[:] = cp.state[:n]
@@ -971,7 +978,7 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
         # can overlap the fundamental branch's direction, whose own motion in κ would then
         # meet the amplitude condition (measured: the 1D sphere's first corrector landed back
         # on the fundamental branch 1 % below κ_c)
-        amp_dir = _off_branch_direction(problem, ns, ar, dirs[0])
+        amp_dir, tangent = _off_branch_direction(problem, ns, ar, dirs[0])
         pred = dirs[0].copy()
         pred.scale(1.0 / (ar.cw * amp_dir.dot(dirs[0])))
 
@@ -979,6 +986,22 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
             ar.w.copy(wp)
             wp.axpy(-1.0, wc)
             return ar.cw * amp_dir.dot(wp)
+
+        def deviation() -> float:
+            """The distance (continuation norm) of the state from the fundamental branch's
+            linear prediction w_c + (λ - λ_c) z: unlike the amplitude along φ_0 it stays
+            large on a branch that has left the mode's shape (a dimple localised at one pole
+            of a sphere, whose projection on P_n can shrink and change sign)."""
+            ar.w.copy(wp)
+            wp.axpy(-1.0, wc)
+            wp.axpy(-(ar.get_lambda() - lam_c), tangent)
+            return math.sqrt(max(ar.cw * wp.dot(wp), 0.0))
+
+        def crossed(amp: float) -> bool:
+            """On the other side of the mode: the amplitude changed sign and the state lies
+            along -φ_0 (its deviation is mostly that amplitude), i.e. a step jumped across the
+            fundamental branch, not a branch that left the mode's shape."""
+            return amp * a1 < 0 and abs(amp) >= 0.5 * deviation()
 
         def point(index: int, its: int, step: float, tl: float, s: np.ndarray) -> Point:
             sc = problem.scalars()
@@ -1015,23 +1038,35 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
             raise RuntimeError("branch switching: the corrector did not converge off the "
                                f"fundamental branch at amplitudes {ds} x {factors}")
         a1 = first
+        dev1 = deviation()
+        last = [dev1]  # the distance of the last accepted point
+
+        def jumped() -> bool:
+            """A corrector that crossed to the -φ_0 side, or fell to a quarter of the last
+            point's distance in one step, jumped to another branch (a long step next to a
+            cluster of bifurcations; measured: from a sphere's dimple branch back to the
+            fundamental branch 25 % lower in κ): refused, the step is shortened."""
+            return crossed(amplitude()) or deviation() < 0.25 * last[0]
+
         direction = 1.0 if lam_end >= c.lam else -1.0
         index = 0
         yield point(index, c.its, abs(a1), 0.0, c.multipliers)
         st = replace(settings, ds=min(max(abs(a1), settings.ds_min), settings.ds_max))
-        # a corrector that crosses the fundamental branch onto the other side of the mode
-        # jumped to another branch (a long step next to a cluster of bifurcations): it is
-        # refused and the step shortened; it does not end this branch
         steps = arclength_steps(ar, st, c.lam, lam_end, direction, secant_from=(wc, lam_c),
-                                reject=lambda: amplitude() * a1 < 0, **corrector)
+                                reject=jumped, **corrector)
         for its, step, tl, s in steps:
             index += 1
             p = point(index, its, step, tl, s)
             amp = p.scalars["mode_amplitude"]
-            if abs(amp) < min_amplitude * abs(a1) or amp * a1 < 0:
+            dev = deviation()
+            log.debug("switch: point %d at kappa L = %.8g: amplitude %.4g, distance %.4g (first "
+                      "point %.4g, %.4g)", index, p.kappa_L, amp, dev, a1, dev1)
+            last[0] = dev
+            if dev < min_amplitude * dev1 or crossed(amp):
                 raise RuntimeError(
                     f"branch switching: back on the fundamental branch at kappa = {p.kappa:.6g}"
-                    f" (mode amplitude {amp:.3g}, first point {a1:.3g})")
+                    f" (mode amplitude {amp:.3g}, distance {dev:.3g}; first point {a1:.3g}, "
+                    f"{dev1:.3g})")
             yield p
             if release_pins is not None and index >= release_pins and pins:
                 pins.clear()
@@ -1040,7 +1075,7 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
             steps.close()
         for v in (wc, wp, *dirs):
             v.destroy()
-        for obj in (amp_dir, pred, defl_stab):
+        for obj in (amp_dir, tangent, pred, defl_stab):
             if obj is not None:
                 obj.destroy()
         if solver is None:

@@ -238,8 +238,9 @@ class ImperfectSphere(SphericalCap):
     localised dimple) or f = P_n(cos t) (``profile`` "mode", n = ``degree``: the shape of an
     axisymmetric buckling mode). Amplitude > 0 is inward at the pole. The meridian is
     (R + w0(t)) (sin t, cos t); its UFL form is differentiated symbolically, so the reference
-    metric and curvature of the imperfect surface enter the energy exactly. Axisymmetric model
-    only (the surface mesher has no imperfect surfaces yet)."""
+    metric and curvature of the imperfect surface enter the energy exactly. The surface model
+    takes it too: ``shells.mesh`` meshes the sphere (refined at a pole dimple) and moves its nodes
+    radially onto ρ(β); ``normal_ufl`` is the exact normal."""
 
     radius: float = 1.0
     theta: float = math.pi
@@ -309,7 +310,19 @@ class ImperfectSphere(SphericalCap):
         raise InputError("imperfect spheres are for the axisymmetric model (--model axisym)")
 
     def normal_ufl(self, x):
-        raise InputError("imperfect spheres are for the axisymmetric model (--model axisym)")
+        """n = (ρ e_r - ρ' e_β)/√(ρ² + ρ'²) at x on the surface (β = acos(z/|x|)), written
+        with s e_β = (cos β x/|x|, cos β y/|x|, -sin² β) and ρ'/sin β, both smooth at the poles
+        (ρ' vanishes there for both profiles)."""
+        import ufl
+
+        r = ufl.sqrt(ufl.dot(x, x))
+        c = x[2] / r
+        beta = ufl.variable(ufl.acos(c))
+        rho = self.radius - self.amplitude * self._profile(ufl.cos(beta), beta, ufl.exp)
+        drho_over_s = ufl.diff(rho, beta) / ufl.sin(beta)
+        s_ebeta = ufl.as_vector([c * x[0] / r, c * x[1] / r, -(1 - c * c)])
+        n = rho * x / r - drho_over_s * s_ebeta
+        return n / ufl.sqrt(ufl.dot(n, n))
 
     def describe(self) -> dict[str, Any]:
         return {"shape": self.kind, "R": self.radius, "theta": self.theta,

@@ -327,6 +327,8 @@ def _set_sizes(gmsh: Any, spec: MeshSpec, rim: list[int]) -> None:
     gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
     gmsh.option.setNumber("Mesh.MeshSizeMax", spec.bulk_size)
     width = spec.layer_width
+    if _pole_refinement(gmsh, spec):
+        return
     if not rim or width is None or spec.layer_size >= spec.bulk_size:
         gmsh.option.setNumber("Mesh.MeshSizeMin", spec.bulk_size)
         return
@@ -344,6 +346,53 @@ def _set_sizes(gmsh: Any, spec: MeshSpec, rim: list[int]) -> None:
     grow = max(spec.bulk_size - spec.layer_size, 0.0) / 0.2
     field_.setNumber(thr, "DistMax", spec.layer_widths * width + grow)
     field_.setAsBackgroundMesh(thr)
+
+
+#: elements across the width β0 of an imperfect sphere's pole dimple (P3 elements resolve the
+#: Gaussian's curvature with 4)
+DIMPLE_ELEMENTS = 4.0
+
+
+def _pole_refinement(gmsh: Any, spec: MeshSpec) -> bool:
+    """A closed imperfect sphere with a pole dimple of width β0: elements of β0 R / 4 within
+    3 β0 of the pole, growing to the bulk size beyond. True if set."""
+    from shells.geometry import ImperfectSphere
+
+    shape = spec.shape
+    if not (isinstance(shape, ImperfectSphere) and shape.closed and shape.profile == "dimple"):
+        return False
+    R = shape.radius
+    fine = min(shape.width * R / DIMPLE_ELEMENTS, spec.bulk_size)
+    pole = [t for _, t in gmsh.model.getEntities(0)
+            if np.allclose(gmsh.model.getValue(0, t, []), [0.0, 0.0, R], atol=1e-6 * R)]
+    if not pole or fine >= spec.bulk_size:
+        return False
+    field_ = gmsh.model.mesh.field
+    gmsh.option.setNumber("Mesh.MeshSizeMin", fine)
+    dist = field_.add("Distance")
+    field_.setNumbers(dist, "PointsList", pole)
+    thr = field_.add("Threshold")
+    field_.setNumber(thr, "InField", dist)
+    field_.setNumber(thr, "SizeMin", fine)
+    field_.setNumber(thr, "SizeMax", spec.bulk_size)
+    field_.setNumber(thr, "DistMin", 3 * shape.width * R)
+    field_.setNumber(thr, "DistMax", 3 * shape.width * R + (spec.bulk_size - fine) / 0.2)
+    field_.setAsBackgroundMesh(thr)
+    return True
+
+
+def _displace_imperfect(mesh: Any, shape: Shape) -> None:
+    """Move the nodes of an imperfect sphere's sphere mesh radially onto the imperfect surface
+    ρ(β) = R - δ f(β) (every geometry node, the edges' midpoints too: the second-order mesh
+    interpolates the imperfect surface)."""
+    from shells.geometry import ImperfectSphere
+
+    if not isinstance(shape, ImperfectSphere):
+        return
+    x = mesh.geometry.x
+    r = np.linalg.norm(x, axis=1)
+    beta = np.arccos(np.clip(x[:, 2] / r, -1.0, 1.0))
+    x *= (shape._rho(beta) / r)[:, None]
 
 
 def gauge_points(shape: Shape) -> list[tuple[float, float, float]]:
@@ -373,16 +422,29 @@ def _embed_gauge_points(gmsh: Any, shape: Shape, surfaces: list[int]) -> None:
         gmsh.model.mesh.embed(0, pts, 2, surfaces[0])
 
 
+def _mesh_base(shape: Shape) -> Shape:
+    """The shape gmsh meshes: an imperfect sphere is meshed as its sphere, whose nodes
+    ``_displace_imperfect`` then moves radially onto the imperfect surface."""
+    from shells.geometry import ImperfectSphere, SphericalCap
+
+    if isinstance(shape, ImperfectSphere):
+        if not shape.closed:
+            return SphericalCap(shape.radius, shape.theta)
+        return Sphere(shape.radius)
+    return shape
+
+
 def _build_model(gmsh: Any, spec: MeshSpec) -> None:
-    surfaces = _build_geometry(gmsh, spec.shape)
+    shape = _mesh_base(spec.shape)
+    surfaces = _build_geometry(gmsh, shape)
     if spec.sectors > 1:
-        surfaces = _cut_sectors(gmsh, spec.shape, surfaces, spec.sectors)
-        _dilate(gmsh, spec.shape, surfaces)
+        surfaces = _cut_sectors(gmsh, shape, surfaces, spec.sectors)
+        _dilate(gmsh, shape, surfaces)
         _set_periodic(gmsh, surfaces)
     else:
-        _dilate(gmsh, spec.shape, surfaces)
-        _embed_gauge_points(gmsh, spec.shape, surfaces)
-    rim = _rim_curves(gmsh, spec.shape, surfaces)
+        _dilate(gmsh, shape, surfaces)
+        _embed_gauge_points(gmsh, shape, surfaces)
+    rim = _rim_curves(gmsh, shape, surfaces)
     gmsh.model.addPhysicalGroup(2, surfaces, SURFACE_TAG, name="surface")
     if rim:
         gmsh.model.addPhysicalGroup(1, rim, RIM_TAG, name="rim")
@@ -505,6 +567,7 @@ def generate(spec: MeshSpec, comm: MPI.Comm | None = None, msh_path: str | os.Pa
             if msh_path is not None:
                 _write_current(gmsh, spec, Path(msh_path))
         mesh, cell_tags, facet_tags = gmshio.model_to_mesh(gmsh.model, comm, 0, gdim=3)[:3]
+    _displace_imperfect(mesh, spec.shape)
     mesh.name = f"shells-{spec.shape.kind}"
     return ShellMesh(mesh, cell_tags, facet_tags, spec.shape, spec)
 

@@ -156,3 +156,42 @@ def test_pressure_through_the_same_code_path(curve):
     curvature = {r["delta_over_h"]: r for r in curve[2][1:]}
     assert p["kind"] == "fold"
     assert p["knockdown"] < curvature[0.01]["knockdown"] - 0.02
+
+
+def test_imperfect_sphere_surface_mesh_and_normal():
+    """The surface model's imperfect sphere: the sphere's mesh moved radially onto ρ(β), refined
+    at the pole dimple, carries the exact area, and the analytic normal is normal to it (the
+    second-order mesh's tangents; as on the perfect sphere, to the interpolation's accuracy)."""
+    import ufl
+    from dolfinx import fem
+    from mpi4py import MPI
+
+    from shells.mesh import MeshSpec, generate
+
+    comm = MPI.COMM_WORLD
+    gaps = []
+    for amp in (0.0, 0.1 * H):
+        shape = ImperfectSphere(1.0, math.pi, amp, "dimple", math.sqrt(H), 2)
+        sm = generate(MeshSpec(shape, h=H, size=0.3), comm)
+        mesh = sm.mesh
+        x = ufl.SpatialCoordinate(mesh)
+        n = shape.normal_ufl(x)
+        J = ufl.Jacobian(mesh)
+        # a fixed quadrature (the normal's acos and exp would get an estimated degree of
+        # hundreds), as the model's
+        dx = ufl.Measure("dx", domain=mesh, metadata={"quadrature_degree": 6})
+        area = comm.allreduce(fem.assemble_scalar(fem.form(1.0 * dx)))
+        gap = comm.allreduce(fem.assemble_scalar(fem.form(ufl.dot(J.T * n, J.T * n)
+                                                          / ufl.det(J.T * J) * dx)))
+        assert area == pytest.approx(shape.area(), rel=1e-4)
+        unit = comm.allreduce(fem.assemble_scalar(fem.form((ufl.dot(n, n) - 1) ** 2 * dx)))
+        assert unit < 1e-20
+        gaps.append(math.sqrt(gap / area))
+        if amp == 0.0:  # the sphere's own normal
+            d = comm.allreduce(fem.assemble_scalar(fem.form(
+                ufl.dot(n - x / ufl.sqrt(ufl.dot(x, x)), n - x / ufl.sqrt(ufl.dot(x, x)))
+                * dx)))
+            assert d < 1e-20
+    # RMS of the tangents' normal components (relative): the dimple's mesh as good as the
+    # sphere's, within a factor 3
+    assert gaps[1] < 3 * gaps[0] + 1e-12, gaps

@@ -307,14 +307,22 @@ def knockdown(cfg: KnockdownConfig, outdir: str | Path | None = None
             yield done[a]
             continue
         pred = law.knockdown(a)
-        r = (fold_kappa(cfg, a, degree, pred, law.kappa_c) if a > 0
-             else {k: perfect[k] for k in ("kind", "kappa_h", "accuracy")})
-        rec = {"delta_over_h": a, "kappa_max_h": r["kappa_h"], "knockdown": r["kappa_h"] / kb,
+        try:
+            r = (fold_kappa(cfg, a, degree, pred, law.kappa_c) if a > 0
+                 else {k: perfect[k] for k in ("kind", "kappa_h", "accuracy")})
+        except RuntimeError as e:  # reported with the curve, which goes on
+            log.warning("knockdown: delta/h = %g: %s", a, e)
+            r = {"kind": "none", "kappa_h": None, "accuracy": None, "error": str(e)}
+        rec = {"delta_over_h": a, "kappa_max_h": r["kappa_h"],
+               "knockdown": None if r["kappa_h"] is None else r["kappa_h"] / kb,
                "kind": r["kind"], "accuracy": r["accuracy"], "degree": degree,
                # the law's κ_max/κ_b (None where it predicts no fold at this order)
                "knockdown_asymptotic": pred}
-        log.info("knockdown: delta/h = %g: kappa_max h = %.6f, knock-down %.4f (%s)", a,
-                 rec["kappa_max_h"], rec["knockdown"], r["kind"])
+        if "error" in r:
+            rec["error"] = r["error"]
+        if rec["knockdown"] is not None:
+            log.info("knockdown: delta/h = %g: kappa_max h = %.6f, knock-down %.4f (%s)", a,
+                     rec["kappa_max_h"], rec["knockdown"], r["kind"])
         if out is not None:
             append_record(out, rec)
         yield rec
@@ -349,7 +357,7 @@ def _figure(res: dict[str, Any], path: Path) -> str:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    pts = [p for p in res["points"] if p["delta_over_h"] > 0]
+    pts = [p for p in res["points"] if p["delta_over_h"] > 0 and p["knockdown"] is not None]
     fig, ax = plt.subplots(figsize=(5, 3.5))
     ax.semilogx([p["delta_over_h"] for p in pts], [p["knockdown"] for p in pts], "o-",
                 label="computed")

@@ -74,8 +74,13 @@ def _cmd_knockdown(args: argparse.Namespace) -> int:
         print(f"{'delta/h':>9} {'kappa_max h':>12} {'knock-down':>11} {'Koiter':>9}")
         for q in res["points"]:
             k = q.get("knockdown_asymptotic")
-            print(f"{q['delta_over_h']:9g} {q['kappa_max_h']:12.6f} {q['knockdown']:11.5f} "
-                  f"{'-':>9}" if k is None else f"{k:9.5f}")
+            law_col = f"{'-':>9}" if k is None else f"{k:9.5f}"
+            if q["knockdown"] is None:
+                print(f"{q['delta_over_h']:9g} {'none':>12} {'-':>11} {law_col}  "
+                      f"({q.get('error', 'no limit point')})")
+            else:
+                print(f"{q['delta_over_h']:9g} {q['kappa_max_h']:12.6f} {q['knockdown']:11.5f} "
+                      f"{law_col}")
 
     common.emit(res, args, human)
     return 0

@@ -60,6 +60,10 @@ class KnockdownConfig:
             path, one load parameter of the 1D model (``AxisymParameters.load``).
         width: the dimple's β0 in units of sqrt(h/R).
         degree: the mode's degree n (None: the perfect sphere's critical degree, located).
+        model: "axisym" (1D, rotational symmetry enforced) or "surface" (2D: every mode can
+            appear, κ_max is the first critical point of any kind; no reduced equation).
+        size, element_degree: the surface model's bulk element size and degree (P3: P2 locks
+            on spheres); a dimple is meshed with β0 / 4 at the pole (``shells.mesh``).
         cells, penalty: the 1D mesh's bulk cells (None: the default) and C1 penalty. The
             penalty ties the slopes to the displacement to O(1/penalty), which on a closed
             sphere acts as a pole-localised imperfection of its own: with 1e4 the perfect
@@ -76,6 +80,9 @@ class KnockdownConfig:
     degree: int | None = None
     cells: int | None = None
     penalty: float = 1.0e6
+    model: str = "axisym"
+    size: float = 0.21
+    element_degree: int = 3
 
     def __post_init__(self) -> None:
         if not (isinstance(self.h_over_r, (int, float)) and 0 < self.h_over_r <= 0.2):
@@ -86,6 +93,15 @@ class KnockdownConfig:
         object.__setattr__(self, "amplitudes", amps)
         if not (-1.0 < self.nu <= 0.5):
             raise InputError(f"nu must lie in (-1, 0.5], got {self.nu!r}")
+        if self.model not in ("axisym", "surface"):
+            raise InputError(f"model must be 'axisym' or 'surface', got {self.model!r}")
+        if self.model == "surface" and self.load != "curvature":
+            raise InputError("the surface model's knock-down is for natural curvature only "
+                             "(--load pressure: use --model axisym)")
+        if not (math.isfinite(self.size) and 0.02 <= self.size <= 1.0):
+            raise InputError(f"the surface mesh size must lie in [0.02, 1], got {self.size!r}")
+        if self.element_degree not in (2, 3):
+            raise InputError(f"element degree must be 2 or 3, got {self.element_degree!r}")
         if self.load not in ("curvature", "pressure"):
             raise InputError(f"load must be 'curvature' or 'pressure', got {self.load!r}")
         if self.imperfection not in ("dimple", "mode"):
@@ -240,6 +256,25 @@ def fold_kappa(cfg: KnockdownConfig, amplitude: float, degree: int,
     return out
 
 
+def surface_first(cfg: KnockdownConfig, amplitude: float, degree: int) -> dict[str, Any]:
+    """The surface model's first critical point (fold or bifurcation, any m) of the sphere with
+    imperfection ``amplitude`` (δ/h; 0: the perfect sphere on the same refined mesh), from
+    ``shells.drivers.critical_surface`` (collective on COMM_WORLD)."""
+    from shells.drivers import critical_surface
+    from shells.geometry import ImperfectSphere
+
+    shape = ImperfectSphere(1.0, math.pi, amplitude * cfg.h_over_r, cfg.imperfection,
+                            cfg.width * math.sqrt(cfg.h_over_r), degree)
+    r = critical_surface(shape, cfg.h_over_r, cfg.nu, 1.25 * _kappa_scale(cfg) / cfg.h_over_r,
+                         first_only=True, size=cfg.size, degree=cfg.element_degree)
+    if r["kappa_h"] is None:
+        raise RuntimeError(f"no critical point of the surface model found up to kappa h = "
+                           f"{1.25 * _kappa_scale(cfg):.4g} at delta/h = {amplitude:g}")
+    return {"kind": r["kind"], "kappa_h": r["kappa_h"], "mode_n": None,
+            "mode_m": r["mode_m"], "accuracy": None, "dofs": r.get("dofs"),
+            "asymptotics": None}
+
+
 def perfect_sphere(cfg: KnockdownConfig, degree: int) -> dict[str, Any]:
     """The perfect sphere's first axisymmetric bifurcation and Koiter's reduced equation there
     (``shells.asymptotics``) with the imperfection of ``cfg`` (its profile of degree
@@ -288,10 +323,18 @@ def knockdown(cfg: KnockdownConfig, outdir: str | Path | None = None
                                  "directory or remove it")
             done = {r["delta_over_h"]: r for r in recs if "delta_over_h" in r}
             perfect = next((r["perfect"] for r in recs if "perfect" in r), None)
+    if cfg.model == "surface":
+        # collective runs: every rank skips the same stored points (rank 0 holds the file)
+        from mpi4py import MPI
+
+        done, perfect = MPI.COMM_WORLD.bcast((done, perfect) if MPI.COMM_WORLD.rank == 0
+                                             else None, root=0)
     degree = cfg.degree if cfg.degree is not None else int(round(sphere_mode_n(cfg.h_over_r,
                                                                                cfg.nu)))
     if perfect is None:
-        perfect = json.loads(json.dumps(perfect_sphere(cfg, degree), default=json_default))
+        first = surface_first(cfg, 0.0, degree) if cfg.model == "surface" else perfect_sphere(
+            cfg, degree)
+        perfect = json.loads(json.dumps(first, default=json_default))
         if out is not None:
             append_record(out, {"perfect": perfect})
     if cfg.degree is None and perfect.get("mode_n"):
@@ -300,16 +343,21 @@ def knockdown(cfg: KnockdownConfig, outdir: str | Path | None = None
     kb = perfect["kappa_h"]
     from shells.asymptotics import ReducedEquation
 
-    law = ReducedEquation(**{k: v for k, v in perfect["asymptotics"].items()
-                             if k not in ("coefficient", "kappa_c_h")})
+    law = None if perfect["asymptotics"] is None else ReducedEquation(
+        **{k: v for k, v in perfect["asymptotics"].items()
+           if k not in ("coefficient", "kappa_c_h")})
     for a in cfg.amplitudes:
         if a in done:
             yield done[a]
             continue
-        pred = law.knockdown(a)
+        pred = None if law is None else law.knockdown(a)
         try:
-            r = (fold_kappa(cfg, a, degree, pred, law.kappa_c) if a > 0
-                 else {k: perfect[k] for k in ("kind", "kappa_h", "accuracy")})
+            if a == 0:
+                r = {k: perfect[k] for k in ("kind", "kappa_h", "accuracy")}
+            elif cfg.model == "surface":
+                r = surface_first(cfg, a, degree)
+            else:
+                r = fold_kappa(cfg, a, degree, pred, law.kappa_c)
         except RuntimeError as e:  # reported with the curve, which goes on
             log.warning("knockdown: delta/h = %g: %s", a, e)
             r = {"kind": "none", "kappa_h": None, "accuracy": None, "error": str(e)}
@@ -320,6 +368,8 @@ def knockdown(cfg: KnockdownConfig, outdir: str | Path | None = None
                "knockdown_asymptotic": pred}
         if "error" in r:
             rec["error"] = r["error"]
+        if r.get("mode_m") is not None:
+            rec["mode_m"] = r["mode_m"]
         if rec["knockdown"] is not None:
             log.info("knockdown: delta/h = %g: kappa_max h = %.6f, knock-down %.4f (%s)", a,
                      rec["kappa_max_h"], rec["knockdown"], r["kind"])

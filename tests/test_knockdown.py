@@ -129,7 +129,8 @@ def test_knockdown_cli_json_contract_and_bad_input(tmp_path, capsys):
         assert {"delta_over_h", "kappa_max_h", "knockdown"} <= set(p)
         assert p["delta_over_h"] == 0.02 and 0.9 < p["knockdown"] < 1.0
         assert res["kappa_b"] == pytest.approx(res["kappa_b_h"] / 0.1)
-    for bad in (["--imperfection", "bump"], ["--imperfection", "mode", "--model", "surface"],
+    for bad in (["--imperfection", "bump"],
+                ["--imperfection", "mode", "--model", "surface", "--load", "pressure"],
                 ["--imperfection", "dimple", "--width", "-1"]):
         with pytest.raises(SystemExit) as e:
             code = main(["knockdown", "--h-over-r", "0.1", "--amplitudes", "0.1", *bad])

@@ -256,7 +256,11 @@ def _postbuckling_rows(d: dict) -> list[str]:
         sides = r["summary"]["sides"]
         pts = [p for p in r["points"] if p["branch"] == "bifurcated"]
         inward = [p for p in pts if p["psi3_pole_over_h"] < -1.0]
-        side = inward[0]["side"] if inward else None
+        # the subcritical side (it starts towards smaller κ) whose pole dimples inwards and
+        # that reaches the smallest κ; else the first side that dimples inwards
+        sub = [p for p in inward if p.get("start") == "down"]
+        side = (min(sub, key=lambda p: p["kappa"])["side"] if sub
+                else inward[0]["side"] if inward else None)
         down = [p for p in pts if p["side"] == side]
         if down:
             # the branch is trusted while the pole keeps dimpling inwards: a rise of the pole

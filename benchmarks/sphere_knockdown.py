@@ -67,7 +67,12 @@ def curve(h: float, nu: float, kind: str, load: str, amps: tuple[float, ...]) ->
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="h/R = 0.01 only, no law cases")
+    ap.add_argument("--table", action="store_true",
+                    help="print the curves of the stored JSON as a markdown table, no run")
     args = ap.parse_args()
+    if args.table:
+        table(json.loads((RESULTS / "sphere_knockdown.json").read_text()))
+        return
     out: dict = {"amplitudes": AMPLITUDES, "curves": [], "law": []}
     RESULTS.mkdir(parents=True, exist_ok=True)
 
@@ -119,6 +124,23 @@ def main() -> None:
                     for p in c["points"][1:]))
     figure(out)
     print(f"wrote {RESULTS / 'sphere_knockdown.json'} and .png")
+
+
+def table(out: dict) -> None:
+    """The curves as markdown rows (docs/imperfections.md)."""
+    print("| h/R | ν | load | imperfection | n | κ_b h (pressure: / classical) | "
+          + " | ".join(f"δ/h = {a:g}" for a in AMPLITUDES) + " | exponent (δ/h ≤ 0.01) |")
+    print("| --- " * (7 + len(AMPLITUDES)) + "|")
+    for c in out["curves"]:
+        got = {p["delta_over_h"]: p["knockdown"] for p in c["points"]}
+        cells = ["–" if a not in got else "none" if got[a] is None else f"{got[a]:.4f}"
+                 for a in AMPLITUDES]
+        kb = f"{c['kappa_b_h']:.5f}"
+        if c["load"] == "pressure":
+            kb += f" ({c['kappa_b_h'] / sphere_pressure_kappa_h(c['nu']):.4f})"
+        print(f"| {c['h_over_R']:g} | {c['nu']:g} | {c['load']} | {c['imperfection']} | "
+              f"{c['degree']} | {kb} | " + " | ".join(cells)
+              + f" | {c['small_delta_exponent']:.2f} |")
 
 
 def figure(out: dict) -> None:

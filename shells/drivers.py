@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import Any
 
 from shells.errors import InputError
-from shells.store import json_default
+from shells.store import append_record, json_default, write_atomic, write_header
 
 __all__ = ["ShapeWriter", "branch_axisym", "branch_surface", "critical_run", "critical_surface",
            "folds", "postbuckle_run"]
@@ -79,19 +79,20 @@ def branch_axisym(shape: Any, h_over_r: float, nu: float, kappa_R_end: float,
 
     outdir = Path(outdir)
     points = []
+    # no checkpoint: a rerun computes the branch again (the 1D model takes seconds), the file
+    # replaced atomically by its header, then each point appended whole and fsync'ed
     if _rank() == 0:
         outdir.mkdir(parents=True, exist_ok=True)
-        (outdir / "branch.jsonl").write_text(json.dumps({"header": {
+        write_header(outdir / "branch.jsonl", {
             "model": "axisym", "shape": shape.describe(), "h_over_r": h_over_r,
-            "nu": nu, "kappa_R_end": kappa_R_end}}) + "\n")
+            "nu": nu, "kappa_R_end": kappa_R_end})
     for i, p in enumerate(axisym.branch(shape, h_over_r, nu,
                                         direction="up" if kappa_R_end > 0 else "down",
                                         kappa_max=abs(kappa_R_end))):
         rec = {"index": i, **p}
         points.append(rec)
         if _rank() == 0:
-            with open(outdir / "branch.jsonl", "a") as f:
-                f.write(json.dumps(rec, default=json_default) + "\n")
+            append_record(outdir / "branch.jsonl", rec)
     return {"model": "axisym", "branch_file": str(outdir / "branch.jsonl"), "points": points,
             "folds": folds(points)}
 
@@ -135,8 +136,8 @@ def critical_run(shape: Any, h_over_r: float, nu: float, *, direction: str = "up
         raise InputError(f"--model must be surface or axisym, got {model!r}")
     if outdir and _rank() == 0:
         Path(outdir).mkdir(parents=True, exist_ok=True)
-        (Path(outdir) / "critical.json").write_text(
-            json.dumps(result, indent=1, default=json_default))
+        write_atomic(Path(outdir) / "critical.json",
+                     json.dumps(result, indent=1, default=json_default))
     return result
 
 
@@ -189,8 +190,7 @@ def critical_surface(shape: Any, h_over_r: float, nu: float, kappa_end: float, *
                "negative_count": res.negative_count, "dkappa_ds": p.dkappa_ds,
                "newton_its": p.newton_its, **p.scalars}
         if bfile is not None:
-            with open(bfile, "a") as f:
-                f.write(json.dumps(rec) + "\n")
+            append_record(bfile, rec)
         log.info("  kappa R = %+.5f  kappa h = %+.5f  negative = %d  (%.0f s)", rec["kappa_R"],
                  rec["kappa_h"], res.negative_count, time.perf_counter() - t0)
         for c in found:

@@ -20,7 +20,14 @@ from typing import Any
 
 from shells import __version__
 from shells.cli import branch, critical, knockdown, mesh, phase_diagram, postbuckle
-from shells.cli.common import Parser, check_paths, check_ranges, rank, setup_logging
+from shells.cli.common import (
+    Parser,
+    check_paths,
+    check_ranges,
+    rank,
+    rank_count,
+    setup_logging,
+)
 from shells.errors import InputError
 
 __all__ = ["main"]
@@ -49,15 +56,35 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = _build_parser()
     signalled: list[int] = []
 
+    def _message(signum: int) -> str:
+        return (f"shells: interrupted ({signal.Signals(signum).name}); rerun the same command "
+                "to resume")
+
     def _terminate(signum: int, frame: Any) -> None:
         signalled.append(signum)
+        from mpi4py import MPI
+
+        comm = MPI.COMM_WORLD
+        if comm.size > 1:
+            # unwinding would run collective clean-ups (solver destruction, barriers) on this
+            # rank alone while the others compute or wait: a hang. Every file a run writes is
+            # whole at any moment, so all ranks end here: rank 0 says so (another rank, if
+            # rank 0 has not ended them all within 2 s, as when only it was signalled)
+            if comm.rank != 0:
+                time.sleep(2.0)
+            print(_message(signum), file=sys.stderr, flush=True)
+            comm.Abort(128 + signum)
         raise KeyboardInterrupt
 
     import signal
     import threading
+    import time
 
+    handlers = {}
     if threading.current_thread() is threading.main_thread():
-        old_term = signal.signal(signal.SIGTERM, _terminate)
+        handlers[signal.SIGTERM] = signal.signal(signal.SIGTERM, _terminate)
+        if rank_count() > 1:
+            handlers[signal.SIGINT] = signal.signal(signal.SIGINT, _terminate)
     try:
         args = parser.parse_args(argv)
         setup_logging(args.verbose)
@@ -76,11 +103,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         # every file a run writes is whole at any moment (appended lines, renamed checkpoints):
         # the same command resumes
+        signum = signalled[-1] if signalled else signal.SIGINT
         if rank() == 0:
-            name = "SIGTERM" if signalled else "SIGINT"
-            print(f"shells: interrupted ({name}); rerun the same command to resume",
-                  file=sys.stderr)
-        return 143 if signalled else 130
+            print(_message(signum), file=sys.stderr)
+        return 128 + signum
     except Exception as e:  # noqa: BLE001 - a failure is one line, never a traceback
         import traceback
 
@@ -97,5 +123,5 @@ def main(argv: Sequence[str] | None = None) -> int:
             comm.Abort(1)
         return 1
     finally:
-        if threading.current_thread() is threading.main_thread():
-            signal.signal(signal.SIGTERM, old_term)
+        for signum, handler in handlers.items():
+            signal.signal(signum, handler)

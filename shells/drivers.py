@@ -66,6 +66,16 @@ def branch_surface(cfg: Any, outdir: str | os.PathLike, *, fields: str = "none",
 
     check_mesh_size(cfg.mesh_spec())
     points = list(branch.run_branch(cfg, outdir, fields=fields, resume=resume))
+    end = cfg.kappa_end * cfg.R
+    if points and abs(points[-1]["kappa_R"] - end) > 1e-12 * abs(end) \
+            and len(points) <= cfg.continuation.max_steps:
+        # the continuation gave up (the corrector failed down to the smallest step): the
+        # branch beyond is not known; its points so far and the checkpoint are kept
+        raise RuntimeError(f"the continuation stopped at kappa R = {points[-1]['kappa_R']:.6g} "
+                           f"before the end of the range, kappa R = {end:.6g}: the corrector "
+                           f"did not converge with steps down to {cfg.continuation.ds_min:g}; "
+                           f"{len(points)} points are in {outdir}/branch.jsonl and the same "
+                           "command resumes after the last")
     header, _ = branch.read_branch(f"{outdir}/branch.jsonl")
     return {"config": cfg.describe(), "dofs": header.get("dofs"),
             "branch_file": f"{outdir}/branch.jsonl", "points": points, "folds": folds(points)}
@@ -185,7 +195,9 @@ def critical_surface(shape: Any, h_over_r: float, nu: float, kappa_end: float, *
     cps = []
     found_points: list[Any] = []
     t0 = time.perf_counter()
+    last = None
     for p, res, found in follow(model, st, kappa_end, crit):
+        last = p
         rec = {"index": p.index, "kappa_R": p.kappa * R_or_L, "kappa_h": p.kappa * h,
                "negative_count": res.negative_count, "dkappa_ds": p.dkappa_ds,
                "newton_its": p.newton_its, **p.scalars}
@@ -201,6 +213,15 @@ def critical_surface(shape: Any, h_over_r: float, nu: float, kappa_end: float, *
             cps.append(d)
             log.info("  %s at kappa R = %.6f (kappa h = %.6f), m = %s, n = %s", c.kind,
                      d["kappa_R"], d["kappa_h"], c.mode_m, c.mode_n)
+    stopped = bool(found_points) and (crit.stop_at_first or (crit.stop_at_fold and any(
+        c.kind == "fold" for c in found_points)))
+    if not stopped and (last is None
+                        or abs(last.kappa_L - kappa_end * L) > 1e-9 * lam_end):
+        # the continuation gave up short of the end: "none" beyond would be a false claim
+        raise RuntimeError(f"the continuation stopped at kappa R = "
+                           f"{None if last is None else last.kappa * R_or_L} before the end of "
+                           f"the range, kappa R = {kappa_end * R_or_L:.6g}; critical points "
+                           "beyond it are not known")
     first = cps[0] if cps else None
     if out is not None and found_points:
         from shells.fields import write_modes

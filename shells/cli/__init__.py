@@ -25,7 +25,6 @@ from shells.cli.common import (
     check_paths,
     check_ranges,
     rank,
-    rank_count,
     setup_logging,
 )
 from shells.errors import InputError
@@ -82,9 +81,16 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     handlers = {}
     if threading.current_thread() is threading.main_thread():
-        handlers[signal.SIGTERM] = signal.signal(signal.SIGTERM, _terminate)
-        if rank_count() > 1:
-            handlers[signal.SIGINT] = signal.signal(signal.SIGINT, _terminate)
+        for signum in (signal.SIGINT, signal.SIGTERM):
+            handlers[signum] = signal.signal(signum, _terminate)
+
+    def _interrupted() -> int:
+        # every file a run writes is whole at any moment (appended lines, renamed
+        # checkpoints): the same command resumes
+        signum = signalled[-1] if signalled else signal.SIGINT
+        if rank() == 0:
+            print(_message(signum), file=sys.stderr)
+        return 128 + signum
     try:
         args = parser.parse_args(argv)
         setup_logging(args.verbose)
@@ -101,14 +107,14 @@ def main(argv: Sequence[str] | None = None) -> int:
             print(msg if msg.startswith("shells") else f"shells: error: {msg}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        # every file a run writes is whole at any moment (appended lines, renamed checkpoints):
-        # the same command resumes
-        signum = signalled[-1] if signalled else signal.SIGINT
-        if rank() == 0:
-            print(_message(signum), file=sys.stderr)
-        return 128 + signum
+        return _interrupted()
     except Exception as e:  # noqa: BLE001 - a failure is one line, never a traceback
         import traceback
+
+        if signalled:
+            # the KeyboardInterrupt was raised inside a PETSc callback (an assembly during a
+            # solve), which turned it into a PETSc error
+            return _interrupted()
 
         from mpi4py import MPI
 

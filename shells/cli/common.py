@@ -36,15 +36,6 @@ def rank() -> int:
         return 0
 
 
-def rank_count() -> int:
-    try:
-        from mpi4py import MPI
-
-        return MPI.COMM_WORLD.size
-    except ImportError:  # pragma: no cover - the stack always has mpi4py
-        return 1
-
-
 class _StderrHandler(logging.StreamHandler):  # type: ignore[type-arg]
     """Writes to whatever ``sys.stderr`` is at the time of the record, not at set-up (so a
     replaced and closed stderr, as in a test harness, is never written to)."""

@@ -20,8 +20,10 @@ is in the final file with the same numbers (none lost); the torn line is gone. `
 axisym`` and ``critical`` have no checkpoint and compute the whole run again (seconds).
 
 Also counted: SIGINT and SIGTERM (one line on stderr, exit 130 / 143, then resumed to identical
-results) and one exception on one rank of two (``inject_rank_failure``: all ranks end within
-seconds, the message printed once).
+results; on 2 ranks sent to the ranks, as a batch scheduler does), one exception on one rank of
+two (``inject_rank_failure``: all ranks end within seconds, the message printed once), and the
+surface model's critical points of a cap and of the sphere on 1 and on 2 ranks (located kappa
+to 1e-8, ``rank_identity``).
 
 Writes ``benchmarks/results/reliability.json`` and prints a table. ``tests/test_reliability.py``
 runs single trials of these (``run``, ``records``, ``compare``, ``CASES``).
@@ -344,6 +346,41 @@ def interrupt(case: Case, ranks: int, out: Path, ref: list[dict[str, Any]], sig:
             "problems": problems + diffs[:5] + [f"lost: {d}" for d in lost[:5]]}
 
 
+#: the surface model's critical points on 1 and 2 ranks (a partitioned mesh, parallel MUMPS):
+#: the located kappa must agree to 1e-8
+IDENTITY: dict[str, list[str]] = {
+    "cap": ["critical", "--shape", "cap", "--theta-deg", "30", "--h-over-r", "0.04", "--size",
+            "0.3", "--degree", "2"],
+    "sphere": ["critical", "--shape", "sphere", "--h-over-r", "0.05", "--size", "0.4",
+               "--first-only"],
+}
+
+
+def rank_identity(name: str, work: Path, rtol: float = 1e-8) -> dict[str, Any]:
+    """``shells critical`` (surface model) on 1 and on 2 ranks: the critical points' kind,
+    mode and located kappa R (to ``rtol``)."""
+    runs = {}
+    for ranks in (1, 2):
+        out = work / f"identity-{name}-{ranks}"
+        r = run(IDENTITY[name], out, ranks)
+        if r.rc != 0:
+            return {"case": name, "problems": [f"{ranks} rank(s): exit {r.rc}: "
+                                               f"{r.stderr.strip()[-300:]}"]}
+        res = json.loads((out / "critical.json").read_text())
+        runs[ranks] = ([(c["kind"], c["mode_m"], c["mode_n"], c["kappa_R"])
+                        for c in res["critical_points"]], round(r.seconds, 1))
+    (a, ta), (b, tb) = runs[1], runs[2]
+    rels = [abs(x[3] - y[3]) / abs(x[3]) for x, y in zip(a, b, strict=False)]
+    problems = []
+    if [x[:3] for x in a] != [y[:3] for y in b]:
+        problems.append(f"kinds/modes differ: {a} != {b}")
+    if any(r > rtol for r in rels):
+        problems.append(f"kappa R differs: {a} != {b}")
+    return {"case": name, "critical_points": [list(x) for x in a],
+            "kappa_R_2_ranks": [y[3] for y in b], "worst_rel": max(rels, default=0.0),
+            "seconds": {"1": ta, "2": tb}, "problems": problems}
+
+
 #: a driver that raises on one rank only, inside a collective run: the CLI's failure path
 RANK_FAILURE = """
 import os, sys
@@ -399,6 +436,8 @@ def main() -> int:
     ap.add_argument("--seed", type=int, default=16)
     ap.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--cases", nargs="+", default=list(CASES), choices=list(CASES))
+    ap.add_argument("--identity", nargs="*", default=list(IDENTITY), choices=list(IDENTITY),
+                    help="surface critical points compared on 1 and 2 ranks")
     ap.add_argument("--work", default="scratch/reliability", help="scratch folder")
     ap.add_argument("-o", default="benchmarks/results/reliability.json")
     a = ap.parse_args()
@@ -440,6 +479,7 @@ def main() -> int:
             print(f"{name:>14} {ranks} rank(s): {row['kills_survived']}/{row['kills']} kills "
                   f"survived, worst rel {row['worst_rel']:.1e}, {row['interrupt']}", flush=True)
     faults = [inject_rank_failure(work / f"fault-{k}", fail_rank=k) for k in (1, 0)]
+    identity = [rank_identity(n, work) for n in a.identity]
     result = {
         "seed": a.seed, "kills_per_trial": a.kills, "rtol": RTOL,
         "wall_time_s": round(time.perf_counter() - t_all, 1), "rows": rows,
@@ -452,9 +492,11 @@ def main() -> int:
                    "rank_faults_clean": sum(f["exit"] == 1 and not f["hung"]
                                             and f["messages"] == 1 and not f["traceback"]
                                             and not f["left"] for f in faults),
-                   "hangs": sum(f["hung"] for f in faults)},
+                   "hangs": sum(f["hung"] for f in faults),
+                   "identical_on_1_and_2_ranks": sum(not i["problems"] for i in identity),
+                   "identity_cases": len(identity)},
         "trials": [t.__dict__ for t in trials], "interrupts": interrupts,
-        "rank_faults": faults,
+        "rank_faults": faults, "identity": identity,
     }
     Path(a.o).write_text(json.dumps(result, indent=1) + "\n")
     print()
@@ -467,11 +509,16 @@ def main() -> int:
     for f in faults:
         print(f"exception on rank {f['fail_rank']} of {f['ranks']}: exit {f['exit']} in "
               f"{f['seconds']} s, message printed {f['messages']}x, hung {f['hung']}")
+    for i in identity:
+        print(f"critical points of the {i['case']} (surface) on 1 and 2 ranks: "
+              f"{i.get('critical_points')}, worst rel {i.get('worst_rel', math.nan):.1e} "
+              f"{'OK' if not i['problems'] else i['problems']}")
     tot = result["totals"]
     print(f"kills survived with identical results: {tot['kills_survived_identical']}/"
           f"{tot['kills']}; failed trials {tot['failed_trials']}; wrote {a.o}")
     return 0 if tot["failed_trials"] == 0 and tot["interrupts_clean"] == tot["interrupts"] \
-        and tot["rank_faults_clean"] == tot["rank_faults"] else 1
+        and tot["rank_faults_clean"] == tot["rank_faults"] \
+        and tot["identical_on_1_and_2_ranks"] == tot["identity_cases"] else 1
 
 
 if __name__ == "__main__":

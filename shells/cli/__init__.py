@@ -20,13 +20,7 @@ from typing import Any
 
 from shells import __version__
 from shells.cli import branch, critical, knockdown, mesh, phase_diagram, postbuckle
-from shells.cli.common import (
-    Parser,
-    check_paths,
-    check_ranges,
-    rank,
-    setup_logging,
-)
+from shells.cli.common import Parser, check_paths, check_ranges, rank, setup_logging
 from shells.errors import InputError
 
 __all__ = ["main"]

@@ -66,13 +66,24 @@ def _drop_tail(fd: int, path: str | os.PathLike) -> int:
     return size - keep
 
 
+def _lock(fd: int) -> bool:
+    """An exclusive lock on the open file, where the file system has locks (Lustre mounted
+    without ``flock`` refuses them: the appends are then whole lines all the same, and a torn
+    tail is dropped only by ``drop_torn_tail``, at the start of a run)."""
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+    except OSError:
+        return False
+    return True
+
+
 def drop_torn_tail(path: str | os.PathLike) -> int:
     """Truncate a torn (unterminated) last line of ``path``; returns the bytes dropped."""
     if not Path(path).exists():
         return 0
     fd = os.open(path, os.O_RDWR)
     try:
-        fcntl.flock(fd, fcntl.LOCK_EX)
+        _lock(fd)
         return _drop_tail(fd, path)
     finally:
         os.close(fd)
@@ -84,8 +95,8 @@ def append_record(path: str | os.PathLike, rec: dict[str, Any]) -> None:
     line = (json.dumps(rec, default=json_default) + "\n").encode()
     fd = os.open(path, os.O_RDWR | os.O_APPEND | os.O_CREAT, 0o644)
     try:
-        fcntl.flock(fd, fcntl.LOCK_EX)
-        _drop_tail(fd, path)
+        if _lock(fd):  # else another process may be writing the tail just now
+            _drop_tail(fd, path)
         os.write(fd, line)
         os.fsync(fd)
     finally:

@@ -47,6 +47,8 @@ from typing import Any
 
 REPO = Path(__file__).resolve().parent.parent
 RTOL = 1e-10
+#: a run that takes longer is a hang (the runs take seconds)
+TIMEOUT = 150.0
 #: fields that are timings or bookkeeping, not results
 SKIP = {"wall_time", "rank", "signature"}
 
@@ -124,7 +126,7 @@ def _session_alive(sid: int) -> list[int]:
 
 def run(argv: list[str], out: Path, ranks: int = 1, *, after: float | None = None,
         sig: int = signal.SIGKILL, wait_for: Callable[[], bool] | None = None,
-        timeout: float = 600.0,
+        timeout: float | None = None,
         env: dict[str, str] | None = None) -> Run:
     """``shells ARGV -o OUT`` on ``ranks`` ranks; with ``after``, signal ``sig`` at that many
     seconds (counted from the moment ``wait_for()`` is true, if given): SIGKILL to every process
@@ -155,9 +157,10 @@ def run(argv: list[str], out: Path, ranks: int = 1, *, after: float | None = Non
                         os.kill(q, sig)
                     except ProcessLookupError:
                         pass
-        _, err = p.communicate(timeout=timeout)
+        _, err = p.communicate(timeout=timeout or TIMEOUT)
     except subprocess.TimeoutExpired:
-        os.killpg(p.pid, signal.SIGKILL)
+        for q in _session_alive(p.pid):
+            os.kill(q, signal.SIGKILL)
         _, err = p.communicate()
         return Run(None, time.perf_counter() - t0, err + "\n[timeout]", signalled)
     # a killed job leaves no process behind (no orphaned rank still writing the files)
@@ -476,6 +479,9 @@ def main() -> int:
                    "interrupt": f"{it['signal']} -> {it['exit']}"
                                 + ("" if not it["problems"] else " FAILED")}
             rows.append(row)
+            Path(a.o).write_text(json.dumps({"partial": True, "rows": rows,
+                                             "trials": [t.__dict__ for t in trials],
+                                             "interrupts": interrupts}, indent=1) + "\n")
             print(f"{name:>14} {ranks} rank(s): {row['kills_survived']}/{row['kills']} kills "
                   f"survived, worst rel {row['worst_rel']:.1e}, {row['interrupt']}", flush=True)
     faults = [inject_rank_failure(work / f"fault-{k}", fail_rank=k) for k in (1, 0)]
@@ -486,6 +492,7 @@ def main() -> int:
         "totals": {"kills": sum(t.killed for t in trials),
                    "kills_survived_identical": sum(t.killed for t in trials if t.ok),
                    "trials": len(trials), "failed_trials": sum(not t.ok for t in trials),
+                   "hung_runs": sum("[timeout]" in p for t in trials for p in t.problems),
                    "interrupts": len(interrupts),
                    "interrupts_clean": sum(not i["problems"] for i in interrupts),
                    "rank_faults": len(faults),

@@ -120,6 +120,14 @@ def run_phase_diagram(cfg: PhaseDiagramConfig, outdir: str | Path, comm: Any = N
     from mpi4py import MPI
 
     comm = comm or MPI.COMM_WORLD
+    # PETSc's initialisation (the first import of dolfinx) is collective on MPI_COMM_WORLD:
+    # done here by every rank, not inside the first task a rank computes (a rerun with fewer
+    # tasks left than ranks hung there: the rank with a task in PetscInitialize, the others
+    # in the barrier after the tasks). Such a rerun still hangs at its very end, all results
+    # written: rank 0 in PetscGarbageCleanup's MPI_Comm_dup, the rank without a task in
+    # MPI_Finalize (benchmarks/reliability.py)
+    import dolfinx  # noqa: F401
+
     out = Path(outdir)
     if comm.rank == 0:
         out.mkdir(parents=True, exist_ok=True)

@@ -18,6 +18,7 @@ import json
 import logging
 import math
 import os
+import re
 import sys
 import time
 from collections.abc import Iterator
@@ -27,12 +28,12 @@ from typing import Any
 
 import numpy as np
 
-from shells.continuation import ContinuationSettings, Point, continuation
+from shells.continuation import ContinuationSettings, Point, continuation, next_step
 from shells.errors import InputError
 from shells.fields import FieldWriter
 from shells.geometry import RunScales, Shape, shape_from_description
 from shells.mesh import MeshSpec, ShellMesh, generate
-from shells.store import append_record, json_default, read_with_header
+from shells.store import append_record, json_default, read_with_header, write_atomic
 
 __all__ = ["BranchConfig", "run_branch", "read_branch"]
 
@@ -153,8 +154,10 @@ def _save_checkpoint(outdir: Path, model: Any, rec: dict[str, Any],
 
     Each rank writes the values of its owned DOF nodes with their coordinates, so the state can
     be read back on any partition of the same mesh (another rank count, or another partition
-    of the same rank count). Rank 0 then writes ``checkpoint/meta.json`` (rank count, point
-    index), the last file of a complete checkpoint.
+    of the same rank count), to ``state-RANK-of-SIZE.INDEX.npz`` (a temporary file renamed into
+    place). Rank 0 then writes ``checkpoint/meta.json`` (rank count, point index), the last
+    file of a complete checkpoint, and only then are the previous point's state files removed:
+    a kill at any moment leaves a complete checkpoint, this point's or the previous one's.
     """
     comm = model.shell.comm
     d = outdir / "checkpoint"
@@ -165,8 +168,9 @@ def _save_checkpoint(outdir: Path, model: Any, rec: dict[str, Any],
     n = x.shape[0] * bs
     w = model.w.x.array[:n]
     w_prev, k_prev = (prev[0][:n], prev[1]) if prev is not None else (w, float(model.kappa.value))
-    p = d / f"state-{comm.rank}-of-{comm.size}.npz"
-    tmp = p.with_name(p.stem + ".tmp.npz")
+    stem = f"state-{comm.rank}-of-{comm.size}"
+    p = d / f"{stem}.{rec['index']}.npz"
+    tmp = d / f"{stem}.{rec['index']}.tmp.npz"
     np.savez(tmp, x=x, w=w.reshape(-1, bs), w_prev=w_prev.reshape(-1, bs),
              kappa=float(model.kappa.value), kappa_prev=k_prev, index=rec["index"])
     os.replace(tmp, p)
@@ -175,6 +179,15 @@ def _save_checkpoint(outdir: Path, model: Any, rec: dict[str, Any],
         tmp_meta = d / "meta.json.tmp"
         tmp_meta.write_text(json.dumps({"ranks": comm.size, "index": rec["index"]}))
         os.replace(tmp_meta, d / "meta.json")
+    comm.barrier()
+    for old in d.glob(f"{stem}.*.npz"):  # this rank's earlier points
+        if old != p:
+            old.unlink(missing_ok=True)
+    if comm.rank == 0:  # files of a run on another rank count, or of an older layout
+        for old in d.glob("state-*.npz"):
+            m = re.fullmatch(r"state-\d+-of-(\d+)\.\d+\.npz", old.name)
+            if m is None or int(m.group(1)) != comm.size:
+                old.unlink(missing_ok=True)
 
 
 def _load_checkpoint(outdir: Path, model: Any
@@ -201,9 +214,10 @@ def _load_checkpoint(outdir: Path, model: Any
     x, bs = _owned_nodes(model)
     ok = True
     try:
-        parts = [np.load(d / f"state-{r}-of-{meta['ranks']}.npz") for r in range(meta["ranks"])]
+        parts = [np.load(d / f"state-{r}-of-{meta['ranks']}.{meta['index']}.npz")
+                 for r in range(meta["ranks"])]
         ok = all(int(q["index"]) == meta["index"] and q["w"].shape[1] == bs for q in parts)
-    except (OSError, ValueError, KeyError):
+    except (OSError, ValueError, KeyError, EOFError):
         ok = False
     if not comm.allreduce(ok, op=MPI.LAND):
         return None
@@ -259,9 +273,17 @@ def run_branch(cfg: BranchConfig, outdir: str | os.PathLike, *, comm: Any = None
 
     done: list[dict[str, Any]] = []
     start = None
-    # rank 0 reads the file (it alone rewrites it below) and tells the others
-    old = read_branch(bfile) if resume and comm.rank == 0 and bfile.exists() else None
+    # rank 0 reads the file (it alone rewrites it below) and tells the others; a file it cannot
+    # trust (a corrupt line) is an error on every rank
+    old: Any = None
+    if resume and comm.rank == 0 and bfile.exists():
+        try:
+            old = read_branch(bfile)
+        except InputError as e:
+            old = str(e)
     old = comm.bcast(old, root=0)
+    if isinstance(old, str):
+        raise InputError(f"{old} (or --restart)")
     if old is not None:
         old_header, done = old
         old_header.pop("dofs", None)
@@ -280,11 +302,10 @@ def run_branch(cfg: BranchConfig, outdir: str | os.PathLike, *, comm: Any = None
             log.info("%s: resuming after point %d at kappa = %.6g", label, start[1], start[0])
     if comm.rank == 0:
         # the kept points are rewritten under the header into a temporary file, renamed over
-        # the old one: a kill leaves the old file or the new one, never a torn one
-        tmp = bfile.with_name(bfile.name + ".tmp")
-        tmp.write_text("".join(json.dumps(r, default=json_default) + "\n"
-                               for r in [{"header": header}, *done]))
-        os.replace(tmp, bfile)
+        # the old one: a kill leaves the old file or the new one, never a torn one (a torn
+        # last line of the old file is dropped here)
+        write_atomic(bfile, "".join(json.dumps(r, default=json_default) + "\n"
+                                    for r in [{"header": header}, *done]))
     yield from done
 
     writer = FieldWriter(model, outdir / "fields.bp") if fields != "none" else None
@@ -297,11 +318,21 @@ def run_branch(cfg: BranchConfig, outdir: str | os.PathLike, *, comm: Any = None
     moved = start is not None and comm.allreduce(bool(np.any(start[2])), op=MPI.LOR)
     if start is not None and (moved or start[3] != 0):
         tangent = (start[2], start[3] * cfg.L)  # secant of the last two points orients the run
+    # a resumed run takes the step the interrupted one would have taken next (its points are
+    # then the uninterrupted run's); not for steps given in kappa, converted at the start
+    st = cfg.continuation
+    ds0 = None
+    last_rec = done[-1] if start is not None and done else {}
+    if (start is not None and last_rec.get("index") == start[1] > 0
+            and last_rec.get("step", 0) > 0
+            and (st.method == "natural" or st.ds_unit == "arclength")):
+        ds0 = next_step(st, last_rec["step"], last_rec["newton_its"])
     it = continuation(model, cfg.continuation, kappa_start=kappa0, kappa_end=cfg.kappa_end,
                       solver=ns, start_index=index0, skip_first=start is not None,
-                      initial_tangent=tangent)
+                      initial_tangent=tangent, initial_ds=ds0)
     last = None
-    prev = None
+    # the previous point of the next checkpoint: on resume, the checkpoint's point
+    prev = None if start is None else (model.w.x.array.copy(), kappa0)
     try:
         for p in it:
             rec = point_record(p, cfg)

@@ -206,12 +206,15 @@ class _Arclength:
 def continuation(problem: Any, settings: ContinuationSettings, *, kappa_start: float = 0.0,
                  kappa_end: float, solver: NewtonSolver | None = None, start_index: int = 0,
                  initial_tangent: tuple[np.ndarray, float] | None = None,
-                 skip_first: bool = False) -> Iterator[Point]:
+                 skip_first: bool = False, initial_ds: float | None = None) -> Iterator[Point]:
     """Follow the branch from the problem's current state at ``kappa_start`` to ``kappa_end``.
 
     The first point is the (re-converged) start; the run ends on the point at ``kappa_end``
     exactly, or when the step falls below ``ds_min``, or after ``max_steps`` points.
-    ``initial_tangent`` (local state array, λ part) resumes an arclength run in its direction.
+    ``initial_tangent`` (local state array, λ part: the secant from the previous point)
+    resumes a run as it was: an arclength run in its direction, a natural one with that secant
+    predictor; ``initial_ds`` (None: ``settings.ds``) is the first step, the one the
+    interrupted run would have taken next (``next_step``).
     """
     ns = solver or NewtonSolver(problem)
     L = problem.length_scale()
@@ -233,14 +236,23 @@ def continuation(problem: Any, settings: ContinuationSettings, *, kappa_start: f
         index += 1
         return p
 
+    if initial_ds is not None:
+        settings = replace(settings, ds=min(settings.ds_max, max(settings.ds_min, initial_ds)))
     if settings.method == "natural":
-        yield from _natural(problem, ns, settings, lam0, lam_end, L, point, its, skip_first)
+        yield from _natural(problem, ns, settings, lam0, lam_end, L, point, its, skip_first,
+                            initial_tangent)
     else:
         yield from _arclength(ns, settings, lam0, lam_end, L, point, its, direction,
                               initial_tangent, skip_first)
 
 
-def _natural(problem, ns, st, lam0, lam_end, L, point, its0, skip_first) -> Iterator[Point]:
+def next_step(st: ContinuationSettings, step: float, its: int) -> float:
+    """The step the loop takes after a point reached with ``step`` in ``its`` iterations."""
+    return min(st.ds_max, max(st.ds_min, step * _growth(its, st.target_newton_its)))
+
+
+def _natural(problem, ns, st, lam0, lam_end, L, point, its0, skip_first,
+             initial_tangent=None) -> Iterator[Point]:
     direction = 1.0 if lam_end >= lam0 else -1.0
     stops = sorted({s for s in st.kappa_stops if (s - lam0) * direction > 0
                     and (lam_end - s) * direction > 0} | {lam_end}, key=lambda s: s * direction)
@@ -253,6 +265,10 @@ def _natural(problem, ns, st, lam0, lam_end, L, point, its0, skip_first) -> Iter
     w = problem.state
     w_old, dw = w.duplicate(), w.duplicate()
     dw.set(0.0)
+    if initial_tangent is not None and initial_tangent[1] != 0:
+        # the secant of the two points before an interruption, as the loop would hold it
+        dw.array_w[:] = initial_tangent[0][: dw.getLocalSize()]
+        dw.scale(1.0 / abs(initial_tangent[1]))
     n = 0
     while stops and n < st.max_steps:
         target = stops[0]

@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import Any
 
 from shells.errors import InputError
-from shells.store import json_default
+from shells.store import append_record, json_default, write_atomic, write_header
 
 __all__ = ["ShapeWriter", "branch_axisym", "branch_surface", "critical_run", "critical_surface",
            "folds", "postbuckle_run"]
@@ -66,6 +66,16 @@ def branch_surface(cfg: Any, outdir: str | os.PathLike, *, fields: str = "none",
 
     check_mesh_size(cfg.mesh_spec())
     points = list(branch.run_branch(cfg, outdir, fields=fields, resume=resume))
+    end = cfg.kappa_end * cfg.R
+    if points and abs(points[-1]["kappa_R"] - end) > 1e-12 * abs(end) \
+            and len(points) <= cfg.continuation.max_steps:
+        # the continuation gave up (the corrector failed down to the smallest step): the
+        # branch beyond is not known; its points so far and the checkpoint are kept
+        raise RuntimeError(f"the continuation stopped at kappa R = {points[-1]['kappa_R']:.6g} "
+                           f"before the end of the range, kappa R = {end:.6g}: the corrector "
+                           f"did not converge with steps down to {cfg.continuation.ds_min:g}; "
+                           f"{len(points)} points are in {outdir}/branch.jsonl and the same "
+                           "command resumes after the last")
     header, _ = branch.read_branch(f"{outdir}/branch.jsonl")
     return {"config": cfg.describe(), "dofs": header.get("dofs"),
             "branch_file": f"{outdir}/branch.jsonl", "points": points, "folds": folds(points)}
@@ -79,19 +89,20 @@ def branch_axisym(shape: Any, h_over_r: float, nu: float, kappa_R_end: float,
 
     outdir = Path(outdir)
     points = []
+    # no checkpoint: a rerun computes the branch again (the 1D model takes seconds), the file
+    # replaced atomically by its header, then each point appended whole and fsync'ed
     if _rank() == 0:
         outdir.mkdir(parents=True, exist_ok=True)
-        (outdir / "branch.jsonl").write_text(json.dumps({"header": {
+        write_header(outdir / "branch.jsonl", {
             "model": "axisym", "shape": shape.describe(), "h_over_r": h_over_r,
-            "nu": nu, "kappa_R_end": kappa_R_end}}) + "\n")
+            "nu": nu, "kappa_R_end": kappa_R_end})
     for i, p in enumerate(axisym.branch(shape, h_over_r, nu,
                                         direction="up" if kappa_R_end > 0 else "down",
                                         kappa_max=abs(kappa_R_end))):
         rec = {"index": i, **p}
         points.append(rec)
         if _rank() == 0:
-            with open(outdir / "branch.jsonl", "a") as f:
-                f.write(json.dumps(rec, default=json_default) + "\n")
+            append_record(outdir / "branch.jsonl", rec)
     return {"model": "axisym", "branch_file": str(outdir / "branch.jsonl"), "points": points,
             "folds": folds(points)}
 
@@ -135,8 +146,8 @@ def critical_run(shape: Any, h_over_r: float, nu: float, *, direction: str = "up
         raise InputError(f"--model must be surface or axisym, got {model!r}")
     if outdir and _rank() == 0:
         Path(outdir).mkdir(parents=True, exist_ok=True)
-        (Path(outdir) / "critical.json").write_text(
-            json.dumps(result, indent=1, default=json_default))
+        write_atomic(Path(outdir) / "critical.json",
+                     json.dumps(result, indent=1, default=json_default))
     return result
 
 
@@ -184,13 +195,14 @@ def critical_surface(shape: Any, h_over_r: float, nu: float, kappa_end: float, *
     cps = []
     found_points: list[Any] = []
     t0 = time.perf_counter()
+    last = None
     for p, res, found in follow(model, st, kappa_end, crit):
+        last = p
         rec = {"index": p.index, "kappa_R": p.kappa * R_or_L, "kappa_h": p.kappa * h,
                "negative_count": res.negative_count, "dkappa_ds": p.dkappa_ds,
                "newton_its": p.newton_its, **p.scalars}
         if bfile is not None:
-            with open(bfile, "a") as f:
-                f.write(json.dumps(rec) + "\n")
+            append_record(bfile, rec)
         log.info("  kappa R = %+.5f  kappa h = %+.5f  negative = %d  (%.0f s)", rec["kappa_R"],
                  rec["kappa_h"], res.negative_count, time.perf_counter() - t0)
         for c in found:
@@ -201,6 +213,15 @@ def critical_surface(shape: Any, h_over_r: float, nu: float, kappa_end: float, *
             cps.append(d)
             log.info("  %s at kappa R = %.6f (kappa h = %.6f), m = %s, n = %s", c.kind,
                      d["kappa_R"], d["kappa_h"], c.mode_m, c.mode_n)
+    stopped = bool(found_points) and (crit.stop_at_first or (crit.stop_at_fold and any(
+        c.kind == "fold" for c in found_points)))
+    if not stopped and (last is None
+                        or abs(last.kappa_L - kappa_end * L) > 1e-9 * lam_end):
+        # the continuation gave up short of the end: "none" beyond would be a false claim
+        raise RuntimeError(f"the continuation stopped at kappa R = "
+                           f"{None if last is None else last.kappa * R_or_L} before the end of "
+                           f"the range, kappa R = {kappa_end * R_or_L:.6g}; critical points "
+                           "beyond it are not known")
     first = cps[0] if cps else None
     if out is not None and found_points:
         from shells.fields import write_modes

@@ -17,6 +17,7 @@ works), see ``shells.solvers``.
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Hashable, Iterable
 from dataclasses import dataclass, field
 from typing import Any
@@ -32,6 +33,8 @@ from shells.solvers import (
 )
 
 __all__ = ["StabilityResult", "Stability"]
+
+log = logging.getLogger("shells")
 
 INERTIA_OPTIONS: dict[str, Any] = {
     "ksp_type": "preonly",
@@ -152,6 +155,12 @@ class Stability:
         eps.setOptionsPrefix(EIGEN_PREFIX)
         eps.setFromOptions()  # the user's -shells_eigen_... options
         eps.solve()
+        if eps.getConverged() < nev:
+            # the callers go on without the missing pairs (a critical point is then bracketed
+            # by the inertia alone, its mode unnamed): say so
+            log.warning("SLEPc: %d of the %d eigenpairs nearest 0 converged (reason %d, %d "
+                        "iterations)", eps.getConverged(), nev, int(eps.getConvergedReason()),
+                        eps.getIterationNumber())
         vals, vecs = [], []
         for i in range(eps.getConverged()):
             vals.append(eps.getEigenvalue(i).real)

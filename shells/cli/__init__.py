@@ -49,15 +49,42 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = _build_parser()
     signalled: list[int] = []
 
+    def _message(signum: int) -> str:
+        return (f"shells: interrupted ({signal.Signals(signum).name}); rerun the same command "
+                "to resume")
+
     def _terminate(signum: int, frame: Any) -> None:
         signalled.append(signum)
+        from mpi4py import MPI
+
+        comm = MPI.COMM_WORLD
+        if comm.size > 1:
+            # unwinding would run collective clean-ups (solver destruction, barriers) on this
+            # rank alone while the others compute or wait: a hang. Every file a run writes is
+            # whole at any moment, so all ranks end here: rank 0 says so (another rank, if
+            # rank 0 has not ended them all within 2 s, as when only it was signalled)
+            if comm.rank != 0:
+                time.sleep(2.0)
+            print(_message(signum), file=sys.stderr, flush=True)
+            comm.Abort(128 + signum)
         raise KeyboardInterrupt
 
     import signal
     import threading
+    import time
 
+    handlers = {}
     if threading.current_thread() is threading.main_thread():
-        old_term = signal.signal(signal.SIGTERM, _terminate)
+        for signum in (signal.SIGINT, signal.SIGTERM):
+            handlers[signum] = signal.signal(signum, _terminate)
+
+    def _interrupted() -> int:
+        # every file a run writes is whole at any moment (appended lines, renamed
+        # checkpoints): the same command resumes
+        signum = signalled[-1] if signalled else signal.SIGINT
+        if rank() == 0:
+            print(_message(signum), file=sys.stderr)
+        return 128 + signum
     try:
         args = parser.parse_args(argv)
         setup_logging(args.verbose)
@@ -74,15 +101,14 @@ def main(argv: Sequence[str] | None = None) -> int:
             print(msg if msg.startswith("shells") else f"shells: error: {msg}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        # every file a run writes is whole at any moment (appended lines, renamed checkpoints):
-        # the same command resumes
-        if rank() == 0:
-            name = "SIGTERM" if signalled else "SIGINT"
-            print(f"shells: interrupted ({name}); rerun the same command to resume",
-                  file=sys.stderr)
-        return 143 if signalled else 130
+        return _interrupted()
     except Exception as e:  # noqa: BLE001 - a failure is one line, never a traceback
         import traceback
+
+        if signalled:
+            # the KeyboardInterrupt was raised inside a PETSc callback (an assembly during a
+            # solve), which turned it into a PETSc error
+            return _interrupted()
 
         from mpi4py import MPI
 
@@ -97,5 +123,5 @@ def main(argv: Sequence[str] | None = None) -> int:
             comm.Abort(1)
         return 1
     finally:
-        if threading.current_thread() is threading.main_thread():
-            signal.signal(signal.SIGTERM, old_term)
+        for signum, handler in handlers.items():
+            signal.signal(signum, handler)

@@ -13,7 +13,8 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
-from shells.store import append_record, json_default, read_records
+from shells.errors import InputError
+from shells.store import append_record, drop_torn_tail, json_default, read_records, write_atomic
 from shells.theory import PAPER
 
 __all__ = ["RunStats", "run_phase_diagram"]
@@ -49,15 +50,22 @@ def _run_tasks(tasks: list[Task], cfg: PhaseDiagramConfig, outdir: Path, comm: A
     rank computed."""
     sig = cfg.signature()
     points = outdir / "points.jsonl"
+    done: Any = None
+    run_id = None
     if comm.rank == 0:
-        done = {_record_key(r, sig) for r in read_records(points)
-                if r.get("status") == "ok" and r.get("signature", sig) == sig}
+        try:
+            drop_torn_tail(points)  # a write cut short: never continued by the next record
+            done = {_record_key(r, sig) for r in read_records(points)
+                    if r.get("status") == "ok" and r.get("signature", sig) == sig}
+        except InputError as e:  # a corrupt file: refused on every rank, not used
+            done = str(e)
         run_id = uuid.uuid4().hex[:12]
-        claims = outdir / ".claims" / run_id
-        claims.mkdir(parents=True, exist_ok=True)
-    else:
-        done, run_id = None, None
+        if not isinstance(done, str):
+            claims = outdir / ".claims" / run_id
+            claims.mkdir(parents=True, exist_ok=True)
     done, run_id = comm.bcast((done, run_id), root=0)
+    if isinstance(done, str):
+        raise InputError(done)
     claims = outdir / ".claims" / run_id
     todo = [t for t in tasks if t.key(sig) not in done]
     mine = 0
@@ -112,6 +120,14 @@ def run_phase_diagram(cfg: PhaseDiagramConfig, outdir: str | Path, comm: Any = N
     from mpi4py import MPI
 
     comm = comm or MPI.COMM_WORLD
+    # PETSc's initialisation (the first import of dolfinx) is collective on MPI_COMM_WORLD:
+    # done here by every rank, not inside the first task a rank computes (a rerun with fewer
+    # tasks left than ranks hung there: the rank with a task in PetscInitialize, the others
+    # in the barrier after the tasks). Such a rerun still hangs at its very end, all results
+    # written: rank 0 in PetscGarbageCleanup's MPI_Comm_dup, the rank without a task in
+    # MPI_Finalize (benchmarks/reliability.py)
+    import dolfinx  # noqa: F401
+
     out = Path(outdir)
     if comm.rank == 0:
         out.mkdir(parents=True, exist_ok=True)
@@ -146,8 +162,8 @@ def run_phase_diagram(cfg: PhaseDiagramConfig, outdir: str | Path, comm: Any = N
                                            per_rank=per_rank))}
         if figure:
             result["figures"] = make_figure(result, out / "phase_diagram")
-        (out / "phase_diagram.json").write_text(json.dumps(result, indent=1,
-                                                           default=json_default))
+        write_atomic(out / "phase_diagram.json",
+                     json.dumps(result, indent=1, default=json_default))
     return comm.bcast(result, root=0)
 
 

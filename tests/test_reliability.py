@@ -1,0 +1,426 @@
+"""Reliability (issue 16): files that survive a crash, kill and resume, SIGINT/SIGTERM, injected
+solver failures, an exception on one MPI rank.
+
+* store: a torn last line is never continued by the next record and never used; a corrupt line
+  refuses the file (one line, exit 2, on every rank);
+* ``shells branch`` (surface model) interrupted by SIGINT, SIGTERM and SIGKILL at seeded random
+  moments, with a torn line written before the last rerun, ends with the uninterrupted run's
+  points (to 1e-10) and loses none written before a kill;
+* Newton steps that diverge (a NaN residual) and factorisations that fail (a zero Jacobian),
+  injected into the algebraic problems, cut the step and the run recovers the exact answers; a
+  failed LDL^T and a SLEPc eigensolve that converges nothing stop with a clear message or fall
+  back on the inertia; a continuation that gives up is an error that leaves a resumable branch;
+* an exception on one rank of two ends both within seconds, the message printed once.
+
+Subprocesses, and the CLI runs on this process alone, are started by rank 0 only (with the
+environment of no MPI job), the others wait for its verdict, so every test is valid on any
+number of ranks. The campaign (several kills of
+every command, 1 and 2 ranks) is ``benchmarks/reliability.py``, whose helpers these tests use.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import random
+import signal
+import sys
+from pathlib import Path
+
+# PETSc's initialisation (the first import of dolfinx) is collective: on every rank, here,
+# before rank 0 works alone
+import dolfinx  # noqa: F401
+import pytest
+from mpi4py import MPI
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
+import reliability as rel  # noqa: E402
+
+from shells.errors import InputError  # noqa: E402
+from shells.store import append_record, read_records  # noqa: E402
+
+#: natural steps of κR = 5 on a coarse P2 sphere: 5 points, about 0.2 s each
+BRANCH = ["branch", "--shape", "sphere", "--h-over-r", "0.05", "--kappa-h-max", "1", "--size",
+          "0.3", "--degree", "2", "--method", "natural", "--ds", "5", "--ds-max", "5"]
+
+
+#: the world of ranks (``one_rank`` makes this process the CLI's whole world)
+WORLD = MPI.COMM_WORLD
+
+
+def _on_rank0(fn):
+    """fn() on rank 0 (it may start processes or run the CLI on this process alone): its
+    (ok, message), or its exception's message, on every rank. The others wait asleep, not in
+    a collective that spins a core the processes started need."""
+    import time
+
+    c = WORLD
+    res = (False, "not run")
+    if c.rank == 0:
+        try:
+            res = fn()
+        except Exception as e:  # noqa: BLE001 - reported on every rank
+            res = (False, f"{type(e).__name__}: {e}")
+    req = c.Ibarrier()
+    while not req.Test():
+        time.sleep(0.05)
+    return c.bcast(res, root=0)
+
+
+# ------------------------------------------------------------------------------------------
+# the files
+# ------------------------------------------------------------------------------------------
+def test_a_torn_last_line_is_dropped_not_continued(tmp_path):
+    f = tmp_path / "points.jsonl"
+    append_record(f, {"a": 1})
+    append_record(f, {"a": 2})
+    with open(f, "a") as fh:
+        fh.write('{"a": 3, "b"')  # a write cut short
+    assert read_records(f) == [{"a": 1}, {"a": 2}]  # skipped, not used
+    append_record(f, {"a": 4})  # not glued to the torn line
+    assert f.read_text() == '{"a": 1}\n{"a": 2}\n{"a": 4}\n'
+    with open(f, "a") as fh:
+        fh.write("\0\0\0")  # a block of zeros from a lost write
+    assert read_records(f) == [{"a": 1}, {"a": 2}, {"a": 4}]
+
+
+@pytest.mark.parametrize("bad", ['{"a": 3, "b"', "[1, 2]", "\0\0\0", "\xff\xfe"])
+def test_a_corrupt_line_refuses_the_file(tmp_path, bad):
+    f = tmp_path / "points.jsonl"
+    f.write_bytes(b'{"a": 1}\n' + bad.encode("latin-1") + b'\n{"a": 2}\n')
+    with pytest.raises(InputError, match="line 2 is not a record"):
+        read_records(f)
+
+
+def test_cli_refuses_a_corrupt_points_file_on_every_rank(capsys, shared_tmp):
+    """A resume that would use a points file it cannot trust: one line, exit 2, no work."""
+    from shells.cli import main
+
+    out = shared_tmp / "pd"
+    if MPI.COMM_WORLD.rank == 0:
+        out.mkdir()
+        (out / "points.jsonl").write_text('{"h_over_R": 0.04}\nnot json\n')
+    MPI.COMM_WORLD.barrier()
+    rc = main(["phase-diagram", "--h-over-r", "0.04", "--thetabar-range", "1.5", "3.5",
+               "--points", "2", "--no-figure", "-o", str(out)])
+    assert rc == 2
+    err = capsys.readouterr().err
+    if MPI.COMM_WORLD.rank == 0:
+        lines = [ln for ln in err.splitlines() if ln.strip()]
+        assert len(lines) == 1 and "line 2 is not a record" in lines[0], err
+
+
+# ------------------------------------------------------------------------------------------
+# kill and resume, SIGINT and SIGTERM
+# ------------------------------------------------------------------------------------------
+def _branch_config():
+    """``BRANCH``'s configuration, as ``shells branch`` builds it."""
+    from shells.branch import BranchConfig
+    from shells.continuation import ContinuationSettings
+    from shells.geometry import Sphere
+
+    return BranchConfig(shape=Sphere(1.0), h_over_r=0.05, nu=0.5, kappa_end=20.0, size=0.3,
+                        degree=2, continuation=ContinuationSettings(method="natural", ds=5.0,
+                                                                    ds_max=5.0))
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory) -> list[dict] | None:
+    """The uninterrupted branch, computed by rank 0 alone (None elsewhere): the same numbers
+    as a 1-rank ``shells branch``, without one more process start."""
+    from shells.branch import run_branch
+
+    if WORLD.rank != 0:
+        return None
+    out = tmp_path_factory.mktemp("reference")
+    list(run_branch(_branch_config(), out, comm=MPI.COMM_SELF))
+    return rel.records(out, rel.CASES["branch"])
+
+
+def _one_rank(monkeypatch) -> None:
+    """This process alone is the CLI's whole world (in ``_on_rank0``: rank 0 runs it)."""
+    monkeypatch.setattr(MPI, "COMM_WORLD", MPI.COMM_SELF)
+
+
+def test_sigint_and_sigterm_inside_petsc_callbacks_are_interruptions(monkeypatch, tmp_path,
+                                                                     capsys, reference):
+    """Ctrl-C, then SIGTERM, land in Python code called by PETSc (the residual's assembly
+    inside SNES), which turns the KeyboardInterrupt into a PETSc error: still the one line and
+    exit 130 / 143 of an interruption (it was "shells: failed: Error: error code -1 ..." and
+    exit 1), and the reruns resume to the uninterrupted run's points."""
+    ok, msg = _on_rank0(lambda: _interruptions(monkeypatch, tmp_path, capsys, reference))
+    assert ok, msg
+
+
+def _interruptions(monkeypatch, tmp_path, capsys, reference) -> tuple[bool, str]:
+    import os
+
+    from shells import solvers
+    from shells.cli import main
+
+    _one_rank(monkeypatch)
+    real = solvers.NewtonSolver.assemble_residual
+    out = tmp_path / "b"
+    kept: list[dict] = []
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        sent: list[int] = []
+        before = len(kept)
+
+        def interrupted(self, b, sig=sig, sent=sent, before=before):
+            # inside the first solve after this run's first new point
+            if not sent and len(rel.records(out, rel.CASES["branch"])) > before:
+                sent.append(sig)
+                os.kill(os.getpid(), sig)
+            real(self, b)
+
+        monkeypatch.setattr(solvers.NewtonSolver, "assemble_residual", interrupted)
+        assert main([*BRANCH, "-o", str(out)]) == 128 + sig
+        lines = [ln for ln in capsys.readouterr().err.splitlines() if ln.startswith("shells:")]
+        assert lines == [f"shells: interrupted ({sig.name}); rerun the same command to resume"]
+        now = rel.records(out, rel.CASES["branch"])
+        assert now[:len(kept)] == kept and len(kept) < len(now) < len(reference)
+        kept = now
+    monkeypatch.setattr(solvers.NewtonSolver, "assemble_residual", real)
+    assert main([*BRANCH, "-o", str(out)]) == 0
+    got = rel.records(out, rel.CASES["branch"])
+    diffs, _ = rel.compare(reference, got)
+    assert not diffs, diffs[:3]
+    assert got[:len(kept)] == kept  # from the file, not recomputed
+    return True, ""
+
+
+def test_branch_killed_torn_and_resumed(shared_tmp, reference):
+    """``shells branch`` (a process of its own) killed by SIGKILL at a random moment after its
+    first point, a torn line, and the rerun: the uninterrupted run's points (1e-10), none
+    lost."""
+    rng = random.Random(16)
+    case = rel.Case("branch", BRANCH, ["branch.jsonl"], True)
+
+    def check():
+        out = shared_tmp / "cut"
+        bfile = out / "branch.jsonl"
+        seen: dict[str, dict] = {}
+        problems = []
+        for sig in (signal.SIGKILL,):
+            before = len(rel.records(out, case))
+            r = rel.run(BRANCH, out, after=rng.uniform(0.0, 0.15), sig=sig,
+                        wait_for=lambda b=before: len(rel.records(out, case)) > b)
+            lines = [ln for ln in r.stderr.splitlines() if ln.startswith("shells:")]
+            want = {signal.SIGTERM: 143, signal.SIGKILL: -9}[sig]
+            if r.signalled is None or r.rc != want:
+                problems.append(f"{sig.name}: exit {r.rc} (signalled: {r.signalled})")
+            if sig == signal.SIGTERM and (len(lines) != 1 or "Traceback" in r.stderr
+                                          or "interrupted (SIGTERM)" not in lines[0]):
+                problems.append(f"{sig.name}: stderr {r.stderr[-400:]}")
+            seen.update((rel._key(p), p) for p in rel.records(out, case))
+        with open(bfile, "a") as f:
+            f.write(bfile.read_text().splitlines()[-1][:40])  # a write cut short
+        final = rel.run(BRANCH, out)
+        if final.rc != 0:
+            return False, f"final run: exit {final.rc}: {final.stderr[-400:]}"
+        got = rel.records(out, case)
+        diffs, worst = rel.compare(reference, got)
+        lost, _ = rel.compare(got, list(seen.values()), subset=True)
+        problems += diffs[:3] + [f"lost {d}" for d in lost[:3]]
+        if not bfile.read_text().endswith("}\n"):
+            problems.append("the torn line is still there")
+        return not problems, f"{problems}; {len(seen)} points seen, worst rel {worst:.1e}"
+
+    ok, msg = _on_rank0(check)
+    assert ok, msg
+
+
+# ------------------------------------------------------------------------------------------
+# injected solver failures (the algebraic problems: exact answers, milliseconds, any rank)
+# ------------------------------------------------------------------------------------------
+STEPS = dict(ds=0.1, ds_max=0.2)
+
+
+def _inject(monkeypatch, problem, method: str, calls: set[int], spoil) -> list[int]:
+    """Spoil the output of ``problem.method`` on the given calls; returns the calls spoilt."""
+    real = getattr(problem, method)
+    n, hits = [0], []
+
+    def spoilt(*args):
+        n[0] += 1
+        real(*args)
+        if n[0] in calls:
+            hits.append(n[0])
+            spoil(args[-1])
+
+    monkeypatch.setattr(problem, method, spoilt)
+    return hits
+
+
+def _nan(b) -> None:  # a diverged Newton step: the residual at the iterate is not finite
+    b.set(math.nan)
+
+
+def _zero(A) -> None:  # a failed factorisation: MUMPS cannot factor a zero matrix
+    A.zeroEntries()
+    A.assemble()
+
+
+@pytest.mark.parametrize("method, spoil", [("assemble_residual", _nan),
+                                           ("assemble_jacobian", _zero)],
+                         ids=["diverged Newton", "failed factorisation"])
+@pytest.mark.parametrize("calls", [{5}, {5, 6, 7}, {20, 21}], ids=str)
+def test_failed_corrector_steps_are_cut_and_the_run_recovers(monkeypatch, method, spoil, calls):
+    """The pseudo-arclength corrector fails at the injected calls (before the fold, or in the
+    locator next to it): the step is halved, and every later point is on the exact branch and
+    the fold located to 1e-8 (x² + κ - 1 = 0: at κ = 1)."""
+    from shells.algebraic import FoldProblem
+    from shells.continuation import ContinuationSettings
+    from shells.critical import CriticalSettings, follow
+
+    P = FoldProblem()
+    hits = _inject(monkeypatch, P, method, calls, spoil)
+    run = list(follow(P, ContinuationSettings(**STEPS), 3.0, CriticalSettings(rel_tol=1e-8)))
+    assert hits == sorted(calls)
+    found = [c for _, _, cps in run for c in cps]
+    assert [c.kind for c in found] == ["fold"]
+    assert found[0].kappa == pytest.approx(1.0, rel=1e-8)
+    for p, r, _ in run[:-1]:
+        assert p.scalars["w0"] == pytest.approx(P.exact_x(p.kappa), abs=1e-10)
+        assert r.negative_count == 0
+
+
+@pytest.mark.parametrize("method, spoil", [("assemble_residual", _nan),
+                                           ("assemble_jacobian", _zero)],
+                         ids=["diverged Newton", "failed factorisation"])
+def test_failed_natural_steps_are_cut_and_the_run_recovers(monkeypatch, method, spoil):
+    """SNES (natural steps): the failed solves are retried with half the step; the factor of a
+    failed factorisation is reset (else every later solve fails), the run lands on κ = 0.9."""
+    from shells.algebraic import FoldProblem
+    from shells.continuation import ContinuationSettings, continuation
+
+    P = FoldProblem()
+    hits = _inject(monkeypatch, P, method, {3, 4}, spoil)
+    pts = list(continuation(P, ContinuationSettings(method="natural", **STEPS), kappa_end=0.9))
+    assert hits == [3, 4]
+    assert pts[-1].kappa == 0.9
+    for p in pts:
+        assert p.scalars["w0"] == pytest.approx(P.exact_x(p.kappa), abs=1e-8)
+
+
+def test_a_failed_inertia_factorisation_stops_with_a_message_and_the_next_one_works(
+        monkeypatch):
+    from shells import stability
+    from shells.algebraic import FoldProblem
+    from shells.solvers import reset_factor
+
+    P = FoldProblem()
+    stab = stability.Stability(P)
+    real = stability.setup_factor
+    calls = [0]
+
+    def failing(ksp, A, options):
+        calls[0] += 1
+        ok = real(ksp, A, options)
+        if calls[0] == 2:  # a failed factorisation, as setup_factor reports it
+            reset_factor(ksp, A, options)
+            return False
+        return ok
+
+    monkeypatch.setattr(stability, "setup_factor", failing)
+    assert stab.inertia() == (0, 0, 3)
+    with pytest.raises(RuntimeError, match="LDL\\^T factorisation failed"):
+        stab.inertia()
+    assert stab.inertia() == (0, 0, 3)
+    stab.destroy()
+
+
+@pytest.mark.parametrize("failures", [3, 10_000], ids=["3 eigensolves", "every eigensolve"])
+def test_slepc_failures_fall_back_on_the_inertia(monkeypatch, caplog, failures):
+    """Eigensolves that converge nothing: the locator bisects by inertia alone, to the same
+    1e-8 (the pitchforks at κ = 1 and 2); when every one fails the modes are unnamed, with a
+    warning."""
+    import logging
+
+    from slepc4py import SLEPc
+
+    from shells.algebraic import PitchforkProblem
+    from shells.continuation import ContinuationSettings
+    from shells.critical import CriticalSettings, follow
+
+    n = [0]
+
+    class NotConverged(SLEPc.EPS):
+        """An eigensolver that ends without a converged pair (as after max_it iterations)."""
+
+        def solve(self):
+            n[0] += 1
+            super().solve()
+
+        def getConverged(self):
+            return 0 if n[0] <= failures else super().getConverged()
+
+        def getConvergedReason(self):
+            return (SLEPc.EPS.ConvergedReason.DIVERGED_ITS if n[0] <= failures
+                    else super().getConvergedReason())
+
+    monkeypatch.setattr(SLEPc, "EPS", NotConverged)
+    P = PitchforkProblem()
+    with caplog.at_level(logging.WARNING, logger="shells"):
+        run = list(follow(P, ContinuationSettings(**STEPS), 2.5,
+                          CriticalSettings(rel_tol=1e-8, stop_at_fold=False)))
+    found = [c for _, _, cps in run for c in cps]
+    assert [c.kind for c in found] == ["bifurcation", "bifurcation"]
+    assert [c.kappa for c in found] == pytest.approx([1.0, 2.0], rel=1e-8)
+    assert n[0] > failures or failures > 100
+    assert "SLEPc: 0 of the 4 eigenpairs nearest 0 converged" in caplog.text
+    if failures < 100:
+        assert [c.mode_m for c in found] == [1, 2]
+
+
+def test_a_continuation_that_gives_up_is_an_error_and_leaves_a_resumable_branch(
+        monkeypatch, tmp_path, reference):
+    """Every Newton solve past κR = 10 fails (injected): the step is halved down to ds_min and
+    the branch of ``shells branch`` stops with a message (the CLI's one line, exit 1) instead
+    of a short branch. The rerun without the failure resumes after the last point and ends
+    with the uninterrupted run's points."""
+    ok, msg = _on_rank0(lambda: _gives_up(monkeypatch, tmp_path, reference))
+    assert ok, msg
+
+
+def _gives_up(monkeypatch, tmp_path, reference) -> tuple[bool, str]:
+    from shells import drivers, solvers
+
+    _one_rank(monkeypatch)
+    real = solvers.NewtonSolver.solve
+
+    def failing(self, atol=None):
+        if self.problem.get_kappa() > 10.0 + 1e-9:
+            return False, 0
+        return real(self, atol)
+
+    out = tmp_path / "gave-up"
+    monkeypatch.setattr(solvers.NewtonSolver, "solve", failing)
+    with pytest.raises(RuntimeError, match=r"stopped at kappa R = 10 before the end of the "
+                       r"range, kappa R = 20: .* the same command resumes"):
+        drivers.branch_surface(_branch_config(), out)
+    monkeypatch.setattr(solvers.NewtonSolver, "solve", real)
+    case = rel.Case("branch", BRANCH, ["branch.jsonl"], True)
+    kept = rel.records(out, case)
+    assert [p["kappa_R"] for p in kept] == pytest.approx([0, 5, 10], rel=1e-12)
+    drivers.branch_surface(_branch_config(), out)
+    got = rel.records(out, case)
+    assert got[:len(kept)] == kept  # from the file, not recomputed
+    diffs, _ = rel.compare(reference, got)
+    assert not diffs, diffs[:3]
+    return True, ""
+
+
+# ------------------------------------------------------------------------------------------
+# MPI: an exception on one rank
+# ------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("fail_rank", [1])
+def test_an_exception_on_one_rank_ends_all_ranks_at_once(shared_tmp, fail_rank):
+    def check():
+        r = rel.inject_rank_failure(shared_tmp / "fault", fail_rank=fail_rank, timeout=60)
+        ok = (r["exit"] == 1 and not r["hung"] and r["messages"] == 1 and not r["traceback"]
+              and not r["left"] and r["seconds"] < 30)
+        return ok, json.dumps(r)
+
+    ok, msg = _on_rank0(check)
+    assert ok, msg

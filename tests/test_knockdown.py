@@ -103,6 +103,14 @@ def test_imperfect_meridian_and_bad_input():
     r0, z0 = s.meridian(t - eps)
     assert np.allclose(dr, (r1 - r0) / (2 * eps), atol=1e-8)
     assert np.allclose(dz, (z1 - z0) / (2 * eps), atol=1e-8)
+    # the UFL path's cosine series of P_n(cos t) against the recurrence, up to a thin
+    # sphere's degree
+    from shells.geometry import legendre_cosine_series
+
+    for n in (0, 3, 10, 44):
+        s = ImperfectSphere(1.0, math.pi, 0.01, "mode", 0.1, n)
+        series = sum(a * np.cos(j * t) for j, a in legendre_cosine_series(n))
+        assert np.allclose(series, s._profile(np.cos(t), t, np.exp), rtol=0, atol=1e-12)
     for bad in ({"profile": "bump"}, {"amplitude": 0.5}, {"width": -1.0}):
         with pytest.raises(InputError):
             ImperfectSphere(**{"amplitude": 0.01, **bad})

@@ -118,7 +118,8 @@ def reduced_equation(problem: Any, cp: Any, solver: Any,
     # ξ: RMS amplitude in units of the state scale
     unit = math.sqrt(problem.num_dofs()) * problem.state_scale()
     phi.scale(unit / phi.norm())
-    t, rk, tmp, y = (w.duplicate() for _ in range(4))
+    t, rk, tmp, y, wp, wm = (w.duplicate() for _ in range(6))
+    g = None
     ksp = PETSc.KSP().create(comm)
     ksp.setType("preonly")
     ksp.getPC().setType("lu")
@@ -148,7 +149,6 @@ def reduced_equation(problem: Any, cp: Any, solver: Any,
         problem.assemble_residual(tmp)
         problem.assemble_dkappa(rk)
         kappa -= float(tmp.dot(rk)) / float(rk.dot(rk))
-        wp, wm = w.duplicate(), w.duplicate()
         for _ in range(max(1, refine)):
             J = jacobian_at(w, kappa)
             ksp.setOperators(J)
@@ -161,8 +161,7 @@ def reduced_equation(problem: Any, cp: Any, solver: Any,
                 problem.zero_constrained(y)
                 y.scale(unit / y.norm())
                 y.copy(phi)
-            set_point(w, kappa)
-            problem.assemble_dkappa(rk)
+            problem.assemble_dkappa(rk)  # at (w, κ), set by jacobian_at
             ksp.solve(rk, t)
             t.scale(-1.0)
             problem.zero_constrained(t)
@@ -190,8 +189,6 @@ def reduced_equation(problem: Any, cp: Any, solver: Any,
             correction = abs(dk / kappa)
             if correction < 1e-10:
                 break
-        for v in (wp, wm):
-            v.destroy()
         # c2 = ½ E'''(φ, φ, φ) from second differences of φᵀR along φ (ξ = ±amplitude)
         r0 = phi_residual(w, kappa)
         y.waxpy(amplitude, phi, w)
@@ -213,6 +210,7 @@ def reduced_equation(problem: Any, cp: Any, solver: Any,
                                kind="symmetric" if asym < SYMMETRIC_BELOW else "asymmetric")
     finally:
         ksp.destroy()
-        for v in (w, phi, t, rk, tmp, y):
-            v.destroy()
+        for v in (w, phi, t, rk, tmp, y, wp, wm, g):
+            if v is not None:
+                v.destroy()
 

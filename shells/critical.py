@@ -997,11 +997,11 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
             wp.axpy(-(ar.get_lambda() - lam_c), tangent)
             return math.sqrt(max(ar.cw * wp.dot(wp), 0.0))
 
-        def crossed(amp: float) -> bool:
+        def crossed(amp: float, dev: float) -> bool:
             """On the other side of the mode: the amplitude changed sign and the state lies
-            along -φ_0 (its deviation is mostly that amplitude), i.e. a step jumped across the
-            fundamental branch, not a branch that left the mode's shape."""
-            return amp * a1 < 0 and abs(amp) >= 0.5 * deviation()
+            along -φ_0 (its deviation ``dev`` is mostly that amplitude), i.e. a step jumped
+            across the fundamental branch, not a branch that left the mode's shape."""
+            return amp * a1 < 0 and abs(amp) >= 0.5 * dev
 
         def point(index: int, its: int, step: float, tl: float, s: np.ndarray) -> Point:
             sc = problem.scalars()
@@ -1046,7 +1046,8 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
             point's distance in one step, jumped to another branch (a long step next to a
             cluster of bifurcations; measured: from a sphere's dimple branch back to the
             fundamental branch 25 % lower in κ): refused, the step is shortened."""
-            return crossed(amplitude()) or deviation() < 0.25 * last[0]
+            dev = deviation()
+            return crossed(amplitude(), dev) or dev < 0.25 * last[0]
 
         direction = 1.0 if lam_end >= c.lam else -1.0
         index = 0
@@ -1062,7 +1063,7 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
             log.debug("switch: point %d at kappa L = %.8g: amplitude %.4g, distance %.4g (first "
                       "point %.4g, %.4g)", index, p.kappa_L, amp, dev, a1, dev1)
             last[0] = dev
-            if dev < min_amplitude * dev1 or crossed(amp):
+            if dev < min_amplitude * dev1 or crossed(amp, dev):
                 raise RuntimeError(
                     f"branch switching: back on the fundamental branch at kappa = {p.kappa:.6g}"
                     f" (mode amplitude {amp:.3g}, distance {dev:.3g}; first point {a1:.3g}, "

@@ -230,6 +230,14 @@ class Sphere(SphericalCap):
         return {"shape": self.kind, "R": self.radius}
 
 
+def perfect_shape(shape: Shape) -> Shape:
+    """An imperfect sphere's perfect sphere (or cap); any other shape itself. Meshes of an
+    imperfect sphere are those of its perfect shape (the surface mesh then moved onto it)."""
+    if isinstance(shape, ImperfectSphere):
+        return Sphere(shape.radius) if shape.closed else SphericalCap(shape.radius, shape.theta)
+    return shape
+
+
 def legendre_cosine_series(n: int) -> list[tuple[int, float]]:
     """P_n(cos t) = Σ_j a_j cos(j t): the pairs (j, a_j), from P_n(cos t) = Σ_k g_k g_(n-k)
     cos((n - 2k) t), g_k = C(2k, k) / 4^k (the terms of k and n - k merged)."""

@@ -117,17 +117,22 @@ class KnockdownConfig:
 
 def _model(cfg: KnockdownConfig, amplitude: float, degree: int) -> Any:
     from shells.axisym import AxisymModel, RunConfig
-    from shells.geometry import ImperfectSphere, Sphere
+    from shells.geometry import Sphere
 
-    width = cfg.width * math.sqrt(cfg.h_over_r)
-    shape = (Sphere(1.0) if amplitude == 0 else
-             ImperfectSphere(1.0, math.pi, amplitude * cfg.h_over_r, cfg.imperfection, width,
-                             degree))
+    shape = Sphere(1.0) if amplitude == 0 else _shape(cfg, amplitude, degree)
     run = RunConfig(shape=shape, h_over_r=cfg.h_over_r, nu=cfg.nu, cells=cfg.cells,
                     penalty=cfg.penalty, m_max=0)
     model = AxisymModel(shape, replace(run.params(), load=cfg.load))
     model.modes = (0,)
     return model, run
+
+
+def _shape(cfg: KnockdownConfig, amplitude: float, degree: int) -> Any:
+    """The unit sphere with the imperfection of ``cfg`` at ``amplitude`` (δ/h)."""
+    from shells.geometry import ImperfectSphere
+
+    return ImperfectSphere(1.0, math.pi, amplitude * cfg.h_over_r, cfg.imperfection,
+                           cfg.width * math.sqrt(cfg.h_over_r), degree)
 
 
 def _kappa_scale(cfg: KnockdownConfig) -> float:
@@ -261,12 +266,11 @@ def surface_first(cfg: KnockdownConfig, amplitude: float, degree: int) -> dict[s
     imperfection ``amplitude`` (δ/h; 0: the perfect sphere on the same refined mesh), from
     ``shells.drivers.critical_surface`` (collective on COMM_WORLD)."""
     from shells.drivers import critical_surface
-    from shells.geometry import ImperfectSphere
 
-    shape = ImperfectSphere(1.0, math.pi, amplitude * cfg.h_over_r, cfg.imperfection,
-                            cfg.width * math.sqrt(cfg.h_over_r), degree)
-    r = critical_surface(shape, cfg.h_over_r, cfg.nu, 1.25 * _kappa_scale(cfg) / cfg.h_over_r,
-                         first_only=True, size=cfg.size, degree=cfg.element_degree)
+    # δ = 0 as an imperfect sphere too: the same pole-refined mesh as the imperfect ones
+    r = critical_surface(_shape(cfg, amplitude, degree), cfg.h_over_r, cfg.nu,
+                         1.25 * _kappa_scale(cfg) / cfg.h_over_r, first_only=True,
+                         size=cfg.size, degree=cfg.element_degree)
     if r["kappa_h"] is None:
         raise RuntimeError(f"no critical point of the surface model found up to kappa h = "
                            f"{1.25 * _kappa_scale(cfg):.4g} at delta/h = {amplitude:g}")

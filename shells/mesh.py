@@ -35,7 +35,14 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from shells.errors import InputError
-from shells.geometry import Disk, EllipsoidalCap, Shape, Sphere, shape_from_description
+from shells.geometry import (
+    Disk,
+    EllipsoidalCap,
+    Shape,
+    Sphere,
+    perfect_shape,
+    shape_from_description,
+)
 
 if TYPE_CHECKING:
     import dolfinx.mesh
@@ -422,20 +429,9 @@ def _embed_gauge_points(gmsh: Any, shape: Shape, surfaces: list[int]) -> None:
         gmsh.model.mesh.embed(0, pts, 2, surfaces[0])
 
 
-def _mesh_base(shape: Shape) -> Shape:
-    """The shape gmsh meshes: an imperfect sphere is meshed as its sphere, whose nodes
-    ``_displace_imperfect`` then moves radially onto the imperfect surface."""
-    from shells.geometry import ImperfectSphere, SphericalCap
-
-    if isinstance(shape, ImperfectSphere):
-        if not shape.closed:
-            return SphericalCap(shape.radius, shape.theta)
-        return Sphere(shape.radius)
-    return shape
-
-
 def _build_model(gmsh: Any, spec: MeshSpec) -> None:
-    shape = _mesh_base(spec.shape)
+    # an imperfect sphere: its sphere's mesh, moved radially onto it by _displace_imperfect
+    shape = perfect_shape(spec.shape)
     surfaces = _build_geometry(gmsh, shape)
     if spec.sectors > 1:
         surfaces = _cut_sectors(gmsh, shape, surfaces, spec.sectors)

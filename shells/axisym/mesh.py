@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from shells.errors import InputError
-from shells.geometry import Disk, EllipsoidalCap, Shape, SphericalCap
+from shells.geometry import Disk, EllipsoidalCap, Shape, SphericalCap, perfect_shape
 
 __all__ = ["MeridianMesh", "make_meridian_nodes"]
 
@@ -27,15 +27,6 @@ def _supported(shape: Any) -> None:
     if not isinstance(shape, (SphericalCap, EllipsoidalCap, Disk)):
         raise InputError(f"the axisymmetric model needs a sphere, cap, ellipsoid or disk, "
                          f"got {type(shape).__name__}")
-
-
-def _base_shape(shape: Shape) -> Shape:
-    """The shape whose arclength places the nodes: an imperfect sphere's perfect sphere."""
-    from shells.geometry import ImperfectSphere, Sphere
-
-    if isinstance(shape, ImperfectSphere):
-        return Sphere(shape.radius) if shape.closed else SphericalCap(shape.radius, shape.theta)
-    return shape
 
 
 def _arclength_table(shape: Shape, n: int = 4001) -> tuple[np.ndarray, np.ndarray]:
@@ -59,7 +50,7 @@ def make_meridian_nodes(shape: Shape, h: float, cells: int, layer_cells: float,
     # pole): every amplitude of a knock-down curve shares one mesh, so that states, residuals
     # and the imperfection's derivative dR/dδ compare DOF by DOF (the arclength changes by
     # O(δ²) only)
-    t_tab, s_tab = _arclength_table(_base_shape(shape))
+    t_tab, s_tab = _arclength_table(perfect_shape(shape))
     S = float(s_tab[-1])
     if shape.closed:
         s_nodes = np.linspace(0.0, S, cells + 1)

@@ -33,6 +33,7 @@ from shells.errors import InputError
 from shells.fields import FieldWriter
 from shells.geometry import RunScales, Shape, shape_from_description
 from shells.mesh import MeshSpec, ShellMesh, generate
+from shells.stimulus import UNIFORM, CurvatureField
 from shells.store import append_record, json_default, read_with_header, write_atomic
 
 __all__ = ["BranchConfig", "run_branch", "read_branch"]
@@ -55,6 +56,7 @@ class BranchConfig(RunScales):
             P3 on closed spheres, deep caps and ellipsoids, where P2 locks).
         shear_penalty: Kirchhoff-Love penalty factor of the surface model.
         continuation: continuation settings.
+        kappa_field: the natural-curvature stimulus (``shells.stimulus``; default: uniform).
     """
 
     shape: Shape
@@ -66,9 +68,14 @@ class BranchConfig(RunScales):
     shear_penalty: float = 1.0e3
     continuation: ContinuationSettings = field(default_factory=ContinuationSettings)
     degree: int | None = None
+    kappa_field: CurvatureField = UNIFORM
 
     def __post_init__(self) -> None:
         from shells.model import default_discretisation
+
+        if not isinstance(self.kappa_field, CurvatureField):
+            raise InputError(f"kappa_field must be a CurvatureField, got {self.kappa_field!r}")
+        self.kappa_field.check_on(self.shape)
 
         if self.degree is None or self.size is None:
             deg, size = default_discretisation(self.shape, self.h_over_r, self.degree, self.size)
@@ -90,6 +97,9 @@ class BranchConfig(RunScales):
         d["continuation"] = self.continuation.describe()
         d["continuation"]["kappa_stops"] = list(self.continuation.kappa_stops)
         d["model"] = "surface"
+        del d["kappa_field"]
+        if not self.kappa_field.uniform:  # files of uniform runs keep their earlier header
+            d["field"] = self.kappa_field.describe()
         return d
 
     @classmethod
@@ -99,7 +109,8 @@ class BranchConfig(RunScales):
         return cls(shape=shape_from_description(d["shape"]), h_over_r=d["h_over_r"], nu=d["nu"],
                    kappa_end=d["kappa_end"], size=d["size"], layer_elements=d["layer_elements"],
                    shear_penalty=d["shear_penalty"], continuation=ContinuationSettings(**c),
-                   degree=d.get("degree", 2))
+                   degree=d.get("degree", 2),
+                   kappa_field=CurvatureField.from_description(d))
 
 
 def point_record(p: Point, cfg: BranchConfig) -> dict[str, Any]:
@@ -266,7 +277,8 @@ def run_branch(cfg: BranchConfig, outdir: str | os.PathLike, *, comm: Any = None
     model = ShellModel(shell, ModelParameters(h=cfg.h, nu=cfg.nu,
                                               shear_penalty=cfg.shear_penalty,
                                               degree=cfg.degree,
-                                              quadrature_degree=2 * cfg.degree))
+                                              quadrature_degree=2 * cfg.degree,
+                                              kappa_field=cfg.kappa_field))
     header["dofs"] = model.num_dofs()
     log.info("%s: %s, %d DOFs on %d rank(s), set-up %.1f s", label, cfg.shape.describe(),
              header["dofs"], comm.size, time.perf_counter() - t0)

@@ -82,7 +82,7 @@ def branch_surface(cfg: Any, outdir: str | os.PathLike, *, fields: str = "none",
 
 
 def branch_axisym(shape: Any, h_over_r: float, nu: float, kappa_R_end: float,
-                  outdir: str | os.PathLike) -> dict[str, Any]:
+                  outdir: str | os.PathLike, kappa_field: Any = None) -> dict[str, Any]:
     """The shell-of-revolution model's branch up to κR = ``kappa_R_end`` (its sign: the
     direction), every point appended to ``outdir/branch.jsonl`` (rank 0) as computed."""
     from shells import axisym
@@ -95,10 +95,13 @@ def branch_axisym(shape: Any, h_over_r: float, nu: float, kappa_R_end: float,
         outdir.mkdir(parents=True, exist_ok=True)
         write_header(outdir / "branch.jsonl", {
             "model": "axisym", "shape": shape.describe(), "h_over_r": h_over_r,
-            "nu": nu, "kappa_R_end": kappa_R_end})
+            "nu": nu, "kappa_R_end": kappa_R_end,
+            **({} if kappa_field is None or kappa_field.uniform
+               else {"field": kappa_field.describe()})})
+    extra = {} if kappa_field is None else {"kappa_field": kappa_field}
     for i, p in enumerate(axisym.branch(shape, h_over_r, nu,
                                         direction="up" if kappa_R_end > 0 else "down",
-                                        kappa_max=abs(kappa_R_end))):
+                                        kappa_max=abs(kappa_R_end), **extra)):
         rec = {"index": i, **p}
         points.append(rec)
         if _rank() == 0:
@@ -112,12 +115,16 @@ def branch_axisym(shape: Any, h_over_r: float, nu: float, kappa_R_end: float,
 # --------------------------------------------------------------------------------------------
 def critical_run(shape: Any, h_over_r: float, nu: float, *, direction: str = "up",
                  model: str = "surface", kappa_end: float | None = None,
-                 outdir: str | os.PathLike | None = None,
+                 outdir: str | os.PathLike | None = None, kappa_field: Any = None,
                  **surface: Any) -> dict[str, Any]:
     """The critical points of the fundamental branch from κ = 0 towards ``kappa_end`` (None:
-    ``shells.theory.default_kappa_range``; the 1D model then uses its own), with either model;
+    ``shells.theory.default_kappa_range``; the 1D model then uses its own), with either model,
+    under the stimulus ``kappa_field`` (a ``shells.stimulus.CurvatureField``; None: uniform);
     ``surface``: the keyword arguments of ``critical_surface``. Writes ``outdir/critical.json``
     (rank 0)."""
+    from shells.stimulus import UNIFORM
+
+    kappa_field = UNIFORM if kappa_field is None else kappa_field
     L = shape.characteristic_size()
     h = h_over_r * L
     R_or_L = _R_or_L(shape)
@@ -130,7 +137,8 @@ def critical_run(shape: Any, h_over_r: float, nu: float, *, direction: str = "up
         else None
     base = {"h_over_R": h_over_r, "nu": nu, "theta_deg": theta_deg,
             "model": model, "shape": shape.describe(), "direction": direction,
-            "kappa_R_end": kappa_end * R_or_L, "kappa_h_end": kappa_end * h}
+            "kappa_R_end": kappa_end * R_or_L, "kappa_h_end": kappa_end * h,
+            **kappa_field.describe()}
     if model == "axisym":
         try:
             from shells import axisym
@@ -138,10 +146,11 @@ def critical_run(shape: Any, h_over_r: float, nu: float, *, direction: str = "up
             raise InputError("--model axisym is not available in this installation") from e
         result = {**base, **axisym.critical(
             shape, h_over_r, nu, direction=direction,
-            kappa_max=abs(kappa_end) * R_or_L if user_range else None)}
+            kappa_max=abs(kappa_end) * R_or_L if user_range else None,
+            kappa_field=kappa_field)}
     elif model == "surface":
         result = {**base, **critical_surface(shape, h_over_r, nu, kappa_end, outdir=outdir,
-                                             **surface)}
+                                             kappa_field=kappa_field, **surface)}
     else:
         raise InputError(f"--model must be surface or axisym, got {model!r}")
     if outdir and _rank() == 0:
@@ -156,7 +165,8 @@ def critical_surface(shape: Any, h_over_r: float, nu: float, kappa_end: float, *
                      layer_elements: float = 4.0, shear_penalty: float = 1.0e3,
                      degree: int | None = None, ds: float | None = None,
                      ds_max: float | None = None,
-                     outdir: str | os.PathLike | None = None) -> dict[str, Any]:
+                     outdir: str | os.PathLike | None = None,
+                     kappa_field: Any = None) -> dict[str, Any]:
     """The surface model's critical points up to ``kappa_end`` (``shells.critical.follow``):
     meshes ``shape`` (``size``, ``degree`` None: ``shells.model.default_discretisation``),
     follows the branch in steps ``ds`` .. ``ds_max`` in κL (None: range/16, range/10), writes
@@ -176,8 +186,11 @@ def critical_surface(shape: Any, h_over_r: float, nu: float, kappa_end: float, *
     R_or_L = _R_or_L(shape)
     degree, size = default_discretisation(shape, h_over_r, degree, size)
     sm = generate(MeshSpec(shape, h=h, size=size, layer_elements=layer_elements), comm)
+    from shells.stimulus import UNIFORM
+
     model = ShellModel(sm, ModelParameters(h=h, nu=nu, shear_penalty=shear_penalty,
-                                           degree=degree, quadrature_degree=2 * degree))
+                                           degree=degree, quadrature_degree=2 * degree,
+                                           kappa_field=kappa_field or UNIFORM))
     lam_end = abs(kappa_end) * L
     ds = ds if ds is not None else lam_end / 16
     ds_max = ds_max if ds_max is not None else max(ds, lam_end / 10)

@@ -51,6 +51,7 @@ from shells.formproblem import FormProblem
 from shells.geometry import Shape
 from shells.mesh import RIM_TAG, ShellMesh
 from shells.problem import ModeInfo
+from shells.stimulus import UNIFORM, CurvatureField, field_radius
 
 __all__ = ["ModelParameters", "ShellModel", "default_discretisation"]
 
@@ -102,6 +103,8 @@ class ModelParameters:
         quadrature_degree: quadrature degree of the energy (full integration).
         director: ``"free"`` (d = v/|v|, v = A n° + θ: rotations of any size) or ``"tangent"``
             (d = normalize(n° + (I - n°⊗n°) θ): rotations below 90°, the earlier chart).
+        kappa_field: the natural-curvature stimulus K of b̄ = b° + κ K (``shells.stimulus``; the
+            default is the paper's K = a°).
     """
 
     h: float
@@ -110,10 +113,13 @@ class ModelParameters:
     degree: int = 2
     quadrature_degree: int = 4
     director: str = "free"
+    kappa_field: CurvatureField = UNIFORM
 
     def __post_init__(self) -> None:
         if not (isinstance(self.h, (int, float)) and math.isfinite(self.h) and self.h > 0):
             raise InputError(f"thickness h must be positive, got {self.h!r}")
+        if not isinstance(self.kappa_field, CurvatureField):
+            raise InputError(f"kappa_field must be a CurvatureField, got {self.kappa_field!r}")
         if not (-1.0 < self.nu <= 0.5):
             raise InputError(f"Poisson ratio nu must lie in (-1, 0.5], got {self.nu!r}")
         if not self.shear_penalty > 0:
@@ -171,6 +177,8 @@ class ShellModel(FormProblem):
         self.n0 = self.shape.normal_ufl(self._x)
         J = ufl.Jacobian(mesh)
         self.P0 = J * ufl.JacobianInverse(mesh)
+        p.kappa_field.check_on(self.shape)
+        self.K = self._natural_tensor()
         self._build_forms()
         self.bcs = self._supports()
 
@@ -225,6 +233,29 @@ class ShellModel(FormProblem):
         b0 = -0.5 * (P0.T * grad_n + grad_n.T * P0)
         return {"a": P0.T * P0, "b": b0, "gamma": self.shear_sign * (P0.T * n0)}
 
+    def _natural_tensor(self) -> Any:
+        """K of b̄ = b° + κ K: a° (= P°) for the paper's stimulus, else f (f1 e1⊗e1 + f2 e2⊗e2)
+        = f (f1 P° + (f2 - f1) e2⊗e2), e2 the parallel's direction projected on the mesh's
+        tangent plane (no quadrature point lies on the axis, where e2 is undefined). f is a
+        Lagrange function of the model's degree, (f1, f2) Constants: one kernel for every field."""
+        import ufl
+        from dolfinx import default_scalar_type, fem
+
+        fld = self.params.kappa_field
+        if fld.uniform:
+            return self.P0
+        mesh = self.shell.mesh
+        self.kappa_f = fld.interpolate(fem.functionspace(mesh, ("Lagrange", self.params.degree)),
+                                       lambda p: (p[0], p[1], p[2]), field_radius(self.shape))
+        self.kappa_anisotropy = fem.Constant(mesh, np.array(fld.anisotropy,
+                                                            dtype=default_scalar_type))
+        f1, f2 = self.kappa_anisotropy[0], self.kappa_anisotropy[1]
+        x = self._x
+        rho = ufl.sqrt(x[0] ** 2 + x[1] ** 2)
+        e2 = self.P0 * ufl.as_vector([-x[1] / rho, x[0] / rho, 0.0])
+        e2 = e2 / ufl.sqrt(ufl.dot(e2, e2))
+        return self.kappa_f * (f1 * self.P0 + (f2 - f1) * ufl.outer(e2, e2))
+
     def _quad(self, A: Any) -> Any:
         """(1-ν) tr(A²) + ν tr²(A) for a symmetric tangential tensor A."""
         import ufl
@@ -238,7 +269,7 @@ class ShellModel(FormProblem):
         k, r = self.kinematics(w), self.reference()
         Ea = k["a"] - r["a"]
         Eb = k["b"] - r["b"]
-        bbar_gap = Eb - self.kappa * self.P0  # b - b̄
+        bbar_gap = Eb - self.kappa * self.K  # b - b̄
         u = k["u"]
         stretch = self._quad(Ea)
         bend_nat = self.h**2 / 3 * self._quad(bbar_gap)
@@ -249,10 +280,22 @@ class ShellModel(FormProblem):
             "total": stretch + bend_nat + shear + gauge + load,
             "stretching": stretch,
             "bending": self.h**2 / 3 * self._quad(Eb),              # (h²/3) U_b^K density
-            "curvature_potential": -2 * (1 + self.nu) / 3 * self.h**2 * self.kappa * ufl.tr(Eb),
+            "curvature_potential": self._curvature_potential(Eb),
             "shear": shear,
             "pressure_work": load,
         }
+
+    def _curvature_potential(self, Eb: Any) -> Any:
+        """P_κ's density, the part of the natural bending energy linear in b - b°:
+        -(2/3) h² κ [(1-ν) K:(b-b°) + ν tr K tr(b-b°)], i.e. -(2/3)(1+ν) h² κ tr(b-b°) for
+        K = a°."""
+        import ufl
+
+        if self.params.kappa_field.uniform:
+            return -2 * (1 + self.nu) / 3 * self.h**2 * self.kappa * ufl.tr(Eb)
+        K = self.K
+        return -2 / 3 * self.h**2 * self.kappa * ((1 - self.nu) * ufl.inner(K, Eb)
+                                                  + self.nu * ufl.tr(K) * ufl.tr(Eb))
 
     # ------------------------------------------------------------------------------------------
     # forms
@@ -290,8 +333,8 @@ class ShellModel(FormProblem):
 
         from shells.geometry import SphericalCap
 
-        if not isinstance(self.shape, SphericalCap):
-            return {}
+        if not isinstance(self.shape, SphericalCap) or not self.params.kappa_field.uniform:
+            return {}  # Eqs. (2a, 2b) are the works of a uniform natural curvature
         R = self.shape.R
         # W_bulk and W_edge separately change under a rigid translation of an open cap (only
         # their sum -P_kappa does not): they are evaluated on u minus its mean (set in scalars())

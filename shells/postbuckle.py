@@ -44,6 +44,7 @@ from typing import Any
 
 from shells.errors import InputError
 from shells.geometry import RunScales, Shape
+from shells.stimulus import UNIFORM, CurvatureField
 from shells.store import append_record, read_with_header, write_header
 
 __all__ = ["PostbuckleConfig", "postbuckle", "read_postbuckle", "run_postbuckle"]
@@ -72,6 +73,7 @@ class PostbuckleConfig(RunScales):
             the model's defaults; the surface model: 3 layer elements, size and degree of
             ``shells.model.default_discretisation``, P3 where P2 locks).
         penalty: the 1D model's C1 penalty (None: 1e6 on closed shells, else its default).
+        kappa_field: the natural-curvature stimulus (``shells.stimulus``; default: uniform).
     """
 
     shape: Shape
@@ -90,8 +92,12 @@ class PostbuckleConfig(RunScales):
     layer_elements: float = 3.0
     degree: int | None = None
     sides: tuple[int, ...] = (1, -1)
+    kappa_field: CurvatureField = UNIFORM
 
     def __post_init__(self) -> None:
+        if not isinstance(self.kappa_field, CurvatureField):
+            raise InputError(f"kappa_field must be a CurvatureField, got {self.kappa_field!r}")
+        self.kappa_field.check_on(self.shape, axisymmetric=self.model == "axisym")
         if not (isinstance(self.sides, tuple) and self.sides
                 and all(s in (1, -1) for s in self.sides) and len(set(self.sides)) == len(
                     self.sides)):
@@ -137,6 +143,9 @@ class PostbuckleConfig(RunScales):
         d = asdict(self)
         d["shape"] = self.shape.describe()
         d["sides"] = list(self.sides)  # as JSON reads it back (a resumed file's header)
+        del d["kappa_field"]
+        if not self.kappa_field.uniform:  # files of uniform runs keep their earlier header
+            d["field"] = self.kappa_field.describe()
         return d
 
 
@@ -170,7 +179,8 @@ class _Run:
             penalty = cfg.penalty if cfg.penalty is not None else (
                 1.0e6 if cfg.shape.closed else 1.0e4)
             rc = RunConfig(shape=cfg.shape, h_over_r=cfg.h_over_r, nu=cfg.nu,
-                           direction=cfg.direction, cells=cfg.cells, penalty=penalty)
+                           direction=cfg.direction, cells=cfg.cells, penalty=penalty,
+                           kappa_field=cfg.kappa_field)
             self.model: Any = AxisymModel(cfg.shape, rc.params())
             self.model.modes = tuple(rc.modes)
             self.ns = NewtonSolver(self.model, options=SNES_OPTIONS)
@@ -181,7 +191,8 @@ class _Run:
             sm = generate(MeshSpec(cfg.shape, h=cfg.h, size=cfg.size,
                                    layer_elements=cfg.layer_elements), MPI.COMM_WORLD)
             self.model = ShellModel(sm, ModelParameters(h=cfg.h, nu=cfg.nu, degree=cfg.degree,
-                                                        quadrature_degree=2 * cfg.degree))
+                                                        quadrature_degree=2 * cfg.degree,
+                                                        kappa_field=cfg.kappa_field))
             self.ns = NewtonSolver(self.model)
         self.stab = Stability(self.model)
 

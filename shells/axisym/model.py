@@ -36,6 +36,7 @@ from shells.errors import InputError
 from shells.formproblem import FormProblem
 from shells.geometry import Disk, EllipsoidalCap, ImperfectSphere, Shape, SphericalCap
 from shells.problem import ModeInfo
+from shells.stimulus import UNIFORM, CurvatureField, field_radius
 
 if TYPE_CHECKING:
     from shells.axisym.modes import ModeForms
@@ -68,6 +69,8 @@ class AxisymParameters:
             normal to the reference surface, given as its equivalent curvature of the paper's
             Eq. (5), κ_p h = 6 (1-ν) (R/h)² p/E, R the shape's length scale; no natural
             curvature): one parameter, so that both loads go through the same algorithms.
+        kappa_field: the natural-curvature stimulus K of b̄ = b° + κ K (``shells.stimulus``): an
+            axisymmetric f and factors (f1, f2) on e_s⊗e_s and e_φ⊗e_φ; default K = a°.
     """
 
     h: float
@@ -79,10 +82,15 @@ class AxisymParameters:
     quadrature_degree: int = 8
     slope_bending: bool = True
     load: str = "curvature"
+    kappa_field: CurvatureField = UNIFORM
 
     def __post_init__(self) -> None:
         if self.load not in ("curvature", "pressure"):
             raise InputError(f"load must be 'curvature' or 'pressure', got {self.load!r}")
+        if not isinstance(self.kappa_field, CurvatureField):
+            raise InputError(f"kappa_field must be a CurvatureField, got {self.kappa_field!r}")
+        if self.load == "pressure" and not self.kappa_field.uniform:
+            raise InputError("a natural-curvature field has no meaning under the pressure load")
         if not (isinstance(self.h, (int, float)) and math.isfinite(self.h) and self.h > 0):
             raise InputError(f"thickness h must be positive, got {self.h!r}")
         if not (isinstance(self.nu, (int, float)) and -1.0 < self.nu <= 0.5):
@@ -204,6 +212,8 @@ class AxisymModel(FormProblem):
          self.r0tt, self.z0tt) = _meridian_ufl(shape, self.t, mesh)
         self.g = ufl.sqrt(self.r0t**2 + self.z0t**2)
         self.area_density = 2 * math.pi * self.r0 * self.g  # dω = area_density dt
+        params.kappa_field.check_on(shape, axisymmetric=True)
+        self.K = self._natural_factors()
         self._build_forms()
         self.bcs = self._axis_conditions()
         self._degree_forms: dict[Any, tuple] = {}
@@ -264,14 +274,20 @@ class AxisymModel(FormProblem):
         Ea, Eb = e["a"], e["b"]
         pressure = self.params.load == "pressure"
         kn = 0.0 if pressure else self.kappa  # the natural curvature
-        gap = (Eb[0] - kn, Eb[1], Eb[2] - kn)  # b - b̄
+        if self.K is None:  # the paper's K = a°
+            gap = (Eb[0] - kn, Eb[1], Eb[2] - kn)  # b - b̄
+            potential = -2 * (1 + self.nu) / 3 * self.h**2 * kn * (Eb[0] + Eb[2])
+        else:  # K = f (f1 e_s⊗e_s + f2 e_φ⊗e_φ)
+            k1, k2 = kn * self.K[0], kn * self.K[1]
+            gap = (Eb[0] - k1, Eb[1], Eb[2] - k2)
+            potential = -2 / 3 * self.h**2 * ((1 - self.nu) * (k1 * Eb[0] + k2 * Eb[2])
+                                              + self.nu * (k1 + k2) * (Eb[0] + Eb[2]))
         stretch = self._quad(Ea)
         bend_nat = self.h**2 / 3 * self._quad(gap)
         pen = self.pen * _dot(e["slope_gap"], e["slope_gap"]) / self.g**2
         out = {"total": stretch + bend_nat + pen, "stretching": stretch,
                "bending": self.h**2 / 3 * self._quad(Eb),
-               "curvature_potential": -2 * (1 + self.nu) / 3 * self.h**2 * kn
-               * (Eb[0] + Eb[2]),
+               "curvature_potential": potential,
                "penalty": pen}
         if pressure:
             # + 8 (1-ν²) p/(E h) u·n° (energy per E h / (8 (1-ν²))), p/E from κ_p by Eq. (5)
@@ -280,6 +296,26 @@ class AxisymModel(FormProblem):
             out["pressure_work"] = 4 * (1 + self.nu) / 3 * (self.h / L) ** 2 * self.kappa * un
             out["total"] = out["total"] + out["pressure_work"]
         return out
+
+    def _natural_factors(self) -> tuple[Any, Any] | None:
+        """(K_ss, K_φφ) = (f1 f, f2 f) of the stimulus, f a P3 function of t and (f1, f2)
+        Constants (one kernel for every field); None for the paper's K = a° (the forms are
+        then exactly those without a field)."""
+        from dolfinx import default_scalar_type, fem
+
+        fld = self.params.kappa_field
+        if fld.uniform:
+            return None
+
+        def position(p: np.ndarray) -> tuple:
+            r, z = self.shape.meridian(p[0])
+            return np.asarray(r, dtype=float), 0.0 * p[0], np.asarray(z, dtype=float)
+
+        self.kappa_f = fld.interpolate(fem.functionspace(self.mesh, ("Lagrange", 3)), position,
+                                       field_radius(self.shape))
+        self.kappa_anisotropy = fem.Constant(self.mesh, np.array(fld.anisotropy,
+                                                                 dtype=default_scalar_type))
+        return self.kappa_anisotropy[0] * self.kappa_f, self.kappa_anisotropy[1] * self.kappa_f
 
     # -- forms -----------------------------------------------------------------------------------
     def _build_forms(self) -> None:

@@ -15,6 +15,7 @@ from shells.axisym.mesh import _supported
 from shells.axisym.model import AxisymModel, AxisymParameters, _is_sphere
 from shells.errors import InputError
 from shells.geometry import RunScales, Shape
+from shells.stimulus import UNIFORM, CurvatureField
 from shells.theory import sphere_kappa_b_h, sphere_mode_n
 
 __all__ = ["SNES_OPTIONS", "RunConfig", "branch", "critical", "default_cells",
@@ -77,6 +78,7 @@ class RunConfig(RunScales):
         max_critical: stop after this many critical points (None: up to the first fold or the
             end of range).
         settings: continuation settings (None: ``default_settings``).
+        kappa_field: the natural-curvature stimulus (``shells.stimulus``; default: uniform).
     """
 
     shape: Shape
@@ -92,9 +94,13 @@ class RunConfig(RunScales):
     rel_tol: float = 1.0e-4
     max_critical: int | None = None
     settings: Any = None
+    kappa_field: CurvatureField = UNIFORM
 
     def __post_init__(self) -> None:
         _check_common(self.shape, self.h_over_r, self.nu)
+        if not isinstance(self.kappa_field, CurvatureField):
+            raise InputError(f"kappa_field must be a CurvatureField, got {self.kappa_field!r}")
+        self.kappa_field.check_on(self.shape, axisymmetric=True)
         if self.direction not in ("up", "down"):
             raise InputError(f"direction must be 'up' or 'down', got {self.direction!r}")
         if self.m_max is not None and not (isinstance(self.m_max, (int, np.integer))
@@ -111,7 +117,7 @@ class RunConfig(RunScales):
                                                   and self.max_critical >= 1):
             raise InputError(f"max_critical must be a positive integer, got {self.max_critical!r}")
         AxisymParameters(h=self.h, nu=self.nu, cells=self.n_cells, layer_cells=self.layer_cells,
-                         grading=self.grading, penalty=self.penalty)
+                         grading=self.grading, penalty=self.penalty, kappa_field=self.kappa_field)
 
     @property
     def n_cells(self) -> int:
@@ -140,7 +146,7 @@ class RunConfig(RunScales):
     def params(self) -> AxisymParameters:
         return AxisymParameters(h=self.h, nu=self.nu, cells=self.n_cells,
                                 layer_cells=self.layer_cells, grading=self.grading,
-                                penalty=self.penalty)
+                                penalty=self.penalty, kappa_field=self.kappa_field)
 
 
 @dataclass
@@ -192,7 +198,7 @@ def branch(shape: Shape, h_over_r: float, nu: float = 0.5, direction: str = "up"
         m_max: highest Fourier mode checked (default: 12; spheres: 1.3 n + 4).
         kappa_max: end of the range, |κ| R (default: spheres 1.25 κ_b; caps 2 θ̄ + 6).
         **numerics: ``cells``, ``layer_cells``, ``grading``, ``penalty``, ``settings``
-            (a ``ContinuationSettings``), see ``RunConfig``.
+            (a ``ContinuationSettings``), ``kappa_field`` (a ``CurvatureField``), see ``RunConfig``.
 
     Yields:
         One dict per converged point: ``kappa_R``, ``kappa_h``, ``kappa``, ``psi3_over_h`` (mean
@@ -216,7 +222,7 @@ def branch(shape: Shape, h_over_r: float, nu: float = 0.5, direction: str = "up"
 
 def _numerics(numerics: dict[str, Any], extra: tuple[str, ...] = ()) -> dict[str, Any]:
     allowed = {"cells", "layer_cells", "grading", "penalty", "settings", "rel_tol",
-               "max_critical"} - set(extra)
+               "max_critical", "kappa_field"} - set(extra)
     bad = set(numerics) - allowed
     if bad:
         raise InputError(f"unknown numerics option(s): {', '.join(sorted(bad))} "
@@ -246,7 +252,8 @@ def critical(shape: Shape, h_over_r: float, nu: float = 0.5, direction: str = "u
         m_max: highest Fourier mode checked (default 12; spheres 1.3 n + 4).
         kappa_max: end of the range in |κ| R (default: spheres 1.25 κ_b, caps 2 θ̄ + 6).
         **numerics: ``cells``, ``layer_cells``, ``grading``, ``penalty``, ``rel_tol``,
-            ``settings`` (``ContinuationSettings``), ``max_critical`` (stop after this many
+            ``settings`` (``ContinuationSettings``), ``kappa_field`` (``CurvatureField``),
+            ``max_critical`` (stop after this many
             critical points; default 1 for closed spheres, whose perfect-sphere branch beyond
             the first multiplet is of no interest, else unlimited).
 

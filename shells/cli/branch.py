@@ -9,10 +9,12 @@ from collections.abc import Callable
 from typing import Any
 
 from shells.cli.common import (
+    add_field_args,
     add_json,
     add_shape_args,
     add_shell_args,
     emit,
+    field_from_args,
     kappa_end,
     positive_float,
     shape_from_args,
@@ -34,6 +36,7 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
                    help="final kappa R (sign: direction)")
     b.add_argument("--model", default="surface", choices=("surface", "axisym"),
                    help="surface (2D mesh, default) or axisym (shell of revolution, 1D)")
+    add_field_args(b)
     b.add_argument("--method", default="arclength", choices=("arclength", "natural"))
     b.add_argument("--ds", type=positive_float("ds"), default=0.1, help="initial step")
     b.add_argument("--ds-max", type=positive_float("ds-max"), default=1.0, help="largest step")
@@ -63,6 +66,7 @@ def _cmd_branch(args: argparse.Namespace) -> int:
     if (args.kappa_h_max is None) == (args.kappa_r_max is None):
         raise InputError("give exactly one of --kappa-h-max and --kappa-r-max")
     outdir = args.output or "results/branch"
+    fld = field_from_args(args, shape, args.model)
     if args.model == "axisym":
         L = shape.characteristic_size()
         from shells.geometry import kappa_length
@@ -70,7 +74,8 @@ def _cmd_branch(args: argparse.Namespace) -> int:
         R_or_L = kappa_length(shape)
         kr = (args.kappa_h_max * R_or_L / (args.h_over_r * L) if args.kappa_h_max is not None
               else args.kappa_r_max)
-        result = drivers.branch_axisym(shape, args.h_over_r, args.nu, kr, outdir)
+        result = drivers.branch_axisym(shape, args.h_over_r, args.nu, kr, outdir,
+                                       kappa_field=fld)
         header = f"{'kappa R':>10} {'kappa h':>10} {'Psi3/h':>12} {'energy':>12} its unstable m"
 
         def row(p: dict[str, Any]) -> str:
@@ -89,7 +94,8 @@ def _cmd_branch(args: argparse.Namespace) -> int:
                                                args.kappa_r_max),
                            size=args.size, layer_elements=args.layer_elements,
                            shear_penalty=args.shear_penalty, continuation=cont,
-                           degree=args.degree)
+                           degree=args.degree,
+                           **({} if fld is None else {"kappa_field": fld}))
         result = drivers.branch_surface(cfg, outdir, fields=args.fields,
                                         resume=not args.restart)
         header = (f"{'kappa R':>10} {'kappa h':>10} {'Psi3/h':>12} {'apex/h':>10} "

@@ -164,6 +164,34 @@ def add_physics_args(p: argparse.ArgumentParser, model_default: str, model_help:
                    help=model_help)
 
 
+def add_field_args(p: argparse.ArgumentParser) -> None:
+    """--kappa-field EXPR and --anisotropy F1 F2: the stimulus K of b̄ = b° + κ K."""
+    p.add_argument("--kappa-field", default=None, metavar="EXPR",
+                   help="natural curvature f(x) kappa instead of a uniform kappa: an expression "
+                   "of the reference position x, y, z, r (distance from the axis), phi, theta "
+                   "(angle from the pole), constants pi and R, with + - * / **, < <= > >=, "
+                   "and/or, sin cos tan exp log sqrt tanh sinh cosh atan asin acos abs atan2 min "
+                   "max, where(c, a, b) and step(s, w) = (1 + tanh(s/w))/2; e.g. "
+                   "'step(0.3 - theta, 0.02)' (a smoothed polar disk of the cap); default 1")
+    p.add_argument("--anisotropy", type=float, nargs=2, default=None, metavar=("F1", "F2"),
+                   help="anisotropic natural curvature f kappa (F1 e1 x e1 + F2 e2 x e2), e1 "
+                   "along the meridian, e2 along the parallel (default 1 1: isotropic)")
+
+
+def field_from_args(args: argparse.Namespace, shape: Any, model: str) -> Any:
+    """The ``CurvatureField`` of --kappa-field/--anisotropy (None if neither is given), checked
+    on ``shape`` (finite, not zero everywhere; axisymmetric for the 1D model) before any work."""
+    from shells.stimulus import CurvatureField
+
+    expr, an = getattr(args, "kappa_field", None), getattr(args, "anisotropy", None)
+    if expr is None and an is None:
+        return None
+    fld = CurvatureField("1" if expr is None else expr,
+                         (1.0, 1.0) if an is None else tuple(an))
+    fld.check_on(shape, axisymmetric=model == "axisym")
+    return fld
+
+
 def add_kappa_range(p: argparse.ArgumentParser) -> None:
     """--kappa-h-max | --kappa-r-max: the end of the range, in magnitude (--direction: sign)."""
     g = p.add_mutually_exclusive_group()

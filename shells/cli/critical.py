@@ -20,6 +20,7 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
     common.add_physics_args(c, "surface",
                             "surface (2D mesh, default) or axisym (shell of revolution)")
     common.add_kappa_range(c)
+    common.add_field_args(c)
     c.add_argument("--first-only", action="store_true", help="stop at the first critical point")
     common.add_mesh_size_args(c, None, "bulk element size / R (default 0.1; caps deeper than "
                               "thetabar = 3 and ellipsoids 0.2; closed spheres 0.21)")
@@ -45,11 +46,12 @@ def _cmd_critical(args: argparse.Namespace) -> int:
     from shells.drivers import critical_run
 
     shape = common.shape_from_args(args)
+    fld = common.field_from_args(args, shape, args.model)
     surface = {} if args.model != "surface" else dict(
         first_only=args.first_only, size=args.size, layer_elements=args.layer_elements,
         shear_penalty=args.shear_penalty, degree=args.degree, ds=args.ds, ds_max=args.ds_max)
     result = critical_run(shape, args.h_over_r, args.nu, direction=args.direction,
-                          model=args.model, outdir=args.output,
+                          model=args.model, outdir=args.output, kappa_field=fld,
                           kappa_end=common.kappa_end(shape, args.h_over_r, args.kappa_h_max,
                                                      args.kappa_r_max, args.direction),
                           **surface)

@@ -24,11 +24,13 @@ import math
 from typing import Any
 
 from shells.cli.common import (
+    add_field_args,
     add_json,
     add_kappa_range,
     add_physics_args,
     add_shape_args,
     emit,
+    field_from_args,
     kappa_end,
     positive_float,
     shape_from_args,
@@ -51,6 +53,7 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
     add_physics_args(p, "axisym", "axisym (1D, default) or surface (2D mesh)")
     p.add_argument("--at", type=int, default=1, help="the K-th bifurcation (default 1)")
     add_kappa_range(p)
+    add_field_args(p)
     p.add_argument("--kappa-min-ratio", type=float, default=0.5,
                    help="bifurcated branches end below this kappa/kappa_c (default 0.5)")
     p.add_argument("--max-points", type=int, default=60,
@@ -79,6 +82,7 @@ def _cmd_postbuckle(args: argparse.Namespace) -> int:
     from shells.postbuckle import PostbuckleConfig
 
     shape = shape_from_args(args)
+    fld = field_from_args(args, shape, args.model)
     k_end = kappa_end(shape, args.h_over_r, args.kappa_h_max, args.kappa_r_max, args.direction)
     if k_end is not None and not (math.isfinite(k_end) and k_end != 0):
         raise InputError("the end of the kappa range must be a nonzero number")
@@ -89,7 +93,8 @@ def _cmd_postbuckle(args: argparse.Namespace) -> int:
                            kappa_min_ratio=args.kappa_min_ratio, max_points=args.max_points,
                            size=args.size, layer_elements=args.layer_elements,
                            degree=args.degree,
-                           sides=(1, -1) if args.sides == "both" else (int(args.sides),))
+                           sides=(1, -1) if args.sides == "both" else (int(args.sides),),
+                           **({} if fld is None else {"kappa_field": fld}))
     result = postbuckle_run(cfg, args.output, fields=args.fields)
     cp, points, sides = result["critical_point"], result["points"], result["sides"]
 

@@ -78,7 +78,8 @@ class BranchConfig(RunScales):
         self.kappa_field.check_on(self.shape)
 
         if self.degree is None or self.size is None:
-            deg, size = default_discretisation(self.shape, self.h_over_r, self.degree, self.size)
+            deg, size = default_discretisation(self.shape, self.h_over_r, self.degree, self.size,
+                                               self.kappa_field)
             object.__setattr__(self, "degree", self.degree or deg)
             object.__setattr__(self, "size", self.size or size)
         if not (math.isfinite(self.h_over_r) and 0 < self.h_over_r < 1):

@@ -184,7 +184,7 @@ def critical_surface(shape: Any, h_over_r: float, nu: float, kappa_end: float, *
     L = shape.characteristic_size()
     h = h_over_r * L
     R_or_L = _R_or_L(shape)
-    degree, size = default_discretisation(shape, h_over_r, degree, size)
+    degree, size = default_discretisation(shape, h_over_r, degree, size, kappa_field)
     sm = generate(MeshSpec(shape, h=h, size=size, layer_elements=layer_elements), comm)
     from shells.stimulus import UNIFORM
 

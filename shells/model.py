@@ -61,8 +61,8 @@ P2_THETABAR_MAX = 3.0
 
 
 def default_discretisation(shape: Shape, h_over_r: float | None = None,
-                           degree: int | None = None, size: float | None = None
-                           ) -> tuple[int, float]:
+                           degree: int | None = None, size: float | None = None,
+                           kappa_field: CurvatureField | None = None) -> tuple[int, float]:
     """(degree, bulk mesh size / R) of the surface model that give right answers on ``shape``.
 
     P2 with the stiff Kirchhoff-Love penalty locks on deep shells (bending-dominated states of a
@@ -74,6 +74,10 @@ def default_discretisation(shape: Shape, h_over_r: float | None = None,
     ellipsoid r3 = 1.5 R at h/R = 0.04: m = 2 buckling at κR = -0.57382 against the 1D model's
     -0.57386, where P2 gives -0.6226, +8.5 %, measured with `shells critical`; the θ̄ = 5
     cap's fold +5.1 % with P2, issue 13's measurement; P3 runs of both: benchmarks/shapes_3d.py).
+    A non-uniform ``kappa_field`` gets P3 on every shape: the ring-patterned 30° cap at h/R =
+    0.04 (f = step(θ - 0.2, 0.05) step(0.4 - θ, 0.05)) has its fold 3.6 % late with P2 at the
+    default mesh (1.3 % and 0.5 % with 6 and 8 rim-layer elements), 9e-5 with P3, against the
+    1D model's κR = 2.288494 (benchmarks/kappa_fields.py).
     """
     from shells.geometry import EllipsoidalCap, SphericalCap
 
@@ -84,8 +88,9 @@ def default_discretisation(shape: Shape, h_over_r: float | None = None,
     deep = isinstance(shape, EllipsoidalCap) or (
         isinstance(shape, SphericalCap) and not sphere and h_over_r is not None
         and shape.theta / math.sqrt(h_over_r) > P2_THETABAR_MAX)
+    patterned = kappa_field is not None and not kappa_field.uniform
     if degree is None:
-        degree = 3 if sphere or deep else 2
+        degree = 3 if sphere or deep or patterned else 2
     if size is None:
         size = 0.21 if sphere else 0.2 if deep else 0.1
     return degree, size

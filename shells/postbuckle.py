@@ -127,7 +127,8 @@ class PostbuckleConfig(RunScales):
             # size 0.2 with 3 layer elements: the 30° cap's m = 2 bifurcation within 3e-4 of
             # the 1D model's (P2), the ellipsoid's within 1e-4 (P3)
             deg, size = default_discretisation(self.shape, self.h_over_r, self.degree,
-                                               0.2 if self.size is None else self.size)
+                                               0.2 if self.size is None else self.size,
+                                               self.kappa_field)
             object.__setattr__(self, "degree", deg)
             object.__setattr__(self, "size", size)
 

@@ -45,7 +45,8 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
                    "ellipsoids 0.2; closed spheres 0.21)")
     b.add_argument("--degree", type=int, choices=(2, 3), default=None,
                    help="polynomial degree (default 2; closed spheres, caps deeper than "
-                   "thetabar = 3 and ellipsoids 3: P2 locks there, docs/model.md)")
+                   "thetabar = 3, ellipsoids and any --kappa-field or --anisotropy 3: P2 "
+                   "locks there, docs/model.md)")
     b.add_argument("--layer-elements", type=positive_float("layer-elements"), default=4.0,
                    help="elements across sqrt(R h) at the rim (default 4)")
     b.add_argument("--shear-penalty", type=positive_float("shear-penalty"), default=1.0e3,

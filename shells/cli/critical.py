@@ -28,8 +28,8 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
                    help="Kirchhoff-Love penalty, times the Naghdi shear stiffness (default 1e3)")
     c.add_argument("--degree", type=int, choices=(2, 3), default=None,
                    help="surface model: polynomial degree, full quadrature 2 x degree (default "
-                   "2; closed spheres, caps deeper than thetabar = 3 and ellipsoids 3: P2 locks "
-                   "there, docs/model.md)")
+                   "2; closed spheres, caps deeper than thetabar = 3, ellipsoids and any "
+                   "--kappa-field or --anisotropy 3: P2 locks there, docs/model.md)")
     c.add_argument("--ds", type=common.positive_float("ds"), default=None,
                    help="initial step, in kappa L (default: range/16)")
     c.add_argument("--ds-max", type=common.positive_float("ds-max"), default=None,

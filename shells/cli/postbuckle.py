@@ -64,7 +64,8 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
                    help="surface model: elements across sqrt(R h) at the rim (default 3)")
     p.add_argument("--degree", type=int, choices=(2, 3), default=None,
                    help="surface model: polynomial degree (default 2; closed spheres, caps "
-                   "deeper than thetabar = 3 and ellipsoids 3: P2 locks there)")
+                   "deeper than thetabar = 3, ellipsoids and any --kappa-field or --anisotropy 3: "
+                   "P2 locks there)")
     p.add_argument("--fields", default="none", choices=("none", "last", "all"),
                    help="write the bifurcated states for ParaView (needs -o)")
     p.add_argument("--sides", default="both", choices=("both", "+1", "-1"),

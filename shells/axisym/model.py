@@ -43,6 +43,9 @@ if TYPE_CHECKING:
 
 __all__ = ["AxisymModel", "AxisymParameters", "Jet"]
 
+#: what the load parameter ``kappa`` imposes (``AxisymParameters.load``)
+LOADS = ("curvature", "pressure", "equivalent", "equivalent_normal", "local_pressure")
+
 #: the mode Hessian's kernel is long (the second variation of the whole density at two phases)
 JIT_OPTIONS: dict[str, Any] = {"timeout": 300}
 
@@ -69,6 +72,14 @@ class AxisymParameters:
             normal to the reference surface, given as its equivalent curvature of the paper's
             Eq. (5), κ_p h = 6 (1-ν) (R/h)² p/E, R the shape's length scale; no natural
             curvature): one parameter, so that both loads go through the same algorithms.
+            Three dead loads equivalent to the stimulus at first order (the paper's Eqs. (2)
+            and its outlook's hypothesis; docs/kappa-fields.md), all with b̄ = b°:
+            "equivalent" (the curvature potential linearised at the reference state: bulk
+            normal and tangential forces and edge terms), "equivalent_normal" (closed spheres:
+            its bulk normal part alone, the normal load -(2/3)(1+ν) h² κ (Δf - 2f/R²) Ψ3)
+            and "local_pressure" (closed spheres: Eq. (5)'s pressure with the local stimulus,
+            (4/3)(1+ν)(h/R)² κ f Ψ3); the last two with a uniform axial body force that
+            balances their resultant (inertia relief).
         kappa_field: the natural-curvature stimulus K of b̄ = b° + κ K (``shells.stimulus``): an
             axisymmetric f and factors (f1, f2) on e_s⊗e_s and e_φ⊗e_φ; default K = a°.
     """
@@ -85,12 +96,15 @@ class AxisymParameters:
     kappa_field: CurvatureField = UNIFORM
 
     def __post_init__(self) -> None:
-        if self.load not in ("curvature", "pressure"):
-            raise InputError(f"load must be 'curvature' or 'pressure', got {self.load!r}")
+        if self.load not in LOADS:
+            raise InputError(f"load must be one of {', '.join(LOADS)}, got {self.load!r}")
         if not isinstance(self.kappa_field, CurvatureField):
             raise InputError(f"kappa_field must be a CurvatureField, got {self.kappa_field!r}")
         if self.load == "pressure" and not self.kappa_field.uniform:
             raise InputError("a natural-curvature field has no meaning under the pressure load")
+        if self.load in ("equivalent_normal", "local_pressure") and not \
+                self.kappa_field.isotropic:
+            raise InputError(f"the {self.load} load is derived for an isotropic stimulus")
         if not (isinstance(self.h, (int, float)) and math.isfinite(self.h) and self.h > 0):
             raise InputError(f"thickness h must be positive, got {self.h!r}")
         if not (isinstance(self.nu, (int, float)) and -1.0 < self.nu <= 0.5):
@@ -213,6 +227,9 @@ class AxisymModel(FormProblem):
         self.g = ufl.sqrt(self.r0t**2 + self.z0t**2)
         self.area_density = 2 * math.pi * self.r0 * self.g  # dω = area_density dt
         params.kappa_field.check_on(shape, axisymmetric=True)
+        if params.load in ("equivalent_normal", "local_pressure") and not _is_sphere(shape):
+            raise InputError(f"the {params.load} load is derived for a closed sphere (an open "
+                             "shell adds edge terms: use the equivalent load)")
         self.K = self._natural_factors()
         self._build_forms()
         self.bcs = self._axis_conditions()
@@ -272,16 +289,9 @@ class AxisymModel(FormProblem):
         """Energy densities per reference area dω of a jet (``total`` is minimised)."""
         e = self.strains(j)
         Ea, Eb = e["a"], e["b"]
-        pressure = self.params.load == "pressure"
-        kn = 0.0 if pressure else self.kappa  # the natural curvature
-        if self.K is None:  # the paper's K = a°
-            gap = (Eb[0] - kn, Eb[1], Eb[2] - kn)  # b - b̄
-            potential = -2 * (1 + self.nu) / 3 * self.h**2 * kn * (Eb[0] + Eb[2])
-        else:  # K = f (f1 e_s⊗e_s + f2 e_φ⊗e_φ)
-            k1, k2 = kn * self.K[0], kn * self.K[1]
-            gap = (Eb[0] - k1, Eb[1], Eb[2] - k2)
-            potential = -2 / 3 * self.h**2 * ((1 - self.nu) * (k1 * Eb[0] + k2 * Eb[2])
-                                              + self.nu * (k1 + k2) * (Eb[0] + Eb[2]))
+        load = self.params.load
+        kn = self.kappa if load == "curvature" else 0.0  # the natural curvature
+        gap, potential = self._natural_gap(Eb, kn)
         stretch = self._quad(Ea)
         bend_nat = self.h**2 / 3 * self._quad(gap)
         pen = self.pen * _dot(e["slope_gap"], e["slope_gap"]) / self.g**2
@@ -289,13 +299,63 @@ class AxisymModel(FormProblem):
                "bending": self.h**2 / 3 * self._quad(Eb),
                "curvature_potential": potential,
                "penalty": pen}
-        if pressure:
+        un = (j.val[0] * (-self.z0t) + j.val[2] * self.r0t) / self.g  # Ψ3
+        if load == "pressure":
             # + 8 (1-ν²) p/(E h) u·n° (energy per E h / (8 (1-ν²))), p/E from κ_p by Eq. (5)
             L = self.shape.characteristic_size()
-            un = (j.val[0] * (-self.z0t) + j.val[2] * self.r0t) / self.g
             out["pressure_work"] = 4 * (1 + self.nu) / 3 * (self.h / L) ** 2 * self.kappa * un
+        elif load == "equivalent":
+            # the curvature potential's first variation at the reference state, a dead load:
+            # d/dε P(ε j) at ε = 0 (ε a Constant 0 made a UFL variable)
+            import ufl
+            from dolfinx import default_scalar_type, fem
+
+            eps = ufl.variable(fem.Constant(self.mesh, default_scalar_type(0.0)))
+            scaled = Jet(*(tuple(eps * c for c in f) for f in j.fields()))
+            out["pressure_work"] = ufl.diff(
+                self._natural_gap(self.strains(scaled)["b"], self.kappa)[1], eps)
+        elif load in ("equivalent_normal", "local_pressure"):
+            # normal forces alone have a resultant along the axis, -c ∫ q n_z dω (the
+            # tangential part they omit carries its opposite): balanced by a uniform body force
+            # (inertia relief), else the gauge point would carry it as a point load
+            c = -2 * (1 + self.nu) / 3 * self.h**2 * self.kappa
+            q, q_z = self._normal_load()
+            out["pressure_work"] = c * (q * un - q_z * j.val[2])
+        if "pressure_work" in out:
             out["total"] = out["total"] + out["pressure_work"]
         return out
+
+    def _natural_gap(self, Eb: tuple, kn: Any) -> tuple[tuple, Any]:
+        """b - b̄ (components 11, 12, 22) and the curvature potential's density
+        -(2/3) h² [(1-ν) κK:(b-b°) + ν tr κK tr(b-b°)] for the natural curvature ``kn`` (κ, or
+        0 under a dead load)."""
+        if self.K is None:  # the paper's K = a°
+            gap = (Eb[0] - kn, Eb[1], Eb[2] - kn)
+            return gap, -2 * (1 + self.nu) / 3 * self.h**2 * kn * (Eb[0] + Eb[2])
+        k1, k2 = kn * self.K[0], kn * self.K[1]  # K = f (f1 e_s⊗e_s + f2 e_φ⊗e_φ)
+        gap = (Eb[0] - k1, Eb[1], Eb[2] - k2)
+        return gap, -2 / 3 * self.h**2 * ((1 - self.nu) * (k1 * Eb[0] + k2 * Eb[2])
+                                          + self.nu * (k1 + k2) * (Eb[0] + Eb[2]))
+
+    def _normal_load(self) -> tuple[Any, float]:
+        """q of the normal load c q Ψ3 ("equivalent_normal": Δf - 2f/R²; "local_pressure":
+        -2f/R²) and the mean ∫ q n_z dω / A of its axial component."""
+        from dolfinx import fem
+
+        if not hasattr(self, "_q"):
+            f = 1.0 if self.K is None else self.K[0]
+            q = -2 * f / self.shape.R ** 2
+            if self.params.load == "equivalent_normal" and self.K is not None:
+                q = q + self._laplacian(f)
+            ad, nz = self.area_density, self.r0t / self.g
+            qz = (fem.assemble_scalar(fem.form(q * nz * ad * self.dx))
+                  / fem.assemble_scalar(fem.form(ad * self.dx)))
+            self._q = (q, float(qz))
+        return self._q
+
+    def _laplacian(self, f: Any) -> Any:
+        """The surface Laplacian of an axisymmetric f(t): (r° f_t / g)_t / (r° g)."""
+        return (self.r0 * f.dx(0) / self.g).dx(0) / (self.r0 * self.g)
 
     def _natural_factors(self) -> tuple[Any, Any] | None:
         """(K_ss, K_φφ) = (f1 f, f2 f) of the stimulus, f a P3 function of t and (f1, f2)

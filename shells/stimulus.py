@@ -35,7 +35,8 @@ import numpy as np
 
 from shells.errors import InputError
 
-__all__ = ["FUNCTIONS", "UNIFORM", "VARIABLES", "CurvatureField", "field_radius"]
+__all__ = ["FUNCTIONS", "TABLE_SUFFIXES", "UNIFORM", "VARIABLES", "CurvatureField",
+           "field_radius"]
 
 #: names a field may use for the reference position
 VARIABLES = ("x", "y", "z", "r", "phi", "theta")
@@ -147,15 +148,24 @@ class CurvatureField:
 
     Attributes:
         expr: f as a text of the reference position (see the module's docstring); "1" is the
-            paper's uniform natural curvature.
+            paper's uniform natural curvature. With a ``table``, the name of its file.
         anisotropy: (f1, f2), meridian and parallel factors; (1, 1) is isotropic.
+        table: f given as values instead (``from_file``): rows (θ, f), piecewise linear in the
+            polar angle θ (an axisymmetric profile), or rows (x, y, z, f) at points of the
+            reference surface, interpolated by linear radial basis functions of the 16 nearest
+            points (exact at the points).
     """
 
     expr: str = "1"
     anisotropy: tuple[float, float] = (1.0, 1.0)
+    table: tuple[tuple[float, ...], ...] = ()
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "_tree", _parse(self.expr))
+        if self.table:
+            object.__setattr__(self, "table", _check_table(self.table, self.expr))
+            object.__setattr__(self, "_tree", None)
+        else:
+            object.__setattr__(self, "_tree", _parse(self.expr))
         an = self.anisotropy
         try:
             an = tuple(float(v) for v in an)
@@ -170,6 +180,8 @@ class CurvatureField:
     @property
     def constant(self) -> float | None:
         """f's value if the text is a number (possibly signed), else None."""
+        if self.table:
+            return None
         body = self._tree.body  # type: ignore[attr-defined]
         try:
             return float(_Algebra().eval(body, {})) if _is_number(body) else None
@@ -186,8 +198,12 @@ class CurvatureField:
         return self.constant == 1.0 and self.anisotropy == (1.0, 1.0)
 
     def describe(self) -> dict[str, Any]:
-        """JSON-ready description (recorded with a run's parameters)."""
-        return {"kappa_field": self.expr.strip(), "anisotropy": list(self.anisotropy)}
+        """JSON-ready description (recorded with a run's parameters; a table with its rows)."""
+        d: dict[str, Any] = {"kappa_field": self.expr.strip(),
+                             "anisotropy": list(self.anisotropy)}
+        if self.table:
+            d["kappa_field_table"] = [list(r) for r in self.table]
+        return d
 
     @classmethod
     def from_description(cls, d: dict[str, Any]) -> CurvatureField:
@@ -195,13 +211,35 @@ class CurvatureField:
         fd = d.get("field")
         if not fd:
             return UNIFORM
-        return cls(fd["kappa_field"], tuple(fd["anisotropy"]))
+        table = tuple(tuple(r) for r in fd.get("kappa_field_table", ()))
+        return cls(fd["kappa_field"], tuple(fd["anisotropy"]), table)
+
+    @classmethod
+    def from_file(cls, path: str, anisotropy: tuple[float, float] = (1.0, 1.0)
+                  ) -> CurvatureField:
+        """A table of f from a text file (``TABLE_SUFFIXES``): rows "θ f" or "x y z f",
+        separated by spaces or commas, lines starting with # ignored."""
+        try:
+            with open(path, encoding="utf-8") as fh:
+                lines = [ln.replace(",", " ").split() for ln in fh
+                         if ln.strip() and not ln.lstrip().startswith("#")]
+        except (OSError, UnicodeError) as e:
+            raise InputError(f"cannot read the kappa field file {path!r}: "
+                             f"{getattr(e, 'strerror', None) or e}") from None
+        try:
+            rows = tuple(tuple(float(v) for v in ln) for ln in lines)
+        except ValueError:
+            raise InputError(f"the kappa field file {path!r} holds something other than "
+                             "numbers (rows 'theta f' or 'x y z f')") from None
+        return cls(path, anisotropy, rows)
 
     # -- evaluation ----------------------------------------------------------------------------
     def values(self, x: np.ndarray, y: np.ndarray, z: np.ndarray, R: float = 1.0) -> np.ndarray:
         """f at reference points (NumPy)."""
         x, y, z = (np.asarray(v, dtype=float) for v in (x, y, z))
         r = np.hypot(x, y)
+        if self.table:
+            return self._table_values(x, y, z, r)
         env = {"x": x, "y": y, "z": z, "r": r, "phi": np.arctan2(y, x),
                "theta": np.arctan2(r, z), "pi": math.pi, "R": float(R)}
         try:
@@ -213,15 +251,50 @@ class CurvatureField:
                              f"{type(e).__name__}") from None
         return np.broadcast_to(v, np.broadcast(x, y, z).shape)
 
+    def _table_values(self, x: np.ndarray, y: np.ndarray, z: np.ndarray,
+                      r: np.ndarray) -> np.ndarray:
+        t = np.asarray(self.table)
+        shape = np.broadcast(x, y, z).shape
+        if t.shape[1] == 2:
+            return np.interp(np.arctan2(r, z), t[:, 0], t[:, 1]).reshape(shape)
+        from scipy.interpolate import RBFInterpolator
+
+        if not hasattr(self, "_rbf"):
+            object.__setattr__(self, "_rbf", RBFInterpolator(
+                t[:, :3], t[:, 3], kernel="linear", neighbors=min(16, len(t))))
+        pts = np.stack([np.broadcast_to(v, shape).ravel() for v in (x, y, z)], axis=1)
+        return self._rbf(pts).reshape(shape)  # type: ignore[attr-defined]
+
+    @property
+    def scattered(self) -> bool:
+        """f given at scattered points (a 4-column table)."""
+        return bool(self.table) and len(self.table[0]) == 4
+
+    def meridian_values(self, r: np.ndarray, z: np.ndarray, R: float = 1.0) -> np.ndarray:
+        """f on the meridian (r, z) for the axisymmetric model: f(r, 0, z); a table of
+        scattered points is averaged over 32 azimuths (it is axisymmetric only up to its
+        interpolation error)."""
+        if not self.scattered:
+            return self.values(r, 0.0 * r, z, R)
+        phis = np.linspace(0, 2 * math.pi, 32, endpoint=False)
+        return np.mean([self.values(r * math.cos(p), r * math.sin(p), z, R) for p in phis],
+                       axis=0)
+
     def interpolate(self, space: Any, position: Callable[[np.ndarray], tuple],
-                    R: float) -> Any:
+                    R: float, axisymmetric: bool = False) -> Any:
         """f as a ``fem.Function`` of the scalar ``space``: the models' forms read f as a
         coefficient, so one compiled kernel serves every field. ``position`` maps the
-        interpolation points (3, N) to the reference coordinates (x, y, z)."""
+        interpolation points (3, N) to the reference coordinates (x, y, z); ``axisymmetric``:
+        to (r, ·, z) of the meridian (``meridian_values``)."""
         from dolfinx import fem
 
+        def values(p: np.ndarray) -> np.ndarray:
+            x, y, z = position(p)
+            v = self.meridian_values(x, z, R) if axisymmetric else self.values(x, y, z, R)
+            return np.array(v, dtype=float)
+
         f = fem.Function(space, name="kappa_field")
-        f.interpolate(lambda p: np.array(self.values(*position(p), R), dtype=float))
+        f.interpolate(values)
         f.x.scatter_forward()
         return f
 
@@ -251,10 +324,40 @@ class CurvatureField:
                              "kappa would impose nothing")
         if axisymmetric:
             dev = max(float(np.max(np.abs(f - f0))) for f in fs)
-            if dev > 1e-12 * scale:
+            # scattered values: axisymmetric up to their interpolation (a few %); else exactly
+            if dev > (0.05 if self.scattered else 1e-12) * scale:
                 raise InputError(f"the kappa field {self.expr!r} depends on the azimuth phi "
-                                 "(or on x, y separately): the axisymmetric model needs a field "
-                                 "of r, z or theta only; use --model surface")
+                                 f"(by up to {dev / scale:.2g} of its largest value): the "
+                                 "axisymmetric model needs a field of r, z or theta only; use "
+                                 "--model surface")
+
+
+#: file names --kappa-field reads as a table (anything else is an expression)
+TABLE_SUFFIXES = (".csv", ".txt", ".dat", ".tsv")
+#: most rows a table may have
+MAX_TABLE_ROWS = 200000
+
+
+def _check_table(table: Any, name: str) -> tuple[tuple[float, ...], ...]:
+    try:
+        t = np.asarray(table, dtype=float)
+    except (TypeError, ValueError):
+        t = np.zeros((0,))  # ragged or not numbers
+    if t.ndim != 2 or t.shape[1] not in (2, 4):
+        raise InputError(f"the kappa field table {name!r} must have rows of 2 numbers "
+                         "(theta f) or of 4 (x y z f), all rows alike")
+    if not 2 <= len(t) <= MAX_TABLE_ROWS:
+        raise InputError(f"the kappa field table {name!r} has {len(t)} rows (2 to "
+                         f"{MAX_TABLE_ROWS})")
+    if not np.all(np.isfinite(t)):
+        raise InputError(f"the kappa field table {name!r} holds a value that is not finite")
+    if t.shape[1] == 2 and not (np.all(np.diff(t[:, 0]) > 0) and t[0, 0] >= 0
+                                and t[-1, 0] <= math.pi + 1e-12):
+        raise InputError(f"the kappa field table {name!r}: theta (first column, radians) must "
+                         "increase within [0, pi]; outside its range f is the nearest end's")
+    if t.shape[1] == 4 and len(np.unique(t[:, :3], axis=0)) < len(t):
+        raise InputError(f"the kappa field table {name!r} gives two values at one point")
+    return tuple(tuple(float(v) for v in row) for row in t)
 
 
 def field_radius(shape: Any) -> float:

@@ -372,7 +372,7 @@ class AxisymModel(FormProblem):
             return np.asarray(r, dtype=float), 0.0 * p[0], np.asarray(z, dtype=float)
 
         self.kappa_f = fld.interpolate(fem.functionspace(self.mesh, ("Lagrange", 3)), position,
-                                       field_radius(self.shape))
+                                       field_radius(self.shape), axisymmetric=True)
         self.kappa_anisotropy = fem.Constant(self.mesh, np.array(fld.anisotropy,
                                                                  dtype=default_scalar_type))
         return self.kappa_anisotropy[0] * self.kappa_f, self.kappa_anisotropy[1] * self.kappa_f

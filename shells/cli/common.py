@@ -172,7 +172,9 @@ def add_field_args(p: argparse.ArgumentParser) -> None:
                    "(angle from the pole), constants pi and R, with + - * / **, < <= > >=, "
                    "and/or, sin cos tan exp log sqrt tanh sinh cosh atan asin acos abs atan2 min "
                    "max, where(c, a, b) and step(s, w) = (1 + tanh(s/w))/2; e.g. "
-                   "'step(0.3 - theta, 0.02)' (a smoothed polar disk of the cap); default 1")
+                   "'step(0.3 - theta, 0.02)' (a smoothed polar disk of the cap); or a table "
+                   "file (.csv .txt .dat .tsv) of rows 'theta f' (piecewise linear in theta) "
+                   "or 'x y z f' (values at points of the surface); default 1")
     p.add_argument("--anisotropy", type=float, nargs=2, default=None, metavar=("F1", "F2"),
                    help="anisotropic natural curvature f kappa (F1 e1 x e1 + F2 e2 x e2), e1 "
                    "along the meridian, e2 along the parallel (default 1 1: isotropic)")
@@ -181,13 +183,16 @@ def add_field_args(p: argparse.ArgumentParser) -> None:
 def field_from_args(args: argparse.Namespace, shape: Any, model: str) -> Any:
     """The ``CurvatureField`` of --kappa-field/--anisotropy (None if neither is given), checked
     on ``shape`` (finite, not zero everywhere; axisymmetric for the 1D model) before any work."""
-    from shells.stimulus import CurvatureField
+    from shells.stimulus import TABLE_SUFFIXES, CurvatureField
 
     expr, an = getattr(args, "kappa_field", None), getattr(args, "anisotropy", None)
     if expr is None and an is None:
         return None
-    fld = CurvatureField("1" if expr is None else expr,
-                         (1.0, 1.0) if an is None else tuple(an))
+    an = (1.0, 1.0) if an is None else tuple(an)
+    if expr is not None and expr.strip().lower().endswith(TABLE_SUFFIXES):
+        fld = CurvatureField.from_file(expr.strip(), an)
+    else:
+        fld = CurvatureField("1" if expr is None else expr, an)
     fld.check_on(shape, axisymmetric=model == "axisym")
     return fld
 
@@ -226,7 +231,8 @@ H_OVER_R_MAX = 0.5
 
 #: Path arguments per subcommand: (attribute, label, kind, value used when the attribute is
 #: None). Kinds: "in" (a file read), "msh"/"png" (a file written, with that suffix), "dir" (an
-#: output folder), "shared" (only: shared with the host). Every one is checked by
+#: output folder), "shared" (only: shared with the host), "field" (--kappa-field: "in" if it
+#: names a table file). Every one is checked by
 #: ``shells.paths`` before the subcommand starts; a subcommand not listed here has its -o
 #: (``output``), if any, checked as "shared".
 PATH_ARGS: dict[str, list[tuple[str, str, str, str | None]]] = {
@@ -234,10 +240,12 @@ PATH_ARGS: dict[str, list[tuple[str, str, str, str | None]]] = {
              ("png", "--png", "png", None)],
     "info": [("mesh", "mesh file", "in", None)],
     "render": [("mesh", "mesh file", "in", None), ("output", "-o", "png", None)],
-    "branch": [("output", "-o", "dir", "results/branch")],
-    "critical": [("output", "-o", "dir", None)],
+    "branch": [("output", "-o", "dir", "results/branch"),
+               ("kappa_field", "--kappa-field", "field", None)],
+    "critical": [("output", "-o", "dir", None), ("kappa_field", "--kappa-field", "field", None)],
     "phase-diagram": [("output", "-o", "dir", None)],
-    "postbuckle": [("output", "-o", "dir", None)],
+    "postbuckle": [("output", "-o", "dir", None),
+                   ("kappa_field", "--kappa-field", "field", None)],
 }
 
 
@@ -284,7 +292,12 @@ def check_paths(args: argparse.Namespace) -> None:
                 value = default if value is None else value
                 if value is None:
                     continue
-                if kind == "in":
+                if kind == "field":  # a table file, or an expression (nothing to check)
+                    from shells.stimulus import TABLE_SUFFIXES
+
+                    if value.strip().lower().endswith(TABLE_SUFFIXES):
+                        paths.check_input_file(value.strip(), label)
+                elif kind == "in":
                     paths.check_input_file(value, label)
                 elif kind == "shared":
                     paths.check_shared(value, label)

@@ -47,19 +47,15 @@ def profile(fld: CurvatureField, load: str, h: float, cells: int, kappa_h: float
     m = AxisymModel(SPHERE, AxisymParameters(h=h, nu=NU, cells=cells, penalty=1e6, load=load,
                                              kappa_field=fld))
     ns = NewtonSolver(m, options=SNES_OPTIONS)
-    load_vec = m.create_vector()
-    for k in np.linspace(0, kappa_h / h, 3)[1:]:  # two load steps
-        m.set_kappa(float(k))
-        m.assemble_dkappa(load_vec)
-        # converged: SNES's test, or a residual 1e-10 of the κ-load (a relative decrease of
-        # 1e-9 from the first, tiny residual can lie below round-off with the penalty 1e6)
-        ok, _ = ns.solve(atol=1e-10 * float(k) * load_vec.norm())
-        # or stalled at the residual's round-off floor (the solve's own test took the floor
-        # at its start, the undeformed state, where it is 0)
-        ok = ok or ns.residual_norm() <= ns.roundoff_floor()
-        if not ok:
-            raise RuntimeError(f"Newton failed: {load}, {fld.expr}, kappa h = {k * h}")
-    load_vec.destroy()
+    # one Newton solve from the reference state: there the solver's round-off floor (ε ||J||_F
+    # ||w||) is 0 and its relative tests decide; from a loaded state that floor can exceed the
+    # next step's whole residual on this thin, penalty-stiff sphere (measured 1.7e-4 against a
+    # first residual of 1.6e-5 and a true stagnation level of 1.8e-7), and Newton would stop
+    # without an iteration
+    m.set_kappa(kappa_h / h)
+    ok, its = ns.solve()
+    if not ok or its == 0:
+        raise RuntimeError(f"Newton failed: {load}, {fld.expr}, kappa h = {kappa_h}")
     p = m.meridian_profile()
     ns.destroy()
     return p["ur"] * np.sin(p["t"]) + p["uz"] * np.cos(p["t"])

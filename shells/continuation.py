@@ -50,18 +50,17 @@ class ContinuationSettings:
             below (None, the default: the relative bound; a value: the behaviour of versions
             that had only this absolute tolerance).
         residual_rtol: and (arclength corrector) the residual norm ||R|| at most
-            ``residual_rtol`` ||∂R/∂κ|| max(|κ|, κ_ref) + ``residual_roundoff`` ε || |J| |w| ||:
+            ``residual_rtol`` ||∂R/∂κ|| max(|κ|, κ_ref) + ``residual_roundoff`` ε ||J||_F ||w||:
             relative to the κ-load, the force that κ imposes (κ_ref: 1 % of the run's largest
             |κ|, so the bound does not vanish where the branch crosses κ = 0), plus the
             round-off floor of a residual assembled with the Jacobian J at the state w (ε:
             machine epsilon). Both are model-independent: a stiff Jacobian (the axisymmetric
-            model's C1 penalty) has a floor of 0.19 ε || |J| |w| ||, which can exceed 1e-5
+            model's C1 penalty) has a floor of up to 1e-2 ε ||J||_F ||w||, which exceeds 1e-5
             of the κ-load on thin bending-dominated shells (a disk: the load is O(h²)).
             Natural steps (SNES, no increment test) accept a residual below the same bound with
             10⁻³ ``residual_rtol``: its relative decrease of 1e-9 from the small start residual
             of a short step can lie below round-off (a P3 sphere stalled at κh ≈ 1.41).
-        residual_roundoff: the factor of the round-off term (``NewtonSolver.roundoff_floor``:
-            Newton's residual stalls at 0.19 of the componentwise bound, measured).
+        residual_roundoff: the factor of the round-off term (measured floors are 1e-3 to 1e-2).
         state_weight: ξ in the arclength norm.
         max_steps: safety limit on the number of points.
         kappa_stops: values of κL (natural method) the run lands on exactly.
@@ -80,7 +79,7 @@ class ContinuationSettings:
     newton_tol: float = 1.0e-10
     residual_tol: float | None = None
     residual_rtol: float = 1.0e-5
-    residual_roundoff: float = 1.0
+    residual_roundoff: float = 0.1
     state_weight: float = 1.0
     max_steps: int = 10000
     kappa_stops: tuple[float, ...] = ()
@@ -178,7 +177,7 @@ class _Arclength:
     def residual_bound(self, st: ContinuationSettings, lam: float) -> float:
         """The residual tolerance at the current state and λ (``ContinuationSettings``):
         ``residual_tol`` if given, else residual_rtol ||∂R/∂λ|| max(|λ|, λ_ref) +
-        residual_roundoff ε || |J| |w| || (J: the last factored Jacobian)."""
+        residual_roundoff ε ||J||_F ||w|| (J: the last factored Jacobian)."""
         if st.residual_tol is not None:
             return st.residual_tol
         load = self.fl_norm * max(abs(lam), self.lam_ref)

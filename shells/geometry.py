@@ -476,6 +476,126 @@ class Disk(Shape):
         return {"shape": self.kind, "radius": self.radius}
 
 
+@dataclass(frozen=True)
+class MeridianTable(Shape):
+    """Any shell of revolution about z, its meridian a table of points (r, z) from the pole
+    (r = 0, first) to the rim, or to the other pole (r = 0 again: a closed shell).
+
+    The meridian is the cubic spline through the points and their mirror images across the
+    axis (so it meets the axis at a right angle and is smooth there), parametrised by the
+    chord length t from the first pole. Every reference quantity (normal, metric, curvatures)
+    comes from the spline's derivatives, computed once here. The axisymmetric model takes it;
+    the surface model and ``shells mesh`` do not yet (``normal``, ``normal_ufl`` refuse).
+    """
+
+    points: tuple[tuple[float, float], ...] = ()
+    kind = "meridian"
+
+    def __post_init__(self) -> None:
+        try:
+            pts = np.asarray(self.points, dtype=float)
+        except (TypeError, ValueError):
+            pts = np.zeros((0,))
+        if pts.ndim != 2 or pts.shape[1] != 2 or not 4 <= len(pts) <= 100000:
+            raise InputError("a meridian table needs 4 to 100000 rows of two numbers (r z), "
+                             "from the pole to the rim")
+        if not np.all(np.isfinite(pts)):
+            raise InputError("a meridian table holds a value that is not finite")
+        size = float(np.max(np.abs(pts)))
+        if size <= 0 or abs(pts[0, 0]) > 1e-9 * size:
+            raise InputError("a meridian table must start on the axis (r = 0: the pole)")
+        if np.any(pts[1:-1, 0] <= 0) or pts[-1, 0] < -1e-9 * size:
+            raise InputError("a meridian table must have r > 0 between its ends (one side of "
+                             "the axis)")
+        if np.any(np.hypot(*np.diff(pts, axis=0).T) <= 1e-9 * size):
+            raise InputError("a meridian table repeats a point")
+        pts[0, 0] = 0.0
+        closed = abs(pts[-1, 0]) <= 1e-9 * size
+        if closed:
+            pts[-1, 0] = 0.0
+        from scipy.interpolate import CubicSpline
+
+        # mirror images across the axis at each pole: r odd, z even in t there
+        mirror = lambda q: q[::-1] * np.array([-1.0, 1.0])  # noqa: E731
+        full = np.vstack([mirror(pts[1:4]), pts] + ([mirror(pts[-4:-1])] if closed else []))
+        s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(full, axis=0).T))])
+        s0, s1 = s[3], s[3 + len(pts) - 1]
+        spline = CubicSpline(s - s0, full)
+        object.__setattr__(self, "points", tuple(tuple(float(v) for v in p) for p in pts))
+        object.__setattr__(self, "_spline", spline)
+        object.__setattr__(self, "_t_max", float(s1 - s0))
+        object.__setattr__(self, "_closed", bool(closed))
+        (dr, dz), (ddr, ddz) = spline(0.0, 1), spline(0.0, 2)
+        k = (dr * ddz - dz * ddr) / (dr**2 + dz**2) ** 1.5  # signed curvature at the pole
+        object.__setattr__(self, "_R", float(-1.0 / k) if k < -1e-9 / size else math.inf)
+        object.__setattr__(self, "_size", size)
+
+    @property
+    def closed(self) -> bool:
+        return self._closed  # type: ignore[attr-defined]
+
+    @property
+    def t_max(self) -> float:
+        return self._t_max  # type: ignore[attr-defined]
+
+    @property
+    def R(self) -> float:  # noqa: N802
+        """The pole's radius of curvature (inf if the pole is flat or curved the other way)."""
+        return self._R  # type: ignore[attr-defined]
+
+    def characteristic_size(self) -> float:
+        return self.R if math.isfinite(self.R) else float(max(p[0] for p in self.points))
+
+    def layer_radius(self) -> float:
+        """The azimuthal radius of curvature at the rim, r/|n_r| (flat rims: the size)."""
+        if self.closed:
+            return self.characteristic_size()
+        r, _ = self.meridian(np.array(self.t_max))
+        dr, dz = self.meridian_derivative(np.array(self.t_max))
+        n_r = abs(float(dz)) / math.hypot(float(dr), float(dz))
+        return float(r) / n_r if n_r > 1e-6 else self.characteristic_size()
+
+    def meridian(self, t):
+        v = self._spline(np.asarray(t, dtype=float))  # type: ignore[attr-defined]
+        return v[..., 0], v[..., 1]
+
+    def meridian_derivative(self, t):
+        v = self._spline(np.asarray(t, dtype=float), 1)  # type: ignore[attr-defined]
+        return v[..., 0], v[..., 1]
+
+    def meridian_second_derivative(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        v = self._spline(np.asarray(t, dtype=float), 2)  # type: ignore[attr-defined]
+        return v[..., 0], v[..., 1]
+
+    def normal(self, x):
+        raise InputError("a meridian table is for the axisymmetric model (--model axisym)")
+
+    def principal_curvatures(self, x):
+        raise InputError("a meridian table is for the axisymmetric model (--model axisym)")
+
+    def normal_ufl(self, x):
+        raise InputError("a meridian table is for the axisymmetric model (--model axisym)")
+
+    def describe(self) -> dict[str, Any]:
+        return {"shape": self.kind, "points": [list(p) for p in self.points],
+                "R_pole": self.R, "closed": self.closed}
+
+    @classmethod
+    def from_file(cls, path: str) -> MeridianTable:
+        """Rows "r z" (spaces or commas; # comments), from the pole to the rim."""
+        try:
+            with open(path, encoding="utf-8") as fh:
+                rows = [ln.replace(",", " ").split() for ln in fh
+                        if ln.strip() and not ln.lstrip().startswith("#")]
+            return cls(tuple(tuple(float(v) for v in r) for r in rows))
+        except (OSError, UnicodeError) as e:
+            raise InputError(f"cannot read the meridian file {path!r}: "
+                             f"{getattr(e, 'strerror', None) or e}") from None
+        except ValueError:
+            raise InputError(f"the meridian file {path!r} holds something other than rows of "
+                             "numbers 'r z'") from None
+
+
 class RunScales:
     """The length scales of a run on ``self.shape`` with thickness ratio ``self.h_over_r``
     (a mixin for the run configurations): L, the shape's ``characteristic_size`` (h/R is h/L
@@ -542,4 +662,6 @@ def shape_from_description(d: dict[str, Any]) -> Shape:
         return SphericalCap(radius=float(d["R"]), theta=float(d["theta"]))
     if kind == "ellipsoid":
         return EllipsoidalCap(radius=float(d["R"]), r3=float(d["r3"]), theta=float(d["theta"]))
+    if kind == "meridian":
+        return MeridianTable(tuple(tuple(p) for p in d["points"]))
     raise InputError(f"unknown shape {kind!r} in mesh description")

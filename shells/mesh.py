@@ -81,6 +81,9 @@ class MeshSpec:
     sectors: int = 8
 
     def __post_init__(self) -> None:
+        if getattr(self.shape, "kind", None) == "meridian":
+            raise InputError("a meridian table is not meshed yet: the axisymmetric model takes "
+                             "it (--model axisym)")
         if self.h is not None and not (math.isfinite(self.h) and self.h > 0):
             raise InputError(f"thickness h must be positive, got {self.h!r}")
         if not (math.isfinite(self.size) and 0 < self.size <= 2):

@@ -180,4 +180,6 @@ def default_kappa_range(shape: object, h_over_r: float, nu: float, direction: st
             kr = max(snap_kappa_R(tb), mirrored_buckling_kappa_R(tb, h_over_r))
             return (1.6 * max(kr, 1.0) + 0.5) / shape.R
         return (1.6 * min(buckling_kappa_R(tb, h_over_r), -1.0) - 0.5) / shape.R
-    return sign * 8.0 / shape.R  # type: ignore[attr-defined]
+    from shells.geometry import kappa_length
+
+    return sign * 8.0 / kappa_length(shape)  # type: ignore[arg-type]

@@ -18,15 +18,22 @@ from typing import Any
 import numpy as np
 
 from shells.errors import InputError
-from shells.geometry import Disk, EllipsoidalCap, Shape, SphericalCap, perfect_shape
+from shells.geometry import (
+    Disk,
+    EllipsoidalCap,
+    MeridianTable,
+    Shape,
+    SphericalCap,
+    perfect_shape,
+)
 
 __all__ = ["MeridianMesh", "make_meridian_nodes"]
 
 
 def _supported(shape: Any) -> None:
-    if not isinstance(shape, (SphericalCap, EllipsoidalCap, Disk)):
-        raise InputError(f"the axisymmetric model needs a sphere, cap, ellipsoid or disk, "
-                         f"got {type(shape).__name__}")
+    if not isinstance(shape, (SphericalCap, EllipsoidalCap, Disk, MeridianTable)):
+        raise InputError(f"the axisymmetric model needs a sphere, cap, ellipsoid, disk or "
+                         f"meridian table, got {type(shape).__name__}")
 
 
 def _arclength_table(shape: Shape, n: int = 4001) -> tuple[np.ndarray, np.ndarray]:

@@ -34,7 +34,14 @@ import numpy as np
 from shells.axisym.mesh import MeridianMesh, _supported, make_meridian_nodes
 from shells.errors import InputError
 from shells.formproblem import FormProblem
-from shells.geometry import Disk, EllipsoidalCap, ImperfectSphere, Shape, SphericalCap
+from shells.geometry import (
+    Disk,
+    EllipsoidalCap,
+    ImperfectSphere,
+    MeridianTable,
+    Shape,
+    SphericalCap,
+)
 from shells.problem import ModeInfo
 from shells.stimulus import UNIFORM, CurvatureField, field_radius
 
@@ -158,6 +165,19 @@ def _meridian_ufl(shape: Shape, t: Any, mesh: Any = None) -> tuple:
 
     if isinstance(shape, Disk):
         return t, 0.0 * t, 1.0 + 0.0 * t, 0.0 * t, 0.0 * t, 0.0 * t
+    if isinstance(shape, MeridianTable):
+        # the spline's values and derivatives, each interpolated into P5 on the meridian mesh
+        # (exact in a cell that holds one cubic piece; C2 across a knot, O(size³) there)
+        from dolfinx import fem
+
+        V = fem.functionspace(mesh, ("Lagrange", 5))
+        out = []
+        for fn in (shape.meridian, shape.meridian_derivative, shape.meridian_second_derivative):
+            for k in (0, 1):
+                f = fem.Function(V)
+                f.interpolate(lambda x, fn=fn, k=k: np.asarray(fn(x[0])[k], dtype=float))
+                out.append(f)
+        return tuple(out)
     if isinstance(shape, ImperfectSphere):
         from dolfinx import default_scalar_type, fem
 

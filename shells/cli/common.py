@@ -125,18 +125,31 @@ def add_shape_args(p: argparse.ArgumentParser, positional: bool) -> None:
     if positional:
         p.add_argument("shape", metavar="SHAPE", help=f"one of: {', '.join(SHAPES)}")
     else:
-        p.add_argument("--shape", required=True, help=f"one of: {', '.join(SHAPES)}")
+        p.add_argument("--shape", required=True,
+                       help=f"one of: {', '.join(SHAPES)}, meridian (with --meridian FILE)")
     p.add_argument("--radius", type=length("radius", RADIUS_RANGE[0]), default=1.0,
                    help="sphere/cap radius R, ellipsoid semi-axes r1 = r2, disk radius (default 1)")
     p.add_argument("--theta-deg", type=float, default=None,
                    help="half opening angle theta from the pole to the rim, degrees (0, 180]")
     p.add_argument("--r3", type=length("r3", None), default=None,
                    help="ellipsoid semi-axis along the symmetry axis (default 1.5 R)")
+    p.add_argument("--meridian", default=None, metavar="FILE",
+                   help="with --shape meridian: any shell of revolution about z, its meridian "
+                   "a table of rows 'r z' (spaces or commas) from the pole (r = 0) to the rim, "
+                   "or to the other pole (closed); a cubic spline through them. The 1D model "
+                   "(--model axisym) takes it; h/R is over the pole's radius of curvature")
 
 
 def shape_from_args(args: argparse.Namespace):
-    from shells.geometry import make_shape
+    from shells.geometry import MeridianTable, make_shape
 
+    path = getattr(args, "meridian", None)
+    if (args.shape == "meridian") != (path is not None):
+        raise InputError("--shape meridian and --meridian FILE go together")
+    if path is not None:
+        if getattr(args, "model", "axisym") != "axisym":
+            raise InputError("a meridian table is for the axisymmetric model: add --model axisym")
+        return MeridianTable.from_file(path)
     theta = None
     if args.theta_deg is not None:
         if not math.isfinite(args.theta_deg) or not 0 < args.theta_deg <= 180:
@@ -241,11 +254,14 @@ PATH_ARGS: dict[str, list[tuple[str, str, str, str | None]]] = {
     "info": [("mesh", "mesh file", "in", None)],
     "render": [("mesh", "mesh file", "in", None), ("output", "-o", "png", None)],
     "branch": [("output", "-o", "dir", "results/branch"),
-               ("kappa_field", "--kappa-field", "field", None)],
-    "critical": [("output", "-o", "dir", None), ("kappa_field", "--kappa-field", "field", None)],
+               ("kappa_field", "--kappa-field", "field", None),
+               ("meridian", "--meridian", "in", None)],
+    "critical": [("output", "-o", "dir", None), ("kappa_field", "--kappa-field", "field", None),
+                 ("meridian", "--meridian", "in", None)],
     "phase-diagram": [("output", "-o", "dir", None)],
     "postbuckle": [("output", "-o", "dir", None),
-                   ("kappa_field", "--kappa-field", "field", None)],
+                   ("kappa_field", "--kappa-field", "field", None),
+                   ("meridian", "--meridian", "in", None)],
 }
 
 

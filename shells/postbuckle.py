@@ -28,12 +28,18 @@ pattern is neutral for the shell, and on the mesh its eigenvalue is tiny and of 
 ``stable`` means no other negative eigenvalue.
 
 Files: every point is appended to ``DIR/postbuckle.jsonl`` as it is computed
-(header first). A rerun with the same configuration whose file ended with its summary record
-reuses the file; an incomplete one is recomputed from κ = 0 (the 1D model takes seconds).
+(header first), each side's points followed by a {"side_end": {...}} record when it ends. At
+the bifurcation its state and critical mode go to ``DIR/critical_point/`` (one ``.npz`` per
+rank). A rerun with the same configuration resumes: a file that ended with its summary record
+is reused; otherwise, when the critical point and its checkpoint are there, the fundamental
+branch and the sides that ended are kept and only the unfinished sides are followed again from
+the bifurcation (a side's partial points are dropped: a side restarts whole); without them the
+run starts again from κ = 0.
 """
 
 from __future__ import annotations
 
+import json
 import logging
 import math
 import os
@@ -42,10 +48,12 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from shells.errors import InputError
 from shells.geometry import RunScales, Shape
 from shells.stimulus import UNIFORM, CurvatureField
-from shells.store import append_record, read_with_header, write_header
+from shells.store import append_record, json_default, read_with_header, write_atomic
 
 __all__ = ["PostbuckleConfig", "postbuckle", "read_postbuckle", "run_postbuckle"]
 
@@ -241,12 +249,18 @@ def _settings(cfg: PostbuckleConfig, kappa_stop: float) -> tuple[Any, Any]:
     return st, crit
 
 
-def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], None] | None = None
+def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], None] | None = None,
+               *, on_critical: Callable[[Any, Any], None] | None = None,
+               resume: tuple[Any, dict[int, dict[str, Any]]] | None = None
                ) -> Iterator[dict[str, Any]]:
     """Compute the run of ``cfg``; yields its records in order (see the module docstring):
-    fundamental points, then {"critical_point": {...}} once, then the bifurcated points, then
-    {"summary": {...}} last. ``on_point(model, record)`` is called at every point while the
-    model holds its state (for fields and shapes).
+    fundamental points, then {"critical_point": {...}} once, then each side's bifurcated points
+    and its {"side_end": {...}} record, then {"summary": {...}} last. ``on_point(model, record)`` is
+    called at every point while the model holds its state (for fields and shapes);
+    ``on_critical(model, cp)`` once the bifurcation is located (the ``CriticalPoint`` with its
+    state and mode: a checkpoint). ``resume`` = (that ``CriticalPoint``, {side: its
+    "side_end" record} of the sides that ended): the fundamental branch and those sides are not computed
+    again (nor yielded), the other sides are followed from the critical point.
 
     Raises:
         InputError: bad configuration, or a first critical point the model cannot switch at
@@ -261,8 +275,11 @@ def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], 
     st, crit = _settings(cfg, kappa_stop)
     try:
         bifs = []
-        cp = None
-        for p, _, found in follow(run.model, st, kappa_stop, crit, solver=run.ns):
+        cp = None if resume is None else resume[0]
+        done_sides = {} if resume is None else dict(resume[1])
+        fundamental = (iter(()) if cp is not None
+                       else follow(run.model, st, kappa_stop, crit, solver=run.ns))
+        for p, _, found in fundamental:
             rec = run.record(p, "fundamental")
             for c in found:
                 if c.kind == "fold":
@@ -291,7 +308,13 @@ def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], 
                "kappa_R_bracket": [cp.kappa_lo * cfg.R, cp.kappa_hi * cfg.R]}
         log.info("postbuckle: bifurcation at kappa R = %.6f (kappa h = %.6f), m = %s, n = %s",
                  cpd["kappa_R"], cpd["kappa_h"], cp.mode_m, cp.mode_n)
-        yield {"critical_point": cpd}
+        if resume is None:
+            if on_critical is not None:
+                on_critical(run.model, cp)
+            yield {"critical_point": cpd}
+        else:
+            log.info("postbuckle: resumed at the critical point; side(s) %s already done",
+                     sorted(done_sides) or "none")
         lam_c = abs(cp.kappa_L)
         sst = ContinuationSettings(ds=cfg.amplitude, ds_max=max(4 * cfg.amplitude, 0.01 * lam_c),
                                    ds_min=1e-6 * cfg.amplitude, target_newton_its=5,
@@ -313,6 +336,10 @@ def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], 
         # then); the surface model takes one amplitude and streams its points
         factors = (1.0, 1.4, 2.0, 0.6) if cfg.model == "axisym" else (1.0,)
         for side in (float(s) for s in cfg.sides):
+            if int(side) in done_sides:
+                sides[int(side)] = {k: v for k, v in done_sides[int(side)].items()
+                                    if k != "side"}
+                continue
             for f in factors:
                 amp = f * cfg.amplitude
                 held: list[dict[str, Any]] = []
@@ -357,6 +384,7 @@ def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], 
                                 "start": None if first is None else (
                                     "down" if abs(first) < abs(cp.kappa) else "up")}
             log.info("postbuckle: side %+d: %d points, %s", side, n, ended)
+            yield {"side_end": {"side": int(side), **sides[int(side)]}}
         yield {"summary": {"sides": sides, "dofs": run.model.num_dofs()}}
     finally:
         run.destroy()
@@ -372,12 +400,16 @@ def run_postbuckle(cfg: PostbuckleConfig, outdir: str | os.PathLike | None = Non
                    on_point: Callable[[Any, dict[str, Any]], None] | None = None
                    ) -> list[dict[str, Any]]:
     """``postbuckle`` with its records appended to ``outdir/postbuckle.jsonl`` (rank 0) as
-    they are computed; a complete file of the same configuration is reused."""
+    they are computed, and the critical point's checkpoint in ``outdir/critical_point/``; a
+    rerun of the same configuration reuses a complete file and resumes an incomplete one from
+    its critical point (see the module docstring)."""
     from mpi4py import MPI
 
     comm = MPI.COMM_WORLD if comm is None else comm
     header = cfg.describe()
     path = Path(outdir) / "postbuckle.jsonl" if outdir is not None else None
+    kept: list[dict[str, Any]] = []
+    resume = None
     if path is not None:
         old = None
         if comm.rank == 0 and path.exists():
@@ -386,12 +418,95 @@ def run_postbuckle(cfg: PostbuckleConfig, outdir: str | os.PathLike | None = Non
         if old is not None and old[0] == header and old[1] and "summary" in old[1][-1]:
             log.info("postbuckle: reusing the complete run in %s", path)
             return old[1]
+        if old is not None and old[0] == header:
+            kept, done = _resumable(old[1])
+            cp = _load_critical(Path(outdir), comm, header) if kept else None
+            if cp is not None:
+                resume = (cp, done)
+            else:
+                kept = []
         if comm.rank == 0:
-            write_header(path, header)
-    recs = []
-    for rec in postbuckle(cfg, on_point):
+            path.parent.mkdir(parents=True, exist_ok=True)
+            write_atomic(path, "".join(json.dumps(r, default=json_default) + "\n"
+                                       for r in [{"header": header}, *kept]))
+        comm.barrier()
+
+    def save(model: Any, cp: Any) -> None:
+        if path is not None:
+            _save_critical(Path(outdir), model, cp, comm, header)
+
+    recs = list(kept)
+    for rec in postbuckle(cfg, on_point, on_critical=save, resume=resume):
         recs.append(rec)
         if path is not None and comm.rank == 0:
             append_record(path, rec)
     return recs
+
+
+def _resumable(recs: list[dict[str, Any]]) -> tuple[list[dict[str, Any]], dict[int, Any]]:
+    """The records a resumed run keeps (the fundamental branch, the critical point, the sides
+    that ended, each with its points) and {side: its "side_end" record}; nothing without a
+    critical point."""
+    at = next((i for i, r in enumerate(recs) if "critical_point" in r), None)
+    if at is None:
+        return [], {}
+    done = {int(r["side_end"]["side"]): r["side_end"] for r in recs[at + 1:] if "side_end" in r}
+    kept = recs[:at + 1] + [r for r in recs[at + 1:]
+                            if ("side_end" in r and int(r["side_end"]["side"]) in done)
+                            or (r.get("branch") == "bifurcated" and int(r["side"]) in done)]
+    return kept, done
+
+
+def _checkpoint_name(comm: Any) -> str:
+    return f"state-{comm.rank}-of-{comm.size}.npz"
+
+
+def _save_critical(outdir: Path, model: Any, cp: Any, comm: Any,
+                   header: dict[str, Any]) -> None:
+    """The critical point's scalars, state and mode (owned values on this rank; a
+    temporary file renamed into place), and rank 0's ``meta.json`` last."""
+    d = outdir / "critical_point"
+    if comm.rank == 0:
+        d.mkdir(parents=True, exist_ok=True)
+        (d / "meta.json").unlink(missing_ok=True)
+    comm.barrier()
+    tmp = d / f".{_checkpoint_name(comm)}.tmp.npz"
+    np.savez(tmp, state=np.asarray(cp.state), mode=np.asarray(cp.mode),
+             scalars=json.dumps(cp.as_dict(), default=json_default))
+    os.replace(tmp, d / _checkpoint_name(comm))
+    comm.barrier()
+    if comm.rank == 0:
+        write_atomic(d / "meta.json", json.dumps({"ranks": comm.size, "header": header},
+                                                 default=json_default))
+
+
+def _load_critical(outdir: Path, comm: Any, header: dict[str, Any]) -> Any:
+    """The ``CriticalPoint`` saved by ``_save_critical`` for this configuration and rank count,
+    or None (missing, incomplete, another run's or another partition's)."""
+    from mpi4py import MPI
+
+    from shells.critical import CriticalPoint
+
+    d = outdir / "critical_point"
+    meta = None
+    if comm.rank == 0 and (d / "meta.json").exists():
+        try:
+            meta = json.loads((d / "meta.json").read_text())
+        except (OSError, json.JSONDecodeError):
+            meta = None
+    meta = comm.bcast(meta, root=0)
+    same = (meta is not None and meta.get("ranks") == comm.size
+            and json.loads(json.dumps(header, default=json_default)) == meta.get("header"))
+    cp = None
+    if same:
+        try:
+            with np.load(d / _checkpoint_name(comm)) as z:
+                cp = CriticalPoint(**json.loads(str(z["scalars"])), state=z["state"].copy(),
+                                   mode=z["mode"].copy())
+        except (OSError, ValueError, KeyError, TypeError, EOFError):
+            cp = None
+    if not comm.allreduce(cp is not None, op=MPI.LAND):
+        log.info("postbuckle: no usable critical-point checkpoint: starting from kappa = 0")
+        return None
+    return cp
 

@@ -130,3 +130,57 @@ def test_postbuckle_cli_refuses_what_the_1d_model_cannot_follow(capsys):
     if MPI.COMM_WORLD.rank == 0:
         assert len(err.strip().splitlines()) == 1
         assert "m = [2]" in err and "--model surface" in err
+
+
+def test_an_interrupted_run_resumes_from_its_critical_point(shared_tmp, monkeypatch):
+    """A run cut short on its second side (the file holds the fundamental branch, the critical
+    point, side +1 whole and two points of side -1): the rerun does not follow the fundamental
+    branch again, keeps side +1 and computes side -1 whole; its records equal an uninterrupted
+    run's. A checkpoint from another configuration is not used."""
+    import json
+
+    from mpi4py import MPI
+
+    import shells.critical
+    from shells import postbuckle as pb
+
+    cfg = PostbuckleConfig(Sphere(1.0), 0.05, max_points=4)
+    full_dir, cut_dir = shared_tmp / "pb_full", shared_tmp / "pb_cut"
+    full = pb.run_postbuckle(cfg, full_dir)
+    MPI.COMM_WORLD.barrier()
+    kinds = [next(iter(r)) if "branch" not in r else r["branch"] for r in full]
+    assert kinds.count("side_end") == 2 and kinds[-1] == "summary"
+    lines = (full_dir / "postbuckle.jsonl").read_text().splitlines()
+    recs = [json.loads(x) for x in lines]
+    second = next(i for i, r in enumerate(recs) if "side_end" in r)  # the first side's end
+    if MPI.COMM_WORLD.rank == 0:
+        import shutil
+
+        cut_dir.mkdir()
+        shutil.copytree(full_dir / "critical_point", cut_dir / "critical_point")
+        (cut_dir / "postbuckle.jsonl").write_text("\n".join(lines[:second + 3]) + "\n")
+    MPI.COMM_WORLD.barrier()
+
+    def no_follow(*args, **kwargs):
+        raise AssertionError("the fundamental branch was followed again")
+
+    monkeypatch.setattr(shells.critical, "follow", no_follow)
+    resumed = pb.run_postbuckle(cfg, cut_dir)
+    MPI.COMM_WORLD.barrier()  # rank 0 writes the file: read it once it has
+    assert len(resumed) == len(full)
+    for a, b in zip(full, resumed, strict=True):
+        assert a.keys() == b.keys()
+        if "branch" in a:
+            assert b["kappa"] == pytest.approx(a["kappa"], rel=1e-10, abs=1e-12)
+            assert b["side"] == a["side"] if "side" in a else True
+
+    def timeless(r):
+        return {k: v for k, v in r.items() if k != "wall_time"}
+
+    on_file = [json.loads(x) for x in (cut_dir / "postbuckle.jsonl").read_text().splitlines()]
+    assert [timeless(r) for r in on_file] == [
+        timeless(json.loads(json.dumps(r))) for r in [{"header": cfg.describe()}, *full]]
+    # another configuration's checkpoint: the run starts again from kappa = 0 (follow called)
+    other = PostbuckleConfig(Sphere(1.0), 0.05, max_points=3)
+    with pytest.raises(AssertionError, match="followed again"):
+        pb.run_postbuckle(other, cut_dir)

@@ -259,8 +259,8 @@ def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], 
     called at every point while the model holds its state (for fields and shapes);
     ``on_critical(model, cp)`` once the bifurcation is located (the ``CriticalPoint`` with its
     state and mode: a checkpoint). ``resume`` = (that ``CriticalPoint``, {side: its
-    "side_end" record} of the sides that ended): the fundamental branch and those sides are not computed
-    again (nor yielded), the other sides are followed from the critical point.
+    "side_end" record} of the sides that ended): the fundamental branch and those sides are
+    not computed again (nor yielded), the other sides are followed from the critical point.
 
     Raises:
         InputError: bad configuration, or a first critical point the model cannot switch at

@@ -34,7 +34,7 @@ from shells.fields import FieldWriter
 from shells.geometry import RunScales, Shape, shape_from_description
 from shells.mesh import MeshSpec, ShellMesh, generate
 from shells.stimulus import UNIFORM, CurvatureField
-from shells.store import append_record, json_default, read_with_header, write_atomic
+from shells.store import append_record, json_default, read_meta, read_with_header, write_atomic
 
 __all__ = ["BranchConfig", "run_branch", "read_branch"]
 
@@ -214,13 +214,7 @@ def _load_checkpoint(outdir: Path, model: Any
 
     comm = model.shell.comm
     d = outdir / "checkpoint"
-    meta = None
-    if comm.rank == 0 and (d / "meta.json").exists():
-        try:
-            meta = json.loads((d / "meta.json").read_text())
-        except (OSError, json.JSONDecodeError):
-            meta = None
-    meta = comm.bcast(meta, root=0)
+    meta = read_meta(d / "meta.json", comm)
     if meta is None:
         return None
     x, bs = _owned_nodes(model)

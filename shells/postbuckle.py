@@ -53,7 +53,7 @@ import numpy as np
 from shells.errors import InputError
 from shells.geometry import RunScales, Shape
 from shells.stimulus import UNIFORM, CurvatureField
-from shells.store import append_record, json_default, read_with_header, write_atomic
+from shells.store import append_record, json_default, read_meta, read_with_header, write_atomic
 
 __all__ = ["PostbuckleConfig", "postbuckle", "read_postbuckle", "run_postbuckle"]
 
@@ -488,13 +488,7 @@ def _load_critical(outdir: Path, comm: Any, header: dict[str, Any]) -> Any:
     from shells.critical import CriticalPoint
 
     d = outdir / "critical_point"
-    meta = None
-    if comm.rank == 0 and (d / "meta.json").exists():
-        try:
-            meta = json.loads((d / "meta.json").read_text())
-        except (OSError, json.JSONDecodeError):
-            meta = None
-    meta = comm.bcast(meta, root=0)
+    meta = read_meta(d / "meta.json", comm)
     same = (meta is not None and meta.get("ranks") == comm.size
             and json.loads(json.dumps(header, default=json_default)) == meta.get("header"))
     cp = None

@@ -26,7 +26,7 @@ import numpy as np
 
 from shells.errors import InputError
 
-__all__ = ["append_record", "drop_torn_tail", "json_default", "read_records",
+__all__ = ["append_record", "drop_torn_tail", "json_default", "read_meta", "read_records",
            "read_with_header", "write_atomic", "write_header"]
 
 log = logging.getLogger("shells")
@@ -156,3 +156,17 @@ def write_atomic(path: str | os.PathLike, text: str) -> None:
         f.flush()
         os.fsync(f.fileno())
     os.replace(tmp, path)
+
+
+def read_meta(path: str | os.PathLike, comm: Any) -> dict[str, Any] | None:
+    """A checkpoint's ``meta.json`` (written last, so its presence marks a complete
+    checkpoint), read on rank 0 and broadcast: the dict, or None if it is missing or not
+    JSON."""
+    meta = None
+    path = Path(path)
+    if comm.rank == 0 and path.exists():
+        try:
+            meta = json.loads(path.read_text())
+        except (OSError, json.JSONDecodeError):
+            meta = None
+    return comm.bcast(meta, root=0)

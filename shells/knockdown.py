@@ -201,14 +201,29 @@ def fold_kappa(cfg: KnockdownConfig, amplitude: float, degree: int,
     """The first axisymmetric critical point of the sphere with imperfection ``amplitude``
     (δ/h): for δ > 0 its fold (limit point), for δ = 0 its bifurcation. ``predicted``: the
     asymptotic law's κ_max/κ_b and ``kappa_b`` (absolute), which set the steps near a fold
-    close to κ_b. Returns {"kind", "kappa_h", "mode_n", "accuracy", "branch_points"} (and for
-    δ = 0 the located point itself as "point")."""
+    close to κ_b. Returns {"kind", "kappa_h", "mode_n", "accuracy", "branch_points"}."""
     from shells.axisym import SNES_OPTIONS
     from shells.solvers import NewtonSolver
 
     model, run = _model(cfg, amplitude, degree)
     ns = NewtonSolver(model, options=SNES_OPTIONS)
-    h = run.h
+    try:
+        c, n = _locate_first(cfg, amplitude, model, ns, run.h, predicted, kappa_b)
+    finally:
+        ns.destroy()
+    return _point_record(c, run.h, n)
+
+
+def _point_record(c: Any, h: float, n: int) -> dict[str, Any]:
+    return {"kind": c.kind, "kappa_h": c.kappa * h, "mode_n": c.mode_n,
+            "accuracy": c.accuracy, "branch_points": n}
+
+
+def _locate_first(cfg: KnockdownConfig, amplitude: float, model: Any, ns: Any, h: float,
+                  predicted: float | None = None, kappa_b: float | None = None
+                  ) -> tuple[Any, int]:
+    """``fold_kappa``'s search on ``model`` (solver ``ns``): the located critical point (the
+    model left at its state) and the number of branch points followed."""
     end = 1.25 * _kappa_scale(cfg) / h
     perfect = amplitude == 0
     # Every critical point of the axisymmetric problem is located, and the first one decides.
@@ -229,36 +244,25 @@ def fold_kappa(cfg: KnockdownConfig, amplitude: float, degree: int,
             ladder = [(start, gap_h / 4), (start, gap_h / 16), *ladder]
     found: list[Any] = []
     n = 0
-    try:
-        for start, ds_h in ladder:
-            model.w.x.array[:] = 0.0
-            model.set_kappa(0.0)
-            try:
-                if start > 0:
-                    _approach(model, ns, start)
-                found, n = _first_critical(model, ns, cfg, end, ds_h, start)
-            except RuntimeError as e:  # a failed Newton: the next attempt
-                log.info("knockdown: delta/h = %g: %s; next attempt", amplitude, e)
-                found = []
-                continue
-            if perfect or (found and found[0].kind == "fold"):
-                break
-            log.info("knockdown: delta/h = %g: %s first with steps of %s in kappa h; shorter "
-                     "steps", amplitude, found[0].kind if found else "no critical point", ds_h)
-        if perfect and found:
-            ns_out = {"point": found[0], "model": model, "solver": ns}
-    finally:
-        if not (perfect and found):
-            ns.destroy()
+    for start, ds_h in ladder:
+        model.w.x.array[:] = 0.0
+        model.set_kappa(0.0)
+        try:
+            if start > 0:
+                _approach(model, ns, start)
+            found, n = _first_critical(model, ns, cfg, end, ds_h, start)
+        except RuntimeError as e:  # a failed Newton: the next attempt
+            log.info("knockdown: delta/h = %g: %s; next attempt", amplitude, e)
+            found = []
+            continue
+        if perfect or (found and found[0].kind == "fold"):
+            break
+        log.info("knockdown: delta/h = %g: %s first with steps of %s in kappa h; shorter "
+                 "steps", amplitude, found[0].kind if found else "no critical point", ds_h)
     if not found or (not perfect and found[0].kind != "fold"):
         raise RuntimeError(f"no limit point of the imperfect sphere found up to kappa h = "
                            f"{end * h:.4g} at delta/h = {amplitude:g}")
-    c = found[0]
-    out = {"kind": c.kind, "kappa_h": c.kappa * h, "mode_n": c.mode_n,
-           "accuracy": c.accuracy, "branch_points": n}
-    if perfect:
-        out.update(ns_out)
-    return out
+    return found[0], n
 
 
 def surface_first(cfg: KnockdownConfig, amplitude: float, degree: int) -> dict[str, Any]:
@@ -284,14 +288,18 @@ def perfect_sphere(cfg: KnockdownConfig, degree: int) -> dict[str, Any]:
     (``shells.asymptotics``) with the imperfection of ``cfg`` (its profile of degree
     ``degree``): {"kind", "kappa_h", "mode_n", "accuracy", "branch_points", "asymptotics"}."""
     from shells.asymptotics import reduced_equation
+    from shells.axisym import SNES_OPTIONS
+    from shells.solvers import NewtonSolver
 
-    r = fold_kappa(cfg, 0.0, degree)
-    point, model, ns = r.pop("point"), r.pop("model"), r.pop("solver")
+    model, run = _model(cfg, 0.0, degree)
+    ns = NewtonSolver(model, options=SNES_OPTIONS)
     try:
+        point, count = _locate_first(cfg, 0.0, model, ns, run.h)
         n = point.mode_n if cfg.degree is None and point.mode_n else degree
         red = reduced_equation(model, point, ns, _imperfection_derivative(cfg, n, model))
     finally:
         ns.destroy()
+    r = _point_record(point, run.h, count)
     r["asymptotics"] = red.as_dict()
     # κ_b: the refined κ_c (the eigenvalue's zero on the fundamental branch, to ~1e-10; the
     # located bracket is 1e-4 wide), the reference of the knock-downs and of the law

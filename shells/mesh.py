@@ -331,7 +331,6 @@ def _on_plane(gmsh: Any, dim: int, tag: int, z: float, R: float) -> bool:
 
 
 def _set_sizes(gmsh: Any, spec: MeshSpec, rim: list[int]) -> None:
-    field_ = gmsh.model.mesh.field
     gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
     gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
     gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
@@ -342,19 +341,29 @@ def _set_sizes(gmsh: Any, spec: MeshSpec, rim: list[int]) -> None:
     if not rim or width is None or spec.layer_size >= spec.bulk_size:
         gmsh.option.setNumber("Mesh.MeshSizeMin", spec.bulk_size)
         return
-    gmsh.option.setNumber("Mesh.MeshSizeMin", spec.layer_size)
-    dist = field_.add("Distance")
-    field_.setNumbers(dist, "CurvesList", rim)
     length = sum(gmsh.model.occ.getMass(1, c) for c in rim)
-    field_.setNumber(dist, "Sampling", int(min(20000, max(200, 4 * length / spec.layer_size))))
+    _graded_sizes(gmsh, "CurvesList", rim, spec.layer_size, spec.bulk_size,
+                  spec.layer_widths * width,
+                  sampling=int(min(20000, max(200, 4 * length / spec.layer_size))))
+
+
+def _graded_sizes(gmsh: Any, kind: str, tags: list[int], fine: float, coarse: float,
+                  dist_min: float, sampling: int | None = None) -> None:
+    """Elements of size ``fine`` within ``dist_min`` of the entities ``tags`` (``kind``: the
+    Distance field's "CurvesList" or "PointsList"), growing at most ~20 % per element to
+    ``coarse`` beyond: the background mesh size."""
+    field_ = gmsh.model.mesh.field
+    gmsh.option.setNumber("Mesh.MeshSizeMin", fine)
+    dist = field_.add("Distance")
+    field_.setNumbers(dist, kind, tags)
+    if sampling is not None:
+        field_.setNumber(dist, "Sampling", sampling)
     thr = field_.add("Threshold")
     field_.setNumber(thr, "InField", dist)
-    field_.setNumber(thr, "SizeMin", spec.layer_size)
-    field_.setNumber(thr, "SizeMax", spec.bulk_size)
-    field_.setNumber(thr, "DistMin", spec.layer_widths * width)
-    # grow at most ~ 20 % per element from the layer to the bulk
-    grow = max(spec.bulk_size - spec.layer_size, 0.0) / 0.2
-    field_.setNumber(thr, "DistMax", spec.layer_widths * width + grow)
+    field_.setNumber(thr, "SizeMin", fine)
+    field_.setNumber(thr, "SizeMax", coarse)
+    field_.setNumber(thr, "DistMin", dist_min)
+    field_.setNumber(thr, "DistMax", dist_min + max(coarse - fine, 0.0) / 0.2)
     field_.setAsBackgroundMesh(thr)
 
 
@@ -377,17 +386,7 @@ def _pole_refinement(gmsh: Any, spec: MeshSpec) -> bool:
             if np.allclose(gmsh.model.getValue(0, t, []), [0.0, 0.0, R], atol=1e-6 * R)]
     if not pole or fine >= spec.bulk_size:
         return False
-    field_ = gmsh.model.mesh.field
-    gmsh.option.setNumber("Mesh.MeshSizeMin", fine)
-    dist = field_.add("Distance")
-    field_.setNumbers(dist, "PointsList", pole)
-    thr = field_.add("Threshold")
-    field_.setNumber(thr, "InField", dist)
-    field_.setNumber(thr, "SizeMin", fine)
-    field_.setNumber(thr, "SizeMax", spec.bulk_size)
-    field_.setNumber(thr, "DistMin", 3 * shape.width * R)
-    field_.setNumber(thr, "DistMax", 3 * shape.width * R + (spec.bulk_size - fine) / 0.2)
-    field_.setAsBackgroundMesh(thr)
+    _graded_sizes(gmsh, "PointsList", pole, fine, spec.bulk_size, 3 * shape.width * R)
     return True
 
 

@@ -99,8 +99,7 @@ class BranchConfig(RunScales):
         d["continuation"]["kappa_stops"] = list(self.continuation.kappa_stops)
         d["model"] = "surface"
         del d["kappa_field"]
-        if not self.kappa_field.uniform:  # files of uniform runs keep their earlier header
-            d["field"] = self.kappa_field.describe()
+        d.update(self.kappa_field.header_entry())
         return d
 
     @classmethod

@@ -84,8 +84,12 @@ def branch_surface(cfg: Any, outdir: str | os.PathLike, *, fields: str = "none",
 def branch_axisym(shape: Any, h_over_r: float, nu: float, kappa_R_end: float,
                   outdir: str | os.PathLike, kappa_field: Any = None) -> dict[str, Any]:
     """The shell-of-revolution model's branch up to κR = ``kappa_R_end`` (its sign: the
-    direction), every point appended to ``outdir/branch.jsonl`` (rank 0) as computed."""
+    direction) under the stimulus ``kappa_field`` (None: uniform), every point appended to
+    ``outdir/branch.jsonl`` (rank 0) as computed."""
     from shells import axisym
+    from shells.stimulus import UNIFORM
+
+    kappa_field = UNIFORM if kappa_field is None else kappa_field
 
     outdir = Path(outdir)
     points = []
@@ -95,13 +99,10 @@ def branch_axisym(shape: Any, h_over_r: float, nu: float, kappa_R_end: float,
         outdir.mkdir(parents=True, exist_ok=True)
         write_header(outdir / "branch.jsonl", {
             "model": "axisym", "shape": shape.describe(), "h_over_r": h_over_r,
-            "nu": nu, "kappa_R_end": kappa_R_end,
-            **({} if kappa_field is None or kappa_field.uniform
-               else {"field": kappa_field.describe()})})
-    extra = {} if kappa_field is None else {"kappa_field": kappa_field}
+            "nu": nu, "kappa_R_end": kappa_R_end, **kappa_field.header_entry()})
     for i, p in enumerate(axisym.branch(shape, h_over_r, nu,
                                         direction="up" if kappa_R_end > 0 else "down",
-                                        kappa_max=abs(kappa_R_end), **extra)):
+                                        kappa_max=abs(kappa_R_end), kappa_field=kappa_field)):
         rec = {"index": i, **p}
         points.append(rec)
         if _rank() == 0:
@@ -179,18 +180,18 @@ def critical_surface(shape: Any, h_over_r: float, nu: float, kappa_end: float, *
     from shells.critical import CriticalSettings, follow
     from shells.mesh import MeshSpec, generate
     from shells.model import ModelParameters, ShellModel, default_discretisation
+    from shells.stimulus import UNIFORM
 
+    kappa_field = UNIFORM if kappa_field is None else kappa_field
     comm = MPI.COMM_WORLD
     L = shape.characteristic_size()
     h = h_over_r * L
     R_or_L = _R_or_L(shape)
     degree, size = default_discretisation(shape, h_over_r, degree, size, kappa_field)
     sm = generate(MeshSpec(shape, h=h, size=size, layer_elements=layer_elements), comm)
-    from shells.stimulus import UNIFORM
-
     model = ShellModel(sm, ModelParameters(h=h, nu=nu, shear_penalty=shear_penalty,
                                            degree=degree, quadrature_degree=2 * degree,
-                                           kappa_field=kappa_field or UNIFORM))
+                                           kappa_field=kappa_field))
     lam_end = abs(kappa_end) * L
     ds = ds if ds is not None else lam_end / 16
     ds_max = ds_max if ds_max is not None else max(ds, lam_end / 10)

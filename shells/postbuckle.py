@@ -153,8 +153,7 @@ class PostbuckleConfig(RunScales):
         d["shape"] = self.shape.describe()
         d["sides"] = list(self.sides)  # as JSON reads it back (a resumed file's header)
         del d["kappa_field"]
-        if not self.kappa_field.uniform:  # files of uniform runs keep their earlier header
-            d["field"] = self.kappa_field.describe()
+        d.update(self.kappa_field.header_entry())
         return d
 
 

@@ -36,7 +36,7 @@ import numpy as np
 from shells.errors import InputError
 
 __all__ = ["FUNCTIONS", "TABLE_SUFFIXES", "UNIFORM", "VARIABLES", "CurvatureField",
-           "field_radius"]
+           "field_radius", "names_table"]
 
 #: names a field may use for the reference position
 VARIABLES = ("x", "y", "z", "r", "phi", "theta")
@@ -90,12 +90,10 @@ def _parse(text: str) -> ast.Expression:
             raise InputError(f"the kappa field {text!r} uses {type(node).__name__}, which a "
                              "field may not (numbers, x y z r phi theta pi R, + - * / **, "
                              "< <= > >=, and/or, and the listed functions)")
+    called = {id(n.func) for n in ast.walk(tree) if isinstance(n, ast.Call)}
     for node in ast.walk(tree):  # a function name used as a value (e.g. "sin + 1")
-        if isinstance(node, ast.Name) and node.id in FUNCTIONS:
-            parents = [p for p in ast.walk(tree)
-                       if isinstance(p, ast.Call) and p.func is node]
-            if not parents:
-                raise InputError(f"in the kappa field {text!r}: {node.id!r} is a function")
+        if isinstance(node, ast.Name) and node.id in FUNCTIONS and id(node) not in called:
+            raise InputError(f"in the kappa field {text!r}: {node.id!r} is a function")
     return tree
 
 
@@ -183,10 +181,7 @@ class CurvatureField:
         if self.table:
             return None
         body = self._tree.body  # type: ignore[attr-defined]
-        try:
-            return float(_Algebra().eval(body, {})) if _is_number(body) else None
-        except Exception:  # pragma: no cover - _is_number admits only numbers
-            return None
+        return float(_Algebra().eval(body, {})) if _is_number(body) else None
 
     @property
     def isotropic(self) -> bool:
@@ -205,9 +200,14 @@ class CurvatureField:
             d["kappa_field_table"] = [list(r) for r in self.table]
         return d
 
+    def header_entry(self) -> dict[str, Any]:
+        """A run header's entry for the field: {"field": ``describe()``}, none for the uniform
+        stimulus (the headers of uniform runs are those written before fields existed)."""
+        return {} if self.uniform else {"field": self.describe()}
+
     @classmethod
     def from_description(cls, d: dict[str, Any]) -> CurvatureField:
-        """The field of a run description: its ``field`` entry (``describe()``), else uniform."""
+        """The field of a run description: its ``header_entry()``, else uniform."""
         fd = d.get("field")
         if not fd:
             return UNIFORM
@@ -334,6 +334,11 @@ class CurvatureField:
 
 #: file names --kappa-field reads as a table (anything else is an expression)
 TABLE_SUFFIXES = (".csv", ".txt", ".dat", ".tsv")
+
+
+def names_table(text: str) -> bool:
+    """A --kappa-field text that names a table file (``TABLE_SUFFIXES``), not an expression."""
+    return text.strip().lower().endswith(TABLE_SUFFIXES)
 #: most rows a table may have
 MAX_TABLE_ROWS = 200000
 

@@ -95,8 +95,7 @@ def _cmd_branch(args: argparse.Namespace) -> int:
                                                args.kappa_r_max),
                            size=args.size, layer_elements=args.layer_elements,
                            shear_penalty=args.shear_penalty, continuation=cont,
-                           degree=args.degree,
-                           **({} if fld is None else {"kappa_field": fld}))
+                           degree=args.degree, kappa_field=fld)
         result = drivers.branch_surface(cfg, outdir, fields=args.fields,
                                         resume=not args.restart)
         header = (f"{'kappa R':>10} {'kappa h':>10} {'Psi3/h':>12} {'apex/h':>10} "

@@ -194,15 +194,16 @@ def add_field_args(p: argparse.ArgumentParser) -> None:
 
 
 def field_from_args(args: argparse.Namespace, shape: Any, model: str) -> Any:
-    """The ``CurvatureField`` of --kappa-field/--anisotropy (None if neither is given), checked
-    on ``shape`` (finite, not zero everywhere; axisymmetric for the 1D model) before any work."""
-    from shells.stimulus import TABLE_SUFFIXES, CurvatureField
+    """The ``CurvatureField`` of --kappa-field/--anisotropy (the uniform one if neither is
+    given), checked on ``shape`` (finite, not zero everywhere; axisymmetric for the 1D model)
+    before any work."""
+    from shells.stimulus import UNIFORM, CurvatureField, names_table
 
     expr, an = getattr(args, "kappa_field", None), getattr(args, "anisotropy", None)
     if expr is None and an is None:
-        return None
+        return UNIFORM
     an = (1.0, 1.0) if an is None else tuple(an)
-    if expr is not None and expr.strip().lower().endswith(TABLE_SUFFIXES):
+    if expr is not None and names_table(expr):
         fld = CurvatureField.from_file(expr.strip(), an)
     else:
         fld = CurvatureField("1" if expr is None else expr, an)
@@ -309,9 +310,9 @@ def check_paths(args: argparse.Namespace) -> None:
                 if value is None:
                     continue
                 if kind == "field":  # a table file, or an expression (nothing to check)
-                    from shells.stimulus import TABLE_SUFFIXES
+                    from shells.stimulus import names_table
 
-                    if value.strip().lower().endswith(TABLE_SUFFIXES):
+                    if names_table(value):
                         paths.check_input_file(value.strip(), label)
                 elif kind == "in":
                     paths.check_input_file(value, label)

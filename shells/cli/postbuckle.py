@@ -95,7 +95,7 @@ def _cmd_postbuckle(args: argparse.Namespace) -> int:
                            size=args.size, layer_elements=args.layer_elements,
                            degree=args.degree,
                            sides=(1, -1) if args.sides == "both" else (int(args.sides),),
-                           **({} if fld is None else {"kappa_field": fld}))
+                           kappa_field=fld)
     result = postbuckle_run(cfg, args.output, fields=args.fields)
     cp, points, sides = result["critical_point"], result["points"], result["sides"]
 

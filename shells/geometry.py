@@ -583,17 +583,9 @@ class MeridianTable(Shape):
     @classmethod
     def from_file(cls, path: str) -> MeridianTable:
         """Rows "r z" (spaces or commas; # comments), from the pole to the rim."""
-        try:
-            with open(path, encoding="utf-8") as fh:
-                rows = [ln.replace(",", " ").split() for ln in fh
-                        if ln.strip() and not ln.lstrip().startswith("#")]
-            return cls(tuple(tuple(float(v) for v in r) for r in rows))
-        except (OSError, UnicodeError) as e:
-            raise InputError(f"cannot read the meridian file {path!r}: "
-                             f"{getattr(e, 'strerror', None) or e}") from None
-        except ValueError:
-            raise InputError(f"the meridian file {path!r} holds something other than rows of "
-                             "numbers 'r z'") from None
+        from shells.store import read_number_rows
+
+        return cls(read_number_rows(path, "the meridian file", "'r z'"))
 
 
 class RunScales:

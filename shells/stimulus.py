@@ -219,18 +219,9 @@ class CurvatureField:
                   ) -> CurvatureField:
         """A table of f from a text file (``TABLE_SUFFIXES``): rows "θ f" or "x y z f",
         separated by spaces or commas, lines starting with # ignored."""
-        try:
-            with open(path, encoding="utf-8") as fh:
-                lines = [ln.replace(",", " ").split() for ln in fh
-                         if ln.strip() and not ln.lstrip().startswith("#")]
-        except (OSError, UnicodeError) as e:
-            raise InputError(f"cannot read the kappa field file {path!r}: "
-                             f"{getattr(e, 'strerror', None) or e}") from None
-        try:
-            rows = tuple(tuple(float(v) for v in ln) for ln in lines)
-        except ValueError:
-            raise InputError(f"the kappa field file {path!r} holds something other than "
-                             "numbers (rows 'theta f' or 'x y z f')") from None
+        from shells.store import read_number_rows
+
+        rows = read_number_rows(path, "the kappa field file", "'theta f' or 'x y z f'")
         return cls(path, anisotropy, rows)
 
     # -- evaluation ----------------------------------------------------------------------------

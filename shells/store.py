@@ -11,6 +11,7 @@ write: ``read_records`` refuses the file (``InputError``: the CLI's one-line err
 instead of using it. A file may start with a header record ``{"header": {...}}``
 (``read_with_header``); ``write_header`` replaces a file by a new one holding only the header,
 and ``write_atomic`` any file by new text, atomically (temporary file, fsync, then rename).
+``read_number_rows`` reads the plain-text tables a user gives (a meridian, a curvature field).
 """
 
 from __future__ import annotations
@@ -26,7 +27,8 @@ import numpy as np
 
 from shells.errors import InputError
 
-__all__ = ["append_record", "drop_torn_tail", "json_default", "read_meta", "read_records",
+__all__ = ["append_record", "drop_torn_tail", "json_default", "read_meta", "read_number_rows",
+           "read_records",
            "read_with_header", "write_atomic", "write_header"]
 
 log = logging.getLogger("shells")
@@ -170,3 +172,22 @@ def read_meta(path: str | os.PathLike, comm: Any) -> dict[str, Any] | None:
         except (OSError, json.JSONDecodeError):
             meta = None
     return comm.bcast(meta, root=0)
+
+
+def read_number_rows(path: str | os.PathLike, what: str, rows: str
+                     ) -> tuple[tuple[float, ...], ...]:
+    """The rows of numbers of a text table (spaces or commas; blank lines and lines starting
+    with # skipped); an ``InputError`` naming ``what`` (e.g. "the meridian file") and the
+    expected ``rows`` (e.g. "'r z'") if it cannot be read or holds anything else."""
+    try:
+        with open(path, encoding="utf-8") as fh:
+            lines = [ln.replace(",", " ").split() for ln in fh
+                     if ln.strip() and not ln.lstrip().startswith("#")]
+    except (OSError, UnicodeError) as e:
+        raise InputError(f"cannot read {what} {str(path)!r}: "
+                         f"{getattr(e, 'strerror', None) or e}") from None
+    try:
+        return tuple(tuple(float(v) for v in ln) for ln in lines)
+    except ValueError:
+        raise InputError(f"{what} {str(path)!r} holds something other than numbers (rows "
+                         f"{rows})") from None

@@ -34,7 +34,12 @@ from shells.fields import FieldWriter
 from shells.geometry import RunScales, Shape, shape_from_description
 from shells.mesh import MeshSpec, ShellMesh, generate
 from shells.stimulus import UNIFORM, CurvatureField
-from shells.store import append_record, json_default, read_meta, read_with_header, write_atomic
+from shells.store import (
+    append_record,
+    read_meta,
+    read_with_header,
+    write_header,
+)
 
 __all__ = ["BranchConfig", "run_branch", "read_branch"]
 
@@ -310,8 +315,7 @@ def run_branch(cfg: BranchConfig, outdir: str | os.PathLike, *, comm: Any = None
         # the kept points are rewritten under the header into a temporary file, renamed over
         # the old one: a kill leaves the old file or the new one, never a torn one (a torn
         # last line of the old file is dropped here)
-        write_atomic(bfile, "".join(json.dumps(r, default=json_default) + "\n"
-                                    for r in [{"header": header}, *done]))
+        write_header(bfile, header, done)
     yield from done
 
     writer = FieldWriter(model, outdir / "fields.bp") if fields != "none" else None

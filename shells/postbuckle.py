@@ -53,7 +53,14 @@ import numpy as np
 from shells.errors import InputError
 from shells.geometry import RunScales, Shape
 from shells.stimulus import UNIFORM, CurvatureField
-from shells.store import append_record, json_default, read_meta, read_with_header, write_atomic
+from shells.store import (
+    append_record,
+    json_default,
+    read_meta,
+    read_with_header,
+    write_atomic,
+    write_header,
+)
 
 __all__ = ["PostbuckleConfig", "postbuckle", "read_postbuckle", "run_postbuckle"]
 
@@ -425,9 +432,7 @@ def run_postbuckle(cfg: PostbuckleConfig, outdir: str | os.PathLike | None = Non
             else:
                 kept = []
         if comm.rank == 0:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            write_atomic(path, "".join(json.dumps(r, default=json_default) + "\n"
-                                       for r in [{"header": header}, *kept]))
+            write_header(path, header, kept)
         comm.barrier()
 
     def save(model: Any, cp: Any) -> None:

@@ -20,6 +20,7 @@ import fcntl
 import json
 import logging
 import os
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -141,11 +142,14 @@ def read_with_header(path: str | os.PathLike) -> tuple[dict[str, Any], list[dict
     return header, recs
 
 
-def write_header(path: str | os.PathLike, header: dict[str, Any]) -> None:
-    """Replace ``path`` by a file holding only the header record (atomically)."""
+def write_header(path: str | os.PathLike, header: dict[str, Any],
+                 records: Sequence[dict[str, Any]] = ()) -> None:
+    """Replace ``path`` by a file holding the header record and then ``records`` (a run's kept
+    records when it resumes), atomically."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    write_atomic(path, json.dumps({"header": header}, default=json_default) + "\n")
+    write_atomic(path, "".join(json.dumps(r, default=json_default) + "\n"
+                               for r in [{"header": header}, *records]))
 
 
 def write_atomic(path: str | os.PathLike, text: str) -> None:

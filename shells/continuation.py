@@ -174,23 +174,30 @@ class _Arclength:
         self.Fl.scale(1.0 / self.L)
         self.fl_norm = float(self.Fl.norm())
 
-    def residual_bound(self, st: ContinuationSettings, lam: float) -> float:
+    def residual_bound(self, st: ContinuationSettings, lam: float,
+                       roundoff: bool = True) -> float:
         """The residual tolerance at the current state and λ (``ContinuationSettings``):
         ``residual_tol`` if given, else residual_rtol ||∂R/∂λ|| max(|λ|, λ_ref) +
-        residual_roundoff ε ||J||_F ||w|| (J: the last factored Jacobian)."""
+        residual_roundoff ε ||J||_F ||w|| (J: the last factored Jacobian; without this term
+        if not ``roundoff``: a Newton solve, which measures the round-off it stalls at)."""
         if st.residual_tol is not None:
             return st.residual_tol
         load = self.fl_norm * max(abs(lam), self.lam_ref)
-        return st.residual_rtol * load + self.ns.roundoff_floor(st.residual_roundoff)
+        floor = self.ns.roundoff_floor(st.residual_roundoff) if roundoff else 0.0
+        return st.residual_rtol * load + floor
 
-    def tangent(self, sign_ref: tuple[Any, float] | None, direction: float) -> None:
-        """Unit tangent at the current (converged) point: J z = -R_λ, τ ∝ (z, 1)."""
-        self.ns.factor()
+    def tangent(self, sign_ref: tuple[Any, float] | None, direction: float) -> bool:
+        """Unit tangent at the current (converged) point: J z = -R_λ, τ ∝ (z, 1). False, and
+        the tangent left as it was, if the Jacobian could not be factored."""
+        if not self.ns.factor():
+            return False
         self.dres_dlambda()
         self.Fl.scale(-1.0)
         self.ns.lin_solve(self.Fl, self.b)
         nz2 = self.cw * self.b.dot(self.b)
         norm = math.sqrt(nz2 + 1.0)
+        if not math.isfinite(norm):
+            return False
         self.b.copy(self.tw)
         self.tw.scale(1.0 / norm)
         tl = 1.0 / norm
@@ -201,6 +208,14 @@ class _Arclength:
             s = 1.0 if self.cw * self.tw.dot(tw_old) + tl * tl_old >= 0 else -1.0
         self.tw.scale(s)
         self.tl = s * tl
+        return True
+
+    def start_tangent(self, sign_ref: tuple[Any, float] | None, direction: float) -> None:
+        """``tangent`` at a run's start, where there is no step to cut: one retry (the failed
+        factor was reset), then an error."""
+        if not (self.tangent(sign_ref, direction) or self.tangent(sign_ref, direction)):
+            raise RuntimeError(f"the Jacobian at the start kappa L = {self.get_lambda():.6g} "
+                               "could not be factored (twice)")
 
 
 def continuation(problem: Any, settings: ContinuationSettings, *, kappa_start: float = 0.0,
@@ -223,6 +238,8 @@ def continuation(problem: Any, settings: ContinuationSettings, *, kappa_start: f
     t_start = time.perf_counter()
     problem.set_kappa(kappa_start)
     ok, its = ns.solve()
+    if not ok:  # once more: a failure may be transient (a failed factor is reset)
+        ok, its = ns.solve()
     if not ok:
         raise RuntimeError(f"Newton did not converge at the start kappa = {kappa_start}")
     index = start_index
@@ -274,12 +291,14 @@ def _natural(problem, ns, st, lam0, lam_end, L, point, its0, skip_first,
         target = stops[0]
         step = min(ds, abs(target - lam))
         new_lam = lam + direction * step
+        if abs(new_lam - target) <= 1e-14 * max(1.0, abs(target)):
+            new_lam = target  # a stop is landed on exactly, whatever the sum's rounding
         w.copy(w_old)
         w.axpy(direction * step, dw)  # secant predictor
         ar.sync()
         ar.set_lambda(new_lam)
         ar.dres_dlambda()
-        ok, its = ns.solve(atol=ar.residual_bound(st_snes, new_lam))
+        ok, its = ns.solve(atol=ar.residual_bound(st_snes, new_lam, roundoff=False))
         if not ok or its > st.max_newton_its:
             w_old.copy(w)
             ar.sync()
@@ -309,12 +328,12 @@ def _arclength(ns, st, lam0, lam_end, L, point, its0, direction, initial_tangent
                skip_first) -> Iterator[Point]:
     ar = _Arclength(ns, L, st.state_weight)
     ar.lam_ref = 0.01 * max(abs(lam0), abs(lam_end))
-    ar.tangent(None, direction)
+    ar.start_tangent(None, direction)
     if initial_tangent is not None:
         tw_arr, tl = initial_tangent
         ref = ar.tw.duplicate()
         ref.array_w[:] = tw_arr[: ref.getLocalSize()]
-        ar.tangent((ref, tl), direction)
+        ar.start_tangent((ref, tl), direction)
     if not skip_first:
         yield point(its0, 0.0, ar.tl)
     if st.ds_unit == "kappa":
@@ -390,8 +409,15 @@ def arclength_steps(ar: _Arclength, st: ContinuationSettings, lam: float, lam_en
                     step *= f
                     c = _bordered_newton(ar, st, lam_end, plane=(zero, 1.0, zero), **corrector)
                 if c.ok and (reject is None or jumps >= 3 or not reject()):
-                    break
-                jumps += c.ok
+                    if secant:
+                        break
+                    ar.tw.copy(prev)
+                    if ar.tangent((prev, ar.tl), direction):
+                        break
+                    # no tangent at the new point (its Jacobian not factored): cut the step
+                    log.debug("continuation: no tangent at kappa L = %.6g; step cut", c.lam)
+                elif c.ok:
+                    jumps += 1
                 ar.restore(lam)
                 ds *= 0.5
                 if ds < st.ds_min:
@@ -400,9 +426,6 @@ def arclength_steps(ar: _Arclength, st: ContinuationSettings, lam: float, lam_en
             if secant:
                 ar.w_old.copy(prev)
                 lam_prev = lam
-            else:
-                ar.tw.copy(prev)
-                ar.tangent((prev, ar.tl), direction)
             lam = c.lam
             n += 1
             yield c.its, step, ar.tl, c.multipliers
@@ -466,6 +489,7 @@ def _bordered_newton(ar: _Arclength, st: ContinuationSettings, lam_p: float,
     keep = singular_ok if keep_best is None else keep_best
     best_w = w.duplicate() if keep else None
     best = (math.inf, lam, s)  # (residual, λ, s) of the best iterate, its state in best_w
+    best_updates = 0  # the Newton updates that led to it
 
     def residual() -> float:
         ns.assemble_residual(F)
@@ -474,7 +498,10 @@ def _bordered_newton(ar: _Arclength, st: ContinuationSettings, lam_p: float,
         return F.norm()
 
     def fail(it: int) -> Correction:
-        if best_w is None or not best[0] <= ar.residual_bound(st, best[1]):
+        # kept only if it is what singular_ok would accept (3 updates at least): an earlier
+        # iterate is within the bound of the branch but not on it (a trial at a fold, its
+        # third iterate lost to a failed assembly, was kept 1.3e-7 off, past the fold)
+        if best_w is None or best_updates < 3 or not best[0] <= ar.residual_bound(st, best[1]):
             return Correction(False, it, lam, s)
         best_w.copy(w)
         ar.sync()
@@ -489,7 +516,7 @@ def _bordered_newton(ar: _Arclength, st: ContinuationSettings, lam_p: float,
                 return fail(it)
             if best_w is not None and fn < best[0]:
                 w.copy(best_w)
-                best = (fn, lam, s.copy())
+                best, best_updates = (fn, lam, s.copy()), it - 1
             elif best_w is not None and it > 3 and fn > 1e3 * best[0]:
                 return fail(it)  # diverging from a good iterate: more steps only go further
             F.scale(-1.0)

@@ -178,12 +178,14 @@ class _Locator:
         self.problem.state.copy(self.w0)
         self.lam0 = lam0
         self.ar.set_lambda(lam0)
-        self.ar.tangent(None, 1.0 if tl0 >= 0 else -1.0)
+        self.ar.start_tangent(None, 1.0 if tl0 >= 0 else -1.0)
 
     def _signed_tl(self) -> float:
         """κ-component of the unit tangent at the current point, oriented like the step's."""
         ar, ns = self.ar, self.ns
-        ns.factor()
+        if not (ns.factor() or ns.factor()):  # one retry: the failed factor was reset
+            raise RuntimeError(f"the Jacobian at kappa L = {ar.get_lambda():.6g} could not be "
+                               "factored (twice)")
         ar.dres_dlambda()
         ar.Fl.scale(-1.0)
         ns.lin_solve(ar.Fl, self.z)
@@ -840,10 +842,12 @@ def _off_branch_direction(problem: Any, ns: NewtonSolver, ar: _Arclength, phi: A
     ∂R/∂λ with its component along φ (M-orthogonal, M the mass of block None) removed: J is
     singular along φ there, so that component of the solve is undetermined."""
     z = phi.duplicate()
-    ns.factor()
-    ar.dres_dlambda()
-    ar.Fl.scale(-1.0)
-    ns.lin_solve(ar.Fl, z)
+    if ns.factor() or ns.factor():  # one retry: the failed factor was reset
+        ar.dres_dlambda()
+        ar.Fl.scale(-1.0)
+        ns.lin_solve(ar.Fl, z)
+    else:  # J singular to the factorisation: φ alone (z unknown, taken as 0 below)
+        z.set(math.nan)
     stab = Stability(problem)
     try:
         M = stab.mass(None)

@@ -288,6 +288,57 @@ def test_failed_corrector_steps_are_cut_and_the_run_recovers(monkeypatch, method
 @pytest.mark.parametrize("method, spoil", [("assemble_residual", _nan),
                                            ("assemble_jacobian", _zero)],
                          ids=["diverged Newton", "failed factorisation"])
+@pytest.mark.parametrize("driver", ["arclength", "natural"])
+def test_one_failure_anywhere_in_a_run_is_recovered(monkeypatch, method, spoil, driver):
+    """One failure at each call of a run in turn, wherever it lands: the start, a Newton
+    iterate, the corrector, the tangent at a converged point (which once went on with the
+    failed factor and ended in a MUMPS error), the locator. Every arclength run ends with the
+    fold at κ = 1 to 1e-8, every natural run on κ = 0.9, their points on the exact branch."""
+    from shells.algebraic import FoldProblem
+    from shells.continuation import ContinuationSettings, continuation
+    from shells.critical import CriticalSettings, follow
+
+    def run(calls: set[int]) -> list[int]:
+        P = FoldProblem()
+        with monkeypatch.context() as mp:
+            hits = _inject(mp, P, method, calls, spoil)
+            if driver == "natural":
+                pts = list(continuation(P, ContinuationSettings(method="natural", **STEPS),
+                                        kappa_end=0.9))
+                assert pts[-1].kappa == 0.9
+                out = [(p, None, []) for p in pts]
+            else:
+                out = list(follow(P, ContinuationSettings(**STEPS), 3.0,
+                                  CriticalSettings(rel_tol=1e-8)))
+                found = [c for _, _, cps in out for c in cps]
+                assert [c.kind for c in found] == ["fold"], calls
+                assert found[0].kappa == pytest.approx(1.0, rel=1e-8), calls
+                out = out[:-1]
+        for p, r, _ in out:
+            # (natural steps stop at a residual relative to the κ-load, as the test above)
+            tol = 1e-8 if driver == "natural" else 1e-10
+            assert p.scalars["w0"] == pytest.approx(P.exact_x(p.kappa), abs=tol), calls
+            assert r is None or r.negative_count == 0
+        return hits
+
+    calls = [0]
+    real = getattr(FoldProblem, method)
+
+    def counting(self, *args):
+        calls[0] += 1
+        return real(self, *args)
+
+    with monkeypatch.context() as mp:
+        mp.setattr(FoldProblem, method, counting)
+        run(set())
+    assert calls[0] > 10
+    for k in range(1, calls[0] + 1):
+        assert run({k}) == [k]
+
+
+@pytest.mark.parametrize("method, spoil", [("assemble_residual", _nan),
+                                           ("assemble_jacobian", _zero)],
+                         ids=["diverged Newton", "failed factorisation"])
 def test_failed_natural_steps_are_cut_and_the_run_recovers(monkeypatch, method, spoil):
     """SNES (natural steps): the failed solves are retried with half the step; the factor of a
     failed factorisation is reset (else every later solve fails), the run lands on κ = 0.9."""

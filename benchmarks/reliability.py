@@ -404,6 +404,53 @@ sys.exit(main(sys.argv[1:]))
 """
 
 
+#: a phase diagram whose every task falls to rank 0: the other rank finds each claimed
+#: (a rerun with fewer tasks left than ranks; the claims race made it occasional)
+RANK_IDLE = """
+import os, sys
+from mpi4py import MPI
+from shells.cli import main
+
+real_open = os.open
+
+def claim(path, *args, **kwargs):
+    if ".claims" in str(path) and MPI.COMM_WORLD.rank != 0:
+        raise FileExistsError(path)
+    return real_open(path, *args, **kwargs)
+
+os.open = claim
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def idle_rank(out: Path, ranks: int = 2, timeout: float = 60.0) -> dict[str, Any]:
+    """``shells phase-diagram`` with every task on rank 0 and none on the others: all ranks
+    must end (it hung at exit: SLEPc initialised on rank 0 only, ``phase_diagram.jobs``)."""
+    script = out / "idle_rank.py"
+    out.mkdir(parents=True, exist_ok=True)
+    script.write_text(RANK_IDLE)
+    argv = [*CASES["phase-diagram"].argv, "-o", str(out / "run")]
+    cmd = ["mpirun", "-n", str(ranks), sys.executable, str(script), *argv]
+    t0 = time.perf_counter()
+    p = subprocess.Popen(cmd, cwd=REPO, env=clean_env(), stdout=subprocess.DEVNULL,
+                         stderr=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        _, err = p.communicate(timeout=timeout)
+        hung = False
+    except subprocess.TimeoutExpired:
+        os.killpg(p.pid, signal.SIGKILL)
+        _, err = p.communicate()
+        hung = True
+    from shells.store import read_records
+
+    pts = out / "run" / "points.jsonl"
+    recs = read_records(pts) if pts.exists() else []
+    return {"ranks": ranks, "exit": p.returncode, "hung": hung,
+            "seconds": round(time.perf_counter() - t0, 2), "points": len(recs),
+            "ranks_that_computed": sorted({r.get("rank") for r in recs}),
+            "traceback": "Traceback" in err, "left": _session_alive(p.pid)}
+
+
 def inject_rank_failure(out: Path, fail_rank: int = 1, ranks: int = 2,
                         timeout: float = 60.0) -> dict[str, Any]:
     """An exception on rank ``fail_rank`` only: every rank ends within seconds, exit 1, the

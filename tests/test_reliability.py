@@ -475,3 +475,18 @@ def test_an_exception_on_one_rank_ends_all_ranks_at_once(shared_tmp, fail_rank):
 
     ok, msg = _on_rank0(check)
     assert ok, msg
+
+
+def test_a_rank_without_any_task_ends_with_the_others(shared_tmp):
+    """A phase diagram whose tasks all fall to rank 0 (a rerun with fewer tasks left than
+    ranks) ends on every rank with all its points: it hung at exit, SLEPc having been
+    initialised on rank 0 alone."""
+    def check():
+        r = rel.idle_rank(shared_tmp / "idle", timeout=90)
+        ok = (r["exit"] == 0 and not r["hung"] and not r["traceback"] and not r["left"]
+              and r["points"] == 5 and r["ranks_that_computed"] == [0])
+        return ok, json.dumps(r)
+
+    ok, msg = _on_rank0(check)
+    assert ok, msg
+

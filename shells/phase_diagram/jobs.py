@@ -120,13 +120,16 @@ def run_phase_diagram(cfg: PhaseDiagramConfig, outdir: str | Path, comm: Any = N
     from mpi4py import MPI
 
     comm = comm or MPI.COMM_WORLD
-    # PETSc's initialisation (the first import of dolfinx) is collective on MPI_COMM_WORLD:
-    # done here by every rank, not inside the first task a rank computes (a rerun with fewer
-    # tasks left than ranks hung there: the rank with a task in PetscInitialize, the others
-    # in the barrier after the tasks). Such a rerun still hangs at its very end, all results
-    # written: rank 0 in PetscGarbageCleanup's MPI_Comm_dup, the rank without a task in
-    # MPI_Finalize (benchmarks/reliability.py)
+    # PETSc's and SLEPc's initialisations (the first imports of dolfinx and slepc4py) and
+    # finalisations are collective on MPI_COMM_WORLD: both are imported here by every rank,
+    # not inside the first task a rank computes. A rerun with fewer tasks left than ranks hung
+    # otherwise: in PetscInitialize (the rank with a task) against the barrier after the tasks,
+    # and, with dolfinx imported here, at exit: SLEPc, initialised on the ranks that computed
+    # a task only, finalised there with an MPI_Comm_dup on COMM_WORLD that the rank without a
+    # task never joined (it waited in MPI_Finalize). Reproduced by creating one EPS on rank 0
+    # of two.
     import dolfinx  # noqa: F401
+    from slepc4py import SLEPc  # noqa: F401
 
     out = Path(outdir)
     if comm.rank == 0:

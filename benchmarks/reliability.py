@@ -124,6 +124,30 @@ def _session_alive(sid: int) -> list[int]:
     return out
 
 
+def _finish(p: subprocess.Popen, timeout: float) -> tuple[str, bool, list[int]]:
+    """Wait for a job started in a new session: (stderr, hung, processes left). A hung job is
+    killed whole, its ranks too (Open MPI puts each in its own process group, out of reach of
+    a kill of mpirun's), as are processes left after it ended."""
+    try:
+        _, err = p.communicate(timeout=timeout)
+        hung = False
+    except subprocess.TimeoutExpired:
+        hung = True
+        _kill(_session_alive(p.pid))
+        _, err = p.communicate()
+    left = _session_alive(p.pid)
+    _kill(left)
+    return err, hung, left
+
+
+def _kill(pids: list[int]) -> None:
+    for q in pids:
+        try:
+            os.kill(q, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+
+
 def run(argv: list[str], out: Path, ranks: int = 1, *, after: float | None = None,
         sig: int = signal.SIGKILL, wait_for: Callable[[], bool] | None = None,
         timeout: float | None = None,
@@ -434,13 +458,7 @@ def idle_rank(out: Path, ranks: int = 2, timeout: float = 60.0) -> dict[str, Any
     t0 = time.perf_counter()
     p = subprocess.Popen(cmd, cwd=REPO, env=clean_env(), stdout=subprocess.DEVNULL,
                          stderr=subprocess.PIPE, text=True, start_new_session=True)
-    try:
-        _, err = p.communicate(timeout=timeout)
-        hung = False
-    except subprocess.TimeoutExpired:
-        os.killpg(p.pid, signal.SIGKILL)
-        _, err = p.communicate()
-        hung = True
+    err, hung, left = _finish(p, timeout)
     from shells.store import read_records
 
     pts = out / "run" / "points.jsonl"
@@ -448,7 +466,7 @@ def idle_rank(out: Path, ranks: int = 2, timeout: float = 60.0) -> dict[str, Any
     return {"ranks": ranks, "exit": p.returncode, "hung": hung,
             "seconds": round(time.perf_counter() - t0, 2), "points": len(recs),
             "ranks_that_computed": sorted({r.get("rank") for r in recs}),
-            "traceback": "Traceback" in err, "left": _session_alive(p.pid)}
+            "traceback": "Traceback" in err, "left": left}
 
 
 def inject_rank_failure(out: Path, fail_rank: int = 1, ranks: int = 2,
@@ -464,19 +482,13 @@ def inject_rank_failure(out: Path, fail_rank: int = 1, ranks: int = 2,
     p = subprocess.Popen(cmd, cwd=REPO, env=clean_env(FAIL_RANK=str(fail_rank)),
                          stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
                          start_new_session=True)
-    try:
-        _, err = p.communicate(timeout=timeout)
-        hung = False
-    except subprocess.TimeoutExpired:
-        os.killpg(p.pid, signal.SIGKILL)
-        _, err = p.communicate()
-        hung = True
+    err, hung, left = _finish(p, timeout)
     seconds = time.perf_counter() - t0
     msgs = [ln for ln in err.splitlines() if "injected failure" in ln]
     return {"ranks": ranks, "fail_rank": fail_rank, "exit": p.returncode, "hung": hung,
             "seconds": round(seconds, 2), "messages": len(msgs),
             "message": msgs[0] if msgs else None, "traceback": "Traceback" in err,
-            "left": _session_alive(p.pid)}
+            "left": left}
 
 
 def main() -> int:

@@ -47,11 +47,9 @@ def profile(fld: CurvatureField, load: str, h: float, cells: int, kappa_h: float
     m = AxisymModel(SPHERE, AxisymParameters(h=h, nu=NU, cells=cells, penalty=1e6, load=load,
                                              kappa_field=fld))
     ns = NewtonSolver(m, options=SNES_OPTIONS)
-    # one Newton solve from the reference state, where the solver's round-off floor
-    # (ε ||J||_F ||w||) is 0 and its relative tests decide; from a loaded state that floor can
-    # exceed a load step's whole residual on this thin, penalty-stiff sphere (measured 1.7e-4
-    # against a first residual of 1.6e-5, where Newton stalls at 1.8e-7): the solve returned
-    # the unchanged state, and four load steps left a profile 3e-3 off the one-step solution
+    # one Newton solve from the reference state (load steps give the same profile to 1e-6:
+    # tests/test_solvers.py; they did not while Newton accepted a residual below the a-priori
+    # round-off bound, which exceeded a whole step's residual on this thin sphere)
     m.set_kappa(kappa_h / h)
     ok, its = ns.solve()
     if not ok or its == 0:

@@ -294,7 +294,7 @@ def _natural(problem, ns, st, lam0, lam_end, L, point, its0, skip_first,
         if abs(new_lam - target) <= 1e-14 * max(1.0, abs(target)):
             new_lam = target  # a stop is landed on exactly, whatever the sum's rounding
         w.copy(w_old)
-        w.axpy(direction * step, dw)  # secant predictor
+        w.axpy(step, dw)  # secant predictor (dw: the last step's dw per unit |dλ|)
         ar.sync()
         ar.set_lambda(new_lam)
         ar.dres_dlambda()

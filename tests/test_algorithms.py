@@ -67,6 +67,22 @@ def test_arclength_turns_around_the_fold(sign):
     assert all((a - b) * sign > 0 for a, b in zip(kappas, kappas[1:], strict=False))
 
 
+def test_natural_steps_down_mirror_the_steps_up():
+    """The fold problem with κ → -κ, followed down by natural steps, is the mirror image of the
+    run up: the same points and Newton iterations (the secant predictor once pointed back
+    along a downward run: more iterations, a 30° cap's run down took 28 points instead of
+    10)."""
+    from shells.continuation import ContinuationSettings, continuation
+
+    st = ContinuationSettings(method="natural", ds=0.1, ds_max=0.2)
+    up = list(continuation(FoldProblem(1.0), st, kappa_end=0.9))
+    down = list(continuation(FoldProblem(-1.0), st, kappa_end=-0.9))
+    assert [p.newton_its for p in down] == [p.newton_its for p in up]
+    assert [p.kappa for p in down] == pytest.approx([-p.kappa for p in up], abs=1e-14)
+    assert [p.scalars["w0"] for p in down] == pytest.approx([p.scalars["w0"] for p in up],
+                                                             abs=1e-12)
+
+
 def test_pitchfork_located_to_1e8():
     P = PitchforkProblem()
     run = list(follow(P, STEPS, 2.5, CriticalSettings(rel_tol=1e-8, stop_at_fold=False)))

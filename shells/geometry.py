@@ -124,6 +124,10 @@ class Shape:
         raise NotImplementedError
 
     # -- differential geometry (UFL) -----------------------------------------------------------
+    #: False: no closed-form normal (``normal_ufl`` refuses); the surface model interpolates
+    #: ``normal`` instead
+    has_ufl_normal = True
+
     def normal_ufl(self, x: Any) -> Any:
         """Outward unit normal as a UFL expression of the spatial coordinate x."""
         raise NotImplementedError
@@ -236,6 +240,28 @@ def perfect_shape(shape: Shape) -> Shape:
     if isinstance(shape, ImperfectSphere):
         return Sphere(shape.radius) if shape.closed else SphericalCap(shape.radius, shape.theta)
     return shape
+
+
+def mesh_reference(shape: Shape) -> Shape:
+    """The shape whose gmsh mesh ``onto_shape`` moves onto ``shape``: an imperfect sphere's
+    perfect one, a meridian table's ``reference_shape``; any other shape itself."""
+    if isinstance(shape, MeridianTable):
+        return shape.reference_shape()
+    return perfect_shape(shape)
+
+
+def onto_shape(shape: Shape, x: np.ndarray) -> np.ndarray:
+    """Points x (N, 3) of a mesh of ``mesh_reference(shape)`` moved onto ``shape``: radially
+    onto an imperfect sphere ρ(β) = R - δ f(β), along the meridian onto a meridian table;
+    every geometry node, the edges' midpoints too, so that a second-order mesh interpolates
+    the surface. Other shapes: x itself."""
+    if isinstance(shape, MeridianTable):
+        return shape.from_reference(x)
+    if isinstance(shape, ImperfectSphere):
+        r = np.linalg.norm(x, axis=1)
+        beta = np.arccos(np.clip(x[:, 2] / r, -1.0, 1.0))
+        return x * (shape._rho(beta) / r)[:, None]
+    return x
 
 
 def legendre_cosine_series(n: int) -> list[tuple[int, float]]:
@@ -485,7 +511,8 @@ class MeridianTable(Shape):
     axis (so it meets the axis at a right angle and is smooth there), parametrised by the
     chord length t from the first pole. Every reference quantity (normal, metric, curvatures)
     comes from the spline's derivatives, computed once here. The axisymmetric model takes it;
-    the surface model and ``shells mesh`` do not yet (``normal``, ``normal_ufl`` refuse).
+    the surface model interpolates its ``normal`` (no closed form in UFL), on a mesh of
+    ``reference_shape()`` moved onto the surface by ``from_reference``.
     """
 
     points: tuple[tuple[float, float], ...] = ()
@@ -567,14 +594,81 @@ class MeridianTable(Shape):
         v = self._spline(np.asarray(t, dtype=float), 2)  # type: ignore[attr-defined]
         return v[..., 0], v[..., 1]
 
+    def meridian_parameter(self, x: np.ndarray) -> np.ndarray:
+        """t of the meridian point nearest to each point x (shape (3, N) or (3,)): the nearest
+        of 4096 samples, then Newton on (γ(t) - p)·γ'(t) = 0 (to round-off for points on the
+        surface, as mesh nodes are)."""
+        x = np.asarray(x, dtype=float)
+        p = np.stack([np.hypot(x[0], x[1]), x[2]], axis=-1).reshape(-1, 2)
+        ts = np.linspace(0.0, self.t_max, 4097)
+        g = self._spline(ts)  # type: ignore[attr-defined]
+        t = np.empty(len(p))
+        for a in range(0, len(p), 4096):  # bounded memory: 4096 x 4097 distances at a time
+            d = np.sum((p[a:a + 4096, None, :] - g[None, :, :]) ** 2, axis=-1)
+            t[a:a + 4096] = ts[np.argmin(d, axis=1)]
+        sp = self._spline  # type: ignore[attr-defined]
+        for _ in range(8):
+            e, d1, d2 = sp(t) - p, sp(t, 1), sp(t, 2)
+            f = np.sum(e * d1, axis=1)
+            df = np.sum(d1 * d1, axis=1) + np.sum(e * d2, axis=1)
+            t = np.clip(t - f / df, 0.0, self.t_max)
+        return t.reshape(x.shape[1:])
+
+    def _frame(self, x: np.ndarray) -> tuple[np.ndarray, ...]:
+        """t, the unit tangent (dr, dz), cos φ and sin φ at points x."""
+        x = np.asarray(x, dtype=float)
+        t = self.meridian_parameter(x)
+        dr, dz = self.meridian_derivative(t)
+        s = np.hypot(dr, dz)
+        phi = np.arctan2(x[1], x[0])
+        return t, dr / s, dz / s, np.cos(phi), np.sin(phi)
+
     def normal(self, x):
-        raise InputError("a meridian table is for the axisymmetric model (--model axisym)")
+        """Outward unit normal: (-dz, dr) in the meridian plane (a sphere's x/R)."""
+        _, tr, tz, c, s = self._frame(x)
+        return np.stack([-tz * c, -tz * s, tr])
 
     def principal_curvatures(self, x):
-        raise InputError("a meridian table is for the axisymmetric model (--model axisym)")
+        """Meridional (r'z'' - z'r'')/|γ'|³ and azimuthal -n_r / r, with the paper's sign (-1/R
+        on a sphere); on the axis both are the meridional one."""
+        t, tr, tz, _, _ = self._frame(x)
+        (dr, dz), (ddr, ddz) = self.meridian_derivative(t), self.meridian_second_derivative(t)
+        k1 = (dr * ddz - dz * ddr) / np.hypot(dr, dz) ** 3
+        r, _ = self.meridian(t)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            k2 = np.where(r > 1e-9 * self._size, tz / r, k1)  # type: ignore[attr-defined]
+        return k1, k2
 
     def normal_ufl(self, x):
-        raise InputError("a meridian table is for the axisymmetric model (--model axisym)")
+        raise InputError("a meridian table has no closed-form normal: the surface model "
+                         "interpolates ``normal`` (has_ufl_normal is False)")
+
+    has_ufl_normal = False
+
+    def reference_shape(self) -> Shape:
+        """The sphere (closed tables) or spherical cap whose mesh ``onto_shape`` maps onto this
+        surface: of the table's meridian length, its angle chosen so that its rim radius is
+        the table's (sin θ / θ = r_rim / t_max), at least 5° (flatter tables: a 5° cap)."""
+        if self.closed:
+            return Sphere(self.t_max / math.pi)
+        r_rim = float(self.meridian(np.array(self.t_max))[0])
+        q = min(r_rim / self.t_max, math.sin(math.radians(5)) / math.radians(5))
+        lo, hi = math.radians(5), math.radians(CAP_THETA_MAX_DEG)
+        for _ in range(100):  # sin θ / θ decreases on (0, π]
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if math.sin(mid) / mid > q else (lo, mid)
+        theta = 0.5 * (lo + hi)
+        return SphericalCap(self.t_max / theta, theta)
+
+    def from_reference(self, x: np.ndarray) -> np.ndarray:
+        """Points x (N, 3) of ``reference_shape()`` moved onto this surface: the polar angle β
+        to the meridian parameter t = R_ref β (arc length kept), the azimuth kept."""
+        ref = self.reference_shape()
+        beta = np.arctan2(np.hypot(x[:, 0], x[:, 1]), x[:, 2])
+        t = np.clip(beta * ref.radius, 0.0, self.t_max)
+        r, z = self.meridian(t)
+        phi = np.arctan2(x[:, 1], x[:, 0])
+        return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
 
     def describe(self) -> dict[str, Any]:
         return {"shape": self.kind, "points": [list(p) for p in self.points],

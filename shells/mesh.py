@@ -40,7 +40,8 @@ from shells.geometry import (
     EllipsoidalCap,
     Shape,
     Sphere,
-    perfect_shape,
+    mesh_reference,
+    onto_shape,
     shape_from_description,
 )
 
@@ -81,9 +82,6 @@ class MeshSpec:
     sectors: int = 8
 
     def __post_init__(self) -> None:
-        if getattr(self.shape, "kind", None) == "meridian":
-            raise InputError("a meridian table is not meshed yet: the axisymmetric model takes "
-                             "it (--model axisym)")
         if self.h is not None and not (math.isfinite(self.h) and self.h > 0):
             raise InputError(f"thickness h must be positive, got {self.h!r}")
         if not (math.isfinite(self.size) and 0 < self.size <= 2):
@@ -390,18 +388,16 @@ def _pole_refinement(gmsh: Any, spec: MeshSpec) -> bool:
     return True
 
 
-def _displace_imperfect(mesh: Any, shape: Shape) -> None:
-    """Move the nodes of an imperfect sphere's sphere mesh radially onto the imperfect surface
-    ρ(β) = R - δ f(β) (every geometry node, the edges' midpoints too: the second-order mesh
-    interpolates the imperfect surface)."""
-    from shells.geometry import ImperfectSphere
-
-    if not isinstance(shape, ImperfectSphere):
+def _move_onto_shape(gmsh: Any, shape: Shape) -> None:
+    """Move the nodes of the generated mesh of ``mesh_reference(shape)`` onto ``shape``
+    (``geometry.onto_shape``), in the gmsh model itself: the mesh written to a .msh file and
+    the one distributed to dolfinx are both the moved one."""
+    if mesh_reference(shape) is shape:
         return
-    x = mesh.geometry.x
-    r = np.linalg.norm(x, axis=1)
-    beta = np.arccos(np.clip(x[:, 2] / r, -1.0, 1.0))
-    x *= (shape._rho(beta) / r)[:, None]
+    tags, x, _ = gmsh.model.mesh.getNodes()
+    y = onto_shape(shape, np.asarray(x, dtype=float).reshape(-1, 3))
+    for tag, p in zip(tags, y, strict=True):
+        gmsh.model.mesh.setNode(int(tag), p.tolist(), [])
 
 
 def gauge_points(shape: Shape) -> list[tuple[float, float, float]]:
@@ -432,8 +428,9 @@ def _embed_gauge_points(gmsh: Any, shape: Shape, surfaces: list[int]) -> None:
 
 
 def _build_model(gmsh: Any, spec: MeshSpec) -> None:
-    # an imperfect sphere: its sphere's mesh, moved radially onto it by _displace_imperfect
-    shape = perfect_shape(spec.shape)
+    # an imperfect sphere, a meridian table: a sphere's or a cap's mesh, moved onto the shape
+    # (_move_onto_shape)
+    shape = mesh_reference(spec.shape)
     surfaces = _build_geometry(gmsh, shape)
     if spec.sectors > 1:
         surfaces = _cut_sectors(gmsh, shape, surfaces, spec.sectors)
@@ -451,6 +448,7 @@ def _build_model(gmsh: Any, spec: MeshSpec) -> None:
     gmsh.model.mesh.generate(2)
     if spec.order > 1:
         gmsh.model.mesh.setOrder(spec.order)
+    _move_onto_shape(gmsh, spec.shape)
 
 
 # --------------------------------------------------------------------------------------------
@@ -565,7 +563,6 @@ def generate(spec: MeshSpec, comm: MPI.Comm | None = None, msh_path: str | os.Pa
             if msh_path is not None:
                 _write_current(gmsh, spec, Path(msh_path))
         mesh, cell_tags, facet_tags = gmshio.model_to_mesh(gmsh.model, comm, 0, gdim=3)[:3]
-    _displace_imperfect(mesh, spec.shape)
     mesh.name = f"shells-{spec.shape.kind}"
     return ShellMesh(mesh, cell_tags, facet_tags, spec.shape, spec)
 

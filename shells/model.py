@@ -77,15 +77,16 @@ def default_discretisation(shape: Shape, h_over_r: float | None = None,
     A non-uniform ``kappa_field`` gets P3 on every shape: the ring-patterned 30° cap at h/R =
     0.04 (f = step(θ - 0.2, 0.05) step(0.4 - θ, 0.05)) has its fold 3.6 % late with P2 at the
     default mesh (1.3 % and 0.5 % with 6 and 8 rim-layer elements), 9e-5 with P3, against the
-    1D model's κR = 2.288494 (benchmarks/kappa_fields.py).
+    1D model's κR = 2.288494 (benchmarks/kappa_fields.py). A meridian table is taken as the
+    deep caps (P3, size 0.2), or a sphere when closed.
     """
-    from shells.geometry import EllipsoidalCap, SphericalCap
+    from shells.geometry import EllipsoidalCap, MeridianTable, SphericalCap
 
-    sphere = shape.closed and shape.kind == "sphere"
+    sphere = shape.closed and shape.kind in ("sphere", "meridian")
     if sphere and degree == 2:
         raise InputError("P2 locks on a closed sphere (kappa_b h 1.56-1.71 against a converged "
                          "1.484 at h/R = 0.05, docs/model.md): use --degree 3 (the default)")
-    deep = isinstance(shape, EllipsoidalCap) or (
+    deep = isinstance(shape, (EllipsoidalCap, MeridianTable)) or (
         isinstance(shape, SphericalCap) and not sphere and h_over_r is not None
         and shape.theta / math.sqrt(h_over_r) > P2_THETABAR_MAX)
     patterned = kappa_field is not None and not kappa_field.uniform
@@ -179,13 +180,27 @@ class ShellModel(FormProblem):
         self.ds = ufl.Measure("ds", domain=mesh, subdomain_data=ft,
                               metadata={"quadrature_degree": p.quadrature_degree})
         self._x = ufl.SpatialCoordinate(mesh)
-        self.n0 = self.shape.normal_ufl(self._x)
+        self.n0 = (self.shape.normal_ufl(self._x) if self.shape.has_ufl_normal
+                   else self._interpolated_normal())
         J = ufl.Jacobian(mesh)
         self.P0 = J * ufl.JacobianInverse(mesh)
         p.kappa_field.check_on(self.shape)
         self.K = self._natural_tensor()
         self._build_forms()
         self.bcs = self._supports()
+
+    def _interpolated_normal(self) -> Any:
+        """The reference normal of a shape without a closed form (a meridian table), its
+        ``normal`` interpolated in Lagrange of one degree above the state's: b° = -∇n° then
+        errs by O(size^(degree+1)) against the O(size^degree) of the state's own
+        approximation."""
+        from dolfinx import fem
+
+        mesh = self.shell.mesh
+        V = fem.functionspace(mesh, ("Lagrange", self.params.degree + 1, (3,)))
+        n0 = fem.Function(V, name="reference_normal")
+        n0.interpolate(self.shape.normal)
+        return n0
 
     def owned_dof_coordinates(self) -> np.ndarray:
         """Coordinates of this rank's owned DOF nodes (each carries 6 values: u, θ)."""
@@ -646,11 +661,13 @@ class ShellModel(FormProblem):
 
     def _meridian_coordinate(self, x: np.ndarray) -> np.ndarray:
         """s ∈ [0, 1] from the pole to the rim (the south pole of a closed shape) at points x."""
-        from shells.geometry import Disk, EllipsoidalCap
+        from shells.geometry import Disk, EllipsoidalCap, MeridianTable
 
         if isinstance(self.shape, Disk):
             return np.hypot(x[:, 0], x[:, 1]) / self.shape.radius
-        if isinstance(self.shape, EllipsoidalCap):
+        if isinstance(self.shape, MeridianTable):
+            t = self.shape.meridian_parameter(x.T)
+        elif isinstance(self.shape, EllipsoidalCap):
             t = np.arccos(np.clip(x[:, 2] / self.shape.r3, -1, 1))
         else:
             t = np.arccos(np.clip(x[:, 2] / np.linalg.norm(x, axis=1), -1, 1))

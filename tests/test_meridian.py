@@ -1,5 +1,5 @@
 """Any shell of revolution: a meridian given as a table of points (shells.geometry.MeridianTable)
-against the exact shapes it samples, on the 1D model (issue 17: a meridian table of a cap
+against the exact shapes it samples, on both models (issue 17: a meridian table of a cap
 reproduces the exact shape's critical point within 0.5 %)."""
 
 from __future__ import annotations
@@ -35,6 +35,60 @@ def test_table_geometry_matches_the_exact_shape():
     assert abs(dz[0]) < 1e-6 * abs(dr[0])  # meets the axis at a right angle (mirror images)
     u = np.linspace(0, math.pi, 60)
     assert table(np.sin(u), np.cos(u)).closed
+
+
+def test_table_normal_curvatures_and_mesh_map_match_the_exact_shape():
+    """What the surface model reads of a table, at random points of the 30° cap (40 points):
+    the normal (measured 3.5e-8 off), the principal curvatures (4e-5, 5e-6), the nearest
+    meridian parameter; and the map of the reference cap's mesh onto the table lands on the
+    sphere, the reference cap having the table's rim radius and meridian length."""
+    from shells.geometry import mesh_reference, onto_shape
+
+    t = np.linspace(0, CAP.theta, 40)
+    tab = table(np.sin(t), np.cos(t))
+    rng = np.random.default_rng(1)
+    b, ph = rng.uniform(0, CAP.theta, 200), rng.uniform(0, 2 * math.pi, 200)
+    x = np.stack([np.sin(b) * np.cos(ph), np.sin(b) * np.sin(ph), np.cos(b)])
+    assert np.max(np.abs(tab.normal(x) - CAP.normal(x))) < 1e-6
+    k1, k2 = tab.principal_curvatures(x)
+    assert np.max(np.abs(k1 + 1)) < 1e-3 and np.max(np.abs(k2 + 1)) < 1e-3
+    r, z = tab.meridian(tab.meridian_parameter(x))
+    # (the spline itself lies within 1e-7 of the sphere: the test above)
+    assert np.max(np.hypot(r - np.sin(b), z - np.cos(b))) < 1e-7
+    ref = mesh_reference(tab)
+    assert isinstance(ref, SphericalCap)
+    assert abs(ref.radius * math.sin(ref.theta) - 0.5) < 1e-9  # the rim radius sin 30°
+    assert abs(ref.radius * ref.theta - tab.t_max) < 1e-12
+    xr = ref.radius * np.stack([np.sin(b * ref.theta / CAP.theta) * np.cos(ph),
+                                np.sin(b * ref.theta / CAP.theta) * np.sin(ph),
+                                np.cos(b * ref.theta / CAP.theta)], axis=1)
+    y = onto_shape(tab, xr)
+    assert np.max(np.abs(np.linalg.norm(y, axis=1) - 1)) < 1e-7
+    assert np.max(np.abs(np.arctan2(y[:, 1], y[:, 0]) - np.arctan2(xr[:, 1], xr[:, 0]))) < 1e-12
+
+
+def test_surface_model_on_a_cap_table_matches_the_cap():
+    """The surface model on a table of the 30° cap (its mesh: the reference cap's, moved onto
+    the table; its normal interpolated) against the exact cap's, P2, size 0.1, h/R = 0.04,
+    natural steps to κR = 1: the mesh's area and rim within 1e-6 of the exact cap's, energy and
+    Ψ3 within 2e-3 (measured 4e-4 and 6e-4: the two meshes differ; at P3 and the default mesh
+    the fold of both is within 1e-5 of the 1D model's 1.39343, `shells critical`)."""
+    from shells.continuation import ContinuationSettings, continuation
+    from shells.mesh import MeshSpec, generate
+    from shells.model import ModelParameters, ShellModel
+
+    t = np.linspace(0, CAP.theta, 41)
+    out = []
+    for shape in (CAP, table(np.sin(t), np.cos(t))):
+        sm = generate(MeshSpec(shape, h=0.04, size=0.1), MPI.COMM_WORLD)
+        assert abs(sm.area() / CAP.area() - 1) < 1e-6
+        assert abs(sm.rim_length() / CAP.rim_length() - 1) < 1e-6
+        m = ShellModel(sm, ModelParameters(h=0.04, nu=0.5, degree=2))
+        st = ContinuationSettings(method="natural", ds=0.5, ds_max=0.5)
+        out.append(list(continuation(m, st, kappa_end=1.0))[-1].scalars)
+    exact, tab = out
+    for k in ("energy", "psi3_over_h"):
+        assert abs(tab[k] / exact[k] - 1) < 2e-3, (k, tab[k], exact[k])
 
 
 @pytest.mark.parametrize("direction", ["up", "down"])
@@ -100,8 +154,7 @@ def test_cli_takes_a_meridian_file(capsys, shared_tmp):
                              if MPI.COMM_WORLD.rank == 0 else None)
     assert d["kind"] == "fold" and abs(d["kappa_R"] - 1.39343) < 2e-5
     assert d["shape"]["shape"] == "meridian" and len(d["shape"]["points"]) == 40
-    for argv, needle in ((base, "axisymmetric model"),
-                         (base[:3] + base[5:] + ["--model", "axisym"], "go together")):
+    for argv, needle in ((base[:3] + base[5:] + ["--model", "axisym"], "go together"),):
         assert main(argv) == 2
         err = capsys.readouterr().err
         if MPI.COMM_WORLD.rank == 0:

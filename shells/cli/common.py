@@ -136,8 +136,9 @@ def add_shape_args(p: argparse.ArgumentParser, positional: bool) -> None:
     p.add_argument("--meridian", default=None, metavar="FILE",
                    help="with --shape meridian: any shell of revolution about z, its meridian "
                    "a table of rows 'r z' (spaces or commas) from the pole (r = 0) to the rim, "
-                   "or to the other pole (closed); a cubic spline through them. The 1D model "
-                   "(--model axisym) takes it; h/R is over the pole's radius of curvature")
+                   "or to the other pole (closed); a cubic spline through them. Both models take "
+                   "it (the surface model on a cap's or sphere's mesh moved onto it); h/R is "
+                   "over the pole's radius of curvature")
 
 
 def shape_from_args(args: argparse.Namespace):
@@ -147,8 +148,6 @@ def shape_from_args(args: argparse.Namespace):
     if (args.shape == "meridian") != (path is not None):
         raise InputError("--shape meridian and --meridian FILE go together")
     if path is not None:
-        if getattr(args, "model", "axisym") != "axisym":
-            raise InputError("a meridian table is for the axisymmetric model: add --model axisym")
         return MeridianTable.from_file(path)
     theta = None
     if args.theta_deg is not None:

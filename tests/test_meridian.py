@@ -154,6 +154,12 @@ def test_cli_takes_a_meridian_file(capsys, shared_tmp):
                              if MPI.COMM_WORLD.rank == 0 else None)
     assert d["kind"] == "fold" and abs(d["kappa_R"] - 1.39343) < 2e-5
     assert d["shape"]["shape"] == "meridian" and len(d["shape"]["points"]) == 40
+    assert main(["mesh", "meridian", "--meridian", str(path), "--h-over-r", "0.04",
+                 "--json"]) == 0
+    out = capsys.readouterr().out
+    m = MPI.COMM_WORLD.bcast(json.loads(out.strip().splitlines()[-1])
+                             if MPI.COMM_WORLD.rank == 0 else None)
+    assert m["area_rel_error"] < 1e-6 and m["rim_rel_error"] < 1e-6
     for argv, needle in ((base[:3] + base[5:] + ["--model", "axisym"], "go together"),):
         assert main(argv) == 2
         err = capsys.readouterr().err

@@ -250,7 +250,7 @@ H_OVER_R_MAX = 0.5
 #: (``output``), if any, checked as "shared".
 PATH_ARGS: dict[str, list[tuple[str, str, str, str | None]]] = {
     "mesh": [("spec", "--spec", "in", None), ("output", "-o", "msh", None),
-             ("png", "--png", "png", None)],
+             ("png", "--png", "png", None), ("meridian", "--meridian", "in", None)],
     "info": [("mesh", "mesh file", "in", None)],
     "render": [("mesh", "mesh file", "in", None), ("output", "-o", "png", None)],
     "branch": [("output", "-o", "dir", "results/branch"),

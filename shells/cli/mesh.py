@@ -16,13 +16,17 @@ def add_mesh(sub: Any) -> argparse.ArgumentParser:
     m = sub.add_parser("mesh", help="mesh a sphere, cap, ellipsoidal cap or disk with gmsh",
                        description="Mesh a shape with gmsh (second-order geometry, refined in the "
                        "rim boundary layer of width sqrt(R h)) and report area and rim errors.")
-    m.add_argument("shape", metavar="SHAPE", nargs="?", help="sphere, cap, ellipsoid or disk")
+    m.add_argument("shape", metavar="SHAPE", nargs="?",
+                   help="sphere, cap, ellipsoid, disk or meridian")
     m.add_argument("--radius", type=common.length("radius", common.RADIUS_RANGE[0]), default=1.0,
                    help="R (sphere, cap), r1 = r2 (ellipsoid), disk radius (default 1)")
     m.add_argument("--theta-deg", type=float, default=None,
                    help="half opening angle, pole to rim, in degrees (0, 180]")
     m.add_argument("--r3", type=common.length("r3", None), default=None,
                    help="ellipsoid semi-axis along z (default 1.5 R)")
+    m.add_argument("--meridian", default=None, metavar="FILE",
+                   help="with SHAPE meridian: a shell of revolution, its meridian a table of "
+                   "rows 'r z' from the pole to the rim (or the other pole)")
     m.add_argument("--h-over-r", type=common.positive_float("h/R"), default=None,
                    help="thickness h/R: refines the rim layer of width sqrt(R h)")
     common.add_mesh_size_args(m, 0.1, "bulk element size relative to R (default 0.1)")

@@ -182,11 +182,15 @@ class _Block:
         self.serial = problem.comm.size == 1
         self.banded: _BandedCholesky | None = None
 
-    def definite(self, margin: float) -> bool:
-        """H (as assembled) positive definite by ``margin`` (``_BandedCholesky``); False where
-        the test does not apply (in parallel, a wide band)."""
+    def definite(self, margin: float, values: np.ndarray | None = None) -> bool:
+        """H (as assembled, or the matrix of H's pattern with these CSR ``values``) positive
+        definite by ``margin`` (``_BandedCholesky``); False where the test does not apply (in
+        parallel, a wide band; values before H's pattern was seen)."""
         if not self.serial:
             return False
+        if values is not None:
+            ok = self.banded is not None and len(values) == len(self.banded.aj)
+            return ok and self.banded.definite(values, margin)
         ai, aj, values = self.H.getValuesCSR()
         if self.banded is None or not self.banded.matches(ai, aj):
             self.banded = _BandedCholesky(ai, aj)
@@ -228,11 +232,12 @@ class Stability:
         self.problem.assemble_hessian(block, b.H)
         return b.H
 
-    def inertia(self, block: Hashable = None) -> tuple[int, int, int]:
-        """(negative, zero, positive) eigenvalue counts of the block's Hessian."""
+    def inertia(self, block: Hashable = None, test: bool = True) -> tuple[int, int, int]:
+        """(negative, zero, positive) eigenvalue counts of the block's Hessian (``test``
+        False: MUMPS' without the banded test, which failed on its values already)."""
         b = self._block(block)
         self.problem.assemble_hessian(block, b.H)
-        if self.banded_test and b.definite(DEFINITE_MARGIN):
+        if test and self.banded_test and b.definite(DEFINITE_MARGIN):
             self.calls["banded"] += 1
             return 0, 0, int(b.H.getSize()[0])
         self.calls["mumps"] += 1
@@ -247,8 +252,24 @@ class Stability:
         return self.inertia(block)[0]
 
     def negative_counts(self, blocks: Iterable[Hashable] | None = None) -> dict[Hashable, int]:
-        """The negative count of every block (default: all of the problem's blocks)."""
-        return {b: self.negative_count(b) for b in (self.blocks() if blocks is None else blocks)}
+        """The negative count of every block (default: all of the problem's blocks). A problem
+        that gives the values of blocks without assembling their matrices
+        (``hessian_values(blocks)``: {block: CSR values in the pattern of its
+        ``create_hessian``}, the 1D model's m ≥ 1) has those tested first: a block definite by
+        the margin is not assembled at all (its matrix is then not the block's: call
+        ``inertia`` before ``eigenpairs(assemble=False)``)."""
+        blocks = self.blocks() if blocks is None else tuple(blocks)
+        values = (self.problem.hessian_values(blocks)
+                  if self.banded_test and hasattr(self.problem, "hessian_values") else {})
+        out = {}
+        for blk in blocks:
+            if blk in values and self._block(blk).definite(DEFINITE_MARGIN, values[blk]):
+                self.calls["banded"] += 1
+                out[blk] = 0
+            else:
+                tested = blk in values and self._block(blk).banded is not None
+                out[blk] = self.inertia(blk, test=not tested)[0]
+        return out
 
     def mass(self, block: Hashable = None) -> Any:
         b = self._block(block)

@@ -550,6 +550,11 @@ class AxisymModel(FormProblem):
             return
         self.mode_forms.assemble_hessian(block, H)  # m ≥ 1: Σ m^k C_k, C_k once per state
 
+    def hessian_values(self, blocks: Any) -> dict[Any, np.ndarray]:
+        """The values of the blocks m ≥ 1 without their matrices (``ModeForms.hessian_values``),
+        for ``shells.stability``'s test of definiteness; block None and m = 0 are left out."""
+        return self.mode_forms.hessian_values([b for b in blocks if b is not None])
+
     def assemble_mass(self, block: Any) -> Any:
         if block is None:
             return self._assemble_mass(self.mass, self.bcs)

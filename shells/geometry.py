@@ -675,6 +675,50 @@ class MeridianTable(Shape):
                 "R_pole": self.R, "closed": self.closed}
 
     @classmethod
+    def from_nodes(cls, x: np.ndarray, points: int = 400, tol: float = 1e-6) -> MeridianTable:
+        """The meridian of a surface of revolution about z from nodes on it (x: (N, 3), a user's
+        mesh): their (r, z) ordered by the distance from the top pole (monotone along convex
+        meridians, caps and closed shells alike), about ``points`` of them kept at even spacing.
+        Refused (``InputError``) unless a node lies on the axis at the top, and unless every
+        node lies within ``tol`` (relative to the size) of the surface so recovered: a surface
+        that is not one of revolution about z, or nodes off it."""
+        x = np.asarray(x, dtype=float).reshape(-1, 3)
+        size = float(np.max(np.abs(x)))
+        rz = np.column_stack([np.hypot(x[:, 0], x[:, 1]), x[:, 2]])
+        on_axis = rz[:, 0] < 1e-9 * size
+        if not on_axis.any():
+            raise InputError("the mesh has no node on the z axis: a surface of revolution about "
+                             "z needs a node at its pole")
+        top = np.array([0.0, rz[on_axis, 1].max()])
+        d = np.hypot(*(rz - top).T)
+        order = np.argsort(d)
+        rz, d = rz[order], d[order]
+        keep = [0]
+        step = float(np.sum(np.hypot(*np.diff(rz, axis=0).T))) / points  # the meridian's length
+        for i in range(1, len(d)):
+            if math.dist(rz[i], rz[keep[-1]]) >= step:  # even along the curve, poles included
+                keep.append(i)
+        if keep[-1] != len(d) - 1:
+            keep[-1] = len(d) - 1  # the rim (or the bottom pole) itself
+        pts = rz[keep].copy()
+        pts[0] = top
+        closed = bool(pts[-1, 0] < 1e-9 * size)
+        if closed:
+            pts[-1, 0] = 0.0
+        try:
+            tab = cls(tuple(map(tuple, pts)))
+        except InputError as e:
+            raise InputError(f"the mesh's nodes give no meridian ({e}): is it a surface of "
+                             "revolution about z?") from None
+        rr, zz = tab.meridian(tab.meridian_parameter(x.T))
+        off = float(np.max(np.hypot(rr - np.hypot(x[:, 0], x[:, 1]), zz - x[:, 2]))) / size
+        if off > tol:
+            raise InputError(f"the mesh is not a surface of revolution about the z axis: its "
+                             f"nodes lie up to {off:.2g} (relative) off the meridian through "
+                             "them (the surface model takes such meshes only)")
+        return tab
+
+    @classmethod
     def from_file(cls, path: str) -> MeridianTable:
         """Rows "r z" (spaces or commas; # comments), from the pole to the rim."""
         from shells.store import read_number_rows

@@ -612,7 +612,8 @@ def _check_msh(path: Path) -> None:
 
 
 def load_mesh(path: str | os.PathLike, comm: MPI.Comm | None = None) -> ShellMesh:
-    """Read a gmsh ``.msh`` surface mesh in parallel; the shape comes from its JSON sidecar."""
+    """Read a gmsh ``.msh`` surface mesh in parallel; the shape comes from its JSON sidecar, or,
+    for a mesh made elsewhere, from its nodes (a surface of revolution about z)."""
     from dolfinx.io import gmshio
     from mpi4py import MPI as _MPI
 
@@ -639,23 +640,64 @@ def load_mesh(path: str | os.PathLike, comm: MPI.Comm | None = None) -> ShellMes
             raise InputError(f"mesh sidecar {str(sidecar)!r} is not valid: {e}") from None
 
     with _gmsh_model("shells-read") as gmsh:
-        err = None
+        err = table = None
         if comm.rank == 0:
             try:
                 gmsh.merge(str(path))
-                if not gmsh.model.getEntities(2) or not gmsh.model.getPhysicalGroups(2):
-                    err = (f"{str(path)!r} holds no tagged surface (a shells mesh has a 2D "
-                           "physical group)")
+                if not gmsh.model.getEntities(2):
+                    err = f"{str(path)!r} holds no surface (no 2D elements)"
+                elif shape is None:
+                    table = _user_mesh_shape(gmsh)
+            except InputError as e:
+                err = f"{str(path)!r}: {e}"
             except Exception as e:  # gmsh raises a bare Exception on malformed files
                 err = f"{str(path)!r} could not be read as a gmsh mesh: {e}"
-        err = comm.bcast(err, root=0)
+        err, table = comm.bcast((err, table), root=0)
         if err:
             raise InputError(err)
+        if table is not None:
+            from shells.geometry import MeridianTable
+
+            shape = MeridianTable(table)
         mesh, cell_tags, facet_tags = gmshio.model_to_mesh(gmsh.model, comm, 0, gdim=3)[:3]
     if mesh.topology.dim != 2:
         raise InputError(f"{str(path)!r} is not a surface mesh (topological dimension "
                          f"{mesh.topology.dim}, expected 2)")
+    if table is not None:
+        facet_tags = _tag_boundary(mesh)
     return ShellMesh(mesh, cell_tags, facet_tags, shape, spec)
+
+
+def _tag_boundary(mesh: Any) -> Any:
+    """The facets on the boundary of a user's mesh, tagged as the rim (its file may hold no
+    boundary elements: gmsh saves only those of physical groups)."""
+    from dolfinx import mesh as dmesh
+
+    tdim = mesh.topology.dim
+    mesh.topology.create_connectivity(tdim - 1, tdim)
+    facets = dmesh.exterior_facet_indices(mesh.topology)
+    return dmesh.meshtags(mesh, tdim - 1, facets, np.full(len(facets), RIM_TAG, dtype=np.int32))
+
+
+def _user_mesh_shape(gmsh: Any) -> tuple[tuple[float, float], ...]:
+    """A mesh made outside ``shells`` (no sidecar): its surface and its boundary (the rim) put
+    in the physical groups a shells mesh has, where it has none, and its shape recovered from
+    its nodes: the meridian of a surface of revolution about z (``MeridianTable.from_nodes``,
+    which refuses any other surface). Returns the table's points."""
+    from shells.geometry import MeridianTable
+
+    model = gmsh.model
+    if not model.getPhysicalGroups(2):
+        model.addPhysicalGroup(2, [t for _, t in model.getEntities(2)], SURFACE_TAG)
+    if not model.getPhysicalGroups(1):
+        rim = [t for d, t in model.getBoundary(model.getEntities(2), combined=True,
+                                               oriented=False)
+               if d == 1 and len(model.mesh.getElementTypes(1, t)) > 0]  # not the degenerate
+        # pole edge of an OCC sphere (no elements)
+        if rim:
+            model.addPhysicalGroup(1, rim, RIM_TAG)
+    _, x, _ = model.mesh.getNodes()
+    return MeridianTable.from_nodes(np.asarray(x, dtype=float).reshape(-1, 3)).points
 
 
 def sphere_spec(h_over_r: float, size: float = 0.1, order: int = 2) -> MeshSpec:

@@ -406,12 +406,16 @@ class ShellModel(FormProblem):
         tol = 1e-9 * L
 
         def node(pt: np.ndarray, what: str) -> np.ndarray:
-            hit = np.linalg.norm(x - pt, axis=1) < 1e-7 * L
-            if comm.allreduce(int(hit.any()), op=MPI.SUM) < 1:
-                raise RuntimeError(f"the mesh has no node at the {what} {pt} (needed for the "
-                                   "rigid-motion gauge; mesh it with `shells mesh`)")
-            owner = comm.allreduce(comm.rank if hit.any() else comm.size, op=MPI.MIN)
-            return np.asarray(comm.bcast(x[hit][0] if comm.rank == owner else None, root=owner))
+            # the node nearest the point: on shells' meshes a node lies there (distance 0);
+            # a user's mesh has one nearby, and any point near it fixes the same rigid motions
+            dist = np.linalg.norm(x - pt, axis=1)
+            i = int(np.argmin(dist)) if len(dist) else -1
+            best = comm.allreduce((float(dist[i]) if i >= 0 else math.inf, comm.rank),
+                                  op=MPI.MINLOC)
+            if not best[0] < 0.05 * L:
+                raise InputError(f"the mesh has no node near the {what} {pt} (needed for the "
+                                 "rigid-motion gauge)")
+            return np.asarray(comm.bcast(x[i] if comm.rank == best[1] else None, root=best[1]))
 
         top = node(np.array([0.0, 0.0, float(self.shape.meridian(np.array(0.0))[1])]), "pole")
         constraints = [(top, 0), (top, 1), (top, 2)]
@@ -426,8 +430,11 @@ class ShellModel(FormProblem):
             seam = (np.abs(x[:, 1]) < tol) & (x[:, 0] > 1e-3 * L)
             dist = np.linalg.norm(x[seam] - pb, axis=1) if seam.any() else np.array([np.inf])
             best = comm.allreduce((float(dist.min()), comm.rank), op=MPI.MINLOC)
-            B = np.asarray(comm.bcast(x[seam][np.argmin(dist)] if comm.rank == best[1]
-                                      else None, root=best[1]))
+            if math.isfinite(best[0]):
+                B = np.asarray(comm.bcast(x[seam][np.argmin(dist)] if comm.rank == best[1]
+                                          else None, root=best[1]))
+            else:  # a user's mesh, no node on that meridian: the nearest one
+                B = node(pb, "gauge point")
             constraints += [(B, 1), (D, 1), (C, 0)]
             self.support_points = [top, B, C, D]
         bcs = []

@@ -119,14 +119,23 @@ def add_mesh_size_args(p: argparse.ArgumentParser, size_default: float | None,
                    help="elements across sqrt(R h) at the rim (default 4)")
 
 
-def add_shape_args(p: argparse.ArgumentParser, positional: bool) -> None:
+def add_shape_args(p: argparse.ArgumentParser, positional: bool,
+                   user_mesh: bool = False) -> None:
+    """The shape's arguments; ``user_mesh``: also ``--mesh FILE`` (then --shape is optional,
+    ``shape_from_args`` checks that exactly one of them is given)."""
     from shells.geometry import SHAPES
 
     if positional:
         p.add_argument("shape", metavar="SHAPE", help=f"one of: {', '.join(SHAPES)}")
     else:
-        p.add_argument("--shape", required=True,
+        p.add_argument("--shape", required=not user_mesh, default=None,
                        help=f"one of: {', '.join(SHAPES)}, meridian (with --meridian FILE)")
+    if user_mesh:
+        p.add_argument("--mesh", default=None, metavar="FILE",
+                       help="instead of --shape: a gmsh .msh surface mesh (second order "
+                       "advised), made by `shells mesh` or elsewhere; one made elsewhere must be "
+                       "a surface of revolution about z with a node at its pole (its meridian is "
+                       "recovered from the nodes; the surface model runs on the mesh as given)")
     p.add_argument("--radius", type=length("radius", RADIUS_RANGE[0]), default=1.0,
                    help="sphere/cap radius R, ellipsoid semi-axes r1 = r2, disk radius (default 1)")
     p.add_argument("--theta-deg", type=float, default=None,
@@ -142,8 +151,23 @@ def add_shape_args(p: argparse.ArgumentParser, positional: bool) -> None:
 
 
 def shape_from_args(args: argparse.Namespace):
+    """The shape of the arguments; with ``--mesh``, the mesh's (read here, kept as
+    ``args.user_mesh`` for the run)."""
     from shells.geometry import MeridianTable, make_shape
 
+    if getattr(args, "mesh", None) is not None:
+        if args.shape is not None or getattr(args, "meridian", None) is not None:
+            raise InputError("--mesh gives the shape: drop --shape and --meridian")
+        from mpi4py import MPI
+
+        from shells.mesh import load_mesh
+
+        args.user_mesh = load_mesh(args.mesh, MPI.COMM_WORLD)
+        if args.user_mesh.shape is None:
+            raise InputError(f"{args.mesh!r}: no shape (its .msh.json sidecar is missing)")
+        return args.user_mesh.shape
+    if args.shape is None:
+        raise InputError("give the shape: --shape (or --mesh FILE)")
     path = getattr(args, "meridian", None)
     if (args.shape == "meridian") != (path is not None):
         raise InputError("--shape meridian and --meridian FILE go together")
@@ -257,7 +281,7 @@ PATH_ARGS: dict[str, list[tuple[str, str, str, str | None]]] = {
                ("kappa_field", "--kappa-field", "field", None),
                ("meridian", "--meridian", "in", None)],
     "critical": [("output", "-o", "dir", None), ("kappa_field", "--kappa-field", "field", None),
-                 ("meridian", "--meridian", "in", None)],
+                 ("meridian", "--meridian", "in", None), ("mesh", "--mesh", "in", None)],
     "phase-diagram": [("output", "-o", "dir", None)],
     "postbuckle": [("output", "-o", "dir", None),
                    ("kappa_field", "--kappa-field", "field", None),

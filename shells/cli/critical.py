@@ -16,7 +16,7 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
                        "kappa = 0 with the Hessian inertia at every point; locate every critical "
                        "point (to 1e-4 in kappa) up to the first fold or the end of the range, "
                        "classify it (fold/bifurcation) and its mode (n on spheres, m otherwise).")
-    common.add_shape_args(c, positional=False)
+    common.add_shape_args(c, positional=False, user_mesh=True)
     common.add_physics_args(c, "surface",
                             "surface (2D mesh, default) or axisym (shell of revolution)")
     common.add_kappa_range(c)
@@ -49,7 +49,8 @@ def _cmd_critical(args: argparse.Namespace) -> int:
     fld = common.field_from_args(args, shape, args.model)
     surface = {} if args.model != "surface" else dict(
         first_only=args.first_only, size=args.size, layer_elements=args.layer_elements,
-        shear_penalty=args.shear_penalty, degree=args.degree, ds=args.ds, ds_max=args.ds_max)
+        shear_penalty=args.shear_penalty, degree=args.degree, ds=args.ds, ds_max=args.ds_max,
+        mesh=getattr(args, "user_mesh", None))
     result = critical_run(shape, args.h_over_r, args.nu, direction=args.direction,
                           model=args.model, outdir=args.output, kappa_field=fld,
                           kappa_end=common.kappa_end(shape, args.h_over_r, args.kappa_h_max,

@@ -447,25 +447,34 @@ sys.exit(main(sys.argv[1:]))
 """
 
 
+def _run_script(out: Path, name: str, text: str, case: str, ranks: int, timeout: float,
+                **env: str) -> tuple[subprocess.Popen, str, bool, list[int], float]:
+    """``text`` written to ``out/name`` and run on ``ranks`` ranks with the arguments of
+    ``CASES[case]`` (output ``out/run``), in a new session: (process, stderr, hung, processes
+    left, seconds)."""
+    script = out / name
+    out.mkdir(parents=True, exist_ok=True)
+    script.write_text(text)
+    argv = [*CASES[case].argv, "-o", str(out / "run")]
+    cmd = ["mpirun", "-n", str(ranks), sys.executable, str(script), *argv]
+    t0 = time.perf_counter()
+    p = subprocess.Popen(cmd, cwd=REPO, env=clean_env(**env), stdout=subprocess.DEVNULL,
+                         stderr=subprocess.PIPE, text=True, start_new_session=True)
+    err, hung, left = _finish(p, timeout)
+    return p, err, hung, left, round(time.perf_counter() - t0, 2)
+
+
 def idle_rank(out: Path, ranks: int = 2, timeout: float = 60.0) -> dict[str, Any]:
     """``shells phase-diagram`` with every task on rank 0 and none on the others: all ranks
     must end (it hung at exit: SLEPc initialised on rank 0 only, ``phase_diagram.jobs``)."""
-    script = out / "idle_rank.py"
-    out.mkdir(parents=True, exist_ok=True)
-    script.write_text(RANK_IDLE)
-    argv = [*CASES["phase-diagram"].argv, "-o", str(out / "run")]
-    cmd = ["mpirun", "-n", str(ranks), sys.executable, str(script), *argv]
-    t0 = time.perf_counter()
-    p = subprocess.Popen(cmd, cwd=REPO, env=clean_env(), stdout=subprocess.DEVNULL,
-                         stderr=subprocess.PIPE, text=True, start_new_session=True)
-    err, hung, left = _finish(p, timeout)
     from shells.store import read_records
 
+    p, err, hung, left, seconds = _run_script(out, "idle_rank.py", RANK_IDLE, "phase-diagram",
+                                              ranks, timeout)
     pts = out / "run" / "points.jsonl"
     recs = read_records(pts) if pts.exists() else []
-    return {"ranks": ranks, "exit": p.returncode, "hung": hung,
-            "seconds": round(time.perf_counter() - t0, 2), "points": len(recs),
-            "ranks_that_computed": sorted({r.get("rank") for r in recs}),
+    return {"ranks": ranks, "exit": p.returncode, "hung": hung, "seconds": seconds,
+            "points": len(recs), "ranks_that_computed": sorted({r.get("rank") for r in recs}),
             "traceback": "Traceback" in err, "left": left}
 
 
@@ -473,20 +482,12 @@ def inject_rank_failure(out: Path, fail_rank: int = 1, ranks: int = 2,
                         timeout: float = 60.0) -> dict[str, Any]:
     """An exception on rank ``fail_rank`` only: every rank ends within seconds, exit 1, the
     message once on stderr."""
-    script = out / "fail_one_rank.py"
-    out.mkdir(parents=True, exist_ok=True)
-    script.write_text(RANK_FAILURE)
-    argv = [*CASES["branch-axisym"].argv, "-o", str(out / "run")]
-    cmd = ["mpirun", "-n", str(ranks), sys.executable, str(script), *argv]
-    t0 = time.perf_counter()
-    p = subprocess.Popen(cmd, cwd=REPO, env=clean_env(FAIL_RANK=str(fail_rank)),
-                         stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-                         start_new_session=True)
-    err, hung, left = _finish(p, timeout)
-    seconds = time.perf_counter() - t0
+    p, err, hung, left, seconds = _run_script(out, "fail_one_rank.py", RANK_FAILURE,
+                                              "branch-axisym", ranks, timeout,
+                                              FAIL_RANK=str(fail_rank))
     msgs = [ln for ln in err.splitlines() if "injected failure" in ln]
     return {"ranks": ranks, "fail_rank": fail_rank, "exit": p.returncode, "hung": hung,
-            "seconds": round(seconds, 2), "messages": len(msgs),
+            "seconds": seconds, "messages": len(msgs),
             "message": msgs[0] if msgs else None, "traceback": "Traceback" in err,
             "left": left}
 

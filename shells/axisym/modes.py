@@ -267,8 +267,9 @@ class ModeForms:
         values c_k of the C_k (read once per state), mode m's conditions applied as
         ``assemble_hessian`` applies them (constrained rows and columns 0, their diagonal 1).
         The same matrix as ``assemble_hessian``'s to round-off (Horner's order against
-        MatAXPY's sum of powers), for a test of definiteness (``shells.stability``): 0.1 ms per block
-        instead of 0.4 for the PETSc matrix and the copy of its values. One process only."""
+        MatAXPY's sum of powers), for a test of definiteness (``shells.stability``): 0.1 ms
+        per block instead of 0.4 for the PETSc matrix and the copy of its values. One process
+        only."""
         C = self.coefficient_matrices()
         if self._C_values is None or self._C_values[0] is not self._C_inputs:
             self._C_values = (self._C_inputs, [Ck.getValuesCSR()[2] for Ck in C])

@@ -32,7 +32,7 @@ from shells.continuation import ContinuationSettings, Point, continuation, next_
 from shells.errors import InputError
 from shells.fields import FieldWriter
 from shells.geometry import RunScales, Shape, shape_from_description
-from shells.mesh import MeshSpec, ShellMesh, generate
+from shells.mesh import MeshSpec, ShellMesh, generate, load_mesh
 from shells.stimulus import UNIFORM, CurvatureField
 from shells.store import (
     append_record,
@@ -62,6 +62,8 @@ class BranchConfig(RunScales):
         shear_penalty: Kirchhoff-Love penalty factor of the surface model.
         continuation: continuation settings.
         kappa_field: the natural-curvature stimulus (``shells.stimulus``; default: uniform).
+        mesh_file: a user's mesh (``shells.mesh.load_mesh``) of ``shape`` instead of meshing it
+            (``size`` and ``layer_elements`` unused then).
     """
 
     shape: Shape
@@ -74,6 +76,7 @@ class BranchConfig(RunScales):
     continuation: ContinuationSettings = field(default_factory=ContinuationSettings)
     degree: int | None = None
     kappa_field: CurvatureField = UNIFORM
+    mesh_file: str | None = None
 
     def __post_init__(self) -> None:
         from shells.model import default_discretisation
@@ -105,6 +108,8 @@ class BranchConfig(RunScales):
         d["model"] = "surface"
         del d["kappa_field"]
         d.update(self.kappa_field.header_entry())
+        if d["mesh_file"] is None:
+            del d["mesh_file"]  # the headers of branches on shells' own meshes, as before
         return d
 
     @classmethod
@@ -115,7 +120,8 @@ class BranchConfig(RunScales):
                    kappa_end=d["kappa_end"], size=d["size"], layer_elements=d["layer_elements"],
                    shear_penalty=d["shear_penalty"], continuation=ContinuationSettings(**c),
                    degree=d.get("degree", 2),
-                   kappa_field=CurvatureField.from_description(d))
+                   kappa_field=CurvatureField.from_description(d),
+                   mesh_file=d.get("mesh_file"))
 
 
 def point_record(p: Point, cfg: BranchConfig) -> dict[str, Any]:
@@ -272,7 +278,9 @@ def run_branch(cfg: BranchConfig, outdir: str | os.PathLike, *, comm: Any = None
     header = cfg.describe()
 
     t0 = time.perf_counter()
-    shell = shell or generate(cfg.mesh_spec(), comm)
+    if shell is None:
+        shell = load_mesh(cfg.mesh_file, comm) if cfg.mesh_file else generate(cfg.mesh_spec(),
+                                                                                comm)
     model = ShellModel(shell, ModelParameters(h=cfg.h, nu=cfg.nu,
                                               shear_penalty=cfg.shear_penalty,
                                               degree=cfg.degree,

@@ -64,7 +64,8 @@ def branch_surface(cfg: Any, outdir: str | os.PathLike, *, fields: str = "none",
     from shells import branch
     from shells.mesh import check_mesh_size
 
-    check_mesh_size(cfg.mesh_spec())
+    if cfg.mesh_file is None:
+        check_mesh_size(cfg.mesh_spec())
     points = list(branch.run_branch(cfg, outdir, fields=fields, resume=resume))
     end = cfg.kappa_end * cfg.R
     if points and abs(points[-1]["kappa_R"] - end) > 1e-12 * abs(end) \

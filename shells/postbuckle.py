@@ -89,6 +89,8 @@ class PostbuckleConfig(RunScales):
             ``shells.model.default_discretisation``, P3 where P2 locks).
         penalty: the 1D model's C1 penalty (None: 1e6 on closed shells, else its default).
         kappa_field: the natural-curvature stimulus (``shells.stimulus``; default: uniform).
+        mesh_file: the surface model on a user's mesh (``shells.mesh.load_mesh``) of ``shape``
+            instead of meshing it.
     """
 
     shape: Shape
@@ -108,6 +110,7 @@ class PostbuckleConfig(RunScales):
     degree: int | None = None
     sides: tuple[int, ...] = (1, -1)
     kappa_field: CurvatureField = UNIFORM
+    mesh_file: str | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.kappa_field, CurvatureField):
@@ -161,6 +164,8 @@ class PostbuckleConfig(RunScales):
         d["sides"] = list(self.sides)  # as JSON reads it back (a resumed file's header)
         del d["kappa_field"]
         d.update(self.kappa_field.header_entry())
+        if d["mesh_file"] is None:
+            del d["mesh_file"]  # the headers of runs on shells' own meshes, as before
         return d
 
 
@@ -200,11 +205,12 @@ class _Run:
             self.model.modes = tuple(rc.modes)
             self.ns = NewtonSolver(self.model, options=SNES_OPTIONS)
         else:
-            from shells.mesh import MeshSpec, generate
+            from shells.mesh import MeshSpec, generate, load_mesh
             from shells.model import ModelParameters, ShellModel
 
-            sm = generate(MeshSpec(cfg.shape, h=cfg.h, size=cfg.size,
-                                   layer_elements=cfg.layer_elements), MPI.COMM_WORLD)
+            sm = (load_mesh(cfg.mesh_file, MPI.COMM_WORLD) if cfg.mesh_file else
+                  generate(MeshSpec(cfg.shape, h=cfg.h, size=cfg.size,
+                                    layer_elements=cfg.layer_elements), MPI.COMM_WORLD))
             self.model = ShellModel(sm, ModelParameters(h=cfg.h, nu=cfg.nu, degree=cfg.degree,
                                                         quadrature_degree=2 * cfg.degree,
                                                         kappa_field=cfg.kappa_field))

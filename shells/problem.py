@@ -120,6 +120,11 @@ class Problem(Protocol):
     def classify_mode(self, vec: Any, block: Hashable) -> ModeInfo:
         """The mode (m, n) of an eigenvector of the block's Hessian."""
 
+    # Optional (``shells.stability`` uses it where a problem has it, ``hasattr``):
+    # ``hessian_values(blocks) -> {block: values}``, the blocks' Hessians as CSR values in the
+    # pattern of their ``create_hessian`` matrices, without assembling them (the 1D model's
+    # m >= 1: Σ m^k C_k); a block definite by a margin is then never assembled.
+
 
 def get_state(problem: Problem) -> np.ndarray:
     """A copy of this rank's owned state values."""

@@ -27,7 +27,7 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
                        description="Follow a shell from kappa = 0 to a final natural curvature "
                        "with pseudo-arclength (through folds) or natural continuation; each point "
                        "is appended to DIR/branch.jsonl as it is computed and a rerun resumes.")
-    add_shape_args(b, positional=False)
+    add_shape_args(b, positional=False, user_mesh=True)
     add_shell_args(b)
     g = b.add_mutually_exclusive_group()
     g.add_argument("--kappa-h-max", type=float, default=None,
@@ -95,7 +95,7 @@ def _cmd_branch(args: argparse.Namespace) -> int:
                                                args.kappa_r_max),
                            size=args.size, layer_elements=args.layer_elements,
                            shear_penalty=args.shear_penalty, continuation=cont,
-                           degree=args.degree, kappa_field=fld)
+                           degree=args.degree, kappa_field=fld, mesh_file=args.mesh)
         result = drivers.branch_surface(cfg, outdir, fields=args.fields,
                                         resume=not args.restart)
         header = (f"{'kappa R':>10} {'kappa h':>10} {'Psi3/h':>12} {'apex/h':>10} "

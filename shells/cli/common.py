@@ -279,13 +279,13 @@ PATH_ARGS: dict[str, list[tuple[str, str, str, str | None]]] = {
     "render": [("mesh", "mesh file", "in", None), ("output", "-o", "png", None)],
     "branch": [("output", "-o", "dir", "results/branch"),
                ("kappa_field", "--kappa-field", "field", None),
-               ("meridian", "--meridian", "in", None)],
+               ("meridian", "--meridian", "in", None), ("mesh", "--mesh", "in", None)],
     "critical": [("output", "-o", "dir", None), ("kappa_field", "--kappa-field", "field", None),
                  ("meridian", "--meridian", "in", None), ("mesh", "--mesh", "in", None)],
     "phase-diagram": [("output", "-o", "dir", None)],
     "postbuckle": [("output", "-o", "dir", None),
                    ("kappa_field", "--kappa-field", "field", None),
-                   ("meridian", "--meridian", "in", None)],
+                   ("meridian", "--meridian", "in", None), ("mesh", "--mesh", "in", None)],
 }
 
 

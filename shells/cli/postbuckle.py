@@ -49,7 +49,7 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
                        "stability at every point. The 1D model (axisym) follows axisymmetric "
                        "branches only (a closed sphere's buckling with rotational symmetry "
                        "enforced, as in the paper).")
-    add_shape_args(p, positional=False)
+    add_shape_args(p, positional=False, user_mesh=True)
     add_physics_args(p, "axisym", "axisym (1D, default) or surface (2D mesh)")
     p.add_argument("--at", type=int, default=1, help="the K-th bifurcation (default 1)")
     add_kappa_range(p)
@@ -95,7 +95,7 @@ def _cmd_postbuckle(args: argparse.Namespace) -> int:
                            size=args.size, layer_elements=args.layer_elements,
                            degree=args.degree,
                            sides=(1, -1) if args.sides == "both" else (int(args.sides),),
-                           kappa_field=fld)
+                           kappa_field=fld, mesh_file=args.mesh)
     result = postbuckle_run(cfg, args.output, fields=args.fields)
     cp, points, sides = result["critical_point"], result["points"], result["sides"]
 

@@ -162,15 +162,16 @@ def mirrored_buckling_kappa_R(thetabar: float, h_over_r: float, b: float = PAPER
 def default_kappa_range(shape: object, h_over_r: float, nu: float, direction: str) -> float:
     """A κ range (absolute, signed) that contains the first critical point with a margin.
 
-    Built from the paper's laws (sphere: κ_b h; caps: the snap line, the mirrored Eq. (4) and
-    Eq. (4); disk: the plate limit), widened by 60 %.
+    Built from the paper's laws (sphere and any closed shell: κ_b h; caps: the snap line, the
+    mirrored Eq. (4) and Eq. (4); disk: the plate limit), widened by 60 %; other shapes 8/R.
     """
     from shells.geometry import Disk, Sphere, SphericalCap
 
     sign = 1.0 if direction == "up" else -1.0
     L = shape.characteristic_size()  # type: ignore[attr-defined]
     h = h_over_r * L
-    if isinstance(shape, Sphere):
+    if isinstance(shape, Sphere) or getattr(shape, "closed", False):
+        # any closed shell (a spheroid, a closed meridian table): the sphere's buckling law
         return sign * 1.6 * sphere_kappa_b_h(nu) / h
     if isinstance(shape, Disk):
         return sign * 1.6 * plate_a() * h / L**2

@@ -123,6 +123,20 @@ def test_closed_and_ellipsoidal_tables():
     assert abs(got["kappa_h"] / e_exact["kappa_h"] - 1) < 1e-4
 
 
+def test_a_closed_table_gets_the_spheres_default_range():
+    """`shells critical` on a closed table covers the sphere's buckling: the default κ range is
+    the sphere law's (it was the 8/R of other shapes, κR = 8 against κ_b R ≈ 30 at h/R = 0.05:
+    "no critical point"; with it the surface model finds κ_b h = 1.488927 on the 80-point
+    sphere table, the built-in sphere 1.48979)."""
+    from shells.theory import default_kappa_range
+
+    u = np.linspace(0, math.pi, 60)
+    tab = table(np.sin(u), np.cos(u))
+    for d in ("up", "down"):
+        assert default_kappa_range(tab, 0.05, 0.5, d) == pytest.approx(
+            default_kappa_range(Sphere(1.0), 0.05, 0.5, d), rel=1e-3)
+
+
 @pytest.mark.parametrize("points, needle", [
     ([(0.1, 1.0), (0.2, 0.9), (0.3, 0.8), (0.4, 0.7)], "start on the axis"),
     ([(0, 1.0), (0.2, 0.9), (-0.1, 0.8), (0.4, 0.7)], "r > 0"),

@@ -122,3 +122,20 @@ def test_cli_branch_on_a_user_mesh(user_cap, shared_tmp, capsys):
     assert header["mesh_file"] == str(user_cap)
     assert abs(ends[0] / ends[1] - 1) < 2e-3
 
+
+
+def test_nodes_without_a_pole_are_refused():
+    """A node cloud of a cap with no node on the axis (a mesh with a hole at its pole) cannot
+    give a meridian from the pole: refused with the reason."""
+    import numpy as np
+
+    from shells.errors import InputError
+    from shells.geometry import MeridianTable
+
+    t, p = np.meshgrid(np.linspace(0.05, CAP.theta, 20), np.linspace(0, 2 * math.pi, 16))
+    x = np.column_stack([(np.sin(t) * np.cos(p)).ravel(), (np.sin(t) * np.sin(p)).ravel(),
+                         np.cos(t).ravel()])
+    with pytest.raises(InputError, match="no node on the z axis"):
+        MeridianTable.from_nodes(x)
+    x = np.vstack([[0.0, 0.0, 1.0], x])  # with its pole it is a cap of radius 1
+    assert abs(MeridianTable.from_nodes(x).R - 1) < 1e-3

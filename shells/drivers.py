@@ -168,10 +168,10 @@ def critical_surface(shape: Any, h_over_r: float, nu: float, kappa_end: float, *
                      degree: int | None = None, ds: float | None = None,
                      ds_max: float | None = None,
                      outdir: str | os.PathLike | None = None,
-                     kappa_field: Any = None, mesh: Any = None) -> dict[str, Any]:
+                     kappa_field: Any = None, mesh_file: str | None = None) -> dict[str, Any]:
     """The surface model's critical points up to ``kappa_end`` (``shells.critical.follow``):
     meshes ``shape`` (``size``, ``degree`` None: ``shells.model.default_discretisation``), or
-    runs on ``mesh`` (a ``ShellMesh`` of ``shape``: a user's; ``size`` then unused),
+    runs on the mesh in ``mesh_file`` (a user's, of ``shape``; ``size`` then unused),
     follows the branch in steps ``ds`` .. ``ds_max`` in κL (None: range/16, range/10), writes
     every point to ``outdir/branch.jsonl`` (rank 0) and the first critical mode to
     ``outdir/modes.bp``; returns the first critical point's kind, κ and mode, every critical
@@ -180,7 +180,7 @@ def critical_surface(shape: Any, h_over_r: float, nu: float, kappa_end: float, *
 
     from shells.continuation import ContinuationSettings
     from shells.critical import CriticalSettings, follow
-    from shells.mesh import MeshSpec, generate
+    from shells.mesh import MeshSpec, generate, load_mesh
     from shells.model import ModelParameters, ShellModel, default_discretisation
     from shells.stimulus import UNIFORM
 
@@ -190,8 +190,8 @@ def critical_surface(shape: Any, h_over_r: float, nu: float, kappa_end: float, *
     h = h_over_r * L
     R_or_L = _R_or_L(shape)
     degree, size = default_discretisation(shape, h_over_r, degree, size, kappa_field)
-    sm = mesh if mesh is not None else generate(MeshSpec(shape, h=h, size=size,
-                                                         layer_elements=layer_elements), comm)
+    sm = (load_mesh(mesh_file, comm) if mesh_file is not None else
+          generate(MeshSpec(shape, h=h, size=size, layer_elements=layer_elements), comm))
     model = ShellModel(sm, ModelParameters(h=h, nu=nu, shear_penalty=shear_penalty,
                                            degree=degree, quadrature_degree=2 * degree,
                                            kappa_field=kappa_field))
@@ -254,9 +254,10 @@ def critical_surface(shape: Any, h_over_r: float, nu: float, kappa_end: float, *
             "mode_n": first["mode_n"] if first else None,
             "dofs": model.num_dofs(), "critical_points": cps,
             "mesh": ({"size": size, "layer_elements": layer_elements, "degree": degree}
-                     if mesh is None else {"size": None, "layer_elements": None,
-                                           "degree": degree, "user_mesh": True,
-                                           "cells": sm.num_cells()}),
+                     if mesh_file is None else {"size": None, "layer_elements": None,
+                                                "degree": degree, "user_mesh": True,
+                                                "file": str(mesh_file),
+                                                "cells": sm.num_cells()}),
             "wall_time": time.perf_counter() - t0}
 
 

@@ -611,13 +611,9 @@ def _check_msh(path: Path) -> None:
         raise InputError(f"{str(path)!r} is not a gmsh .msh mesh file (no $MeshFormat header)")
 
 
-def load_mesh(path: str | os.PathLike, comm: MPI.Comm | None = None) -> ShellMesh:
-    """Read a gmsh ``.msh`` surface mesh in parallel; the shape comes from its JSON sidecar, or,
-    for a mesh made elsewhere, from its nodes (a surface of revolution about z)."""
-    from dolfinx.io import gmshio
-    from mpi4py import MPI as _MPI
-
-    comm = _MPI.COMM_WORLD if comm is None else comm
+def _checked(path: str | os.PathLike, comm: MPI.Comm) -> Path:
+    """``path`` once rank 0 has found it a readable .msh file (``_check_msh``), before gmsh
+    starts; else ``InputError`` on every rank."""
     path = Path(path)
     err = None
     if comm.rank == 0:
@@ -628,36 +624,77 @@ def load_mesh(path: str | os.PathLike, comm: MPI.Comm | None = None) -> ShellMes
     err = comm.bcast(err, root=0)
     if err:
         raise InputError(err)
+    return path
 
-    spec = shape = None
+
+def _sidecar_spec(path: Path) -> MeshSpec | None:
+    """The spec in a mesh file's ``.msh.json`` sidecar (None without one)."""
     sidecar = Path(str(path) + ".json")
-    if sidecar.exists():
+    if not sidecar.exists():
+        return None
+    try:
+        return MeshSpec.from_description(json.loads(sidecar.read_text())["spec"],
+                                         sectors_if_missing=1)
+    except (KeyError, ValueError, TypeError) as e:
+        raise InputError(f"mesh sidecar {str(sidecar)!r} is not valid: {e}") from None
+
+
+def _read_on_rank0(gmsh: Any, path: Path, comm: MPI.Comm, recover: bool
+                   ) -> tuple[tuple[float, float], ...] | None:
+    """Rank 0 merges ``path`` (checked by ``_checked``) into ``gmsh``; with ``recover``, the
+    points of its meridian table (``_user_mesh_shape``), on every rank. Any error:
+    ``InputError`` on every rank."""
+    err = table = None
+    if comm.rank == 0:
         try:
-            spec = MeshSpec.from_description(json.loads(sidecar.read_text())["spec"],
-                                             sectors_if_missing=1)
-            shape = spec.shape
-        except (KeyError, ValueError, TypeError) as e:
-            raise InputError(f"mesh sidecar {str(sidecar)!r} is not valid: {e}") from None
+            gmsh.merge(str(path))
+            if not gmsh.model.getEntities(2):
+                err = f"{str(path)!r} holds no surface (no 2D elements)"
+            elif recover:
+                table = _user_mesh_shape(gmsh)
+            elif not gmsh.model.getPhysicalGroups(2):
+                err = (f"{str(path)!r} holds no tagged surface (a shells mesh has a 2D "
+                       "physical group)")
+        except InputError as e:
+            err = f"{str(path)!r}: {e}"
+        except Exception as e:  # gmsh raises a bare Exception on malformed files
+            err = f"{str(path)!r} could not be read as a gmsh mesh: {e}"
+    err, table = comm.bcast((err, table), root=0)
+    if err:
+        raise InputError(err)
+    return table
 
+
+def read_mesh_shape(path: str | os.PathLike, comm: MPI.Comm | None = None) -> Shape:
+    """The shape of a gmsh ``.msh`` file without building its mesh: its sidecar's, or, for a
+    mesh made elsewhere, the meridian recovered from its nodes (as ``load_mesh`` does)."""
+    from mpi4py import MPI as _MPI
+
+    from shells.geometry import MeridianTable
+
+    comm = _MPI.COMM_WORLD if comm is None else comm
+    path = _checked(path, comm)
+    spec = _sidecar_spec(path)
     with _gmsh_model("shells-read") as gmsh:
-        err = table = None
-        if comm.rank == 0:
-            try:
-                gmsh.merge(str(path))
-                if not gmsh.model.getEntities(2):
-                    err = f"{str(path)!r} holds no surface (no 2D elements)"
-                elif shape is None:
-                    table = _user_mesh_shape(gmsh)
-            except InputError as e:
-                err = f"{str(path)!r}: {e}"
-            except Exception as e:  # gmsh raises a bare Exception on malformed files
-                err = f"{str(path)!r} could not be read as a gmsh mesh: {e}"
-        err, table = comm.bcast((err, table), root=0)
-        if err:
-            raise InputError(err)
-        if table is not None:
-            from shells.geometry import MeridianTable
+        table = _read_on_rank0(gmsh, path, comm, recover=spec is None)
+    return spec.shape if spec is not None else MeridianTable(table)
 
+
+def load_mesh(path: str | os.PathLike, comm: MPI.Comm | None = None) -> ShellMesh:
+    """Read a gmsh ``.msh`` surface mesh in parallel; the shape comes from its JSON sidecar, or,
+    for a mesh made elsewhere, from its nodes (a surface of revolution about z)."""
+    from dolfinx.io import gmshio
+    from mpi4py import MPI as _MPI
+
+    from shells.geometry import MeridianTable
+
+    comm = _MPI.COMM_WORLD if comm is None else comm
+    path = _checked(path, comm)
+    spec = _sidecar_spec(path)
+    shape = spec.shape if spec is not None else None
+    with _gmsh_model("shells-read") as gmsh:
+        table = _read_on_rank0(gmsh, path, comm, recover=spec is None)
+        if table is not None:
             shape = MeridianTable(table)
         mesh, cell_tags, facet_tags = gmshio.model_to_mesh(gmsh.model, comm, 0, gdim=3)[:3]
     if mesh.topology.dim != 2:
@@ -670,7 +707,7 @@ def load_mesh(path: str | os.PathLike, comm: MPI.Comm | None = None) -> ShellMes
 
 def _tag_boundary(mesh: Any) -> Any:
     """The facets on the boundary of a user's mesh, tagged as the rim (its file may hold no
-    boundary elements: gmsh saves only those of physical groups)."""
+    boundary elements: gmsh saves only those of physical groups; any it has are not used)."""
     from dolfinx import mesh as dmesh
 
     tdim = mesh.topology.dim
@@ -680,22 +717,16 @@ def _tag_boundary(mesh: Any) -> Any:
 
 
 def _user_mesh_shape(gmsh: Any) -> tuple[tuple[float, float], ...]:
-    """A mesh made outside ``shells`` (no sidecar): its surface and its boundary (the rim) put
-    in the physical groups a shells mesh has, where it has none, and its shape recovered from
-    its nodes: the meridian of a surface of revolution about z (``MeridianTable.from_nodes``,
-    which refuses any other surface). Returns the table's points."""
+    """A mesh made outside ``shells`` (no sidecar): its surface put in the physical group a
+    shells mesh has, if it has none (gmsh's reader takes the cells of physical groups only),
+    and its shape recovered from its nodes: the meridian of a surface of revolution about z
+    (``MeridianTable.from_nodes``, which refuses any other surface). Returns the table's
+    points. The rim is tagged on the dolfinx mesh (``_tag_boundary``)."""
     from shells.geometry import MeridianTable
 
     model = gmsh.model
     if not model.getPhysicalGroups(2):
         model.addPhysicalGroup(2, [t for _, t in model.getEntities(2)], SURFACE_TAG)
-    if not model.getPhysicalGroups(1):
-        rim = [t for d, t in model.getBoundary(model.getEntities(2), combined=True,
-                                               oriented=False)
-               if d == 1 and len(model.mesh.getElementTypes(1, t)) > 0]  # not the degenerate
-        # pole edge of an OCC sphere (no elements)
-        if rim:
-            model.addPhysicalGroup(1, rim, RIM_TAG)
     _, x, _ = model.mesh.getNodes()
     return MeridianTable.from_nodes(np.asarray(x, dtype=float).reshape(-1, 3)).points
 

@@ -151,8 +151,8 @@ def add_shape_args(p: argparse.ArgumentParser, positional: bool,
 
 
 def shape_from_args(args: argparse.Namespace):
-    """The shape of the arguments; with ``--mesh``, the mesh's (read here, kept as
-    ``args.user_mesh`` for the run)."""
+    """The shape of the arguments; with ``--mesh``, the mesh file's (its mesh is built by the
+    run)."""
     from shells.geometry import MeridianTable, make_shape
 
     if getattr(args, "mesh", None) is not None:
@@ -160,12 +160,9 @@ def shape_from_args(args: argparse.Namespace):
             raise InputError("--mesh gives the shape: drop --shape and --meridian")
         from mpi4py import MPI
 
-        from shells.mesh import load_mesh
+        from shells.mesh import read_mesh_shape
 
-        args.user_mesh = load_mesh(args.mesh, MPI.COMM_WORLD)
-        if args.user_mesh.shape is None:
-            raise InputError(f"{args.mesh!r}: no shape (its .msh.json sidecar is missing)")
-        return args.user_mesh.shape
+        return read_mesh_shape(args.mesh, MPI.COMM_WORLD)
     if args.shape is None:
         raise InputError("give the shape: --shape (or --mesh FILE)")
     path = getattr(args, "meridian", None)

@@ -50,7 +50,7 @@ def _cmd_critical(args: argparse.Namespace) -> int:
     surface = {} if args.model != "surface" else dict(
         first_only=args.first_only, size=args.size, layer_elements=args.layer_elements,
         shear_penalty=args.shear_penalty, degree=args.degree, ds=args.ds, ds_max=args.ds_max,
-        mesh=getattr(args, "user_mesh", None))
+        mesh_file=args.mesh)
     result = critical_run(shape, args.h_over_r, args.nu, direction=args.direction,
                           model=args.model, outdir=args.output, kappa_field=fld,
                           kappa_end=common.kappa_end(shape, args.h_over_r, args.kappa_h_max,

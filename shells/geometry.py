@@ -596,17 +596,15 @@ class MeridianTable(Shape):
 
     def meridian_parameter(self, x: np.ndarray) -> np.ndarray:
         """t of the meridian point nearest to each point x (shape (3, N) or (3,)): the nearest
-        of 4096 samples, then Newton on (γ(t) - p)·γ'(t) = 0 (to round-off for points on the
-        surface, as mesh nodes are)."""
+        of 4097 samples (a k-d tree: every interpolation point of a mesh asks), then Newton on
+        (γ(t) - p)·γ'(t) = 0 (to round-off for points on the surface, as mesh nodes are)."""
+        from scipy.spatial import cKDTree
+
         x = np.asarray(x, dtype=float)
         p = np.stack([np.hypot(x[0], x[1]), x[2]], axis=-1).reshape(-1, 2)
-        ts = np.linspace(0.0, self.t_max, 4097)
-        g = self._spline(ts)  # type: ignore[attr-defined]
-        t = np.empty(len(p))
-        for a in range(0, len(p), 4096):  # bounded memory: 4096 x 4097 distances at a time
-            d = np.sum((p[a:a + 4096, None, :] - g[None, :, :]) ** 2, axis=-1)
-            t[a:a + 4096] = ts[np.argmin(d, axis=1)]
         sp = self._spline  # type: ignore[attr-defined]
+        ts = np.linspace(0.0, self.t_max, 4097)
+        t = ts[cKDTree(sp(ts)).query(p)[1]]
         for _ in range(8):
             e, d1, d2 = sp(t) - p, sp(t, 1), sp(t, 2)
             f = np.sum(e * d1, axis=1)

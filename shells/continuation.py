@@ -186,10 +186,11 @@ class _Arclength:
         floor = self.ns.roundoff_floor(st.residual_roundoff) if roundoff else 0.0
         return st.residual_rtol * load + floor
 
-    def tangent(self, sign_ref: tuple[Any, float] | None, direction: float) -> bool:
+    def tangent(self, sign_ref: tuple[Any, float] | None, direction: float,
+                attempts: int = 1) -> bool:
         """Unit tangent at the current (converged) point: J z = -R_λ, τ ∝ (z, 1). False, and
-        the tangent left as it was, if the Jacobian could not be factored."""
-        if not self.ns.factor():
+        the tangent left as it was, if the Jacobian could not be factored (in ``attempts``)."""
+        if not self.ns.factor(attempts):
             return False
         self.dres_dlambda()
         self.Fl.scale(-1.0)
@@ -213,7 +214,7 @@ class _Arclength:
     def start_tangent(self, sign_ref: tuple[Any, float] | None, direction: float) -> None:
         """``tangent`` at a run's start, where there is no step to cut: one retry (the failed
         factor was reset), then an error."""
-        if not (self.tangent(sign_ref, direction) or self.tangent(sign_ref, direction)):
+        if not self.tangent(sign_ref, direction, attempts=2):
             raise RuntimeError(f"the Jacobian at the start kappa L = {self.get_lambda():.6g} "
                                "could not be factored (twice)")
 

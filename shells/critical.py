@@ -183,7 +183,7 @@ class _Locator:
     def _signed_tl(self) -> float:
         """κ-component of the unit tangent at the current point, oriented like the step's."""
         ar, ns = self.ar, self.ns
-        if not (ns.factor() or ns.factor()):  # one retry: the failed factor was reset
+        if not ns.factor(attempts=2):  # one retry: the failed factor was reset
             raise RuntimeError(f"the Jacobian at kappa L = {ar.get_lambda():.6g} could not be "
                                "factored (twice)")
         ar.dres_dlambda()
@@ -842,7 +842,7 @@ def _off_branch_direction(problem: Any, ns: NewtonSolver, ar: _Arclength, phi: A
     ∂R/∂λ with its component along φ (M-orthogonal, M the mass of block None) removed: J is
     singular along φ there, so that component of the solve is undetermined."""
     z = phi.duplicate()
-    if ns.factor() or ns.factor():  # one retry: the failed factor was reset
+    if ns.factor(attempts=2):  # one retry: the failed factor was reset
         ar.dres_dlambda()
         ar.Fl.scale(-1.0)
         ns.lin_solve(ar.Fl, z)

@@ -182,11 +182,10 @@ class NewtonSolver:
         κ-load, because a relative decrease of 1e-9 from a small start residual (a short step)
         lies below round-off. A residual that round-off keeps above both is accepted when it
         is below ``NOISE_FACTOR`` times the residual's measured round-off (``residual_noise``)
-        at two successive iterates: the second is then one Newton step from a residual that is
-        round-off, as converged as round-off lets it be. The residual alone is not enough: the
-        first iterate at round-off can still be off along the Jacobian's soft directions
-        (measured on a thin sphere: its profile 1.7e-4 from the converged one, which the next
-        iterate reaches to 1e-11).
+        at two successive iterates and Newton's step has settled (``NOISE_STEP``). The residual
+        alone is not enough: on an ill-conditioned Jacobian Newton contracts only linearly at
+        round-off (measured on a thin sphere, h/R = 0.001: the first iterate at round-off
+        1.7e-4 off the converged profile, the accepted one 3.5e-8, 12 iterations 8e-12).
         ``self.noise_accepted`` tells whether the last solve ended so. A failed solve leaves
         the state as it was.
         """
@@ -206,8 +205,8 @@ class NewtonSolver:
         start.destroy()
         return reason > 0, its
 
-    #: a residual below this multiple of its measured round-off is converged (Newton stalls
-    #: at 0.3-1 times the measurement: ``residual_noise``)
+    #: a residual below this multiple of its measured round-off is at round-off (Newton
+    #: stalled at 1.1-1.2 times the measurement of ``residual_noise`` on thin spheres)
     NOISE_FACTOR = 4.0
     #: and the state is converged at round-off when Newton's step is below this fraction of
     #: it, or no longer shrinks (halves)
@@ -294,13 +293,16 @@ class NewtonSolver:
         self.assemble_residual(self.b)
         return float(self.b.norm())
 
-    def factor(self) -> bool:
+    def factor(self, attempts: int = 1) -> bool:
         """Assemble and factor the Jacobian at the current state for ``lin_solve``; False if
-        the factorisation failed (``lin_solve`` then returns Inf, and the next call factors
-        afresh)."""
-        self.assemble_jacobian(self.A)
-        self.lin.setOperators(self.A)  # same matrix object: the configured factor is kept
-        return setup_factor(self.lin, self.A, self.lin_opts)
+        the factorisation failed ``attempts`` times (a failed factor is reset, so a later
+        attempt factors afresh; ``lin_solve`` after a failure returns Inf)."""
+        for _ in range(attempts):
+            self.assemble_jacobian(self.A)
+            self.lin.setOperators(self.A)  # same matrix object: the configured factor is kept
+            if setup_factor(self.lin, self.A, self.lin_opts):
+                return True
+        return False
 
     def lin_solve(self, rhs: Any, out: Any) -> None:
         self.lin.solve(rhs, out)

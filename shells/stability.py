@@ -15,7 +15,7 @@ ICNTL(14) (workspace) near 200; ``Mat.getInfo`` is collective. Options prefixes:
 works), see ``shells.solvers``.
 
 A positive definite block needs no LDLᵀ: on one process, a block whose matrix is banded after a
-reverse Cuthill-McKee ordering (the 1D model's Fourier blocks: 3006 DOFs, half-bandwidth 20)
+band-reducing ordering (``_band_ordering``; the 1D model's Fourier blocks: half-bandwidth 20)
 is first tested by LAPACK's banded Cholesky (``dpbtrf``) of H - τ diag(H), τ =
 ``DEFINITE_MARGIN``. Success proves the inertia (0, 0, n): Cholesky is backward stable, so it
 succeeds only if the diagonally scaled matrix D^-1/2 H D^-1/2 has no eigenvalue below τ minus
@@ -81,14 +81,14 @@ class StabilityResult:
 #: succeeds, τ this margin (relative: the lowest eigenvalue of the diagonally scaled H; the 1D
 #: model's blocks sit at 1e-12..1e-9 on a loaded branch, its round-off at ~1e-15)
 DEFINITE_MARGIN = 1.0e-13
-#: the banded test is used up to this half-bandwidth (after RCM): its cost grows as n kd², a
+#: the banded test is used up to this half-bandwidth (after ordering): its cost grows as n kd², a
 #: surface model's mesh has hundreds
 MAX_BANDWIDTH = 64
 
 
 class _BandedCholesky:
     """Positive definiteness (by a margin) of a sequential sparse symmetric matrix of a fixed
-    nonzero pattern: its lower triangle in a reverse Cuthill-McKee ordering, written into
+    nonzero pattern: its lower triangle in the ordering of ``_band_ordering``, written into
     LAPACK's band storage, factored by ``dpbtrf``."""
 
     def __init__(self, ai: np.ndarray, aj: np.ndarray) -> None:
@@ -179,14 +179,16 @@ class _Block:
         self.options = apply_options(self.ksp, INERTIA_PREFIX, options)
         configure_factor(self.ksp, self.H, self.options)
         self.M: dict[Hashable, Any] = {}
-        self.serial = problem.comm.size == 1
+        # the banded test applies: on one process, and (once H's pattern is seen) to a band
+        # no wider than MAX_BANDWIDTH
+        self.testable = problem.comm.size == 1
         self.banded: _BandedCholesky | None = None
 
     def definite(self, margin: float, values: np.ndarray | None = None) -> bool:
         """H (as assembled, or the matrix of H's pattern with these CSR ``values``) positive
         definite by ``margin`` (``_BandedCholesky``); False where the test does not apply (in
         parallel, a wide band; values before H's pattern was seen)."""
-        if not self.serial:
+        if not self.testable:
             return False
         if values is not None:
             ok = self.banded is not None and len(values) == len(self.banded.aj)
@@ -195,8 +197,8 @@ class _Block:
         if self.banded is None or not self.banded.matches(ai, aj):
             self.banded = _BandedCholesky(ai, aj)
             # a wide band stays wide: the layout's matrix keeps its pattern
-            self.serial = self.banded.kd <= MAX_BANDWIDTH
-        return self.serial and self.banded.definite(values, margin)
+            self.testable = self.banded.kd <= MAX_BANDWIDTH
+        return self.testable and self.banded.definite(values, margin)
 
     def destroy(self) -> None:
         for o in (self.ksp, self.H, *self.M.values()):

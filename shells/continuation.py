@@ -300,6 +300,12 @@ def _natural(problem, ns, st, lam0, lam_end, L, point, its0, skip_first,
         ar.set_lambda(new_lam)
         ar.dres_dlambda()
         ok, its = ns.solve(atol=ar.residual_bound(st_snes, new_lam, roundoff=False))
+        # (not the first step: its zero predictor has no scale, and a start state of round-off
+        # size, e.g. a meridian table's interpolated reference, none either)
+        dw_norm = float(dw.norm())
+        if ok and dw_norm > 0 and jumped(w, w_old, step * dw_norm):
+            log.debug("continuation: a jump at kappa L = %.6g refused; step cut", new_lam)
+            ok = False
         if not ok or its > st.max_newton_its:
             w_old.copy(w)
             ar.sync()
@@ -319,6 +325,26 @@ def _natural(problem, ns, st, lam0, lam_end, L, point, its0, skip_first,
         n += 1
         yield point(its, step, direction)
         ds = min(st.ds_max, max(st.ds_min, ds * _growth(its, st.target_newton_its)))
+
+
+#: a converged step that moved the state by more than this multiple of (the state's norm +
+#: the predictor's increment) landed on another solution, not the branch's next point: on a
+#: 2-rank run Newton from a natural step just short of a cap's snap-through fold converged
+#: in 20 iterations to a spurious root 1e4 thicknesses away (Psi3/h = 1.4e4 after -1.4)
+JUMP_FACTOR = 10.0
+
+
+def jumped(w: Any, w_old: Any, predicted: float) -> bool:
+    """Whether the step from ``w_old`` to ``w`` (predictor increment of norm ``predicted``)
+    is a jump to another solution (``JUMP_FACTOR``)."""
+    scale = float(w_old.norm()) + predicted
+    if scale == 0.0:
+        return False  # no scale to compare with
+    d = w.copy()
+    d.axpy(-1.0, w_old)
+    change = float(d.norm())
+    d.destroy()
+    return change > JUMP_FACTOR * scale
 
 
 def _growth(its: int, target: int) -> float:
@@ -409,6 +435,9 @@ def arclength_steps(ar: _Arclength, st: ContinuationSettings, lam: float, lam_en
                     landing = True
                     step *= f
                     c = _bordered_newton(ar, st, lam_end, plane=(zero, 1.0, zero), **corrector)
+                if c.ok and jumped(w, ar.w_old, step * float(ar.tw.norm())):
+                    log.debug("continuation: a jump at kappa L = %.6g refused; step cut", c.lam)
+                    c = c._replace(ok=False)
                 if c.ok and (reject is None or jumps >= 3 or not reject()):
                     if secant:
                         break

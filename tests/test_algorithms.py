@@ -12,7 +12,7 @@ import math
 import numpy as np
 import pytest
 
-from shells.algebraic import FoldPitchforkProblem, FoldProblem, PitchforkProblem
+from shells.algebraic import AlgebraicProblem, FoldPitchforkProblem, FoldProblem, PitchforkProblem
 from shells.continuation import ContinuationSettings, continuation
 from shells.critical import CriticalSettings, follow, switch_branch
 from shells.problem import Problem
@@ -81,6 +81,48 @@ def test_natural_steps_down_mirror_the_steps_up():
     assert [p.kappa for p in down] == pytest.approx([-p.kappa for p in up], abs=1e-14)
     assert [p.scalars["w0"] for p in down] == pytest.approx([p.scalars["w0"] for p in up],
                                                              abs=1e-12)
+
+
+class _FoldWithFarRoot(FoldProblem):
+    """R = (x² + κ - 1)(x - 1000) in one unknown: the fold problem's branch x = sqrt(1 - κ),
+    ending at the fold κ = 1, and a second solution x = 1000 for every κ."""
+
+    X = 1000.0
+
+    def __init__(self) -> None:
+        AlgebraicProblem.__init__(self, 1, np.ones(1))
+
+    def energy(self, w, k):
+        x, a = w[0], k - 1
+        return x**4 / 4 - self.X * x**3 / 3 + a * x**2 / 2 - a * self.X * x
+
+    def gradient(self, w, k):
+        return np.array([(w[0] ** 2 + k - 1) * (w[0] - self.X)])
+
+    def hessian(self, w, k):
+        x = w[0]
+        return np.array([[2 * x * (x - self.X) + x * x + k - 1]])
+
+    def dgradient_dkappa(self, w, k):
+        return np.array([w[0] - self.X])
+
+
+def test_natural_steps_refuse_a_jump_to_another_solution(monkeypatch):
+    """Natural steps cannot pass the fold at κ = 1; the step past it, from x = 0.32 at κ = 0.9,
+    converges to the far root x = 1000 (checked: without the jump test, points at κ = 1.2 and
+    1.5 with x = 1000). The run must instead stop at the fold on its own branch. (A 30° cap on
+    2 ranks once so jumped to Psi3/h = 1.4e4 just short of its snap-through fold.)"""
+    import shells.continuation as cont
+
+    st = ContinuationSettings(method="natural", ds=0.3, ds_max=0.3, ds_min=1e-3,
+                              max_newton_its=20)
+    pts = list(continuation(_FoldWithFarRoot(), st, kappa_end=1.5))
+    assert all(abs(p.scalars["w0"] ** 2 + p.kappa - 1) < 1e-8 for p in pts)  # on the branch
+    assert 0.999 < pts[-1].kappa < 1.0 and pts[-1].scalars["w0"] > 0
+    # the same run without the test does jump: the problem tests what it claims to
+    monkeypatch.setattr(cont, "JUMP_FACTOR", math.inf)
+    pts = list(continuation(_FoldWithFarRoot(), st, kappa_end=1.5))
+    assert pts[-1].kappa == 1.5 and pts[-1].scalars["w0"] == pytest.approx(1000.0)
 
 
 def test_pitchfork_located_to_1e8():

@@ -19,12 +19,14 @@ import json
 import math
 import os
 import time
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 from mpi4py import MPI
 
 from shells.phase_diagram import (
+    Discretisation,
     PhaseDiagramConfig,
     Task,
     compute_task,
@@ -65,8 +67,9 @@ def everted_with_down(h: float, tb: float, cfg: PhaseDiagramConfig) -> dict[str,
 
 def convergence_checks(cfg: PhaseDiagramConfig) -> list[dict[str, Any]]:
     """A few points on the default mesh and on a mesh with twice the cells and rim layer."""
-    fine = PhaseDiagramConfig(**{**cfg.__dict__, "cells": 2 * cfg.cells,
-                                 "layer_cells": 2 * cfg.layer_cells})
+    disc = cfg.discretisation
+    fine = replace(cfg, discretisation=replace(disc, cells=2 * disc.cells,
+                                               layer_cells=2 * disc.layer_cells))
     rows = []
     for h, tb, d in ((0.01, 3.0, "up"), (0.01, 8.0, "up"), (0.01, 8.0, "down"),
                      (0.04, 12.0, "down")):
@@ -85,7 +88,8 @@ def surface_check(args: argparse.Namespace) -> None:
     rows = []
     for model in ("surface", "axisym"):
         cfg = PhaseDiagramConfig(h_over_r=(h,), thetabar_range=(tb, tb), points=1, model=model,
-                                 size=args.size, layer_elements=args.layer_elements)
+                                 discretisation=Discretisation(
+                                     size=args.size, layer_elements=args.layer_elements))
         rec = compute_task(Task(h, tb, d, tag="surface-check"), cfg)
         rows.append(rec)
     if MPI.COMM_WORLD.rank == 0:

@@ -56,8 +56,9 @@ def _cmd_phase_diagram(args: argparse.Namespace) -> int:
     cfg = phase_diagram.PhaseDiagramConfig(
         h_over_r=tuple(args.h_over_r), thetabar_range=tuple(args.thetabar_range),
         points=args.points, nu=args.nu, model=args.model, m_max=args.m_max,
-        rel_tol=args.rel_tol, refine=args.refine, cells=args.cells, size=args.size,
-        layer_elements=args.layer_elements)
+        rel_tol=args.rel_tol, refine=args.refine,
+        discretisation=phase_diagram.Discretisation(cells=args.cells, size=args.size,
+                                                    layer_elements=args.layer_elements))
     res = phase_diagram.run_phase_diagram(cfg, args.output, figure=not args.no_figure)
 
     def human() -> None:

@@ -29,11 +29,12 @@ Modules: ``config`` (configuration and tasks), ``tracing`` (one branch), ``jobs`
 points file, the run), ``fits`` (merged points and fits), ``figure``.
 """
 
-from shells.phase_diagram.config import PhaseDiagramConfig, Task, tasks_of
+from shells.phase_diagram.config import Discretisation, PhaseDiagramConfig, Task, tasks_of
 from shells.phase_diagram.figure import make_figure
 from shells.phase_diagram.fits import fit_all, merge_points
 from shells.phase_diagram.jobs import RunStats, run_phase_diagram
 from shells.phase_diagram.tracing import compute_task, everted_check
 
-__all__ = ["PhaseDiagramConfig", "RunStats", "Task", "compute_task", "everted_check",
-           "fit_all", "make_figure", "merge_points", "run_phase_diagram", "tasks_of"]
+__all__ = ["Discretisation", "PhaseDiagramConfig", "RunStats", "Task", "compute_task",
+           "everted_check", "fit_all", "make_figure", "merge_points", "run_phase_diagram",
+           "tasks_of"]

@@ -1,5 +1,7 @@
 """The phase diagram's configuration and tasks (driver layer): ``PhaseDiagramConfig`` (validated;
-its ``numerics`` are the rerun key), ``Task`` (one branch: h/R, θ̄, direction) and ``tasks_of``."""
+its ``numerics`` are the rerun key), ``Discretisation`` (how finely every branch is resolved: it
+builds the per-task ``AxisymParameters``, continuation settings and ``MeshSpec``), ``Task`` (one
+branch: h/R, θ̄, direction) and ``tasks_of``."""
 
 from __future__ import annotations
 
@@ -7,14 +9,22 @@ import hashlib
 import json
 import logging
 import math
-from dataclasses import asdict, dataclass
-from typing import Any
+from dataclasses import asdict, dataclass, field, fields
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from shells.axisym.model import AxisymParameters
+from shells.axisym.run import default_settings
 from shells.errors import InputError
+from shells.geometry import Shape, SphericalCap
+from shells.mesh import MeshSpec
 
-__all__ = ["SNAP_FIT_THETA_MAX_DEG", "THETA_MAX", "PhaseDiagramConfig", "Task", "tasks_of"]
+if TYPE_CHECKING:
+    from shells.continuation import ContinuationSettings
+
+__all__ = ["SNAP_FIT_THETA_MAX_DEG", "THETA_MAX", "Discretisation", "PhaseDiagramConfig", "Task",
+           "tasks_of"]
 
 log = logging.getLogger("shells")
 
@@ -29,6 +39,58 @@ SNAP_FIT_THETA_MAX_DEG = 90.0
 # configuration
 # ------------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
+class Discretisation:
+    """How finely every branch of a diagram is resolved (validated on construction).
+
+    The per-task objects that take these settings are built here and nowhere else
+    (``axisym_parameters``, ``continuation_settings``, ``mesh_spec``), and the settings are
+    validated by building them: the ranges are those classes' own rules, stated once there.
+
+    Attributes:
+        cells, layer_cells: axisymmetric mesh (bulk cells, cells per √(Rh) at the rim;
+            ``AxisymParameters``, whose defaults these are).
+        ds_max: largest continuation step (axisym: the weighted arclength of
+            ``shells.continuation``; the default is ``default_settings``' for an open cap, and
+            it may not be below that function's first step).
+        size, layer_elements: surface-model mesh (``MeshSpec``, whose defaults these are).
+    """
+
+    cells: int = AxisymParameters.cells
+    layer_cells: float = AxisymParameters.layer_cells
+    ds_max: float = 0.2
+    size: float = MeshSpec.size
+    layer_elements: float = MeshSpec.layer_elements
+
+    def __post_init__(self) -> None:
+        # the classes below test ranges with math.isfinite, a TypeError (not an InputError, the
+        # CLI's exit status 2) on a non-number, and not every bound is finite; the values go
+        # into the rerun key, which is JSON
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if not (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)):
+                raise InputError(f"{f.name} must be a finite number, got {v!r}")
+        # the rules these settings are checked against depend neither on the cap (as long as it
+        # is open: default_settings scales its steps for closed shapes only) nor on h/R
+        cap, h = SphericalCap(1.0, 0.5), 0.01
+        self.axisym_parameters(h, 0.5)
+        self.continuation_settings(cap, h)
+        self.mesh_spec(cap, h)
+
+    def axisym_parameters(self, h_over_r: float, nu: float) -> AxisymParameters:
+        """The axisymmetric model's parameters of one task (a cap of radius 1: h = h/R)."""
+        return AxisymParameters(h=h_over_r, nu=nu, cells=self.cells,
+                                layer_cells=self.layer_cells)
+
+    def continuation_settings(self, shape: Shape, h_over_r: float) -> ContinuationSettings:
+        """The axisymmetric branch's continuation settings (at most 3000 points a branch)."""
+        return default_settings(shape, h_over_r, ds_max=self.ds_max, max_steps=3000)
+
+    def mesh_spec(self, shape: Shape, h_over_r: float) -> MeshSpec:
+        """The surface model's mesh of one task."""
+        return MeshSpec(shape, h=h_over_r, size=self.size, layer_elements=self.layer_elements)
+
+
+@dataclass(frozen=True)
 class PhaseDiagramConfig:
     """One phase diagram (validated on construction).
 
@@ -41,11 +103,8 @@ class PhaseDiagramConfig:
         model: "axisym" (default) or "surface" (2D, for spot checks).
         m_max: Fourier modes 0..m_max are checked (axisym).
         rel_tol: location accuracy of folds and bifurcations, relative in κ.
-        cells, layer_cells: axisymmetric mesh (bulk cells, cells per √(Rh) at the rim).
-        ds_max: largest continuation step (axisym: the weighted arclength of
-            ``shells.continuation``).
         refine: bisection steps in θ̄ for θ̄_s per h/R (0: the bracket only).
-        size, layer_elements: surface-model mesh.
+        discretisation: meshes and continuation step (``Discretisation``).
     """
 
     h_over_r: tuple[float, ...]
@@ -55,12 +114,8 @@ class PhaseDiagramConfig:
     model: str = "axisym"
     m_max: int = 12
     rel_tol: float = 1.0e-3
-    cells: int = 200
-    layer_cells: float = 8.0
-    ds_max: float = 0.2
     refine: int = 3
-    size: float = 0.1
-    layer_elements: float = 4.0
+    discretisation: Discretisation = field(default_factory=Discretisation)
 
     def __post_init__(self) -> None:
         hs = tuple(self.h_over_r)
@@ -90,12 +145,9 @@ class PhaseDiagramConfig:
             raise InputError(f"m_max must be an integer in [1, 200], got {self.m_max!r}")
         if not (0 < self.rel_tol < 0.1):
             raise InputError(f"rel_tol must lie in (0, 0.1), got {self.rel_tol!r}")
-        if not (isinstance(self.cells, int) and 20 <= self.cells <= 20000):
-            raise InputError(f"cells must be an integer in [20, 20000], got {self.cells!r}")
-        for name in ("layer_cells", "ds_max", "size", "layer_elements"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise InputError(f"{name} must be positive, got {v!r}")
+        if not isinstance(self.discretisation, Discretisation):
+            raise InputError(f"discretisation must be a Discretisation, got "
+                             f"{self.discretisation!r}")
         if not (isinstance(self.refine, int) and 0 <= self.refine <= 20):
             raise InputError(f"refine must be an integer in [0, 20], got {self.refine!r}")
         if any(t > THETA_MAX for h in self.h_over_r for t in [a * math.sqrt(h)]):
@@ -108,21 +160,24 @@ class PhaseDiagramConfig:
 
     def numerics(self) -> dict[str, Any]:
         """What a computed task depends on besides (h/R, θ̄, direction): the rerun key."""
+        d = self.discretisation
         if self.model == "axisym":
             return {"model": "axisym", "nu": self.nu, "m_max": self.m_max,
-                    "rel_tol": self.rel_tol, "cells": self.cells,
-                    "layer_cells": self.layer_cells, "ds_max": self.ds_max,
+                    "rel_tol": self.rel_tol, "cells": d.cells,
+                    "layer_cells": d.layer_cells, "ds_max": d.ds_max,
                     # the inertia is computed at every branch point (the key stays in the
                     # records: it was a setting, 2, of earlier runs)
                     "check_every": 1, "locator": "critical.follow"}
-        return {"model": "surface", "nu": self.nu, "rel_tol": self.rel_tol, "size": self.size,
-                "layer_elements": self.layer_elements}
+        return {"model": "surface", "nu": self.nu, "rel_tol": self.rel_tol, "size": d.size,
+                "layer_elements": d.layer_elements}
 
     def signature(self) -> str:
         return hashlib.sha1(json.dumps(self.numerics(), sort_keys=True).encode()).hexdigest()[:12]
 
     def describe(self) -> dict[str, Any]:
         d = asdict(self)
+        # the discretisation's settings stay top-level keys of the JSON output (its contract)
+        d.update(d.pop("discretisation"))
         d["signature"] = self.signature()
         return d
 

@@ -66,19 +66,18 @@ class _Branch:
 
     def __init__(self, theta: float, h_over_r: float, nu: float, cfg: PhaseDiagramConfig
                  ) -> None:
-        from shells.axisym import AxisymModel, AxisymParameters
+        from shells.axisym import AxisymModel
         from shells.geometry import SphericalCap
         from shells.solvers import NewtonSolver
 
         self.shape = SphericalCap(1.0, theta)
-        self.model = AxisymModel(self.shape, AxisymParameters(
-            h=h_over_r, nu=nu, cells=cfg.cells, layer_cells=cfg.layer_cells))
+        self.model = AxisymModel(self.shape, cfg.discretisation.axisym_parameters(h_over_r, nu))
         self.ns = NewtonSolver(self.model, options={"snes_rtol": 1e-9, "snes_atol": 1e-11,
                                                     "snes_stol": 1e-12, "snes_max_it": 30})
         self.modes = list(range(cfg.m_max + 1))
         self.model.modes = tuple(self.modes)
         self.curv = _Curvatures(self.model)
-        self.settings = _settings(h_over_r, cfg, self.shape)
+        self.settings = cfg.discretisation.continuation_settings(self.shape, h_over_r)
 
     def follow(self, kappa_end: float, crit: Any, **kw: Any) -> Iterator[tuple]:
         """``critical.follow`` from κ = 0 to ``kappa_end`` (R = 1: κ = κR), all m checked."""
@@ -100,12 +99,6 @@ class _Branch:
 
     def destroy(self) -> None:
         self.ns.destroy()
-
-
-def _settings(h_over_r: float, cfg: PhaseDiagramConfig, shape: Any) -> Any:
-    from shells.axisym import default_settings
-
-    return default_settings(shape, h_over_r, ds_max=cfg.ds_max, max_steps=3000)
 
 
 def _bifurcation_record(br: _Branch, cp: Any, step_modes: list[int]) -> dict[str, Any]:
@@ -178,13 +171,12 @@ def _trace_surface(task: Task, cfg: PhaseDiagramConfig) -> dict[str, Any]:
     from shells.continuation import ContinuationSettings
     from shells.critical import CriticalSettings, follow
     from shells.geometry import SphericalCap
-    from shells.mesh import MeshSpec, generate
+    from shells.mesh import generate
     from shells.model import ModelParameters, ShellModel
 
     h, tb = task.h_over_r, task.thetabar
     shape = SphericalCap(1.0, task.theta)
-    sm = generate(MeshSpec(shape, h=h, size=cfg.size, layer_elements=cfg.layer_elements),
-                  MPI.COMM_SELF)
+    sm = generate(cfg.discretisation.mesh_spec(shape, h), MPI.COMM_SELF)
     model = ShellModel(sm, ModelParameters(h=h, nu=cfg.nu))
     if task.direction == "up":
         bound = 1.3 * max(snap_kappa_R(tb), mirrored_buckling_kappa_R(tb, h), 1.0) + 0.3

@@ -1,4 +1,4 @@
-"""Analytic shell geometries: sphere, spherical cap, ellipsoidal cap and flat disk.
+"""Analytic shell geometries: sphere, spherical cap, ellipsoidal cap, flat disk and torus.
 
 Each shape is a frozen, validated dataclass that knows its exact reference quantities (area, rim
 length), its meridian parametrisation (for the axisymmetric model) and its outward unit normal and
@@ -10,6 +10,8 @@ pole at the top, ``t`` being the meridian parameter measured from the pole:
   x = R (sin t cos phi, sin t sin phi, cos t), t in [0, theta]
 * ellipsoidal cap, semi-axes (R, R, r3): x = (R sin t cos phi, R sin t sin phi, r3 cos t)
 * disk of radius ``radius``: x = (t cos phi, t sin phi, 0), t in [0, radius]
+* torus, tube radius ``radius`` at ``ring`` from the axis: x = ((ring + radius sin t) cos phi,
+  (ring + radius sin t) sin phi, radius cos t), t in [0, 2 pi] (no pole: t from the tube's top)
 
 Sign convention (the paper's): the normal points outward (+z at the pole) and
 b_ab = n . a_{a,b}, so that a sphere has b0 = -a0 / R.
@@ -26,7 +28,8 @@ from scipy import integrate
 
 from shells.errors import InputError
 
-__all__ = ["Shape", "Sphere", "SphericalCap", "EllipsoidalCap", "Disk", "make_shape", "SHAPES"]
+__all__ = ["Shape", "Sphere", "SphericalCap", "EllipsoidalCap", "Disk", "Torus", "make_shape",
+           "SHAPES"]
 
 
 def _positive(name: str, value: float) -> None:
@@ -127,6 +130,9 @@ class Shape:
     #: False: no closed-form normal (``normal_ufl`` refuses); the surface model interpolates
     #: ``normal`` instead
     has_ufl_normal = True
+    #: False: the meridian does not meet the axis (a torus): no pole for the surface model's
+    #: rigid-motion gauge, which then uses points of one parallel only
+    has_pole = True
 
     def normal_ufl(self, x: Any) -> Any:
         """Outward unit normal as a UFL expression of the spatial coordinate x."""
@@ -447,6 +453,80 @@ class EllipsoidalCap(_AngleShape):
 
 
 @dataclass(frozen=True)
+class Torus(Shape):
+    """Torus: the circle of radius ``radius`` (the tube) centred at distance ``ring`` > radius
+    from the z axis, revolved about it; closed, without poles. Meridian from the tube's top,
+    outward first: r(t) = ring + radius sin t, z(t) = radius cos t, t in [0, 2π] (t = π/2
+    the outer equator, 3π/2 the inner one, where the Gaussian curvature is negative). κR is
+    κ times the tube's radius, h/R the thickness over it."""
+
+    radius: float = 1.0
+    ring: float = 3.0
+    kind = "torus"
+    has_pole = False
+
+    def __post_init__(self) -> None:
+        _positive("radius", self.radius)
+        _positive("ring", self.ring)
+        if not self.ring > self.radius * (1 + 1e-9):
+            raise InputError(f"a torus needs its ring radius ({self.ring:g}) above its tube "
+                             f"radius ({self.radius:g}): the tube would cross the axis")
+
+    @property
+    def closed(self) -> bool:
+        return True
+
+    @property
+    def t_max(self) -> float:
+        return 2 * math.pi
+
+    @property
+    def R(self) -> float:  # noqa: N802
+        return self.radius
+
+    def meridian(self, t):
+        t = np.asarray(t, dtype=float)
+        return self.ring + self.radius * np.sin(t), self.radius * np.cos(t)
+
+    def meridian_derivative(self, t):
+        t = np.asarray(t, dtype=float)
+        return self.radius * np.cos(t), -self.radius * np.sin(t)
+
+    def area(self) -> float:
+        return 4 * math.pi**2 * self.ring * self.radius
+
+    def meridian_angle(self, x: np.ndarray) -> np.ndarray:
+        """t in [0, 2π) of points x (shape (3, N) or (3,)): the angle about the tube's centre
+        circle from its top, outward first."""
+        x = np.asarray(x, dtype=float)
+        rho = np.hypot(x[0], x[1])
+        return np.arctan2(rho - self.ring, x[2]) % (2 * math.pi)
+
+    def normal(self, x):
+        x = np.asarray(x, dtype=float)
+        rho = np.hypot(x[0], x[1])
+        v = np.stack([x[0] * (1 - self.ring / rho), x[1] * (1 - self.ring / rho), x[2]])
+        return v / np.linalg.norm(v, axis=0)
+
+    def principal_curvatures(self, x):
+        # meridional -1/a; azimuthal -sin t / r (negative on the outer half, like a sphere's)
+        x = np.asarray(x, dtype=float)
+        rho = np.hypot(x[0], x[1])
+        sin_t = np.sin(self.meridian_angle(x))
+        return -np.ones_like(rho) / self.radius, -sin_t / rho
+
+    def normal_ufl(self, x):
+        import ufl
+
+        c = 1 - self.ring / ufl.sqrt(x[0] ** 2 + x[1] ** 2)
+        v = ufl.as_vector([x[0] * c, x[1] * c, x[2]])
+        return v / ufl.sqrt(ufl.dot(v, v))
+
+    def describe(self) -> dict[str, Any]:
+        return {"shape": self.kind, "R": self.radius, "ring": self.ring}
+
+
+@dataclass(frozen=True)
 class Disk(Shape):
     """Flat disk of radius ``radius`` in the plane z = 0, normal +z."""
 
@@ -754,11 +834,11 @@ def kappa_length(shape: Shape) -> float:
     return shape.R if math.isfinite(shape.R) else shape.characteristic_size()
 
 
-SHAPES = ("sphere", "cap", "ellipsoid", "disk")
+SHAPES = ("sphere", "cap", "ellipsoid", "disk", "torus")
 
 
 def make_shape(kind: str, *, radius: float = 1.0, theta: float | None = None,
-               r3: float | None = None) -> Shape:
+               r3: float | None = None, ring: float | None = None) -> Shape:
     """Build a shape from its name and parameters (the CLI and the mesh sidecar use this)."""
     if kind == "sphere":
         return Sphere(radius=radius)
@@ -776,6 +856,8 @@ def make_shape(kind: str, *, radius: float = 1.0, theta: float | None = None,
                               theta=math.pi / 2 if theta is None else theta)
     if kind == "disk":
         return Disk(radius=radius)
+    if kind == "torus":
+        return Torus(radius=radius, ring=3.0 * radius if ring is None else ring)
     raise InputError(f"unknown shape {kind!r}: choose one of {', '.join(SHAPES)}")
 
 
@@ -792,4 +874,6 @@ def shape_from_description(d: dict[str, Any]) -> Shape:
         return EllipsoidalCap(radius=float(d["R"]), r3=float(d["r3"]), theta=float(d["theta"]))
     if kind == "meridian":
         return MeridianTable(tuple(tuple(p) for p in d["points"]))
+    if kind == "torus":
+        return Torus(radius=float(d["R"]), ring=float(d["ring"]))
     raise InputError(f"unknown shape {kind!r} in mesh description")

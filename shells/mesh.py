@@ -96,6 +96,9 @@ class MeshSpec:
                 self.sectors % 4 == 0 and 4 <= self.sectors <= 64))):
             raise InputError(f"sectors must be 1 or a multiple of 4 in [4, 64], got "
                              f"{self.sectors!r}")
+        if self.sectors == 1 and not self.shape.has_pole:
+            # the apex and gauge nodes lie on the sector edges (on OCC's seam with one piece)
+            raise InputError("a torus is meshed in sectors: give a multiple of 4")
 
     @property
     def bulk_size(self) -> float:
@@ -220,6 +223,13 @@ def _build_geometry(gmsh: Any, shape: Shape) -> list[int]:
         s = occ.addDisk(0, 0, 0, shape.radius, shape.radius)
         occ.synchronize()
         return [s]
+    if not shape.has_pole:  # a torus: the boundary of OCC's solid torus
+        v = occ.addTorus(0, 0, 0, shape.ring, shape.radius)
+        occ.synchronize()
+        faces = [t for _, t in gmsh.model.getBoundary([(3, v)], oriented=False)]
+        occ.remove([(3, v)])
+        occ.synchronize()
+        return faces
 
     R = shape.radius  # both SphericalCap/Sphere and EllipsoidalCap have .radius
     # (an ellipsoidal cap: the spherical cap of the same parametric angle, dilated along the
@@ -273,12 +283,12 @@ def _cut_sectors(gmsh: Any, shape: Shape, surfaces: list[int], k: int) -> list[i
     occ.synchronize()
     pts = []
     if not isinstance(shape, Disk):
-        r_g, _, z_g = gauge_points(shape)[0]
-        if isinstance(shape, EllipsoidalCap):
-            z_g *= shape.radius / shape.r3
-        for j in range(k):
-            a = 2 * math.pi * j / k
-            pts.append((0, occ.addPoint(r_g * math.cos(a), r_g * math.sin(a), z_g)))
+        for r_g, z_g in _edge_points(shape):
+            if isinstance(shape, EllipsoidalCap):
+                z_g *= shape.radius / shape.r3
+            for j in range(k):
+                a = 2 * math.pi * j / k
+                pts.append((0, occ.addPoint(r_g * math.cos(a), r_g * math.sin(a), z_g)))
         out, _ = occ.fragment([(2, f) for f in faces], pts)
         faces = [t for d, t in out if d == 2]
     occ.synchronize()
@@ -398,6 +408,17 @@ def _move_onto_shape(gmsh: Any, shape: Shape) -> None:
     y = onto_shape(shape, np.asarray(x, dtype=float).reshape(-1, 3))
     for tag, p in zip(tags, y, strict=True):
         gmsh.model.mesh.setNode(int(tag), p.tolist(), [])
+
+
+def _edge_points(shape: Shape) -> list[tuple[float, float]]:
+    """(r, z) of the meridian points that get a node on every sector edge: the gauge
+    parallel's, and on a shape without poles also the top and bottom of the meridian (t = 0,
+    π: where the model reads its apex displacement)."""
+    r_g, _, z_g = gauge_points(shape)[0]
+    out = [(r_g, z_g)]
+    if not shape.has_pole:
+        out += [tuple(float(v) for v in shape.meridian(np.array(t))) for t in (0.0, math.pi)]
+    return out
 
 
 def gauge_points(shape: Shape) -> list[tuple[float, float, float]]:

@@ -78,15 +78,15 @@ def default_discretisation(shape: Shape, h_over_r: float | None = None,
     0.04 (f = step(θ - 0.2, 0.05) step(0.4 - θ, 0.05)) has its fold 3.6 % late with P2 at the
     default mesh (1.3 % and 0.5 % with 6 and 8 rim-layer elements), 9e-5 with P3, against the
     1D model's κR = 2.288494 (benchmarks/kappa_fields.py). A meridian table is taken as the
-    deep caps (P3, size 0.2), or a sphere when closed.
+    deep caps (P3, size 0.2), or a sphere when closed; a torus as the deep caps.
     """
-    from shells.geometry import EllipsoidalCap, MeridianTable, SphericalCap
+    from shells.geometry import EllipsoidalCap, MeridianTable, SphericalCap, Torus
 
     sphere = shape.closed and shape.kind in ("sphere", "meridian")
     if sphere and degree == 2:
         raise InputError("P2 locks on a closed sphere (kappa_b h 1.56-1.71 against a converged "
                          "1.484 at h/R = 0.05, docs/model.md): use --degree 3 (the default)")
-    deep = isinstance(shape, (EllipsoidalCap, MeridianTable)) or (
+    deep = isinstance(shape, (EllipsoidalCap, MeridianTable, Torus)) or (
         isinstance(shape, SphericalCap) and not sphere and h_over_r is not None
         and shape.theta / math.sqrt(h_over_r) > P2_THETABAR_MAX)
     patterned = kappa_field is not None and not kappa_field.uniform
@@ -385,7 +385,9 @@ class ShellModel(FormProblem):
         Translations: u = 0 at the pole/apex/centre A. Rotations, on curved shells: u_y = 0 at
         the points B (azimuth 0) and D (azimuth pi) and u_x = 0 at C (azimuth pi/2) of the
         parallel t = t_max/2 (``mesh.gauge_points``); on the flat disk: θ_x = θ_y = 0 at A (the
-        director there stays e_z) and u_y = 0 at the rim node of azimuth 0.
+        director there stays e_z) and u_y = 0 at the rim node of azimuth 0. Without a pole (a
+        torus): u_z = 0 at B, C and D instead of u = 0 at A (with those of B, C, D above: six
+        independent constraints for any height of the parallel, z = 0 included).
 
         An axisymmetric state meets these with a translation only, so they constrain no
         deformation and no reaction arises. (Constraints met by an infinitesimal rotation
@@ -417,8 +419,11 @@ class ShellModel(FormProblem):
                                  "rigid-motion gauge)")
             return np.asarray(comm.bcast(x[i] if comm.rank == best[1] else None, root=best[1]))
 
-        top = node(np.array([0.0, 0.0, float(self.shape.meridian(np.array(0.0))[1])]), "pole")
-        constraints = [(top, 0), (top, 1), (top, 2)]
+        constraints = []
+        if self.shape.has_pole:
+            top = node(np.array([0.0, 0.0, float(self.shape.meridian(np.array(0.0))[1])]),
+                       "pole")
+            constraints = [(top, 0), (top, 1), (top, 2)]
         if isinstance(self.shape, Disk):
             rim_b = node(np.array([self.shape.radius, 0.0, 0.0]), "rim point")
             constraints += [(top, 3), (top, 4), (rim_b, 1)]
@@ -436,7 +441,13 @@ class ShellModel(FormProblem):
             else:  # a user's mesh, no node on that meridian: the nearest one
                 B = node(pb, "gauge point")
             constraints += [(B, 1), (D, 1), (C, 0)]
-            self.support_points = [top, B, C, D]
+            if self.shape.has_pole:
+                self.support_points = [top, B, C, D]
+            else:
+                # no pole (a torus): u_z at B, C, D fixes the translation along z and the two
+                # tilts instead; an axisymmetric state has equal u_z there, a translation
+                constraints += [(B, 2), (C, 2), (D, 2)]
+                self.support_points = [B, C, D]
         bcs = []
         for pt, comp in constraints:
             sub = self.W.sub(comp)
@@ -483,7 +494,8 @@ class ShellModel(FormProblem):
     def _apex(self, mean_uz: float) -> dict[str, float]:
         """Apex displacement along z, free of rigid motion, and the pole's normal displacement.
 
-        ``apex_uz_over_h``: closed surfaces: half the change of the pole-to-pole distance; open
+        ``apex_uz_over_h``: closed surfaces: half the change of the pole-to-pole distance (a
+        torus: of the tube's height at azimuth 0, top to bottom); open
         shells: apex u_z minus the mean u_z of the rim nodes. ``psi3_pole_over_h``: (u_z(pole) -
         ū_z)/h with ū the mean displacement (the pole's normal is e_z), as the 1D model's.
         """
@@ -493,7 +505,9 @@ class ShellModel(FormProblem):
         x = self.owned_dof_coordinates()
         n_owned = x.shape[0]
         arr = self.w.x.array.reshape(-1, 6)[:n_owned]
-        top = np.array([0.0, 0.0, float(self.shape.meridian(np.array(0.0))[1])])
+        # the pole; without one (a torus) the meridian's top at azimuth 0 (a mesh node)
+        r_top, z_top = (float(v) for v in self.shape.meridian(np.array(0.0)))
+        top = np.array([r_top, 0.0, z_top])
         tol = 1e-8 * self.shape.characteristic_size()
 
         def value_at(pt: np.ndarray) -> float:
@@ -505,7 +519,8 @@ class ShellModel(FormProblem):
 
         uz_top = value_at(top)
         if self.shape.closed:
-            bottom = np.array([0.0, 0.0, float(self.shape.meridian(np.array(math.pi))[1])])
+            r_b, z_b = (float(v) for v in self.shape.meridian(np.array(math.pi)))
+            bottom = np.array([r_b, 0.0, z_b])
             disp = 0.5 * (uz_top - value_at(bottom))
         else:
             r_rim, z_rim = self.shape.meridian(np.array(self.shape.t_max))
@@ -668,11 +683,13 @@ class ShellModel(FormProblem):
 
     def _meridian_coordinate(self, x: np.ndarray) -> np.ndarray:
         """s ∈ [0, 1] from the pole to the rim (the south pole of a closed shape) at points x."""
-        from shells.geometry import Disk, EllipsoidalCap, MeridianTable
+        from shells.geometry import Disk, EllipsoidalCap, MeridianTable, Torus
 
         if isinstance(self.shape, Disk):
             return np.hypot(x[:, 0], x[:, 1]) / self.shape.radius
-        if isinstance(self.shape, MeridianTable):
+        if isinstance(self.shape, Torus):
+            t = self.shape.meridian_angle(x.T)
+        elif isinstance(self.shape, MeridianTable):
             t = self.shape.meridian_parameter(x.T)
         elif isinstance(self.shape, EllipsoidalCap):
             t = np.arccos(np.clip(x[:, 2] / self.shape.r3, -1, 1))

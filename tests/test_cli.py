@@ -32,7 +32,7 @@ def test_help_lists_subcommands(capsys):
     (["mesh", "cap", "--theta-deg", "200"], "(0, 180]"),
     (["mesh", "cap", "--theta-deg", "-3"], "(0, 180]"),
     (["mesh", "cap", "--theta-deg", "30", "--h-over-r", "-0.01"], "must be positive"),
-    (["mesh", "torus"], "unknown shape"),
+    (["mesh", "cube"], "unknown shape"),
     (["mesh", "cap"], "needs an opening angle"),
     (["info", "pyproject.toml"], "not a gmsh .msh mesh file"),
     (["info", "no-such-file.msh"], "not found"),

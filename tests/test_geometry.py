@@ -63,7 +63,7 @@ def test_disk():
     (dict(kind="cap", radius=1.0, theta=4.0), "theta must lie in"),
     (dict(kind="cap", radius=-1.0, theta=1.0), "radius must be a positive"),
     (dict(kind="cap", radius=1.0), "needs an opening angle"),
-    (dict(kind="torus"), "unknown shape"),
+    (dict(kind="cube"), "unknown shape"),
 ])
 def test_bad_shapes_raise_input_error(kwargs, match):
     kind = kwargs.pop("kind")

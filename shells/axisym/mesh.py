@@ -31,6 +31,9 @@ __all__ = ["MeridianMesh", "make_meridian_nodes"]
 
 
 def _supported(shape: Any) -> None:
+    if not getattr(shape, "has_pole", True):
+        raise InputError(f"the axisymmetric model needs a meridian from a pole, and a "
+                         f"{shape.kind} has none: use the surface model (--model surface)")
     if not isinstance(shape, (SphericalCap, EllipsoidalCap, Disk, MeridianTable)):
         raise InputError(f"the axisymmetric model needs a sphere, cap, ellipsoid, disk or "
                          f"meridian table, got {type(shape).__name__}")

@@ -137,17 +137,25 @@ def add_shape_args(p: argparse.ArgumentParser, positional: bool,
                        "a surface of revolution about z with a node at its pole (its meridian is "
                        "recovered from the nodes; the surface model runs on the mesh as given)")
     p.add_argument("--radius", type=length("radius", RADIUS_RANGE[0]), default=1.0,
-                   help="sphere/cap radius R, ellipsoid semi-axes r1 = r2, disk radius (default 1)")
+                   help="sphere/cap radius R, ellipsoid semi-axes r1 = r2, disk radius, torus "
+                   "tube radius (default 1)")
     p.add_argument("--theta-deg", type=float, default=None,
                    help="half opening angle theta from the pole to the rim, degrees (0, 180]")
     p.add_argument("--r3", type=length("r3", None), default=None,
                    help="ellipsoid semi-axis along the symmetry axis (default 1.5 R)")
+    add_ring_arg(p)
     p.add_argument("--meridian", default=None, metavar="FILE",
                    help="with --shape meridian: any shell of revolution about z, its meridian "
                    "a table of rows 'r z' (spaces or commas) from the pole (r = 0) to the rim, "
                    "or to the other pole (closed); a cubic spline through them. Both models take "
                    "it (the surface model on a cap's or sphere's mesh moved onto it); h/R is "
                    "over the pole's radius of curvature")
+
+
+def add_ring_arg(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--ring", type=length("ring", None), default=None,
+                   help="torus: distance from the axis to the tube's centre circle, above the "
+                   "tube's radius --radius (default 3 R)")
 
 
 def shape_from_args(args: argparse.Namespace):
@@ -175,7 +183,10 @@ def shape_from_args(args: argparse.Namespace):
         if not math.isfinite(args.theta_deg) or not 0 < args.theta_deg <= 180:
             raise InputError(f"--theta-deg must lie in (0, 180], got {args.theta_deg:g}")
         theta = math.radians(args.theta_deg)
-    return make_shape(args.shape, radius=args.radius, theta=theta, r3=args.r3)
+    ring = getattr(args, "ring", None)
+    if ring is not None and args.shape != "torus":
+        raise InputError("--ring is the torus's: drop it or use --shape torus")
+    return make_shape(args.shape, radius=args.radius, theta=theta, r3=args.r3, ring=ring)
 
 
 def add_shell_args(p: argparse.ArgumentParser) -> None:

@@ -13,17 +13,18 @@ from shells.errors import InputError
 
 
 def add_mesh(sub: Any) -> argparse.ArgumentParser:
-    m = sub.add_parser("mesh", help="mesh a sphere, cap, ellipsoidal cap or disk with gmsh",
+    m = sub.add_parser("mesh", help="mesh a sphere, cap, ellipsoidal cap, disk or torus with gmsh",
                        description="Mesh a shape with gmsh (second-order geometry, refined in the "
                        "rim boundary layer of width sqrt(R h)) and report area and rim errors.")
     m.add_argument("shape", metavar="SHAPE", nargs="?",
-                   help="sphere, cap, ellipsoid, disk or meridian")
+                   help="sphere, cap, ellipsoid, disk, torus or meridian")
     m.add_argument("--radius", type=common.length("radius", common.RADIUS_RANGE[0]), default=1.0,
                    help="R (sphere, cap), r1 = r2 (ellipsoid), disk radius (default 1)")
     m.add_argument("--theta-deg", type=float, default=None,
                    help="half opening angle, pole to rim, in degrees (0, 180]")
     m.add_argument("--r3", type=common.length("r3", None), default=None,
                    help="ellipsoid semi-axis along z (default 1.5 R)")
+    common.add_ring_arg(m)
     m.add_argument("--meridian", default=None, metavar="FILE",
                    help="with SHAPE meridian: a shell of revolution, its meridian a table of "
                    "rows 'r z' from the pole to the rim (or the other pole)")
@@ -123,7 +124,7 @@ def _load_spec(path: str):
         if not isinstance(d, dict) or not isinstance(d.get("spec", d), dict):
             raise TypeError("not a JSON object")
         spec = MeshSpec.from_description(d.get("spec", d))
-        for name in ("radius", "r3"):  # the ranges of --radius and --r3
+        for name in ("radius", "r3", "ring"):  # the ranges of --radius, --r3 and --ring
             if hasattr(spec.shape, name):
                 lo = common.RADIUS_RANGE[0] if name == "radius" else None
                 try:

@@ -525,6 +525,26 @@ class Torus(Shape):
     def describe(self) -> dict[str, Any]:
         return {"shape": self.kind, "R": self.radius, "ring": self.ring}
 
+    @classmethod
+    def from_nodes(cls, x: np.ndarray, tol: float = 1e-6) -> Torus:
+        """The torus through nodes x (N, 3) of a user's mesh: the circle fitted (least squares,
+        algebraic) to their (r, z), centred on z = 0. Refused (``InputError``) unless every
+        node lies within ``tol`` (relative to the size) of the torus so found."""
+        x = np.asarray(x, dtype=float).reshape(-1, 3)
+        size = float(np.max(np.abs(x)))
+        r, z = np.hypot(x[:, 0], x[:, 1]), x[:, 2]
+        # (r - c)² + (z - z0)² = a²: linear in (c, z0, a² - c² - z0²)
+        A = np.column_stack([2 * r, 2 * z, np.ones_like(r)])
+        (c, z0, k), *_ = np.linalg.lstsq(A, r * r + z * z, rcond=None)
+        a = math.sqrt(max(k + c * c + z0 * z0, 0.0))
+        off = float(np.max(np.abs(np.hypot(r - c, z - z0) - a))) / size
+        if off > tol or abs(z0) > tol * size or not 0 < a < c:
+            raise InputError(f"the mesh has no node on the z axis and is not a torus about z "
+                             f"centred on z = 0 (its nodes lie up to {off:.2g}, relative, off the "
+                             f"best-fitting one; centre at z = {z0:.3g}): the surface model takes "
+                             "surfaces of revolution with a pole, or tori")
+        return cls(radius=a, ring=c)
+
 
 @dataclass(frozen=True)
 class Disk(Shape):

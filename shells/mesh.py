@@ -660,11 +660,12 @@ def _sidecar_spec(path: Path) -> MeshSpec | None:
         raise InputError(f"mesh sidecar {str(sidecar)!r} is not valid: {e}") from None
 
 
-def _read_on_rank0(gmsh: Any, path: Path, comm: MPI.Comm, recover: bool
-                   ) -> tuple[tuple[float, float], ...] | None:
+def _read_on_rank0(gmsh: Any, path: Path, comm: MPI.Comm, recover: bool) -> Shape | None:
     """Rank 0 merges ``path`` (checked by ``_checked``) into ``gmsh``; with ``recover``, the
-    points of its meridian table (``_user_mesh_shape``), on every rank. Any error:
+    shape recovered from its nodes (``_user_mesh_shape``), on every rank. Any error:
     ``InputError`` on every rank."""
+    from shells.geometry import shape_from_description
+
     err = table = None
     if comm.rank == 0:
         try:
@@ -683,7 +684,7 @@ def _read_on_rank0(gmsh: Any, path: Path, comm: MPI.Comm, recover: bool
     err, table = comm.bcast((err, table), root=0)
     if err:
         raise InputError(err)
-    return table
+    return None if table is None else shape_from_description(table)
 
 
 def read_mesh_shape(path: str | os.PathLike, comm: MPI.Comm | None = None) -> Shape:
@@ -691,14 +692,12 @@ def read_mesh_shape(path: str | os.PathLike, comm: MPI.Comm | None = None) -> Sh
     mesh made elsewhere, the meridian recovered from its nodes (as ``load_mesh`` does)."""
     from mpi4py import MPI as _MPI
 
-    from shells.geometry import MeridianTable
-
     comm = _MPI.COMM_WORLD if comm is None else comm
     path = _checked(path, comm)
     spec = _sidecar_spec(path)
     with _gmsh_model("shells-read") as gmsh:
-        table = _read_on_rank0(gmsh, path, comm, recover=spec is None)
-    return spec.shape if spec is not None else MeridianTable(table)
+        recovered = _read_on_rank0(gmsh, path, comm, recover=spec is None)
+    return spec.shape if spec is not None else recovered
 
 
 def load_mesh(path: str | os.PathLike, comm: MPI.Comm | None = None) -> ShellMesh:
@@ -707,21 +706,19 @@ def load_mesh(path: str | os.PathLike, comm: MPI.Comm | None = None) -> ShellMes
     from dolfinx.io import gmshio
     from mpi4py import MPI as _MPI
 
-    from shells.geometry import MeridianTable
-
     comm = _MPI.COMM_WORLD if comm is None else comm
     path = _checked(path, comm)
     spec = _sidecar_spec(path)
     shape = spec.shape if spec is not None else None
     with _gmsh_model("shells-read") as gmsh:
-        table = _read_on_rank0(gmsh, path, comm, recover=spec is None)
-        if table is not None:
-            shape = MeridianTable(table)
+        recovered = _read_on_rank0(gmsh, path, comm, recover=spec is None)
+        if recovered is not None:
+            shape = recovered
         mesh, cell_tags, facet_tags = gmshio.model_to_mesh(gmsh.model, comm, 0, gdim=3)[:3]
     if mesh.topology.dim != 2:
         raise InputError(f"{str(path)!r} is not a surface mesh (topological dimension "
                          f"{mesh.topology.dim}, expected 2)")
-    if table is not None:
+    if recovered is not None:
         facet_tags = _tag_boundary(mesh)
     return ShellMesh(mesh, cell_tags, facet_tags, shape, spec)
 
@@ -737,19 +734,23 @@ def _tag_boundary(mesh: Any) -> Any:
     return dmesh.meshtags(mesh, tdim - 1, facets, np.full(len(facets), RIM_TAG, dtype=np.int32))
 
 
-def _user_mesh_shape(gmsh: Any) -> tuple[tuple[float, float], ...]:
+def _user_mesh_shape(gmsh: Any) -> dict[str, Any]:
     """A mesh made outside ``shells`` (no sidecar): its surface put in the physical group a
     shells mesh has, if it has none (gmsh's reader takes the cells of physical groups only),
     and its shape recovered from its nodes: the meridian of a surface of revolution about z
-    (``MeridianTable.from_nodes``, which refuses any other surface). Returns the table's
-    points. The rim is tagged on the dolfinx mesh (``_tag_boundary``)."""
-    from shells.geometry import MeridianTable
+    (``MeridianTable.from_nodes``, which refuses any other surface), or without a node on the
+    axis a torus (``Torus.from_nodes``). Returns the shape's description. The rim is tagged on
+    the dolfinx mesh (``_tag_boundary``)."""
+    from shells.geometry import MeridianTable, Torus
 
     model = gmsh.model
     if not model.getPhysicalGroups(2):
         model.addPhysicalGroup(2, [t for _, t in model.getEntities(2)], SURFACE_TAG)
     _, x, _ = model.mesh.getNodes()
-    return MeridianTable.from_nodes(np.asarray(x, dtype=float).reshape(-1, 3)).points
+    x = np.asarray(x, dtype=float).reshape(-1, 3)
+    if not (np.hypot(x[:, 0], x[:, 1]) < 1e-9 * float(np.max(np.abs(x)))).any():
+        return Torus.from_nodes(x).describe()  # no pole: a torus, or refused
+    return MeridianTable.from_nodes(x).describe()
 
 
 def sphere_spec(h_over_r: float, size: float = 0.1, order: int = 2) -> MeshSpec:

@@ -134,8 +134,9 @@ def add_shape_args(p: argparse.ArgumentParser, positional: bool,
         p.add_argument("--mesh", default=None, metavar="FILE",
                        help="instead of --shape: a gmsh .msh surface mesh (second order "
                        "advised), made by `shells mesh` or elsewhere; one made elsewhere must be "
-                       "a surface of revolution about z with a node at its pole (its meridian is "
-                       "recovered from the nodes; the surface model runs on the mesh as given)")
+                       "a surface of revolution about z with a node at its pole, or a torus about "
+                       "z centred on z = 0 (its meridian is recovered from the nodes; the surface "
+                       "model runs on the mesh as given)")
     p.add_argument("--radius", type=length("radius", RADIUS_RANGE[0]), default=1.0,
                    help="sphere/cap radius R, ellipsoid semi-axes r1 = r2, disk radius, torus "
                    "tube radius (default 1)")

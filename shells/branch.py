@@ -14,11 +14,9 @@ Files in the output directory:
 
 from __future__ import annotations
 
-import json
 import logging
 import math
 import os
-import re
 import sys
 import time
 from collections.abc import Iterator
@@ -36,8 +34,9 @@ from shells.mesh import MeshSpec, ShellMesh, generate, load_mesh
 from shells.stimulus import UNIFORM, CurvatureField
 from shells.store import (
     append_record,
-    read_meta,
+    load_checkpoint,
     read_with_header,
+    save_checkpoint,
     write_header,
 )
 
@@ -176,40 +175,18 @@ def _save_checkpoint(outdir: Path, model: Any, rec: dict[str, Any],
 
     Each rank writes the values of its owned DOF nodes with their coordinates, so the state can
     be read back on any partition of the same mesh (another rank count, or another partition
-    of the same rank count), to ``state-RANK-of-SIZE.INDEX.npz`` (a temporary file renamed into
-    place). Rank 0 then writes ``checkpoint/meta.json`` (rank count, point index), the last
-    file of a complete checkpoint, and only then are the previous point's state files removed:
-    a kill at any moment leaves a complete checkpoint, this point's or the previous one's.
+    of the same rank count), to ``checkpoint/state-RANK-of-SIZE.INDEX.npz``, then rank 0
+    ``checkpoint/meta.json`` (rank count, point index): ``shells.store.save_checkpoint``, a
+    kill at any moment leaves a complete checkpoint, this point's or the previous one's.
     """
     comm = model.shell.comm
-    d = outdir / "checkpoint"
-    if comm.rank == 0:
-        d.mkdir(parents=True, exist_ok=True)
-    comm.barrier()
     x, bs = _owned_nodes(model)
     n = x.shape[0] * bs
     w = model.w.x.array[:n]
     w_prev, k_prev = (prev[0][:n], prev[1]) if prev is not None else (w, float(model.kappa.value))
-    stem = f"state-{comm.rank}-of-{comm.size}"
-    p = d / f"{stem}.{rec['index']}.npz"
-    tmp = d / f"{stem}.{rec['index']}.tmp.npz"
-    np.savez(tmp, x=x, w=w.reshape(-1, bs), w_prev=w_prev.reshape(-1, bs),
-             kappa=float(model.kappa.value), kappa_prev=k_prev, index=rec["index"])
-    os.replace(tmp, p)
-    comm.barrier()
-    if comm.rank == 0:
-        tmp_meta = d / "meta.json.tmp"
-        tmp_meta.write_text(json.dumps({"ranks": comm.size, "index": rec["index"]}))
-        os.replace(tmp_meta, d / "meta.json")
-    comm.barrier()
-    for old in d.glob(f"{stem}.*.npz"):  # this rank's earlier points
-        if old != p:
-            old.unlink(missing_ok=True)
-    if comm.rank == 0:  # files of a run on another rank count, or of an older layout
-        for old in d.glob("state-*.npz"):
-            m = re.fullmatch(r"state-\d+-of-(\d+)\.\d+\.npz", old.name)
-            if m is None or int(m.group(1)) != comm.size:
-                old.unlink(missing_ok=True)
+    save_checkpoint(outdir / "checkpoint", comm, rec["index"],
+                    {"x": x, "w": w.reshape(-1, bs), "w_prev": w_prev.reshape(-1, bs),
+                     "kappa": float(model.kappa.value), "kappa_prev": k_prev})
 
 
 def _load_checkpoint(outdir: Path, model: Any
@@ -223,20 +200,12 @@ def _load_checkpoint(outdir: Path, model: Any
     from scipy.spatial import cKDTree
 
     comm = model.shell.comm
-    d = outdir / "checkpoint"
-    meta = read_meta(d / "meta.json", comm)
-    if meta is None:
-        return None
     x, bs = _owned_nodes(model)
-    ok = True
-    try:
-        parts = [np.load(d / f"state-{r}-of-{meta['ranks']}.{meta['index']}.npz")
-                 for r in range(meta["ranks"])]
-        ok = all(int(q["index"]) == meta["index"] and q["w"].shape[1] == bs for q in parts)
-    except (OSError, ValueError, KeyError, EOFError):
-        ok = False
-    if not comm.allreduce(ok, op=MPI.LAND):
+    got = load_checkpoint(outdir / "checkpoint", comm, every_rank=True,
+                          check=lambda q: q["w"].shape[1] == bs)
+    if got is None:
         return None
+    meta, parts = got
     xs = np.concatenate([q["x"] for q in parts])
     dist, idx = cKDTree(xs).query(x)
     scale = max(float(np.ptp(xs, axis=0).max()), 1e-300)

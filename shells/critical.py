@@ -47,6 +47,7 @@ from shells.continuation import (
     _bordered_newton,
     arclength_steps,
     continuation,
+    next_step,
 )
 from shells.errors import InputError
 from shells.problem import get_state, set_state
@@ -55,7 +56,8 @@ from shells.stability import Stability, StabilityResult
 
 log = logging.getLogger("shells")
 
-__all__ = ["CriticalSettings", "CriticalPoint", "follow", "locate", "switch_branch"]
+__all__ = ["CriticalSettings", "CriticalPoint", "SwitchResume", "follow", "locate",
+           "switch_branch"]
 
 
 @dataclass(frozen=True)
@@ -129,6 +131,40 @@ class CriticalPoint:
     def as_dict(self) -> dict[str, Any]:
         """The scalars (JSON-ready); the state and mode arrays are left out."""
         return {k: v for k, v in asdict(self).items() if k not in ("state", "mode")}
+
+
+@dataclass
+class SwitchResume:
+    """Where ``switch_branch`` stood after one of its points: what a resumed ``switch_branch``
+    needs to continue after that point as the uninterrupted run did (a checkpoint).
+
+    Attributes:
+        index: the point's index.
+        lam, lam_prev: λ = κL of the point and of the one before it (λ_c before the first): the
+            secant the next predictor follows.
+        ds: the next step (the arclength loop's, ``continuation.next_step``).
+        direction: the sign of the loop's direction in λ.
+        first_amplitude, first_distance: the first point's mode amplitude a and distance from
+            the fundamental branch, and ``distance`` the point's: what the return and jump
+            tests measure against.
+        state, state_prev: this rank's owned state values at the point and at the one before
+            it (w_c before the first).
+    """
+
+    index: int
+    lam: float
+    lam_prev: float
+    ds: float
+    direction: float
+    first_amplitude: float
+    first_distance: float
+    distance: float
+    state: np.ndarray = field(repr=False)
+    state_prev: np.ndarray = field(repr=False)
+
+    def scalars(self) -> dict[str, Any]:
+        """The scalars (JSON-ready; the same on every rank); the arrays are left out."""
+        return {k: v for k, v in asdict(self).items() if k not in ("state", "state_prev")}
 
 
 @dataclass
@@ -878,7 +914,8 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
                   sign: float = 1.0, pinned: int | None = None,
                   factors: tuple[float, ...] = (1.0, 0.5, 0.25, 2.0),
                   min_amplitude: float = 0.5, release_pins: int | None = None,
-                  deflate: int = 0) -> Iterator[Point]:
+                  deflate: int = 0, resume: SwitchResume | None = None,
+                  track: Callable[[SwitchResume], None] | None = None) -> Iterator[Point]:
     """Follow the branch that bifurcates at ``cp`` along its critical mode.
 
     1. The critical state w_c (``cp.state``) and its κ (least squares: the residual is affine
@@ -910,6 +947,13 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
        dominant components along that many near-null eigenvectors of the Jacobian other than
        the followed mode (``_Deflation``; for clusters of nearly simultaneous bifurcations,
        the closed sphere's neighbouring degrees on the 1D model).
+
+    Resuming: ``track(r)``, if given, is called at every point just before it is yielded, with
+    its ``SwitchResume`` r; ``switch_branch(..., resume=r)`` with the same problem (partition),
+    critical point and arguments then continues after that point as this run did: steps 1-2
+    again at w_c (the same directions), no first point (3), the loop (4) from r's state with
+    r's secant, step and tests, the points from index r.index + 1 (the same to round-off: the
+    loop's λ is r.lam = κ L, the corrector's λ through κ).
 
     Multiple eigenvalues (k > 1). On a shape of revolution every mode m ≥ 1 is a (cos mφ,
     sin mφ) pair and every direction of that plane gives the same branch up to a rotation about
@@ -953,7 +997,7 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
     wc = ar.w.duplicate()
     wp = wc.duplicate()
     dirs: list[Any] = []
-    amp_dir = tangent = pred = defl_stab = steps = None
+    amp_dir = tangent = pred = defl_stab = steps = resume_prev = None
     t_start = time.perf_counter()
     try:
         ar.w.array_w[:] = cp.state[:n]
@@ -1026,7 +1070,7 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
 
         # first point: amplitude a along φ_0, λ free
         first = None
-        for f in factors:
+        for f in (() if resume is not None else factors):
             a = sgn * ds * f
             wc.copy(wp)
             wp.axpy(a, pred)
@@ -1038,12 +1082,14 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
             if c.ok:
                 first = a
                 break
-        if first is None:
+        if first is None and resume is None:
             raise RuntimeError("branch switching: the corrector did not converge off the "
                                f"fundamental branch at amplitudes {ds} x {factors}")
-        a1 = first
-        dev1 = deviation()
-        last = [dev1]  # the distance of the last accepted point
+        if resume is None:
+            a1, dev1 = first, deviation()
+        else:
+            a1, dev1 = resume.first_amplitude, resume.first_distance
+        last = [dev1 if resume is None else resume.distance]  # the last accepted point's
 
         def jumped() -> bool:
             """A corrector that crossed to the -φ_0 side, or fell to a quarter of the last
@@ -1053,11 +1099,39 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
             dev = deviation()
             return crossed(amplitude(), dev) or dev < 0.25 * last[0]
 
-        direction = 1.0 if lam_end >= c.lam else -1.0
-        index = 0
-        yield point(index, c.its, abs(a1), 0.0, c.multipliers)
-        st = replace(settings, ds=min(max(abs(a1), settings.ds_min), settings.ds_max))
-        steps = arclength_steps(ar, st, c.lam, lam_end, direction, secant_from=(wc, lam_c),
+        def checkpoint(p: Point, lam: float, ds_next: float) -> None:
+            """``track`` the point ``p`` at λ = ``lam`` (the loop's), the next step
+            ``ds_next``; the previous point's state and λ in ``prev``."""
+            if track is not None:
+                state = ar.w.array_r.copy()
+                track(SwitchResume(index=p.index, lam=lam, lam_prev=prev[1], ds=ds_next,
+                                   direction=direction, first_amplitude=a1,
+                                   first_distance=dev1, distance=last[0], state=state,
+                                   state_prev=prev[0]))
+                prev[:] = [state, lam]
+
+        if resume is None:
+            direction = 1.0 if lam_end >= c.lam else -1.0
+            index, lam, ds_next = 0, c.lam, min(max(abs(a1), settings.ds_min), settings.ds_max)
+            prev = [wc.array_r.copy() if track is not None else None, lam_c]
+            secant_w, lam_prev = wc, lam_c
+            p = point(index, c.its, abs(a1), 0.0, c.multipliers)
+            checkpoint(p, lam, ds_next)
+            yield p
+        else:  # after the point of ``resume``
+            direction, index, lam, ds_next = (resume.direction, resume.index, resume.lam,
+                                              resume.ds)
+            secant_w = resume_prev = wc.duplicate()
+            resume_prev.array_w[:] = resume.state_prev[:n]
+            lam_prev = resume.lam_prev
+            ar.w.array_w[:] = resume.state[:n]
+            ar.sync()
+            ar.set_lambda(lam)
+            prev = [resume.state, lam]
+            if release_pins is not None and index >= release_pins:
+                pins.clear()
+        st = replace(settings, ds=ds_next, max_steps=settings.max_steps - index)
+        steps = arclength_steps(ar, st, lam, lam_end, direction, secant_from=(secant_w, lam_prev),
                                 reject=jumped, **corrector)
         for its, step, tl, s in steps:
             index += 1
@@ -1072,13 +1146,14 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
                     f"branch switching: back on the fundamental branch at kappa = {p.kappa:.6g}"
                     f" (mode amplitude {amp:.3g}, distance {dev:.3g}; first point {a1:.3g}, "
                     f"{dev1:.3g})")
+            checkpoint(p, p.kappa_L, next_step(st, step, its))
             yield p
             if release_pins is not None and index >= release_pins and pins:
                 pins.clear()
     finally:
         if steps is not None:
             steps.close()
-        for v in (wc, wp, *dirs):
+        for v in (wc, wp, *dirs, *([] if resume_prev is None else [resume_prev])):
             v.destroy()
         for obj in (amp_dir, tangent, pred, defl_stab):
             if obj is not None:

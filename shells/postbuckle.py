@@ -30,11 +30,18 @@ pattern is neutral for the shell, and on the mesh its eigenvalue is tiny and of 
 Files: every point is appended to ``DIR/postbuckle.jsonl`` as it is computed
 (header first), each side's points followed by a {"side_end": {...}} record when it ends. At
 the bifurcation its state and critical mode go to ``DIR/critical_point/`` (one ``.npz`` per
-rank). A rerun with the same configuration resumes: a file that ended with its summary record
-is reused; otherwise, when the critical point and its checkpoint are there, the fundamental
-branch and the sides that ended are kept and only the unfinished sides are followed again from
-the bifurcation (a side's partial points are dropped: a side restarts whole); without them the
-run starts again from κ = 0.
+rank), and after each point of a side that is written, what resuming after it needs to
+``DIR/side_checkpoint/`` (the state there and at the point before, the switching loop's step
+and tests: ``shells.critical.SwitchResume``; ``shells.store.save_checkpoint``). A rerun with the
+same configuration resumes: a file that ended with its summary record is reused; otherwise,
+when the critical point and its checkpoint are there, the fundamental branch and the sides that
+ended are kept, an interrupted side continues after its last checkpointed point (its points up
+to there kept, the next ones those of the uninterrupted run: same secant, step and tests), and
+the other unfinished sides are followed from the bifurcation. A side whose checkpoint is
+missing, corrupt or another run's restarts whole from the bifurcation (its partial points
+dropped, a log line says why); without the critical point the run starts again from κ = 0.
+(On the 1D model a side's first 3 points are held back until no retry at another amplitude can
+drop them, so a side interrupted before its third point restarts whole.)
 """
 
 from __future__ import annotations
@@ -54,10 +61,13 @@ from shells.errors import InputError
 from shells.geometry import RunScales, Shape
 from shells.stimulus import UNIFORM, CurvatureField
 from shells.store import (
+    CHECKPOINT_ERRORS,
     append_record,
     json_default,
+    load_checkpoint,
     read_meta,
     read_with_header,
+    save_checkpoint,
     write_atomic,
     write_header,
 )
@@ -243,6 +253,17 @@ class _Run:
         self.ns.destroy()
 
 
+@dataclass
+class SideResume:
+    """A side interrupted after some points: its ``side``, the ``records`` of its points
+    (indices 0 to k, as written) and the ``switch`` state after point k (a
+    ``shells.critical.SwitchResume``) that ``switch_branch`` resumes from."""
+
+    side: int
+    records: list[dict[str, Any]]
+    switch: Any
+
+
 def _settings(cfg: PostbuckleConfig, kappa_stop: float) -> tuple[Any, Any]:
     from shells.continuation import ContinuationSettings
     from shells.critical import CriticalSettings
@@ -263,16 +284,22 @@ def _settings(cfg: PostbuckleConfig, kappa_stop: float) -> tuple[Any, Any]:
 
 def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], None] | None = None,
                *, on_critical: Callable[[Any, Any], None] | None = None,
-               resume: tuple[Any, dict[int, dict[str, Any]]] | None = None
+               on_side_point: Callable[[Any, int, Any], None] | None = None,
+               resume: tuple[Any, dict[int, dict[str, Any]]]
+               | tuple[Any, dict[int, dict[str, Any]], SideResume | None] | None = None
                ) -> Iterator[dict[str, Any]]:
     """Compute the run of ``cfg``; yields its records in order (see the module docstring):
     fundamental points, then {"critical_point": {...}} once, then each side's bifurcated points
     and its {"side_end": {...}} record, then {"summary": {...}} last. ``on_point(model, record)`` is
     called at every point while the model holds its state (for fields and shapes);
     ``on_critical(model, cp)`` once the bifurcation is located (the ``CriticalPoint`` with its
-    state and mode: a checkpoint). ``resume`` = (that ``CriticalPoint``, {side: its
-    "side_end" record} of the sides that ended): the fundamental branch and those sides are
-    not computed again (nor yielded), the other sides are followed from the critical point.
+    state and mode: a checkpoint); ``on_side_point(model, side, r)`` after a bifurcated point's
+    record has been yielded (and stored by the consumer), with the ``SwitchResume`` r that
+    resumes the side after it (a checkpoint). ``resume`` = (that ``CriticalPoint``, {side: its
+    "side_end" record} of the sides that ended[, a ``SideResume``]): the fundamental branch and
+    those sides are not computed again (nor yielded), the ``SideResume``'s side continues after
+    its last point (its points from there on yielded), the other sides are followed from the
+    critical point.
 
     Raises:
         InputError: bad configuration, or a first critical point the model cannot switch at
@@ -289,6 +316,7 @@ def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], 
         bifs = []
         cp = None if resume is None else resume[0]
         done_sides = {} if resume is None else dict(resume[1])
+        inside = resume[2] if resume is not None and len(resume) > 2 else None
         fundamental = (iter(()) if cp is not None
                        else follow(run.model, st, kappa_stop, crit, solver=run.ns))
         for p, _, found in fundamental:
@@ -345,49 +373,76 @@ def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], 
         # amplitude (measured on the h/R = 0.01 sphere: 0.2 and 0.25 fell back onto the
         # fundamental branch, 0.3 and 0.5 followed the dimple): a side that returns within
         # its first 3 points is retried with other amplitudes (its points are kept back until
-        # then); the surface model takes one amplitude and streams its points
+        # then: from the third on, they stream); the surface model takes one amplitude and
+        # streams its points
         factors = (1.0, 1.4, 2.0, 0.6) if cfg.model == "axisym" else (1.0,)
+
+        def stop(kappa: float, n: int) -> str | None:
+            """How the side ends after its ``n``-th point, at ``kappa`` (None: it goes on)."""
+            if not (k_lo <= kappa <= k_hi):
+                return "range"
+            return "max_points" if n >= cfg.max_points else None
+
+        def landed(kappa: float) -> bool:  # on the end of the range
+            return abs(kappa - kappa_stop) <= 1e-12 * abs(kappa_stop)
+
+        tracked: list[Any] = [None]  # the last point's SwitchResume
+        track = None if on_side_point is None else (lambda r: tracked.__setitem__(0, r))
         for side in (float(s) for s in cfg.sides):
             if int(side) in done_sides:
                 sides[int(side)] = {k: v for k, v in done_sides[int(side)].items()
                                     if k != "side"}
                 continue
-            for f in factors:
-                amp = f * cfg.amplitude
+            cont = inside if inside is not None and inside.side == int(side) else None
+            amps = ([cont.records[0]["first_amplitude"]] if cont is not None
+                    else [f * cfg.amplitude for f in factors])
+            for i, amp in enumerate(amps):
                 held: list[dict[str, Any]] = []
                 n, first, ended = 0, None, "stalled (step below ds_min)"
+                last, ended_before = None, None
+                if cont is not None:
+                    n, first, last = (len(cont.records), cont.records[0]["kappa"],
+                                      cont.records[-1]["kappa"])
+                    ended_before = stop(last, n) or ("range" if landed(last) else None)
+                    log.info("postbuckle: side %+d resumed after its point %d (kappa R = %.6g)",
+                             side, cont.switch.index, last * cfg.R)
                 try:
                     # landing target: the end of the range (a supercritical branch lands on
                     # it); a subcritical one turns back and ends below kappa_min_ratio κ_c
-                    for p in switch_branch(run.model, cp, sst, kappa_stop,
-                                           ds=amp, solver=run.ns, sign=side, pinned=pinned,
-                                           min_amplitude=0.1, deflate=deflate):
+                    points = iter(()) if ended_before is not None else switch_branch(
+                        run.model, cp, sst, kappa_stop, ds=amp, solver=run.ns, sign=side,
+                        pinned=pinned, min_amplitude=0.1, deflate=deflate,
+                        resume=None if cont is None else cont.switch, track=track)
+                    for p in points:
                         if first is None:
                             first = p.kappa
+                        last = p.kappa
                         start = "down" if abs(first) < abs(cp.kappa) else "up"
                         rec = run.record(p, "bifurcated", side=int(side), start=start,
                                          subcritical=start == "down", first_amplitude=amp)
                         n += 1
                         if on_point is not None:
                             on_point(run.model, rec)
-                        if len(factors) > 1:
-                            held.append(rec)
-                        else:
-                            yield rec
-                        if not (k_lo <= p.kappa <= k_hi):
-                            ended = "range"
-                            break
-                        if n >= cfg.max_points:
-                            ended = "max_points"
+                        held.append(rec)
+                        if n >= 3 or i == len(amps) - 1:  # no retry can drop them now
+                            yield from held
+                            held = []
+                            if on_side_point is not None:
+                                on_side_point(run.model, int(side), tracked[0])
+                        ended_now = stop(p.kappa, n)
+                        if ended_now is not None:
+                            ended = ended_now
                             break
                     else:
-                        if n and abs(p.kappa - kappa_stop) <= 1e-12 * abs(kappa_stop):
-                            ended = "range"  # landed on the end of the range
+                        if ended_before is not None:
+                            ended = ended_before
+                        elif n and landed(last):
+                            ended = "range"
                 except RuntimeError as e:
                     if "back on the fundamental branch" not in str(e):
                         raise
                     ended = "returned to the fundamental branch"
-                if ended != "returned to the fundamental branch" or n >= 3 or f == factors[-1]:
+                if ended != "returned to the fundamental branch" or n >= 3 or i == len(amps) - 1:
                     break
                 log.info("postbuckle: side %+d returned after %d points at amplitude %.3g: "
                          "retried", side, n, amp)
@@ -434,7 +489,9 @@ def run_postbuckle(cfg: PostbuckleConfig, outdir: str | os.PathLike | None = Non
             kept, done = _resumable(old[1])
             cp = _load_critical(Path(outdir), comm, header) if kept else None
             if cp is not None:
-                resume = (cp, done)
+                inside = _load_side(Path(outdir), comm, header, cp, old[1], done)
+                kept += [] if inside is None else inside.records
+                resume = (cp, done, inside)
             else:
                 kept = []
         if comm.rank == 0:
@@ -444,9 +501,17 @@ def run_postbuckle(cfg: PostbuckleConfig, outdir: str | os.PathLike | None = Non
     def save(model: Any, cp: Any) -> None:
         if path is not None:
             _save_critical(Path(outdir), model, cp, comm, header)
+            if comm.rank == 0:  # an earlier run's side: not of this critical point
+                (Path(outdir) / SIDE_CHECKPOINT / "meta.json").unlink(missing_ok=True)
+
+    def save_side(model: Any, side: int, r: Any) -> None:
+        save_checkpoint(Path(outdir) / SIDE_CHECKPOINT, comm, r.index,
+                        {"state": r.state, "state_prev": r.state_prev},
+                        {"side": side, "header": header, "switch": r.scalars()})
 
     recs = list(kept)
-    for rec in postbuckle(cfg, on_point, on_critical=save, resume=resume):
+    for rec in postbuckle(cfg, on_point, on_critical=save,
+                          on_side_point=None if path is None else save_side, resume=resume):
         recs.append(rec)
         if path is not None and comm.rank == 0:
             append_record(path, rec)
@@ -465,6 +530,65 @@ def _resumable(recs: list[dict[str, Any]]) -> tuple[list[dict[str, Any]], dict[i
                             if ("side_end" in r and int(r["side_end"]["side"]) in done)
                             or (r.get("branch") == "bifurcated" and int(r["side"]) in done)]
     return kept, done
+
+
+#: the folder of the checkpoint of the side being followed (``shells.store.save_checkpoint``)
+SIDE_CHECKPOINT = "side_checkpoint"
+
+
+def _unfinished_side(recs: list[dict[str, Any]], done: dict[int, Any]
+                     ) -> tuple[int, list[dict[str, Any]]] | None:
+    """The side that was being followed when the run stopped (it has points and no
+    "side_end" record) and its points, or None."""
+    at = next(i for i, r in enumerate(recs) if "critical_point" in r)
+    pts = [r for r in recs[at + 1:] if r.get("branch") == "bifurcated"
+           and int(r["side"]) not in done]
+    return None if not pts else (int(pts[0]["side"]), pts)
+
+
+def _load_side(outdir: Path, comm: Any, header: dict[str, Any], cp: Any,
+               recs: list[dict[str, Any]], done: dict[int, Any]) -> SideResume | None:
+    """The side that ``recs`` (a run's records, with its critical point) left unfinished, to
+    resume after its last point that the side checkpoint holds (its later points dropped), or
+    None (no such side; or its checkpoint is missing, unreadable, another run's, another
+    partition's or not of these points: then the side restarts whole, as a log line says)."""
+    from shells.critical import SwitchResume
+
+    side = _unfinished_side(recs, done)
+    if side is None:
+        return None
+    side, pts = side
+    n = None if cp.state is None else np.asarray(cp.state).shape
+    got = load_checkpoint(outdir / SIDE_CHECKPOINT, comm, every_rank=False,
+                          check=lambda z: z["state"].shape == z["state_prev"].shape == n)
+    why = "missing, incomplete, unreadable or of another rank count"
+    if got is not None:
+        meta, parts = got
+        # (meta is rank 0's, broadcast: every rank decides alike)
+        try:
+            k = meta["index"]
+            kept = [r for r in pts if r["index"] <= k]
+            sr = SwitchResume(**meta["switch"], state=parts[0]["state"],
+                              state_prev=parts[0]["state_prev"])
+            if not _same_header(meta, header):
+                why = "another configuration's"
+            elif meta.get("side") != side or sr.index != k:
+                why = "another side's"
+            elif ([r["index"] for r in kept] != list(range(k + 1)) or not math.isclose(
+                    kept[-1]["kappa_L"], sr.lam, rel_tol=1e-12, abs_tol=0.0)):
+                why = "not of the points in the file"
+            else:
+                return SideResume(side, kept, sr)
+        except (TypeError, KeyError, ValueError, IndexError):
+            why = "corrupt"
+    log.info("postbuckle: side %+d: its checkpoint is %s; the side restarts from the "
+             "critical point", side, why)
+    return None
+
+
+def _same_header(meta: dict[str, Any], header: dict[str, Any]) -> bool:
+    """Whether a checkpoint's meta (its "header") is of the run with ``header``."""
+    return json.loads(json.dumps(header, default=json_default)) == meta.get("header")
 
 
 def _checkpoint_name(comm: Any) -> str:
@@ -499,15 +623,14 @@ def _load_critical(outdir: Path, comm: Any, header: dict[str, Any]) -> Any:
 
     d = outdir / "critical_point"
     meta = read_meta(d / "meta.json", comm)
-    same = (meta is not None and meta.get("ranks") == comm.size
-            and json.loads(json.dumps(header, default=json_default)) == meta.get("header"))
+    same = meta is not None and meta.get("ranks") == comm.size and _same_header(meta, header)
     cp = None
     if same:
         try:
             with np.load(d / _checkpoint_name(comm)) as z:
                 cp = CriticalPoint(**json.loads(str(z["scalars"])), state=z["state"].copy(),
                                    mode=z["mode"].copy())
-        except (OSError, ValueError, KeyError, TypeError, EOFError):
+        except CHECKPOINT_ERRORS:
             cp = None
     if not comm.allreduce(cp is not None, op=MPI.LAND):
         log.info("postbuckle: no usable critical-point checkpoint: starting from kappa = 0")

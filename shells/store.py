@@ -12,6 +12,10 @@ instead of using it. A file may start with a header record ``{"header": {...}}``
 (``read_with_header``); ``write_header`` replaces a file by a new one holding only the header,
 and ``write_atomic`` any file by new text, atomically (temporary file, fsync, then rename).
 ``read_number_rows`` reads the plain-text tables a user gives (a meridian, a curvature field).
+
+Checkpoints (a run's state at its last point, to resume from): ``save_checkpoint`` writes one
+``.npz`` per MPI rank and then ``meta.json``, ``load_checkpoint`` reads them back (branch files'
+``checkpoint/``, a post-buckling side's ``side_checkpoint/``).
 """
 
 from __future__ import annotations
@@ -20,7 +24,9 @@ import fcntl
 import json
 import logging
 import os
-from collections.abc import Sequence
+import re
+import zipfile
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -28,9 +34,9 @@ import numpy as np
 
 from shells.errors import InputError
 
-__all__ = ["append_record", "drop_torn_tail", "json_default", "read_meta", "read_number_rows",
-           "read_records",
-           "read_with_header", "write_atomic", "write_header"]
+__all__ = ["CHECKPOINT_ERRORS", "append_record", "drop_torn_tail", "json_default",
+           "load_checkpoint", "read_meta", "read_number_rows", "read_records", "read_with_header",
+           "save_checkpoint", "write_atomic", "write_header"]
 
 log = logging.getLogger("shells")
 
@@ -176,6 +182,74 @@ def read_meta(path: str | os.PathLike, comm: Any) -> dict[str, Any] | None:
         except (OSError, json.JSONDecodeError):
             meta = None
     return comm.bcast(meta, root=0)
+
+
+#: what reading a checkpoint's files may raise when they are missing, truncated or corrupt
+CHECKPOINT_ERRORS = (OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile)
+
+
+def save_checkpoint(d: Path, comm: Any, index: int, arrays: dict[str, Any],
+                    meta: dict[str, Any] | None = None) -> None:
+    """The checkpoint of point ``index`` in folder ``d``: this rank's ``arrays`` (and the
+    index) to ``state-RANK-of-SIZE.INDEX.npz`` (a temporary file renamed into place); rank 0
+    then writes ``meta.json`` ({"ranks": SIZE, "index": INDEX} and ``meta``'s entries), the
+    last file of a complete checkpoint, and only then are the earlier points' state files
+    removed: a kill at any moment leaves a complete checkpoint, this point's or the previous
+    one's. Collective on ``comm``."""
+    if comm.rank == 0:
+        d.mkdir(parents=True, exist_ok=True)
+    comm.barrier()
+    stem = f"state-{comm.rank}-of-{comm.size}"
+    p = d / f"{stem}.{index}.npz"
+    tmp = d / f"{stem}.{index}.tmp.npz"
+    np.savez(tmp, **arrays, index=index)
+    os.replace(tmp, p)
+    comm.barrier()
+    if comm.rank == 0:
+        tmp_meta = d / "meta.json.tmp"
+        tmp_meta.write_text(json.dumps({"ranks": comm.size, "index": index, **(meta or {})},
+                                       default=json_default))
+        os.replace(tmp_meta, d / "meta.json")
+    comm.barrier()
+    for old in d.glob(f"{stem}.*.npz"):  # this rank's earlier points
+        if old != p:
+            old.unlink(missing_ok=True)
+    if comm.rank == 0:  # files of a run on another rank count, or of an older layout
+        for old in d.glob("state-*.npz"):
+            m = re.fullmatch(r"state-\d+-of-(\d+)\.\d+\.npz", old.name)
+            if m is None or int(m.group(1)) != comm.size:
+                old.unlink(missing_ok=True)
+
+
+def load_checkpoint(d: Path, comm: Any, *, every_rank: bool,
+                    check: Callable[[Any], bool] | None = None
+                    ) -> tuple[dict[str, Any], list[Any]] | None:
+    """The checkpoint ``save_checkpoint`` wrote in ``d``: (its meta, its state files, each read
+    whole into a dict of arrays): every rank's (``every_rank``: a checkpoint read on any
+    partition, which matches its values by what they hold) or this rank's only (a checkpoint of
+    this rank count only). None on every rank when it is missing or incomplete, a file cannot
+    be read, holds another point, or fails ``check`` (asked of each file)."""
+    from mpi4py import MPI
+
+    meta = read_meta(d / "meta.json", comm)
+    if meta is None:
+        return None
+    ok = True
+    try:
+        if not (every_rank or meta["ranks"] == comm.size):
+            raise ValueError("another rank count")
+        ranks = range(meta["ranks"]) if every_rank else (comm.rank,)
+        parts = []
+        for r in ranks:
+            with np.load(d / f"state-{r}-of-{meta['ranks']}.{meta['index']}.npz") as z:
+                parts.append(dict(z))  # read whole here: a corrupt member fails here
+        ok = all(int(q["index"]) == meta["index"] and (check is None or check(q))
+                 for q in parts)
+    except CHECKPOINT_ERRORS:
+        ok = False
+    if not comm.allreduce(ok, op=MPI.LAND):
+        return None
+    return meta, parts
 
 
 def read_number_rows(path: str | os.PathLike, what: str, rows: str

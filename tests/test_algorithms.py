@@ -199,6 +199,24 @@ def test_switching_onto_the_pitchfork_branch():
     assert slope == pytest.approx(0.5, abs=0.01)
 
 
+def test_switching_resumes_after_a_tracked_point():
+    """``switch_branch(..., resume=r)`` from the ``SwitchResume`` r tracked at a point continues
+    as the uninterrupted run: the same later points (κ, iterations, steps)."""
+    P = PitchforkProblem()
+    run = list(follow(P, STEPS, 1.4, CriticalSettings(rel_tol=1e-8, stop_at_first=True)))
+    cp = run[-1][2][0]
+    st = ContinuationSettings(ds=0.02, ds_max=0.1)
+    tracked = []
+    full = list(switch_branch(P, cp, st, 1.4, ds=0.02, track=tracked.append))
+    assert len(full) >= 5 and [r.index for r in tracked] == [p.index for p in full]
+    for k in (0, 2):
+        rest = list(switch_branch(P, cp, st, 1.4, ds=0.02, resume=tracked[k]))
+        assert [(p.index, p.newton_its, p.step) for p in rest] == [
+            (p.index, p.newton_its, p.step) for p in full[k + 1:]]
+        assert [p.kappa for p in rest] == pytest.approx([p.kappa for p in full[k + 1:]],
+                                                        rel=1e-12)
+
+
 def test_distributed_fold_gives_the_same_answer():
     """The fold problem with its unknowns spread over all ranks: same fold, to round-off."""
     from mpi4py import MPI

@@ -8,6 +8,8 @@ The 1D problem runs on MPI.COMM_SELF on every rank: every rank computes and asse
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 from shells import axisym
@@ -132,11 +134,48 @@ def test_postbuckle_cli_refuses_what_the_1d_model_cannot_follow(capsys):
         assert "m = [2]" in err and "--model surface" in err
 
 
-def test_an_interrupted_run_resumes_from_its_critical_point(shared_tmp, monkeypatch):
+@pytest.fixture(scope="module")
+def thick_run(tmp_path_factory):
+    """An uninterrupted run of the h/R = 0.05 sphere (both sides, 6 points each) in its own
+    folder: (config, folder, records)."""
+    from mpi4py import MPI
+
+    from shells.postbuckle import run_postbuckle
+
+    c = MPI.COMM_WORLD
+    out = c.bcast(str(tmp_path_factory.mktemp("pb_full")) if c.rank == 0 else None, root=0)
+    cfg = PostbuckleConfig(Sphere(1.0), 0.05, max_points=6)
+    full = run_postbuckle(cfg, out)
+    c.barrier()
+    return cfg, Path(out), full
+
+
+def _cut_at_the_critical_point(full_dir, cut_dir, upto=0):
+    """``cut_dir`` as a run killed ``upto`` lines after its critical point record leaves it:
+    the file up to there and the critical point's checkpoint (no side checkpoint)."""
+    import shutil
+
+    from mpi4py import MPI
+
+    lines = (full_dir / "postbuckle.jsonl").read_text().splitlines()
+    at = next(i for i, x in enumerate(lines) if '"critical_point"' in x)
+    if MPI.COMM_WORLD.rank == 0:
+        cut_dir.mkdir()
+        shutil.copytree(full_dir / "critical_point", cut_dir / "critical_point")
+        (cut_dir / "postbuckle.jsonl").write_text("\n".join(lines[:at + 1 + upto]) + "\n")
+    MPI.COMM_WORLD.barrier()
+    return lines
+
+
+def _timeless(r):
+    return {k: v for k, v in r.items() if k != "wall_time"}
+
+
+def test_an_interrupted_run_resumes_from_its_critical_point(thick_run, shared_tmp, monkeypatch):
     """A run cut short on its second side (the file holds the fundamental branch, the critical
-    point, side +1 whole and two points of side -1): the rerun does not follow the fundamental
-    branch again, keeps side +1 and computes side -1 whole; its records equal an uninterrupted
-    run's. A checkpoint from another configuration is not used."""
+    point, side +1 whole and two points of side -1, no side checkpoint): the rerun does not
+    follow the fundamental branch again, keeps side +1 and computes side -1 whole; its records
+    equal an uninterrupted run's. A checkpoint from another configuration is not used."""
     import json
 
     from mpi4py import MPI
@@ -144,22 +183,14 @@ def test_an_interrupted_run_resumes_from_its_critical_point(shared_tmp, monkeypa
     import shells.critical
     from shells import postbuckle as pb
 
-    cfg = PostbuckleConfig(Sphere(1.0), 0.05, max_points=4)
-    full_dir, cut_dir = shared_tmp / "pb_full", shared_tmp / "pb_cut"
-    full = pb.run_postbuckle(cfg, full_dir)
-    MPI.COMM_WORLD.barrier()
+    cfg, full_dir, full = thick_run
     kinds = [next(iter(r)) if "branch" not in r else r["branch"] for r in full]
     assert kinds.count("side_end") == 2 and kinds[-1] == "summary"
-    lines = (full_dir / "postbuckle.jsonl").read_text().splitlines()
-    recs = [json.loads(x) for x in lines]
+    recs = [json.loads(x) for x in (full_dir / "postbuckle.jsonl").read_text().splitlines()]
+    at = next(i for i, r in enumerate(recs) if "critical_point" in r)
     second = next(i for i, r in enumerate(recs) if "side_end" in r)  # the first side's end
-    if MPI.COMM_WORLD.rank == 0:
-        import shutil
-
-        cut_dir.mkdir()
-        shutil.copytree(full_dir / "critical_point", cut_dir / "critical_point")
-        (cut_dir / "postbuckle.jsonl").write_text("\n".join(lines[:second + 3]) + "\n")
-    MPI.COMM_WORLD.barrier()
+    cut_dir = shared_tmp / "pb_cut"
+    _cut_at_the_critical_point(full_dir, cut_dir, second + 3 - (at + 1))
 
     def no_follow(*args, **kwargs):
         raise AssertionError("the fundamental branch was followed again")
@@ -174,13 +205,94 @@ def test_an_interrupted_run_resumes_from_its_critical_point(shared_tmp, monkeypa
             assert b["kappa"] == pytest.approx(a["kappa"], rel=1e-10, abs=1e-12)
             assert b["side"] == a["side"] if "side" in a else True
 
-    def timeless(r):
-        return {k: v for k, v in r.items() if k != "wall_time"}
-
     on_file = [json.loads(x) for x in (cut_dir / "postbuckle.jsonl").read_text().splitlines()]
-    assert [timeless(r) for r in on_file] == [
-        timeless(json.loads(json.dumps(r))) for r in [{"header": cfg.describe()}, *full]]
+    assert [_timeless(r) for r in on_file] == [
+        _timeless(json.loads(json.dumps(r))) for r in [{"header": cfg.describe()}, *full]]
     # another configuration's checkpoint: the run starts again from kappa = 0 (follow called)
     other = PostbuckleConfig(Sphere(1.0), 0.05, max_points=3)
     with pytest.raises(AssertionError, match="followed again"):
         pb.run_postbuckle(other, cut_dir)
+
+
+class _KilledError(Exception):
+    pass
+
+
+def test_an_interrupted_side_resumes_after_its_last_point(thick_run, shared_tmp, monkeypatch,
+                                                          caplog):
+    """A run killed inside side +1 (at its point 4, after 4 points were written and the side
+    checkpoint saved; the file then given point 4 as well, as a kill between its write and its
+    checkpoint leaves it): the rerun keeps the points 0-3 as written, computes side +1 from
+    point 4 on (not from the bifurcation) and then side -1, and its points are the
+    uninterrupted run's (kappa to 1e-10, same Newton iterations and steps). A corrupt side
+    checkpoint: the side restarts from the bifurcation, with a log line, the same points."""
+    import json
+    import logging
+
+    from mpi4py import MPI
+
+    import shells.critical
+    from shells import postbuckle as pb
+
+    cfg, full_dir, full = thick_run
+    cut_dir = shared_tmp / "pb_cut_side"
+    lines = _cut_at_the_critical_point(full_dir, cut_dir)
+    monkeypatch.setattr(shells.critical, "follow", lambda *a, **k: pytest.fail("followed"))
+
+    def kill(model, rec):
+        if rec.get("side") == 1 and rec["index"] == 4:
+            raise _KilledError
+
+    with pytest.raises(_KilledError):
+        pb.run_postbuckle(cfg, cut_dir, on_point=kill)
+    MPI.COMM_WORLD.barrier()
+    cut = (cut_dir / "postbuckle.jsonl").read_text().splitlines()
+    side1 = [x for x in cut if '"branch": "bifurcated"' in x]
+    assert len(side1) == 4  # points 0-3 of side +1 written
+    nxt = next(x for x in lines if '"side": 1,' in x and '"index": 4,' in x)
+    MPI.COMM_WORLD.barrier()  # every rank has read the file before rank 0 changes it
+    if MPI.COMM_WORLD.rank == 0:
+        with open(cut_dir / "postbuckle.jsonl", "a") as f:
+            f.write(nxt + "\n")  # written, its checkpoint not
+    MPI.COMM_WORLD.barrier()
+
+    def compare(resumed):
+        assert len(resumed) == len(full)
+        for a, b in zip(full, resumed, strict=True):
+            assert a.keys() == b.keys()
+            if "branch" in a:
+                assert (b.get("side"), b["index"]) == (a.get("side"), a["index"])
+                assert b["kappa"] == pytest.approx(a["kappa"], rel=1e-10, abs=1e-12)
+                assert (b["newton_its"], b["step"]) == (a["newton_its"], a["step"])
+            else:
+                assert json.loads(json.dumps(b)) == json.loads(json.dumps(a))
+        on_file = [json.loads(x) for x in
+                   (cut_dir / "postbuckle.jsonl").read_text().splitlines()]
+        assert [_timeless(r) for r in on_file] == [
+            _timeless(json.loads(json.dumps(r))) for r in [{"header": cfg.describe()}, *full]]
+
+    computed = []
+    resumed = pb.run_postbuckle(cfg, cut_dir,
+                                on_point=lambda m, r: computed.append((r["side"], r["index"])))
+    MPI.COMM_WORLD.barrier()
+    assert computed == [(1, 4), (1, 5)] + [(-1, i) for i in range(6)]
+    compare(resumed)
+    again = (cut_dir / "postbuckle.jsonl").read_text().splitlines()
+    assert [x for x in again if '"side": 1,' in x][:4] == side1  # kept as written
+
+    # a corrupt side checkpoint (a state file cut short): the side restarts whole
+    MPI.COMM_WORLD.barrier()
+    if MPI.COMM_WORLD.rank == 0:
+        upto = again.index(side1[-1]) + 1  # as the kill left it
+        (cut_dir / "postbuckle.jsonl").write_text("\n".join(again[:upto]) + "\n")
+        for f in (cut_dir / "side_checkpoint").glob("state-*.npz"):
+            f.write_bytes(f.read_bytes()[:100])
+    MPI.COMM_WORLD.barrier()
+    computed.clear()
+    with caplog.at_level(logging.INFO, logger="shells"):
+        resumed = pb.run_postbuckle(
+            cfg, cut_dir, on_point=lambda m, r: computed.append((r["side"], r["index"])))
+    MPI.COMM_WORLD.barrier()
+    assert "side +1: its checkpoint is missing, incomplete, unreadable" in caplog.text
+    assert computed == [(s, i) for s in (1, -1) for i in range(6)]
+    compare(resumed)

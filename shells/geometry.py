@@ -896,4 +896,7 @@ def shape_from_description(d: dict[str, Any]) -> Shape:
         return MeridianTable(tuple(tuple(p) for p in d["points"]))
     if kind == "torus":
         return Torus(radius=float(d["R"]), ring=float(d["ring"]))
+    if kind == "mesh":
+        raise InputError("a surface known only by its mesh is read from the mesh file "
+                         f"({d.get('file')!r}), not from a description")
     raise InputError(f"unknown shape {kind!r} in mesh description")

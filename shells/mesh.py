@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import logging
 import math
 import os
 from collections.abc import Iterator
@@ -664,8 +665,6 @@ def _read_on_rank0(gmsh: Any, path: Path, comm: MPI.Comm, recover: bool) -> Shap
     """Rank 0 merges ``path`` (checked by ``_checked``) into ``gmsh``; with ``recover``, the
     shape recovered from its nodes (``_user_mesh_shape``), on every rank. Any error:
     ``InputError`` on every rank."""
-    from shells.geometry import shape_from_description
-
     err = table = None
     if comm.rank == 0:
         try:
@@ -673,7 +672,7 @@ def _read_on_rank0(gmsh: Any, path: Path, comm: MPI.Comm, recover: bool) -> Shap
             if not gmsh.model.getEntities(2):
                 err = f"{str(path)!r} holds no surface (no 2D elements)"
             elif recover:
-                table = _user_mesh_shape(gmsh)
+                table = _user_mesh_shape(gmsh, str(path))
             elif not gmsh.model.getPhysicalGroups(2):
                 err = (f"{str(path)!r} holds no tagged surface (a shells mesh has a 2D "
                        "physical group)")
@@ -684,7 +683,7 @@ def _read_on_rank0(gmsh: Any, path: Path, comm: MPI.Comm, recover: bool) -> Shap
     err, table = comm.bcast((err, table), root=0)
     if err:
         raise InputError(err)
-    return None if table is None else shape_from_description(table)
+    return table
 
 
 def read_mesh_shape(path: str | os.PathLike, comm: MPI.Comm | None = None) -> Shape:
@@ -734,23 +733,41 @@ def _tag_boundary(mesh: Any) -> Any:
     return dmesh.meshtags(mesh, tdim - 1, facets, np.full(len(facets), RIM_TAG, dtype=np.int32))
 
 
-def _user_mesh_shape(gmsh: Any) -> dict[str, Any]:
+def _user_mesh_shape(gmsh: Any, path: str = "") -> Shape:
     """A mesh made outside ``shells`` (no sidecar): its surface put in the physical group a
     shells mesh has, if it has none (gmsh's reader takes the cells of physical groups only),
     and its shape recovered from its nodes: the meridian of a surface of revolution about z
-    (``MeridianTable.from_nodes``, which refuses any other surface), or without a node on the
-    axis a torus (``Torus.from_nodes``). Returns the shape's description. The rim is tagged on
-    the dolfinx mesh (``_tag_boundary``)."""
+    (``MeridianTable.from_nodes``), a torus about z (``Torus.from_nodes``, without a node on
+    the axis), or else the surface known only by its mesh (``surface_fit.MeshSurface``: normal
+    and curvatures fitted at its nodes; the surface model only). The rim is tagged on the
+    dolfinx mesh (``_tag_boundary``)."""
     from shells.geometry import MeridianTable, Torus
+    from shells.surface_fit import MeshSurface
 
     model = gmsh.model
     if not model.getPhysicalGroups(2):
         model.addPhysicalGroup(2, [t for _, t in model.getEntities(2)], SURFACE_TAG)
-    _, x, _ = model.mesh.getNodes()
+    tags, x, _ = model.mesh.getNodes()
     x = np.asarray(x, dtype=float).reshape(-1, 3)
-    if not (np.hypot(x[:, 0], x[:, 1]) < 1e-9 * float(np.max(np.abs(x)))).any():
-        return Torus.from_nodes(x).describe()  # no pole: a torus, or refused
-    return MeridianTable.from_nodes(x).describe()
+    try:
+        if not (np.hypot(x[:, 0], x[:, 1]) < 1e-9 * float(np.max(np.abs(x)))).any():
+            return Torus.from_nodes(x)
+        return MeridianTable.from_nodes(x)
+    except InputError as e:
+        why = str(e)
+    index = {int(t): i for i, t in enumerate(tags)}
+    tris = []
+    for etype, _, enodes in zip(*model.mesh.getElements(2), strict=True):
+        name, _, order, nn, *_ = model.mesh.getElementProperties(etype)
+        if not name.startswith("Triangle"):
+            raise InputError(f"the mesh holds {name} elements: triangles only")
+        conn = np.asarray(enodes, dtype=np.int64).reshape(-1, nn)
+        tris.append(np.vectorize(index.__getitem__)(conn))
+    if len({t.shape[1] for t in tris}) > 1:
+        tris = [t[:, :3] for t in tris]  # mixed orders: the corners
+    shape = MeshSurface.from_mesh(x, np.vstack(tris), file=path)
+    logging.getLogger("shells").debug("mesh: not of revolution about z or a torus (%s)", why)
+    return shape
 
 
 def sphere_spec(h_over_r: float, size: float = 0.1, order: int = 2) -> MeshSpec:

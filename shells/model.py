@@ -40,6 +40,7 @@ so continuation never recompiles a form.
 
 from __future__ import annotations
 
+import logging
 import math
 from dataclasses import dataclass, field
 from typing import Any
@@ -78,7 +79,8 @@ def default_discretisation(shape: Shape, h_over_r: float | None = None,
     0.04 (f = step(θ - 0.2, 0.05) step(0.4 - θ, 0.05)) has its fold 3.6 % late with P2 at the
     default mesh (1.3 % and 0.5 % with 6 and 8 rim-layer elements), 9e-5 with P3, against the
     1D model's κR = 2.288494 (benchmarks/kappa_fields.py). A meridian table is taken as the
-    deep caps (P3, size 0.2), or a sphere when closed; a torus as the deep caps.
+    deep caps (P3, size 0.2), or a sphere when closed; a torus and a surface known only by its
+    mesh as the deep caps.
     """
     from shells.geometry import EllipsoidalCap, MeridianTable, SphericalCap, Torus
 
@@ -86,7 +88,7 @@ def default_discretisation(shape: Shape, h_over_r: float | None = None,
     if sphere and degree == 2:
         raise InputError("P2 locks on a closed sphere (kappa_b h 1.56-1.71 against a converged "
                          "1.484 at h/R = 0.05, docs/model.md): use --degree 3 (the default)")
-    deep = isinstance(shape, (EllipsoidalCap, MeridianTable, Torus)) or (
+    deep = isinstance(shape, (EllipsoidalCap, MeridianTable, Torus)) or shape.kind == "mesh" or (
         isinstance(shape, SphericalCap) and not sphere and h_over_r is not None
         and shape.theta / math.sqrt(h_over_r) > P2_THETABAR_MAX)
     patterned = kappa_field is not None and not kappa_field.uniform
@@ -182,6 +184,11 @@ class ShellModel(FormProblem):
         self._x = ufl.SpatialCoordinate(mesh)
         self.n0 = (self.shape.normal_ufl(self._x) if self.shape.has_ufl_normal
                    else self._interpolated_normal())
+        if self.shape.kind == "mesh" and self.shell.comm.rank == 0:
+            logging.getLogger("shells").info(
+                "the mesh is not of revolution about z, nor a torus: its normal and curvatures "
+                "are fitted at its nodes (R = 1 / mean |H| = %.6g; no azimuthal mode numbers)",
+                self.shape.R)
         J = ufl.Jacobian(mesh)
         self.P0 = J * ufl.JacobianInverse(mesh)
         p.kappa_field.check_on(self.shape)
@@ -396,7 +403,6 @@ class ShellModel(FormProblem):
         stiffness: a pointwise constraint on θ alone leaves the rotations nearly free (a point
         has no capacity in 2D), with spurious near-zero eigenvalues that fall as the mesh refines.
         """
-        from dolfinx import fem
         from mpi4py import MPI
 
         from shells.geometry import Disk
@@ -419,6 +425,8 @@ class ShellModel(FormProblem):
                                  "rigid-motion gauge)")
             return np.asarray(comm.bcast(x[i] if comm.rank == best[1] else None, root=best[1]))
 
+        if self.shape.kind == "mesh":
+            return self._general_supports(node, tol)
         constraints = []
         if self.shape.has_pole:
             top = node(np.array([0.0, 0.0, float(self.shape.meridian(np.array(0.0))[1])]),
@@ -448,6 +456,38 @@ class ShellModel(FormProblem):
                 # tilts instead; an axisymmetric state has equal u_z there, a translation
                 constraints += [(B, 2), (C, 2), (D, 2)]
                 self.support_points = [B, C, D]
+        return self._point_bcs(constraints, tol)
+
+    def _general_supports(self, node: Any, tol: float) -> list[Any]:
+        """The 3-2-1 gauge of a surface known only by its mesh: u = 0 at its highest node A,
+        two components of u at the node B farthest from A and one at the node C farthest from
+        the line AB, the components chosen (of the 9 choices) so that the constraints fix the
+        three rotations best conditioned (the largest smallest singular value of the map from
+        the rotation ω to the constrained components of ω × (B - A), ω × (C - A))."""
+        x = self.shape.nodes
+        a = x[int(np.argmax(x[:, 2]))]
+        b = x[int(np.argmax(np.linalg.norm(x - a, axis=1)))]
+        e = (b - a) / np.linalg.norm(b - a)
+        d = x - a
+        c = x[int(np.argmax(np.linalg.norm(d - np.outer(d @ e, e), axis=1)))]
+        A, B, C = (node(p, "gauge point") for p in (a, b, c))
+
+        def cross_matrix(r: np.ndarray) -> np.ndarray:  # ω ↦ ω × r
+            return -np.array([[0, -r[2], r[1]], [r[2], 0, -r[0]], [-r[1], r[0], 0]])
+
+        MB, MC = cross_matrix(B - A), cross_matrix(C - A)
+        best = max(((drop, k) for drop in range(3) for k in range(3)),
+                   key=lambda q: np.linalg.svd(np.vstack([np.delete(MB, q[0], axis=0),
+                                                          MC[q[1]]]), compute_uv=False)[-1])
+        constraints = [(A, 0), (A, 1), (A, 2)]
+        constraints += [(B, i) for i in range(3) if i != best[0]] + [(C, best[1])]
+        self.support_points = [A, B, C]
+        return self._point_bcs(constraints, tol)
+
+    def _point_bcs(self, constraints: list[tuple[np.ndarray, int]], tol: float) -> list[Any]:
+        """u_comp = 0 at each (point, comp) of ``constraints`` (a DOF node at each point)."""
+        from dolfinx import fem
+
         bcs = []
         for pt, comp in constraints:
             sub = self.W.sub(comp)
@@ -505,10 +545,12 @@ class ShellModel(FormProblem):
         x = self.owned_dof_coordinates()
         n_owned = x.shape[0]
         arr = self.w.x.array.reshape(-1, 6)[:n_owned]
-        # the pole; without one (a torus) the meridian's top at azimuth 0 (a mesh node)
-        r_top, z_top = (float(v) for v in self.shape.meridian(np.array(0.0)))
-        top = np.array([r_top, 0.0, z_top])
         tol = 1e-8 * self.shape.characteristic_size()
+        if self.shape.kind == "mesh":  # its highest node, against the mean
+            top = self.shape.nodes[int(np.argmax(self.shape.nodes[:, 2]))]
+        else:  # the pole; without one (a torus) the meridian's top at azimuth 0 (a mesh node)
+            r_top, z_top = (float(v) for v in self.shape.meridian(np.array(0.0)))
+            top = np.array([r_top, 0.0, z_top])
 
         def value_at(pt: np.ndarray) -> float:
             hit = np.linalg.norm(x - pt, axis=1) < tol
@@ -518,7 +560,9 @@ class ShellModel(FormProblem):
             return val / cnt if cnt else math.nan
 
         uz_top = value_at(top)
-        if self.shape.closed:
+        if self.shape.kind == "mesh":
+            disp = uz_top - mean_uz
+        elif self.shape.closed:
             r_b, z_b = (float(v) for v in self.shape.meridian(np.array(math.pi)))
             bottom = np.array([r_b, 0.0, z_b])
             disp = 0.5 * (uz_top - value_at(bottom))
@@ -720,6 +764,8 @@ class ShellModel(FormProblem):
         if isinstance(self.shape, Sphere):
             x = q["x"]
             return ModeInfo(None, int(round((-1 + math.sqrt(1 + 4 * max(x, 0.0))) / 2)), q)
+        if self.shape.kind == "mesh":
+            return ModeInfo(None, None, q)  # no axis to count waves about
         p = self.azimuthal_spectrum(vec)
         m = int(np.argmax(p))
         q["m_power"] = float(p[m] / max(p.sum(), 1e-300))

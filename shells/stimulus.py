@@ -291,7 +291,22 @@ class CurvatureField:
 
     def check_on(self, shape: Any, axisymmetric: bool = False) -> None:
         """Refuse (InputError) a field that is not finite on ``shape``, vanishes on all of it,
-        or (``axisymmetric``: the 1D model) depends on the azimuth."""
+        or (``axisymmetric``: the 1D model) depends on the azimuth. On a surface known only by
+        its mesh (no meridian, no parallels): checked at its nodes, and isotropic only."""
+        if getattr(shape, "kind", None) == "mesh":
+            if self.anisotropy != (1.0, 1.0):
+                raise InputError("an anisotropic natural curvature needs the meridian and "
+                                 "parallel directions of a surface of revolution; this mesh "
+                                 "is not one")
+            x = shape.nodes
+            f = self.values(x[:, 0], x[:, 1], x[:, 2], field_radius(shape))
+            if not np.all(np.isfinite(f)):
+                raise InputError(f"the kappa field {self.expr!r} is not finite on the mesh "
+                                 f"(at the node {x[~np.isfinite(f)][0]})")
+            if not np.any(f != 0):
+                raise InputError(f"the kappa field {self.expr!r} vanishes on the whole shape: "
+                                 "kappa would impose nothing")
+            return
         t = np.linspace(0.0, shape.t_max, 401)
         rr, zz = shape.meridian(t)
         rr, zz = np.asarray(rr, dtype=float), np.asarray(zz, dtype=float)

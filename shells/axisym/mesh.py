@@ -31,6 +31,10 @@ __all__ = ["MeridianMesh", "make_meridian_nodes"]
 
 
 def _supported(shape: Any) -> None:
+    if getattr(shape, "kind", None) == "mesh":
+        raise InputError("the mesh is not a surface of revolution about the z axis (nor a "
+                         "torus): the 1D model needs one; the surface model takes it "
+                         "(--model surface)")
     if not getattr(shape, "has_pole", True):
         raise InputError(f"the axisymmetric model needs a meridian from a pole, and a "
                          f"{shape.kind} has none: use the surface model (--model surface)")

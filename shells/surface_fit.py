@@ -214,8 +214,8 @@ class MeshSurface(Shape):
         return n.T.reshape(x.shape)
 
     def principal_curvatures(self, x):
-        """Eigenvalues of the shape operator of the fitted graph (the paper's sign: b_ab =
-        n·x_ab, negative on a sphere), the larger-magnitude one... sorted (min, max)."""
+        """The principal curvatures (min, max) of the fitted graph at x: the eigenvalues of
+        its shape operator, with the paper's sign (b_ab = n·x_ab: negative on a sphere)."""
         x = np.asarray(x, dtype=float)
         _, c, u, v = self._local(x)
         fu, fv, fuu, fuv, fvv = _derivatives(c, u, v)

@@ -666,10 +666,14 @@ class ShellModel(FormProblem):
         the current state's orbit under rotations about the axis: a rotation by ε moves the
         normal displacement w = u·n° by -ε ∂_φ w (n° and the reference surface are
         axisymmetric). 1: the mode only turns the pattern (a neutral direction of the
-        continuum, broken by the mesh); 0 for an axisymmetric state, which has no orbit."""
+        continuum, broken by the mesh); 0 for an axisymmetric state, which has no orbit, and
+        on a surface known only by its mesh, which has no axis of symmetry."""
         import ufl
         from dolfinx import fem
         from mpi4py import MPI
+
+        if self.shape.kind == "mesh":
+            return 0.0
 
         if not hasattr(self, "_orbit_forms"):
             self._orbit_v = fem.Function(self.W)

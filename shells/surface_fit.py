@@ -6,7 +6,8 @@ mesh itself. The triangles are first oriented consistently (across every shared 
 that cannot be, a Möbius strip, or whose edges are shared by more than two triangles, is
 refused), outward on a closed surface (∫ x·n dA > 0), towards +z on an open one. At each node a
 cubic height function z = f(u, v) over its tangent plane is fitted by least squares to the nodes
-of the triangles around it and around their neighbours (two rings), in the frame of the
+of the triangles around it and around their neighbours (two rings, up to four on a coarse
+first-order mesh where two hold fewer than ``MIN_NODES``), in the frame of the
 averaged triangle normals, then once more in the fit's own normal. The normal at a point x is
 that of the fit of the node nearest x, at x's (u, v): exact to O(size³) on the nodes of a
 second-order mesh (they lie on the surface), the curvatures (the fit's second derivatives) to
@@ -28,6 +29,9 @@ from shells.geometry import Shape
 
 __all__ = ["MeshSurface"]
 
+#: nodes a fit takes at least (9 coefficients; two rings of a second-order mesh hold 19-40,
+#: a first-order mesh's rim node fewer: its rings grow to four)
+MIN_NODES = 15
 #: the monomials u^i v^j of the cubic fit (f(0, 0) = 0: the node lies on the surface)
 _POWERS = [(1, 0), (0, 1), (2, 0), (1, 1), (0, 2), (3, 0), (2, 1), (1, 2), (0, 3)]
 
@@ -160,12 +164,16 @@ class MeshSurface(Shape):
         frames = np.zeros((len(x), 3, 3))
         coeffs = np.zeros((len(x), 9))
         for i in np.flatnonzero(used):
-            ring1 = {k for k in node_tris[i]}
-            ring2 = {k2 for k in ring1 for j in tri[k] for k2 in node_tris[j]}
-            pts = x[np.unique(tri[list(ring2)].ravel())]
-            if len(pts) < 12:
+            ring = set(node_tris[i])
+            for rings in range(1, 5):  # two rings, more where they hold too few nodes
+                if rings >= 2 and len(pts := np.unique(tri[list(ring)].ravel())) >= MIN_NODES:
+                    break
+                ring = {k2 for k in ring for j in tri[k] for k2 in node_tris[j]}
+            pts = x[np.unique(tri[list(ring)].ravel())]
+            if len(pts) < MIN_NODES:
                 raise InputError(f"the mesh is too coarse around node {i} for a curvature fit "
-                                 f"({len(pts)} nodes in two rings of triangles, 12 needed)")
+                                 f"({len(pts)} nodes in four rings of triangles, {MIN_NODES} "
+                                 "needed)")
             F, co = _fit(x[i], nn[i], pts)
             fu, fv = co[0], co[1]  # the fit's own normal at the node, then fit again in it
             n1 = F[2] - fu * F[0] - fv * F[1]

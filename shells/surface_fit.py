@@ -5,14 +5,16 @@ no analytic shape: ``MeshSurface`` recovers its normal and second fundamental fo
 mesh itself. The triangles are first oriented consistently (across every shared edge; a mesh
 that cannot be, a Möbius strip, or whose edges are shared by more than two triangles, is
 refused), outward on a closed surface (∫ x·n dA > 0), towards +z on an open one. At each node a
-cubic height function z = f(u, v) over its tangent plane is fitted by least squares to the nodes
+quartic height function z = f(u, v) over its tangent plane is fitted by least squares to the nodes
 of the triangles around it and around their neighbours (two rings, up to four on a coarse
 first-order mesh where two hold fewer than ``MIN_NODES``), in the frame of the
 averaged triangle normals, then once more in the fit's own normal. The normal at a point x is
-that of the fit of the node nearest x, at x's (u, v): exact to O(size³) on the nodes of a
-second-order mesh (they lie on the surface), the curvatures (the fit's second derivatives) to
-O(size²). The surface model interpolates this normal in Lagrange of one degree above its state's
-(as for a meridian table) and takes b° = -∇n°.
+that of the fit of the node nearest x, at x's (u, v). On the nodes of a second-order mesh
+(they lie on the surface) the normal converges at rate 5 and the curvatures (the fit's second
+derivatives) at rate 4: on the 30° cap at sizes 0.2, 0.1, 0.05 the curvatures' largest errors
+are 7.1e-3, 3.3e-4, 2.0e-5 (a cubic fit gave 6.3e-2, 1.5e-2, 4.4e-3). The surface model
+interpolates this normal in Lagrange of one degree above its state's (as for a meridian table)
+and takes b° = -∇n°.
 """
 
 from __future__ import annotations
@@ -29,11 +31,11 @@ from shells.geometry import Shape
 
 __all__ = ["MeshSurface"]
 
-#: nodes a fit takes at least (9 coefficients; two rings of a second-order mesh hold 19-40,
+#: nodes a fit takes at least (14 coefficients; two rings of a second-order mesh hold 19-40,
 #: a first-order mesh's rim node fewer: its rings grow to four)
-MIN_NODES = 15
-#: the monomials u^i v^j of the cubic fit (f(0, 0) = 0: the node lies on the surface)
-_POWERS = [(1, 0), (0, 1), (2, 0), (1, 1), (0, 2), (3, 0), (2, 1), (1, 2), (0, 3)]
+MIN_NODES = 21
+#: the monomials u^i v^j of the quartic fit (f(0, 0) = 0: the node lies on the surface)
+_POWERS = [(i, d - i) for d in range(1, 5) for i in range(d, -1, -1)]
 
 
 def _orient(tri: np.ndarray) -> np.ndarray:
@@ -75,7 +77,7 @@ def _orient(tri: np.ndarray) -> np.ndarray:
 
 
 def _fit(p: np.ndarray, n: np.ndarray, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The frame (e1, e2, n) at ``p`` and the cubic height function's coefficients fitted to
+    """The frame (e1, e2, n) at ``p`` and the quartic height function's coefficients fitted to
     ``pts`` (K, 3) in it."""
     e1 = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
     e1 /= np.linalg.norm(e1)
@@ -90,19 +92,21 @@ def _fit(p: np.ndarray, n: np.ndarray, pts: np.ndarray) -> tuple[np.ndarray, np.
 
 
 def _derivatives(c: np.ndarray, u: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, ...]:
-    """f_u, f_v, f_uu, f_uv, f_vv of the cubic with coefficients c (rows: points)."""
-    c1, c2, c3, c4, c5, c6, c7, c8, c9 = c.T
-    fu = c1 + 2 * c3 * u + c4 * v + 3 * c6 * u * u + 2 * c7 * u * v + c8 * v * v
-    fv = c2 + c4 * u + 2 * c5 * v + c7 * u * u + 2 * c8 * u * v + 3 * c9 * v * v
-    fuu = 2 * c3 + 6 * c6 * u + 2 * c7 * v
-    fuv = c4 + 2 * c7 * u + 2 * c8 * v
-    fvv = 2 * c5 + 2 * c8 * u + 6 * c9 * v
-    return fu, fv, fuu, fuv, fvv
+    """f_u, f_v, f_uu, f_uv, f_vv of the polynomial with coefficients c (rows: points) on the
+    monomials ``_POWERS``."""
+    out = [np.zeros_like(u) for _ in range(5)]
+    for k, (i, j) in enumerate(_POWERS):
+        ck = c[:, k]
+        for m, (a, b) in enumerate(((1, 0), (0, 1), (2, 0), (1, 1), (0, 2))):
+            if i >= a and j >= b:
+                coef = math.perm(i, a) * math.perm(j, b)
+                out[m] = out[m] + ck * coef * u ** (i - a) * v ** (j - b)
+    return tuple(out)
 
 
 @dataclass(frozen=True)
 class MeshSurface(Shape):
-    """A surface known only by its mesh (``from_mesh``): normal and curvatures from local cubic
+    """A surface known only by its mesh (``from_mesh``): normal and curvatures from local quartic
     fits at its nodes (module docstring). ``R`` is 1 / (the area-weighted mean of |H|), H the
     mean curvature: a sphere's or cap's radius; κR and h/R are over it."""
 
@@ -114,7 +118,7 @@ class MeshSurface(Shape):
                               repr=False)
     frames: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 3)), compare=False,
                                repr=False)
-    coeffs: np.ndarray = field(default_factory=lambda: np.zeros((0, 9)), compare=False,
+    coeffs: np.ndarray = field(default_factory=lambda: np.zeros((0, len(_POWERS))), compare=False,
                                repr=False)
     kind = "mesh"
     has_ufl_normal = False
@@ -162,7 +166,7 @@ class MeshSurface(Shape):
             for i in t:
                 node_tris[i].append(k)
         frames = np.zeros((len(x), 3, 3))
-        coeffs = np.zeros((len(x), 9))
+        coeffs = np.zeros((len(x), len(_POWERS)))
         for i in np.flatnonzero(used):
             ring = set(node_tris[i])
             for rings in range(1, 5):  # two rings, more where they hold too few nodes

@@ -7,6 +7,7 @@ Valid on any number of ranks (the fits are computed on every rank from the whole
 
 from __future__ import annotations
 
+import json
 import math
 import subprocess
 import sys
@@ -161,6 +162,10 @@ def test_a_mesh_not_of_revolution_runs_with_a_fixed_gauge(meshes):
     _user_mesh(path, "--stretch", "1.05")
     sm = load_mesh(path, MPI.COMM_WORLD)
     assert isinstance(sm.shape, MeshSurface) and abs(sm.shape.R - 1.04) < 0.01  # 1.0427
+    # `shells info`: no "exact" area or rim of a surface that has no exact shape (strict JSON)
+    summary = sm.summary()
+    assert "area_exact" not in summary and "rim_length_exact" not in summary
+    json.dumps(summary, allow_nan=False)
     m = ShellModel(sm, ModelParameters(h=0.04 * sm.shape.R, nu=0.5, degree=2))
     assert len(m.bcs) == 6
     neg, zero, pos = Stability(m).inertia(None, test=False)

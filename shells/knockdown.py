@@ -39,8 +39,9 @@ __all__ = ["KnockdownConfig", "fold_kappa", "knockdown", "run_knockdown"]
 #: how a point is computed; part of a points file's key, so that a rerun never reads back
 #: points of another method (the first critical point located on all counts, shorter steps
 #: when a crossing comes before the fold; /3: one mesh for all amplitudes, steps near the
-#: fold from the asymptotic law)
-METHOD = "first-critical-point/3"
+#: fold from the asymptotic law; /4: an attempt without a fold repeated in the balanced
+#: arclength norm, ``_first_critical``)
+METHOD = "first-critical-point/4"
 #: ∂R/∂δ by central differences at δ/h = ±this (R is linear in δ to 1e-7 there, measured)
 DELTA_FD = 1.0e-3
 
@@ -163,15 +164,52 @@ def _imperfection_derivative(cfg: KnockdownConfig, degree: int, model: Any) -> A
     return derivative
 
 
+def _balanced_weight(model: Any, ns: Any) -> float:
+    """The arclength norm's state weight ξ with which the state and load parts of the branch's
+    tangent are equal at the model's current (converged) state: J z = -∂R/∂λ, ξ² cw₁ |z|² = 1
+    (cw₁: ``_Arclength``'s weight at ξ = 1, the RMS over all DOFs in thicknesses)."""
+    from shells.continuation import _Arclength
+
+    ar = _Arclength(ns, model.length_scale(), 1.0)
+    try:
+        if not ar.tangent(None, 1.0, attempts=2):
+            raise RuntimeError("the Jacobian at the start of the branch could not be factored")
+        ratio = 1.0 / ar.tl**2 - 1.0  # cw₁ |z|², the state part over the load part
+    finally:
+        for v in (ar.Fl, ar.a, ar.b, ar.tw, ar.wp, ar.w_old):
+            v.destroy()
+    return 1.0 / math.sqrt(ratio) if ratio > 0 else 1.0
+
+
 def _first_critical(model: Any, ns: Any, cfg: KnockdownConfig, end: float,
-                    ds_h: float | None, kappa_start: float = 0.0) -> tuple[list[Any], int]:
+                    ds_h: float | None, kappa_start: float = 0.0, balanced: bool = False
+                    ) -> tuple[list[Any], int]:
     """The first axisymmetric critical point from κ = ``kappa_start`` (the model's state is
-    the branch's there), steps of ``ds_h`` in κh (None: the defaults)."""
+    the branch's there), steps of ``ds_h`` in κh (None: the defaults) in the arclength norm
+    of state weight 1, or with ``balanced`` steps of ``ds_h`` in κ in the norm balanced at
+    the start (``_balanced_weight``)."""
     from shells.axisym import default_settings
     from shells.critical import CriticalSettings, follow
     from shells.geometry import Sphere
 
-    steps = {} if ds_h is None else {"ds": ds_h / cfg.h_over_r, "ds_max": ds_h / cfg.h_over_r}
+    steps: dict[str, Any] = {}
+    if ds_h is not None:
+        steps = {"ds": ds_h / cfg.h_over_r, "ds_max": ds_h / cfg.h_over_r}
+    if ds_h is not None and balanced:
+        # An imperfect sphere's fold mode is localised (a dimple's: within sqrt(Rh) of the
+        # pole) and weakly loaded, so with the state weight 1 (the state's RMS over the whole
+        # sphere, in thicknesses, against λ = κR) dκ/ds stays near 1 until the fold mode's
+        # eigenvalue is at the Jacobian's round-off (measured under pressure at h/R = 0.002,
+        # δ/h = 0.01: dκ/ds = 0.995 where the eigenvalue is 2e-6 of its start value 2e-3);
+        # there the corrector stalls, the eigenvalue's sign flips with round-off (a pair of
+        # "bifurcations" with dκ/ds > 0) and the steps fall below ds_min short of the fold. A
+        # balanced norm turns the tangent where the eigenvalue is still well resolved.
+        steps["ds_unit"] = "kappa"
+        model.set_kappa(kappa_start)
+        ok, _ = ns.solve()
+        if not ok:
+            raise RuntimeError(f"Newton did not converge at the start kappa = {kappa_start}")
+        steps["state_weight"] = _balanced_weight(model, ns)
     st = default_settings(Sphere(1.0), cfg.h_over_r, **steps)
     crit = CriticalSettings(stop_at_fold=True, max_critical=1)
     found: list[Any] = []
@@ -193,6 +231,10 @@ def _approach(model: Any, ns: Any, kappa: float) -> None:
                               kappa_stops=(lam,))
     for _ in continuation(model, st, kappa_start=0.0, kappa_end=kappa, solver=ns):
         pass
+    # natural steps end short of ``kappa`` (below their ds_min) where a fold comes first
+    if abs(model.get_kappa() - kappa) > 1e-12 * abs(kappa):
+        raise RuntimeError(f"the branch was followed to kappa = {model.get_kappa():.8g} only, "
+                           f"short of {kappa:.8g}: a fold before it")
 
 
 def fold_kappa(cfg: KnockdownConfig, amplitude: float, degree: int,
@@ -237,6 +279,10 @@ def _locate_first(cfg: KnockdownConfig, amplitude: float, model: Any, ns: Any, h
     # (start κ, step in κh) of each attempt
     ladder: list[tuple[float, float | None]] = (
         [(0.0, None)] if perfect else [(0.0, 0.02), (0.0, 0.005), (0.0, 0.00125)])
+    # each step of an imperfect sphere's ladder is tried in the norm of state weight 1, then,
+    # if that finds no fold, in the balanced norm (``_first_critical``): a pole-localised fold
+    # mode (a dimple's under pressure at h/R = 0.002) is turned only in the latter, the
+    # state weight 1 keeps the folds it finds as they were
     if not perfect and predicted is not None and kappa_b is not None:
         gap_h = (1.0 - predicted) * kappa_b * h
         if 0 < gap_h < 0.08:
@@ -244,21 +290,24 @@ def _locate_first(cfg: KnockdownConfig, amplitude: float, model: Any, ns: Any, h
             ladder = [(start, gap_h / 4), (start, gap_h / 16), *ladder]
     found: list[Any] = []
     n = 0
-    for start, ds_h in ladder:
+    attempts = [(start, ds_h, False) for start, ds_h in ladder] if perfect else [
+        (start, ds_h, b) for start, ds_h in ladder for b in (False, True)]
+    for start, ds_h, balanced in attempts:
         model.w.x.array[:] = 0.0
         model.set_kappa(0.0)
         try:
             if start > 0:
                 _approach(model, ns, start)
-            found, n = _first_critical(model, ns, cfg, end, ds_h, start)
+            found, n = _first_critical(model, ns, cfg, end, ds_h, start, balanced)
         except RuntimeError as e:  # a failed Newton: the next attempt
             log.info("knockdown: delta/h = %g: %s; next attempt", amplitude, e)
             found = []
             continue
         if perfect or (found and found[0].kind == "fold"):
             break
-        log.info("knockdown: delta/h = %g: %s first with steps of %s in kappa h; shorter "
-                 "steps", amplitude, found[0].kind if found else "no critical point", ds_h)
+        log.info("knockdown: delta/h = %g: %s first with steps of %s in kappa h%s; next "
+                 "attempt", amplitude, found[0].kind if found else "no critical point", ds_h,
+                 " (balanced norm)" if balanced else "")
     if not found or (not perfect and found[0].kind != "fold"):
         raise RuntimeError(f"no limit point of the imperfect sphere found up to kappa h = "
                            f"{end * h:.4g} at delta/h = {amplitude:g}")

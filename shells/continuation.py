@@ -154,6 +154,11 @@ class _Arclength:
         self.lam_ref = 0.0            # κ_ref L of the relative residual bound
         self.fl_norm = 0.0            # ||∂R/∂λ|| at the last ``dres_dlambda``
 
+    def destroy(self) -> None:
+        """Free the work vectors (the state is the problem's, kept)."""
+        for v in (self.Fl, self.a, self.b, self.tw, self.wp, self.w_old):
+            v.destroy()
+
     def set_lambda(self, lam: float) -> None:
         self.problem.set_kappa(lam / self.L)
 

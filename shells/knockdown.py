@@ -176,8 +176,7 @@ def _balanced_weight(model: Any, ns: Any) -> float:
             raise RuntimeError("the Jacobian at the start of the branch could not be factored")
         ratio = 1.0 / ar.tl**2 - 1.0  # cw₁ |z|², the state part over the load part
     finally:
-        for v in (ar.Fl, ar.a, ar.b, ar.tw, ar.wp, ar.w_old):
-            v.destroy()
+        ar.destroy()
     return 1.0 / math.sqrt(ratio) if ratio > 0 else 1.0
 
 

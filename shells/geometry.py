@@ -133,6 +133,9 @@ class Shape:
     #: False: the meridian does not meet the axis (a torus): no pole for the surface model's
     #: rigid-motion gauge, which then uses points of one parallel only
     has_pole = True
+    #: False: not a surface of revolution about z (``surface_fit.MeshSurface``): no meridian,
+    #: parallels or azimuthal mode numbers; the surface model only, with a 3-2-1 gauge
+    of_revolution = True
 
     def normal_ufl(self, x: Any) -> Any:
         """Outward unit normal as a UFL expression of the spatial coordinate x."""

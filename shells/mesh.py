@@ -180,7 +180,7 @@ class ShellMesh:
         out: dict[str, Any] = {"cells": self.num_cells(),
                                "nodes": int(self.mesh.geometry.index_map().size_global),
                                "area": self.area(), "rim_length": self.rim_length()}
-        if self.shape is not None and self.shape.kind != "mesh":  # a MeshSurface is no exact shape
+        if self.shape is not None and self.shape.of_revolution:  # a MeshSurface is no exact shape
             out["area_exact"] = self.shape.area()
             out["rim_length_exact"] = self.shape.rim_length()
             out["area_rel_error"] = abs(out["area"] / out["area_exact"] - 1)
@@ -758,7 +758,7 @@ def _user_mesh_shape(gmsh: Any, path: str = "") -> Shape:
     index = {int(t): i for i, t in enumerate(tags)}
     tris = []
     for etype, _, enodes in zip(*model.mesh.getElements(2), strict=True):
-        name, _, order, nn, *_ = model.mesh.getElementProperties(etype)
+        name, _, _, nn, *_ = model.mesh.getElementProperties(etype)
         if not name.startswith("Triangle"):
             raise InputError(f"the mesh holds {name} elements: triangles only")
         conn = np.asarray(enodes, dtype=np.int64).reshape(-1, nn)

@@ -88,7 +88,7 @@ def default_discretisation(shape: Shape, h_over_r: float | None = None,
     if sphere and degree == 2:
         raise InputError("P2 locks on a closed sphere (kappa_b h 1.56-1.71 against a converged "
                          "1.484 at h/R = 0.05, docs/model.md): use --degree 3 (the default)")
-    deep = isinstance(shape, (EllipsoidalCap, MeridianTable, Torus)) or shape.kind == "mesh" or (
+    deep = isinstance(shape, (EllipsoidalCap, MeridianTable, Torus)) or not shape.of_revolution or (
         isinstance(shape, SphericalCap) and not sphere and h_over_r is not None
         and shape.theta / math.sqrt(h_over_r) > P2_THETABAR_MAX)
     patterned = kappa_field is not None and not kappa_field.uniform
@@ -184,7 +184,7 @@ class ShellModel(FormProblem):
         self._x = ufl.SpatialCoordinate(mesh)
         self.n0 = (self.shape.normal_ufl(self._x) if self.shape.has_ufl_normal
                    else self._interpolated_normal())
-        if self.shape.kind == "mesh" and self.shell.comm.rank == 0:
+        if not self.shape.of_revolution and self.shell.comm.rank == 0:
             logging.getLogger("shells").info(
                 "the mesh is not of revolution about z, nor a torus: its normal and curvatures "
                 "are fitted at its nodes (R = 1 / mean |H| = %.6g; no azimuthal mode numbers)",
@@ -425,7 +425,7 @@ class ShellModel(FormProblem):
                                  "rigid-motion gauge)")
             return np.asarray(comm.bcast(x[i] if comm.rank == best[1] else None, root=best[1]))
 
-        if self.shape.kind == "mesh":
+        if not self.shape.of_revolution:
             return self._general_supports(node, tol)
         constraints = []
         if self.shape.has_pole:
@@ -546,7 +546,7 @@ class ShellModel(FormProblem):
         n_owned = x.shape[0]
         arr = self.w.x.array.reshape(-1, 6)[:n_owned]
         tol = 1e-8 * self.shape.characteristic_size()
-        if self.shape.kind == "mesh":  # its highest node, against the mean
+        if not self.shape.of_revolution:  # its highest node, against the mean
             top = self.shape.nodes[int(np.argmax(self.shape.nodes[:, 2]))]
         else:  # the pole; without one (a torus) the meridian's top at azimuth 0 (a mesh node)
             r_top, z_top = (float(v) for v in self.shape.meridian(np.array(0.0)))
@@ -560,7 +560,7 @@ class ShellModel(FormProblem):
             return val / cnt if cnt else math.nan
 
         uz_top = value_at(top)
-        if self.shape.kind == "mesh":
+        if not self.shape.of_revolution:
             disp = uz_top - mean_uz
         elif self.shape.closed:
             r_b, z_b = (float(v) for v in self.shape.meridian(np.array(math.pi)))
@@ -672,7 +672,7 @@ class ShellModel(FormProblem):
         from dolfinx import fem
         from mpi4py import MPI
 
-        if self.shape.kind == "mesh":
+        if not self.shape.of_revolution:
             return 0.0
 
         if not hasattr(self, "_orbit_forms"):
@@ -768,7 +768,7 @@ class ShellModel(FormProblem):
         if isinstance(self.shape, Sphere):
             x = q["x"]
             return ModeInfo(None, int(round((-1 + math.sqrt(1 + 4 * max(x, 0.0))) / 2)), q)
-        if self.shape.kind == "mesh":
+        if not self.shape.of_revolution:
             return ModeInfo(None, None, q)  # no axis to count waves about
         p = self.azimuthal_spectrum(vec)
         m = int(np.argmax(p))

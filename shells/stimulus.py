@@ -293,7 +293,7 @@ class CurvatureField:
         """Refuse (InputError) a field that is not finite on ``shape``, vanishes on all of it,
         or (``axisymmetric``: the 1D model) depends on the azimuth. On a surface known only by
         its mesh (no meridian, no parallels): checked at its nodes, and isotropic only."""
-        if getattr(shape, "kind", None) == "mesh":
+        if not getattr(shape, "of_revolution", True):
             if self.anisotropy != (1.0, 1.0):
                 raise InputError("an anisotropic natural curvature needs the meridian and "
                                  "parallel directions of a surface of revolution; this mesh "

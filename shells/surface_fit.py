@@ -123,6 +123,7 @@ class MeshSurface(Shape):
     kind = "mesh"
     has_ufl_normal = False
     has_pole = False
+    of_revolution = False
 
     # -- construction ------------------------------------------------------------------------
     @classmethod

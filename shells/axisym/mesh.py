@@ -31,7 +31,7 @@ __all__ = ["MeridianMesh", "make_meridian_nodes"]
 
 
 def _supported(shape: Any) -> None:
-    if getattr(shape, "kind", None) == "mesh":
+    if not getattr(shape, "of_revolution", True):
         raise InputError("the mesh is not a surface of revolution about the z axis (nor a "
                          "torus): the 1D model needs one; the surface model takes it "
                          "(--model surface)")

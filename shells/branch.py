@@ -34,9 +34,10 @@ from shells.mesh import MeshSpec, ShellMesh, generate, load_mesh
 from shells.stimulus import UNIFORM, CurvatureField
 from shells.store import (
     append_record,
-    load_checkpoint,
+    load_state_checkpoint,
     read_with_header,
-    save_checkpoint,
+    resumable,
+    save_state_checkpoint,
     write_header,
 )
 
@@ -164,63 +165,47 @@ def read_branch(path: str | os.PathLike) -> tuple[dict[str, Any], list[dict[str,
     return read_with_header(path)
 
 
-def _owned_nodes(model: Any) -> tuple[np.ndarray, int]:
-    """Coordinates of this rank's owned DOF nodes and the block size (values per node)."""
-    return model.owned_dof_coordinates(), model.W.dofmap.index_map_bs
-
-
 def _save_checkpoint(outdir: Path, model: Any, rec: dict[str, Any],
-                     prev: tuple[np.ndarray, float] | None) -> None:
-    """State of this point (and of the previous one, whose secant orients a resumed run).
-
-    Each rank writes the values of its owned DOF nodes with their coordinates, so the state can
-    be read back on any partition of the same mesh (another rank count, or another partition
-    of the same rank count), to ``checkpoint/state-RANK-of-SIZE.INDEX.npz``, then rank 0
-    ``checkpoint/meta.json`` (rank count, point index): ``shells.store.save_checkpoint``, a
-    kill at any moment leaves a complete checkpoint, this point's or the previous one's.
-    """
-    comm = model.shell.comm
-    x, bs = _owned_nodes(model)
-    n = x.shape[0] * bs
-    w = model.w.x.array[:n]
-    w_prev, k_prev = (prev[0][:n], prev[1]) if prev is not None else (w, float(model.kappa.value))
-    save_checkpoint(outdir / "checkpoint", comm, rec["index"],
-                    {"x": x, "w": w.reshape(-1, bs), "w_prev": w_prev.reshape(-1, bs),
-                     "kappa": float(model.kappa.value), "kappa_prev": k_prev})
+                     prev: tuple[np.ndarray, float] | None,
+                     tangent: tuple[np.ndarray, float] | None = None) -> None:
+    """State of this point (and of the previous one, whose secant orients a resumed run, and
+    the unit tangent the next step follows, when given) in ``checkpoint/``:
+    ``shells.store.save_state_checkpoint`` (each value with its node's coordinates, read back
+    on any partition; a kill at any moment leaves a complete checkpoint, this point's or the
+    previous one's)."""
+    w = model.w.x.array
+    w_prev, k_prev = (prev[0], prev[1]) if prev is not None else (w, float(model.kappa.value))
+    states = {"w": w, "w_prev": w_prev}
+    scalars = {"kappa": float(model.kappa.value), "kappa_prev": k_prev}
+    if tangent is not None:
+        states["tangent"] = tangent[0]
+        scalars["tangent_kappa"] = tangent[1]
+    save_state_checkpoint(outdir / "checkpoint", model, rec["index"], states, scalars)
 
 
 def _load_checkpoint(outdir: Path, model: Any
-                     ) -> tuple[float, int, np.ndarray, float] | None:
-    """Read the checkpoint into ``model.w``: (κ, index, w - w_prev, κ - κ_prev), or None.
+                     ) -> tuple[float, int, np.ndarray, float, Any] | None:
+    """Read the checkpoint into ``model.w``: (κ, index, w - w_prev, κ - κ_prev, the tangent
+    (owned values, λ part) or None), or None.
 
-    Nodes are matched by their coordinates, so the checkpoint may come from another partition
-    or rank count; None when it is missing, incomplete or from another mesh.
+    Nodes are matched by their coordinates (``shells.store.load_state_checkpoint``), so the
+    checkpoint may come from another partition or rank count; None when it is missing,
+    incomplete or from another mesh.
     """
-    from mpi4py import MPI
-    from scipy.spatial import cKDTree
-
-    comm = model.shell.comm
-    x, bs = _owned_nodes(model)
-    got = load_checkpoint(outdir / "checkpoint", comm, every_rank=True,
-                          check=lambda q: q["w"].shape[1] == bs)
+    got = load_state_checkpoint(outdir / "checkpoint", model, ("w", "w_prev"))
     if got is None:
         return None
-    meta, parts = got
-    xs = np.concatenate([q["x"] for q in parts])
-    dist, idx = cKDTree(xs).query(x)
-    scale = max(float(np.ptp(xs, axis=0).max()), 1e-300)
-    ok = xs.shape[0] == comm.allreduce(x.shape[0]) and bool(np.all(dist <= 1e-9 * scale))
-    if not comm.allreduce(ok, op=MPI.LAND):
-        return None
-    w = np.concatenate([q["w"] for q in parts])[idx].ravel()
-    w_prev = np.concatenate([q["w_prev"] for q in parts])[idx].ravel()
+    meta, states, scalars = got
+    w, w_prev = states["w"], states["w_prev"]
     model.w.x.array[:w.size] = w
     model.w.x.scatter_forward()
-    kappa, kappa_prev = float(parts[0]["kappa"]), float(parts[0]["kappa_prev"])
+    kappa, kappa_prev = float(scalars["kappa"]), float(scalars["kappa_prev"])
     dw = model.w.x.array.copy()
     dw[:w.size] = w - w_prev
     dw[w.size:] = 0.0
-    return kappa, int(meta["index"]), dw, kappa - kappa_prev
+    tangent = (None if "tangent" not in states or "tangent_kappa" not in scalars
+               else (states["tangent"], float(scalars["tangent_kappa"])))
+    return kappa, int(meta["index"]), dw, kappa - kappa_prev, tangent
 
 
 def run_branch(cfg: BranchConfig, outdir: str | os.PathLike, *, comm: Any = None,
@@ -259,35 +244,25 @@ def run_branch(cfg: BranchConfig, outdir: str | os.PathLike, *, comm: Any = None
     log.info("%s: %s, %d DOFs on %d rank(s), set-up %.1f s", label, cfg.shape.describe(),
              header["dofs"], comm.size, time.perf_counter() - t0)
 
-    done: list[dict[str, Any]] = []
     start = None
     # rank 0 reads the file (it alone rewrites it below) and tells the others; a file it cannot
     # trust (a corrupt line) is an error on every rank
-    old: Any = None
-    if resume and comm.rank == 0 and bfile.exists():
-        try:
-            old = read_branch(bfile)
-        except InputError as e:
-            old = str(e)
-    old = comm.bcast(old, root=0)
-    if isinstance(old, str):
-        raise InputError(f"{old} (or --restart)")
-    if old is not None:
-        old_header, done = old
-        old_header.pop("dofs", None)
-        same = {k: v for k, v in header.items() if k != "dofs"} == old_header
-        start = _load_checkpoint(outdir, model) if same and done else None
-        if start is None:
-            why = ("its configuration differs from this run's" if not same else
-                   "it has no points" if not done else
-                   "its checkpoint is missing, incomplete or from another mesh")
+    why, done = resumable(bfile, header, comm, resume=resume)
+    if why is None:
+        start = _load_checkpoint(outdir, model)
+        if start is None or not any(d.get("index") == start[1] for d in done):
+            # (a checkpoint past the file's last point: another run's, left when that one
+            # started afresh)
+            why, start = "its checkpoint is missing, incomplete or from another mesh", None
+    if start is None:
+        if why not in ("there is none", "--restart"):
             log.info("%s: not resuming from the existing branch file (%s); starting afresh",
                      label, why)
-            done = []
-        else:
-            # keep only the points up to the checkpoint
-            done = [d for d in done if d["index"] <= start[1]]
-            log.info("%s: resuming after point %d at kappa = %.6g", label, start[1], start[0])
+        done = []
+    else:
+        # keep only the points up to the checkpoint
+        done = [d for d in done if d["index"] <= start[1]]
+        log.info("%s: resuming after point %d at kappa = %.6g", label, start[1], start[0])
     if comm.rank == 0:
         # the kept points are rewritten under the header into a temporary file, renamed over
         # the old one: a kill leaves the old file or the new one, never a torn one (a torn
@@ -314,9 +289,15 @@ def run_branch(cfg: BranchConfig, outdir: str | os.PathLike, *, comm: Any = None
             and last_rec.get("step", 0) > 0
             and (st.method == "natural" or st.ds_unit == "arclength")):
         ds0 = next_step(st, last_rec["step"], last_rec["newton_its"])
+    held: list[Any] = []  # the unit tangent the next step follows (arclength)
+
+    def hold(tw: np.ndarray, tl: float) -> None:
+        held[:] = [(tw, tl)]
+
     it = continuation(model, cfg.continuation, kappa_start=kappa0, kappa_end=cfg.kappa_end,
                       solver=ns, start_index=index0, skip_first=start is not None,
-                      initial_tangent=tangent, initial_ds=ds0)
+                      initial_tangent=tangent, initial_ds=ds0,
+                      tangent=None if start is None else start[4], on_tangent=hold)
     last = None
     # the previous point of the next checkpoint: on resume, the checkpoint's point
     prev = None if start is None else (model.w.x.array.copy(), kappa0)
@@ -325,7 +306,7 @@ def run_branch(cfg: BranchConfig, outdir: str | os.PathLike, *, comm: Any = None
             rec = point_record(p, cfg)
             if comm.rank == 0:
                 append_record(bfile, rec)  # one whole line, fsync'ed
-            _save_checkpoint(outdir, model, rec, prev)
+            _save_checkpoint(outdir, model, rec, prev, held[0] if held else None)
             prev = (model.w.x.array.copy(), float(model.kappa.value))
             if writer is not None and fields == "all":
                 writer.write(float(rec["index"]))

@@ -32,7 +32,7 @@ from shells.solvers import NewtonSolver
 
 log = logging.getLogger("shells")
 
-__all__ = ["ContinuationSettings", "Point", "continuation"]
+__all__ = ["ContinuationSettings", "Point", "continuation", "in_arclength", "next_step"]
 
 
 @dataclass(frozen=True)
@@ -227,7 +227,10 @@ class _Arclength:
 def continuation(problem: Any, settings: ContinuationSettings, *, kappa_start: float = 0.0,
                  kappa_end: float, solver: NewtonSolver | None = None, start_index: int = 0,
                  initial_tangent: tuple[np.ndarray, float] | None = None,
-                 skip_first: bool = False, initial_ds: float | None = None) -> Iterator[Point]:
+                 skip_first: bool = False, initial_ds: float | None = None,
+                 tangent: tuple[np.ndarray, float] | None = None,
+                 on_tangent: Callable[[np.ndarray, float], None] | None = None
+                 ) -> Iterator[Point]:
     """Follow the branch from the problem's current state at ``kappa_start`` to ``kappa_end``.
 
     The first point is the (re-converged) start; the run ends on the point at ``kappa_end``
@@ -235,7 +238,13 @@ def continuation(problem: Any, settings: ContinuationSettings, *, kappa_start: f
     ``initial_tangent`` (local state array, λ part: the secant from the previous point)
     resumes a run as it was: an arclength run in its direction, a natural one with that secant
     predictor; ``initial_ds`` (None: ``settings.ds``) is the first step, the one the
-    interrupted run would have taken next (``next_step``).
+    interrupted run would have taken next (``next_step``). Arclength runs: ``on_tangent(τ_w,
+    τ_λ)``, if given, is called before each point is yielded with the unit tangent the next
+    step's predictor follows (this rank's owned values, a copy); ``tangent`` = such a tangent
+    at the start is used as it is, instead of the Jacobian's tangent there oriented by
+    ``initial_tangent``: a resumed run then predicts its first step exactly as the interrupted
+    one did (a tangent solved again at the restored state is the same only if the interrupted
+    run solved it with that state's own factorisation, not, e.g., a corrector iterate's).
     """
     ns = solver or NewtonSolver(problem)
     L = problem.length_scale()
@@ -266,12 +275,24 @@ def continuation(problem: Any, settings: ContinuationSettings, *, kappa_start: f
                             initial_tangent)
     else:
         yield from _arclength(ns, settings, lam0, lam_end, L, point, its, direction,
-                              initial_tangent, skip_first)
+                              initial_tangent, skip_first, tangent, on_tangent)
 
 
 def next_step(st: ContinuationSettings, step: float, its: int) -> float:
     """The step the loop takes after a point reached with ``step`` in ``its`` iterations."""
     return min(st.ds_max, max(st.ds_min, step * _growth(its, st.target_newton_its)))
+
+
+def in_arclength(st: ContinuationSettings, tl: float) -> ContinuationSettings:
+    """The settings with steps in arclength: as given, or for ``ds_unit`` "kappa" converted with
+    the κ-component ``tl`` of the run's first unit tangent (ds_arc = ds / |dλ/ds|), as the
+    arclength loop does at a run's start (a resumed run passes the converted settings and the
+    first point's ``dkappa_ds`` decides them)."""
+    if st.ds_unit != "kappa":
+        return st
+    scale = 1.0 / max(abs(tl), 1e-6)
+    return replace(st, ds_unit="arclength", ds=st.ds * scale, ds_min=st.ds_min * scale,
+                   ds_max=st.ds_max * scale)
 
 
 def _natural(problem, ns, st, lam0, lam_end, L, point, its0, skip_first,
@@ -357,22 +378,30 @@ def _growth(its: int, target: int) -> float:
 
 
 def _arclength(ns, st, lam0, lam_end, L, point, its0, direction, initial_tangent,
-               skip_first) -> Iterator[Point]:
+               skip_first, tangent=None, on_tangent=None) -> Iterator[Point]:
     ar = _Arclength(ns, L, st.state_weight)
     ar.lam_ref = 0.01 * max(abs(lam0), abs(lam_end))
-    ar.start_tangent(None, direction)
-    if initial_tangent is not None:
+    if tangent is not None:  # the interrupted run's own
+        ar.tw.array_w[:] = tangent[0][: ar.tw.getLocalSize()]
+        ar.tl = float(tangent[1])
+    else:
+        ar.start_tangent(None, direction)
+    if initial_tangent is not None and tangent is None:
         tw_arr, tl = initial_tangent
         ref = ar.tw.duplicate()
         ref.array_w[:] = tw_arr[: ref.getLocalSize()]
         ar.start_tangent((ref, tl), direction)
+
+    def told() -> None:
+        if on_tangent is not None:
+            on_tangent(ar.tw.array_r.copy(), ar.tl)
+
     if not skip_first:
+        told()
         yield point(its0, 0.0, ar.tl)
-    if st.ds_unit == "kappa":
-        scale = 1.0 / max(abs(ar.tl), 1e-6)
-        st = replace(st, ds_unit="arclength", ds=st.ds * scale, ds_min=st.ds_min * scale,
-                     ds_max=st.ds_max * scale)
+    st = in_arclength(st, ar.tl)
     for its, step, tl, _ in arclength_steps(ar, st, lam0, lam_end, direction):
+        told()
         yield point(its, step, tl)
 
 

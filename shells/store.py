@@ -15,7 +15,11 @@ and ``write_atomic`` any file by new text, atomically (temporary file, fsync, th
 
 Checkpoints (a run's state at its last point, to resume from): ``save_checkpoint`` writes one
 ``.npz`` per MPI rank and then ``meta.json``, ``load_checkpoint`` reads them back (branch files'
-``checkpoint/``, a post-buckling side's ``side_checkpoint/``).
+``checkpoint/``, a post-buckling side's ``side_checkpoint/``). ``save_state_checkpoint`` and
+``load_state_checkpoint`` do so for states of the surface model, each value with its node's
+coordinates, so a checkpoint is read back on any partition of the same mesh (``shells branch``,
+``shells critical``). ``resumable`` is a rerun's first step: the records of its file if they are
+this run's (the same header), read on rank 0 and shared.
 """
 
 from __future__ import annotations
@@ -35,8 +39,9 @@ import numpy as np
 from shells.errors import InputError
 
 __all__ = ["CHECKPOINT_ERRORS", "append_record", "drop_torn_tail", "json_default",
-           "load_checkpoint", "read_meta", "read_number_rows", "read_records", "read_with_header",
-           "save_checkpoint", "write_atomic", "write_header"]
+           "load_checkpoint", "load_state_checkpoint", "read_meta", "read_number_rows",
+           "read_records", "read_with_header", "resumable", "save_checkpoint",
+           "save_state_checkpoint", "write_atomic", "write_header"]
 
 log = logging.getLogger("shells")
 
@@ -250,6 +255,89 @@ def load_checkpoint(d: Path, comm: Any, *, every_rank: bool,
     if not comm.allreduce(ok, op=MPI.LAND):
         return None
     return meta, parts
+
+
+def _owned_nodes(model: Any) -> tuple[np.ndarray, int]:
+    """Coordinates of this rank's owned DOF nodes of the surface model and the block size
+    (values per node)."""
+    return model.owned_dof_coordinates(), model.W.dofmap.index_map_bs
+
+
+def save_state_checkpoint(d: Path, model: Any, index: int, states: dict[str, np.ndarray],
+                          scalars: dict[str, float] | None = None,
+                          meta: dict[str, Any] | None = None) -> None:
+    """``save_checkpoint`` of point ``index`` for the surface model ``model``: each of ``states``
+    (this rank's owned values, or the whole local array: its owned part is taken) with the
+    coordinates of its owned DOF nodes (``x``), so ``load_state_checkpoint`` can read it back on
+    any partition of the same mesh (another rank count, or another partition of the same rank
+    count); ``scalars`` are stored beside them, ``meta`` in ``meta.json``. Collective."""
+    x, bs = _owned_nodes(model)
+    n = x.shape[0] * bs
+    arrays: dict[str, Any] = {"x": x}
+    for name, v in states.items():
+        arrays[name] = np.asarray(v)[:n].reshape(-1, bs)
+    arrays.update(scalars or {})
+    save_checkpoint(d, model.shell.comm, index, arrays, meta)
+
+
+def load_state_checkpoint(d: Path, model: Any, names: Sequence[str]
+                          ) -> tuple[dict[str, Any], dict[str, np.ndarray], dict[str, Any]] | None:
+    """The checkpoint ``save_state_checkpoint`` wrote in ``d``, on this rank's partition of
+    ``model``'s mesh: (its meta, {name: this rank's owned values} for each of its states, the
+    first file's other arrays: the scalars). Nodes are matched by their coordinates; None on
+    every rank when it is missing, incomplete, unreadable, lacks one of the states ``names``
+    or is of another mesh. Collective."""
+    from mpi4py import MPI
+    from scipy.spatial import cKDTree
+
+    comm = model.shell.comm
+    x, bs = _owned_nodes(model)
+    got = load_checkpoint(d, comm, every_rank=True,
+                          check=lambda q: all(q[k].ndim == 2 and q[k].shape[1] == bs
+                                              for k in names))
+    if got is None:
+        return None
+    meta, parts = got
+    xs = np.concatenate([q["x"] for q in parts])
+    dist, idx = cKDTree(xs).query(x)
+    scale = max(float(np.ptp(xs, axis=0).max()), 1e-300)
+    ok = xs.shape[0] == comm.allreduce(x.shape[0]) and bool(np.all(dist <= 1e-9 * scale))
+    if not comm.allreduce(ok, op=MPI.LAND):
+        return None
+    held = [k for k, v in parts[0].items() if k != "x" and v.ndim == 2 and v.shape[1] == bs
+            and all(k in q for q in parts)]
+    states = {k: np.concatenate([q[k] for q in parts])[idx].ravel() for k in held}
+    rest = {k: v for k, v in parts[0].items() if k not in ("x", "index", *held)}
+    return meta, states, rest
+
+
+def resumable(path: Path, header: dict[str, Any], comm: Any, *, resume: bool = True,
+              ignore: Sequence[str] = ("dofs",)) -> tuple[str | None, list[dict[str, Any]]]:
+    """What a rerun finds in its file ``path``: (None, its records) when it is this run's (its
+    header equals ``header``, ``ignore``'s keys aside) and holds records, else (why not, []).
+    Rank 0 reads it and tells the others; a file with a corrupt line is an ``InputError`` on
+    every rank. ``resume`` False: ("--restart", []) without reading it."""
+    if not resume:
+        return "--restart", []
+    old: Any = None
+    if comm.rank == 0 and Path(path).exists():
+        try:
+            old = read_with_header(path)
+        except InputError as e:
+            old = str(e)
+    old = comm.bcast(old, root=0)
+    if isinstance(old, str):
+        raise InputError(f"{old} (or --restart)")
+    if old is None:
+        return "there is none", []
+    old_header, recs = old
+    mine = {k: v for k, v in header.items() if k not in ignore}
+    theirs = {k: v for k, v in old_header.items() if k not in ignore}
+    if json.loads(json.dumps(mine, default=json_default)) != theirs:  # as JSON reads it back
+        return "its configuration differs from this run's", []
+    if not recs:
+        return "it has no points", []
+    return None, recs
 
 
 def read_number_rows(path: str | os.PathLike, what: str, rows: str

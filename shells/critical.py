@@ -47,6 +47,7 @@ from shells.continuation import (
     _bordered_newton,
     arclength_steps,
     continuation,
+    in_arclength,
     next_step,
 )
 from shells.errors import InputError
@@ -56,8 +57,8 @@ from shells.stability import Stability, StabilityResult
 
 log = logging.getLogger("shells")
 
-__all__ = ["CriticalSettings", "CriticalPoint", "SwitchResume", "follow", "locate",
-           "switch_branch"]
+__all__ = ["CriticalSettings", "CriticalPoint", "FollowResume", "SwitchResume", "follow",
+           "locate", "switch_branch"]
 
 
 @dataclass(frozen=True)
@@ -131,6 +132,68 @@ class CriticalPoint:
     def as_dict(self) -> dict[str, Any]:
         """The scalars (JSON-ready); the state and mode arrays are left out."""
         return {k: v for k, v in asdict(self).items() if k not in ("state", "mode")}
+
+
+@dataclass
+class FollowResume:
+    """Where ``follow`` stood after one of its points: what a resumed ``follow`` needs to
+    continue after that point as the uninterrupted run did (a checkpoint).
+
+    Attributes:
+        index: the point's index.
+        kappa, kappa_prev: κ at the point and at the one before it (the point's own κ at the
+            first point): their secant orients the first tangent after a resume.
+        dkappa_ds: the κ-component of the point's unit tangent (a fold: its sign changes).
+        newton_its, step: the corrector's iterations and the arclength step to the point.
+        ds: the next step, in arclength (``continuation.next_step``; the first step after
+            the first point).
+        tl0: the first point's ``dkappa_ds``, with which steps given in κL (``ds_unit``
+            "kappa") were converted to arclength (``continuation.in_arclength``).
+        counts: the negative count of each stability block at the point (blocks in a stable
+            order: ``None`` first); the first step after a resume is searched for a change.
+        found: critical points located up to the point.
+        folds_only: inertia no longer computed (``folds_only_after_first``).
+        ended: the run ended at the point (its stop rule, or ``kappa_end`` reached): a resumed
+            ``follow`` yields nothing.
+        state, state_prev: this rank's owned state values at the point and at the one before
+            it (the point's own at the first point).
+        tangent: the state part of the unit tangent at the point that the next step's
+            predictor follows (owned values; its κ part is ``dkappa_ds``): the resumed run
+            predicts with it (None: the Jacobian's tangent there, oriented by the secant).
+    """
+
+    index: int
+    kappa: float
+    kappa_prev: float
+    dkappa_ds: float
+    newton_its: int
+    step: float
+    ds: float
+    tl0: float
+    counts: dict[Hashable, int]
+    found: int = 0
+    folds_only: bool = False
+    ended: bool = False
+    state: np.ndarray = field(default=None, repr=False)
+    state_prev: np.ndarray = field(default=None, repr=False)
+    tangent: np.ndarray | None = field(default=None, repr=False)
+
+    def scalars(self) -> dict[str, Any]:
+        """The scalars (JSON-ready: ``counts`` as [[block, count], ...]); the arrays are
+        left out."""
+        d = {k: v for k, v in asdict(self).items()
+             if k not in ("state", "state_prev", "tangent")}
+        d["counts"] = [[b, int(c)] for b, c in sorted(self.counts.items(),
+                                                      key=lambda bc: _block_key(bc[0]))]
+        return d
+
+    @classmethod
+    def from_scalars(cls, d: dict[str, Any], state: np.ndarray, state_prev: np.ndarray,
+                     tangent: np.ndarray | None = None) -> FollowResume:
+        """The inverse of ``scalars``, with the arrays."""
+        d = dict(d)
+        d["counts"] = {b: int(c) for b, c in d["counts"]}
+        return cls(**d, state=state, state_prev=state_prev, tangent=tangent)
 
 
 @dataclass
@@ -737,7 +800,9 @@ def follow(problem: Any, settings: ContinuationSettings, kappa_end: float,
            crit: CriticalSettings | None = None, *, solver: NewtonSolver | None = None,
            nev: int = 0, blocks: Iterable[Hashable] | None = None,
            locate_when: Callable[[Point, dict[Hashable, int], dict[Hashable, int]], bool]
-           | None = None, locate_points: bool = True, kappa_start: float = 0.0
+           | None = None, locate_points: bool = True, kappa_start: float = 0.0,
+           resume: FollowResume | None = None,
+           track: Callable[[FollowResume], None] | None = None
            ) -> Iterator[tuple[Point, StabilityResult, list[CriticalPoint]]]:
     """Follow the branch from κ = ``kappa_start`` (default 0; the problem's state must then be
     near the branch's state there) to ``kappa_end`` with stability at every point.
@@ -750,20 +815,58 @@ def follow(problem: Any, settings: ContinuationSettings, kappa_end: float,
     block ``None``). A step is searched for critical points (``locate``) when a count changes
     or dκ/ds changes sign, or, with ``locate_when(point, counts before, counts after)``, when
     that says so (folds are always located); ``locate_points=False``: stability only.
+
+    Resuming: ``track(r)``, if given, is called at every point just before it is yielded, with
+    its ``FollowResume`` r; ``follow(..., resume=r)`` with the same problem (any partition: r's
+    arrays are this rank's owned values), settings and arguments then continues after that
+    point as this run did (``kappa_start`` unused): from r's state and κ, the first tangent
+    oriented by r's secant, r's next step in r's arclength units, the points from index
+    r.index + 1, and the first step searched for a change of r's counts (and a fold) as any
+    other. The points are the uninterrupted run's to the corrector's round-off (the start is
+    re-converged by Newton). Nothing is yielded when r ended the run.
     """
     crit = crit or CriticalSettings()
     if settings.method != "arclength":
         raise InputError("locating critical points needs the arclength method (folds)")
+    if resume is not None and resume.ended:
+        return
     blocks = (None,) if blocks is None else tuple(blocks)
-    ns = solver or NewtonSolver(problem)
-    stab = Stability(problem)
-    loc = _Locator(problem, settings, crit, stab)
+    L = problem.length_scale()
+    lam_end = kappa_end * L
     prev: tuple[Point, np.ndarray, dict[Hashable, int]] | None = None
     n_found = 0
     folds_only = False
+    tl0: float | None = None  # the first point's dκ/ds (steps in κL: converted with it)
+    start: dict[str, Any] = dict(kappa_start=kappa_start)
+    st = settings
+    if resume is not None:
+        from mpi4py import MPI
+
+        r = resume
+        tl0 = r.tl0
+        st = replace(in_arclength(settings, r.tl0), max_steps=max(1, settings.max_steps - r.index))
+        set_state(problem, r.state)
+        secant = r.state - r.state_prev
+        dlam = (r.kappa - r.kappa_prev) * L
+        moved = problem.comm.allreduce(bool(np.any(secant)), op=MPI.LOR) or dlam != 0
+        start = dict(kappa_start=r.kappa, start_index=r.index + 1, skip_first=True,
+                     initial_tangent=(secant, dlam) if moved else None, initial_ds=r.ds,
+                     tangent=None if r.tangent is None else (r.tangent, r.dkappa_ds))
+        prev = (Point(index=r.index, kappa=r.kappa, kappa_L=r.kappa * L,
+                      newton_its=r.newton_its, step=r.step, dkappa_ds=r.dkappa_ds,
+                      wall_time=0.0), r.state.copy(), dict(r.counts))
+        n_found, folds_only = r.found, r.folds_only
+    ns = solver or NewtonSolver(problem)
+    stab = Stability(problem)
+    loc = _Locator(problem, settings, crit, stab)
+    held: list[np.ndarray] = []  # the tangent the next step follows (for ``track``)
+
+    def hold(tw: np.ndarray, tl: float) -> None:
+        held[:] = [tw]
+
     try:
-        for p in continuation(problem, settings, kappa_start=kappa_start, kappa_end=kappa_end,
-                              solver=ns):
+        for p in continuation(problem, st, kappa_end=kappa_end, solver=ns, **start,
+                              on_tangent=None if track is None else hold):
             if folds_only:
                 counts = dict(prev[2]) if prev is not None else {}
                 res = StabilityResult(stable=False, negative_count=_total(counts), zero_count=0,
@@ -797,14 +900,31 @@ def follow(problem: Any, settings: ContinuationSettings, kappa_end: float,
                     # back to the branch point: the continuation goes on from it
                     set_state(problem, w1)
                     problem.set_kappa(k1)
-            prev = (p, get_state(problem), counts)
-            yield p, res, found
-            if found and (crit.stop_at_first or
-                          (crit.stop_at_fold and any(c.kind == "fold" for c in found)) or
-                          (crit.max_critical is not None and n_found >= crit.max_critical)):
-                return
+            stop = bool(found) and (
+                crit.stop_at_first or (crit.stop_at_fold and any(c.kind == "fold" for c in found))
+                or (crit.max_critical is not None and n_found >= crit.max_critical))
             if crit.folds_only_after_first and any(c.kind != "fold" for c in found):
                 folds_only = True
+            state = get_state(problem)
+            if tl0 is None:
+                tl0 = p.dkappa_ds
+            if track is not None:
+                # the next step: the arclength loop's (the first: the settings' own)
+                st_arc = in_arclength(st, tl0)
+                ds = st_arc.ds if prev is None else next_step(st_arc, p.step, p.newton_its)
+                landed = abs(p.kappa_L - lam_end) <= 1e-12 * abs(lam_end)
+                track(FollowResume(
+                    index=p.index, kappa=p.kappa,
+                    kappa_prev=p.kappa if prev is None else prev[0].kappa,
+                    dkappa_ds=p.dkappa_ds, newton_its=p.newton_its, step=p.step, ds=ds,
+                    tl0=tl0, counts=dict(counts), found=n_found, folds_only=folds_only,
+                    ended=stop or landed, state=state,
+                    state_prev=state if prev is None else prev[1],
+                    tangent=held[-1] if held else None))
+            prev = (p, state, counts)
+            yield p, res, found
+            if stop:
+                return
     finally:
         loc.destroy()
         stab.destroy()

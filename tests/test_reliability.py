@@ -231,6 +231,35 @@ def test_branch_killed_torn_and_resumed(shared_tmp, reference):
 
 
 # ------------------------------------------------------------------------------------------
+# critical.follow resumed after any point
+# ------------------------------------------------------------------------------------------
+def test_follow_resumes_exactly_on_the_algebraic_pitchforks():
+    """``follow(..., resume=r)`` from the ``FollowResume`` of any point of a run continues as
+    the run did: the same points and the same critical points (the pitchforks at kappa = 1
+    and 2, located to 1e-8), to the last bit, the first step after the resume searched for a
+    change of the point's counts like any other."""
+    from shells.algebraic import PitchforkProblem
+    from shells.continuation import ContinuationSettings
+    from shells.critical import CriticalSettings, follow
+
+    st = ContinuationSettings(ds=0.1, ds_max=0.2, ds_unit="kappa")
+    crit = CriticalSettings(rel_tol=1e-8, stop_at_fold=False)
+    tracked = []
+    full = list(follow(PitchforkProblem(), st, 2.5, crit, track=tracked.append))
+    found = [(i, c.kind, c.kappa) for i, (_, _, cps) in enumerate(full) for c in cps]
+    assert [f[1] for f in found] == ["bifurcation", "bifurcation"]
+    assert [f[2] for f in found] == pytest.approx([1.0, 2.0], rel=1e-8)
+    assert len(tracked) == len(full) and tracked[-1].ended
+    for k in range(len(full) - 1):
+        rest = list(follow(PitchforkProblem(), st, 2.5, crit, resume=tracked[k]))
+        assert [p.as_dict() | {"wall_time": 0} for p, _, _ in rest] == \
+            [p.as_dict() | {"wall_time": 0} for p, _, _ in full[k + 1:]], k
+        assert [[(c.kind, c.kappa, c.after_point) for c in cps] for _, _, cps in rest] == \
+            [[(c.kind, c.kappa, c.after_point) for c in cps] for _, _, cps in full[k + 1:]], k
+    assert list(follow(PitchforkProblem(), st, 2.5, crit, resume=tracked[-1])) == []
+
+
+# ------------------------------------------------------------------------------------------
 # injected solver failures (the algebraic problems: exact answers, milliseconds, any rank)
 # ------------------------------------------------------------------------------------------
 STEPS = dict(ds=0.1, ds_max=0.2)

@@ -8,7 +8,8 @@ an argparse namespace, and returns the JSON-serialisable result of the subcomman
   (``DIR/branch.jsonl``); ``folds(points)``: its turning points;
 * ``critical_run(shape, ...)``: the critical points of the fundamental branch, either model
   (``DIR/critical.json``); ``critical_surface(shape, ...)`` the surface model's
-  (``DIR/branch.jsonl``, the first critical mode in ``DIR/modes.bp``);
+  (``DIR/branch.jsonl``, a rerun resuming from ``DIR/checkpoint/``, the first critical mode in
+  ``DIR/modes.bp``; the 1D model's runs in seconds and computes again);
 * ``postbuckle_run(cfg, outdir, fields)``: ``shells.postbuckle.run_postbuckle`` with the
   bifurcated states written for ParaView (``ShapeWriter``).
 
@@ -162,27 +163,46 @@ def critical_run(shape: Any, h_over_r: float, nu: float, *, direction: str = "up
     return result
 
 
+#: the folder of ``shells critical``'s checkpoint (surface model), beside its ``branch.jsonl``
+CRITICAL_CHECKPOINT = "checkpoint"
+
+
 def critical_surface(shape: Any, h_over_r: float, nu: float, kappa_end: float, *,
                      first_only: bool = False, size: float | None = None,
                      layer_elements: float = 4.0, shear_penalty: float = 1.0e3,
                      degree: int | None = None, ds: float | None = None,
                      ds_max: float | None = None,
                      outdir: str | os.PathLike | None = None,
-                     kappa_field: Any = None, mesh_file: str | None = None) -> dict[str, Any]:
+                     kappa_field: Any = None, mesh_file: str | None = None,
+                     resume: bool = True) -> dict[str, Any]:
     """The surface model's critical points up to ``kappa_end`` (``shells.critical.follow``):
     meshes ``shape`` (``size``, ``degree`` None: ``shells.model.default_discretisation``), or
     runs on the mesh in ``mesh_file`` (a user's, of ``shape``; ``size`` then unused),
     follows the branch in steps ``ds`` .. ``ds_max`` in κL (None: range/16, range/10), writes
-    every point to ``outdir/branch.jsonl`` (rank 0) and the first critical mode to
-    ``outdir/modes.bp``; returns the first critical point's kind, κ and mode, every critical
-    point, the DOFs, the mesh and the wall time."""
+    ``outdir/branch.jsonl`` (rank 0): a header (the run's configuration), every point as it is
+    computed and every critical point as it is located ({"critical_point": {...}, "number":
+    i}), and after each point a checkpoint (``outdir/checkpoint/``: the state there and at the
+    point before, the next step, the negative count, and the first critical point's state and
+    mode once located; ``shells.store.save_state_checkpoint``), and at the end the first
+    critical mode to ``outdir/modes.bp``; returns the first critical point's kind, κ and mode,
+    every critical point, the DOFs, the mesh and the wall time.
+
+    A rerun with the same configuration (``resume``) resumes after the last checkpointed point
+    (on any rank count): its points and critical points so far are kept as written, the next
+    ones are the uninterrupted run's (``follow``'s ``resume``), and so is the result (timings
+    aside). Another configuration, no points or a checkpoint that is missing, incomplete,
+    unreadable or not of this file: the run starts afresh, with one log line; a corrupt line
+    in the file is an ``InputError``."""
+    from dataclasses import asdict
+
     from mpi4py import MPI
 
     from shells.continuation import ContinuationSettings
-    from shells.critical import CriticalSettings, follow
+    from shells.critical import CriticalSettings, FollowResume, follow
     from shells.mesh import MeshSpec, generate, load_mesh
     from shells.model import ModelParameters, ShellModel, default_discretisation
     from shells.stimulus import UNIFORM
+    from shells.store import load_state_checkpoint, resumable, save_state_checkpoint
 
     kappa_field = UNIFORM if kappa_field is None else kappa_field
     comm = MPI.COMM_WORLD
@@ -190,63 +210,121 @@ def critical_surface(shape: Any, h_over_r: float, nu: float, kappa_end: float, *
     h = h_over_r * L
     R_or_L = _R_or_L(shape)
     degree, size = default_discretisation(shape, h_over_r, degree, size, kappa_field)
-    sm = (load_mesh(mesh_file, comm) if mesh_file is not None else
-          generate(MeshSpec(shape, h=h, size=size, layer_elements=layer_elements), comm))
-    model = ShellModel(sm, ModelParameters(h=h, nu=nu, shear_penalty=shear_penalty,
-                                           degree=degree, quadrature_degree=2 * degree,
-                                           kappa_field=kappa_field))
     lam_end = abs(kappa_end) * L
     ds = ds if ds is not None else lam_end / 16
     ds_max = ds_max if ds_max is not None else max(ds, lam_end / 10)
     st = ContinuationSettings(ds=ds, ds_max=max(ds, ds_max), ds_min=1e-7 * lam_end,
                               ds_unit="kappa")
     crit = CriticalSettings(stop_at_first=first_only)
+    # everything that decides the run's numbers (a rerun resumes only under the same)
+    same_run: dict[str, Any] = {
+        "command": "critical", "model": "surface", "shape": shape.describe(),
+        "h_over_r": h_over_r, "nu": nu, "kappa_end": kappa_end,
+        "direction": "up" if kappa_end > 0 else "down", "first_only": first_only,
+        "mesh": ({"size": size, "layer_elements": layer_elements} if mesh_file is None
+                 else {"file": str(mesh_file)}),
+        "degree": degree, "shear_penalty": shear_penalty,
+        "continuation": {**st.describe(), "kappa_stops": list(st.kappa_stops)},
+        "critical": asdict(crit), **kappa_field.describe()}
+    out = Path(outdir) if outdir else None
+    bfile = out / "branch.jsonl" if out is not None else None
+    # the file a rerun resumes, read before any work (a corrupt line: an InputError)
+    why, recs = (resumable(bfile, same_run, comm, resume=resume) if out is not None
+                 else ("no output folder", []))
+    sm = (load_mesh(mesh_file, comm) if mesh_file is not None else
+          generate(MeshSpec(shape, h=h, size=size, layer_elements=layer_elements), comm))
+    model = ShellModel(sm, ModelParameters(h=h, nu=nu, shear_penalty=shear_penalty,
+                                           degree=degree, quadrature_degree=2 * degree,
+                                           kappa_field=kappa_field))
     log.info("critical: %s, %d DOFs, following kappa up to kappa R = %.4f", shape.describe(),
              model.num_dofs(), kappa_end * R_or_L)
-    out = Path(outdir) if outdir else None
-    bfile = None
-    if out is not None and comm.rank == 0:
-        out.mkdir(parents=True, exist_ok=True)
-        bfile = out / "branch.jsonl"
-        bfile.write_text("")
-    cps = []
-    found_points: list[Any] = []
+    header = {**same_run, "dofs": model.num_dofs()}
+    cps: list[dict[str, Any]] = []
+    start: FollowResume | None = None
+    first_arrays: tuple[Any, Any] | None = None  # the first critical point's state and mode
+    kept: list[dict[str, Any]] = []
+    if out is not None:
+        if why is None:
+            got = load_state_checkpoint(out / CRITICAL_CHECKPOINT, model, ("w", "w_prev"))
+            try:
+                if got is None or got[0].get("header") != json.loads(
+                        json.dumps(same_run, default=json_default)):
+                    raise KeyError("none of this run")
+                meta, states, _ = got
+                start = FollowResume.from_scalars(meta["follow"], states["w"], states["w_prev"],
+                                                  states.get("tangent"))
+                kept = [r for r in recs
+                        if r.get("index", math.inf) <= start.index
+                        or r.get("critical_point", {}).get("after_point", math.inf) < start.index]
+                cps = [r["critical_point"] for r in kept if "critical_point" in r]
+                if (not any(r.get("index") == start.index for r in kept)
+                        or len(cps) != start.found or (cps and "cp_state" not in states)):
+                    raise KeyError("not of this file")
+                if cps:
+                    first_arrays = (states["cp_state"], states.get("cp_mode"))
+            except (KeyError, TypeError, ValueError):
+                why, start, kept, cps = ("its checkpoint is missing, incomplete, unreadable or "
+                                         "not of this file"), None, [], []
+        if start is not None:
+            log.info("critical: resuming after point %d at kappa R = %.6g (%d critical "
+                     "point(s) so far)", start.index, start.kappa * R_or_L, len(cps))
+        elif why not in ("there is none", "--restart"):
+            log.info("critical: not resuming from the existing branch file (%s); starting "
+                     "afresh", why)
+        if comm.rank == 0:
+            # the kept records under the header, atomically (a torn last line is dropped)
+            write_header(bfile, header, kept)
+    tracked: list[FollowResume] = []
     t0 = time.perf_counter()
-    last = None
-    for p, res, found in follow(model, st, kappa_end, crit):
-        last = p
+    last_kappa = None if start is None else start.kappa
+    for p, res, found in follow(model, st, kappa_end, crit, resume=start,
+                                track=None if out is None else tracked.append):
+        last_kappa = p.kappa
         rec = {"index": p.index, "kappa_R": p.kappa * R_or_L, "kappa_h": p.kappa * h,
                "negative_count": res.negative_count, "dkappa_ds": p.dkappa_ds,
                "newton_its": p.newton_its, **p.scalars}
-        if bfile is not None:
-            append_record(bfile, rec)
+        if bfile is not None and comm.rank == 0:
+            append_record(bfile, rec)  # one whole line, fsync'ed
         log.info("  kappa R = %+.5f  kappa h = %+.5f  negative = %d  (%.0f s)", rec["kappa_R"],
                  rec["kappa_h"], res.negative_count, time.perf_counter() - t0)
         for c in found:
-            found_points.append(c)
+            if first_arrays is None:
+                first_arrays = (c.state, c.mode)
             d = c.as_dict()
             d.update(kappa_R=c.kappa * R_or_L, kappa_h=c.kappa * h,
                      kappa_R_bracket=[c.kappa_lo * R_or_L, c.kappa_hi * R_or_L])
+            if bfile is not None and comm.rank == 0:
+                append_record(bfile, {"critical_point": d, "number": len(cps)})
             cps.append(d)
             log.info("  %s at kappa R = %.6f (kappa h = %.6f), m = %s, n = %s", c.kind,
                      d["kappa_R"], d["kappa_h"], c.mode_m, c.mode_n)
-    stopped = bool(found_points) and (crit.stop_at_first or (crit.stop_at_fold and any(
-        c.kind == "fold" for c in found_points)))
-    if not stopped and (last is None
-                        or abs(last.kappa_L - kappa_end * L) > 1e-9 * lam_end):
+        if out is not None:
+            # after the point's records: a kill leaves this checkpoint or the one before
+            r = tracked.pop()
+            arrays = {"w": r.state, "w_prev": r.state_prev}
+            if r.tangent is not None:
+                arrays["tangent"] = r.tangent
+            if first_arrays is not None:
+                arrays["cp_state"] = first_arrays[0]
+                if first_arrays[1] is not None:
+                    arrays["cp_mode"] = first_arrays[1]
+            save_state_checkpoint(out / CRITICAL_CHECKPOINT, model, r.index, arrays,
+                                  meta={"follow": r.scalars(), "header": same_run})
+    stopped = bool(cps) and (crit.stop_at_first or (crit.stop_at_fold and any(
+        c["kind"] == "fold" for c in cps)))
+    if not stopped and (last_kappa is None
+                        or abs(last_kappa * L - kappa_end * L) > 1e-9 * lam_end):
         # the continuation gave up short of the end: "none" beyond would be a false claim
         raise RuntimeError(f"the continuation stopped at kappa R = "
-                           f"{None if last is None else last.kappa * R_or_L} before the end of "
-                           f"the range, kappa R = {kappa_end * R_or_L:.6g}; critical points "
-                           "beyond it are not known")
+                           f"{None if last_kappa is None else last_kappa * R_or_L} before the "
+                           f"end of the range, kappa R = {kappa_end * R_or_L:.6g}; critical "
+                           "points beyond it are not known")
     first = cps[0] if cps else None
-    if out is not None and found_points:
+    if out is not None and first_arrays is not None and first_arrays[1] is not None:
         from shells.fields import write_modes
 
-        first_cp = found_points[0]  # its state and critical mode
-        if first_cp.mode is not None:
-            write_modes(model, first_cp.state, [first_cp.mode], out / "modes.bp")
-            log.info("critical mode (ParaView, ADIOS2 VTX Reader): %s", out / "modes.bp")
+        write_modes(model, first_arrays[0], [first_arrays[1]], out / "modes.bp")
+        log.info("critical mode (ParaView, ADIOS2 VTX Reader): %s", out / "modes.bp")
     return {"kind": first["kind"] if first else "none",
             "kappa_R": first["kappa_R"] if first else None,
             "kappa_h": first["kappa_h"] if first else None,

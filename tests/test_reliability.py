@@ -6,6 +6,10 @@ solver failures, an exception on one MPI rank.
 * ``shells branch`` (surface model) interrupted by SIGINT, SIGTERM and SIGKILL at seeded random
   moments, with a torn line written before the last rerun, ends with the uninterrupted run's
   points (to 1e-10) and loses none written before a kill;
+* ``shells critical`` (surface model) interrupted between a point's record and its checkpoint
+  resumes after the checkpointed point and ends with the uninterrupted run's points, critical
+  points and JSON; another configuration, ``--restart`` or an unreadable checkpoint start
+  afresh; ``critical.follow`` resumed after any point of a run continues it to the last bit;
 * Newton steps that diverge (a NaN residual) and factorisations that fail (a zero Jacobian),
   injected into the algebraic problems, cut the step and the run recovers the exact answers; a
   failed LDL^T and a SLEPc eigensolve that converges nothing stop with a clear message or fall
@@ -228,6 +232,182 @@ def test_branch_killed_torn_and_resumed(shared_tmp, reference):
 
     ok, msg = _on_rank0(check)
     assert ok, msg
+
+
+# ------------------------------------------------------------------------------------------
+# shells critical (surface model): resumed after an interruption
+# ------------------------------------------------------------------------------------------
+#: a coarse 30 degree cap (3078 DOFs) to its fold at kappa R = 1.3769: 10 points, about 2 s
+CRITICAL = rel.CASES["critical-surface"]
+
+
+def _shared_dir(tmp_path_factory, name: str) -> Path:
+    """A fresh folder with the same path on every rank."""
+    path = str(tmp_path_factory.mktemp(name)) if WORLD.rank == 0 else None
+    return Path(WORLD.bcast(path, root=0))
+
+
+@pytest.fixture(scope="module")
+def critical_reference(tmp_path_factory) -> Path:
+    """The uninterrupted ``shells critical`` run of ``CRITICAL`` (on every rank)."""
+    from shells.cli import main
+
+    out = _shared_dir(tmp_path_factory, "critical-ref")
+    assert main([*CRITICAL.argv, "-o", str(out)]) == 0
+    WORLD.barrier()  # rank 0 writes the files
+    return out
+
+
+def _follow_indices(monkeypatch) -> list[int]:
+    """The indices of the points ``shells.critical.follow`` computes from now on."""
+    import shells.critical
+
+    real = shells.critical.follow
+    computed: list[int] = []
+
+    def counting(*args, **kwargs):
+        for p, res, found in real(*args, **kwargs):
+            computed.append(p.index)
+            yield p, res, found
+
+    monkeypatch.setattr(shells.critical, "follow", counting)
+    return computed
+
+
+def _cli(capsys, argv: list[str]) -> tuple[int, str, str]:
+    """``shells ARGV`` on every rank: (exit status, stdout, stderr); the output (rank 0's
+    only: the CLI logs to stderr on rank 0) on every rank."""
+    from shells.cli import main
+
+    capsys.readouterr()
+    rc = main(argv)
+    cap = capsys.readouterr()
+    WORLD.barrier()  # rank 0 writes the files
+    out, err = WORLD.bcast((cap.out, cap.err), root=0)
+    return rc, out, err
+
+
+def _check_same(ref_dir: Path, out: Path) -> None:
+    """The points, critical points (file and critical.json) of ``out`` are the reference's:
+    every number to 1e-10 (on several ranks, the few that parallel MUMPS does not reproduce
+    bit for bit to ``rel.PARALLEL_RTOL``), the located kappa to 1e-10 in any case."""
+    ref, got = rel.records(ref_dir, CRITICAL), rel.records(out, CRITICAL)
+    diffs, worst = rel.compare(ref, got, field_rtol=CRITICAL.field_rtol(WORLD.size))
+    assert not diffs, diffs[:5]
+    a = json.loads((ref_dir / "critical.json").read_text())
+    b = json.loads((out / "critical.json").read_text())
+    assert a.keys() == b.keys()
+    assert [c["kind"] for c in b["critical_points"]] == [c["kind"] for c in a["critical_points"]]
+    for ca, cb in zip(a["critical_points"], b["critical_points"], strict=True):
+        assert cb["kappa_R"] == pytest.approx(ca["kappa_R"], rel=1e-10)
+        assert (cb["mode_m"], cb["after_point"]) == (ca["mode_m"], ca["after_point"])
+    if WORLD.size == 1:  # the same to the last bit
+        assert rel.compare(ref, got, rtol=0.0)[0] == []
+
+
+@pytest.mark.parametrize("at", ["early", "before the fold"])
+def test_critical_interrupted_and_resumed(monkeypatch, capsys, tmp_path_factory,
+                                          critical_reference, at):
+    """``shells critical`` (surface model) interrupted (Ctrl-C) after the record of point k + 1
+    was written and before its checkpoint: the rerun keeps points 0..k as written, computes
+    from point k + 1 on (early: k = 1; before the fold: k is the point before the step that
+    holds the fold, which the first step after the resume must locate) and ends with the
+    uninterrupted run's points, critical points and JSON (timings aside). A rerun of the
+    finished run computes nothing and gives the same JSON."""
+    import shells.store
+
+    ref = rel.records(critical_reference, CRITICAL)
+    fold = next(r["critical_point"] for r in ref if "critical_point" in r)
+    k = 1 if at == "early" else fold["after_point"] - 1
+    out = _shared_dir(tmp_path_factory, "critical-cut")
+    real = shells.store.save_state_checkpoint
+    saves = [0]
+
+    def interrupted(*args, **kwargs):
+        saves[0] += 1
+        if saves[0] == k + 2:  # the checkpoint of point k + 1, its record written
+            raise KeyboardInterrupt
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(shells.store, "save_state_checkpoint", interrupted)
+    rc, _, err = _cli(capsys, [*CRITICAL.argv, "-o", str(out)])
+    assert rc == 130 and "interrupted (SIGINT); rerun the same command to resume" in err
+    monkeypatch.setattr(shells.store, "save_state_checkpoint", real)
+    cut = rel.records(out, CRITICAL)
+    assert [r["index"] for r in cut] == list(range(k + 2))
+
+    computed = _follow_indices(monkeypatch)
+    rc, printed, err = _cli(capsys, [*CRITICAL.argv, "-o", str(out), "--json"])
+    assert rc == 0
+    assert f"critical: resuming after point {k} at kappa R" in err
+    points = [r for r in ref if "index" in r]
+    assert computed == list(range(k + 1, len(points)))
+    got = rel.records(out, CRITICAL)
+    assert got[:k + 1] == cut[:k + 1]  # kept as written, not recomputed
+    _check_same(critical_reference, out)
+    # the CLI's JSON is critical.json
+    printed = json.loads(printed.strip().splitlines()[-1])
+    on_disk = json.loads((out / "critical.json").read_text())
+    assert {k: v for k, v in printed.items() if k != "wall_time"} == \
+        {k: v for k, v in on_disk.items() if k != "wall_time"}
+
+    # the finished run again: nothing computed, the same result
+    computed.clear()
+    assert _cli(capsys, [*CRITICAL.argv, "-o", str(out)])[0] == 0
+    assert computed == []
+    _check_same(critical_reference, out)
+
+
+def test_critical_starts_afresh_under_another_configuration(monkeypatch, capsys,
+                                                           tmp_path_factory, critical_reference):
+    """A rerun with another configuration (here a shorter kappa range in longer steps: no
+    critical point, 4 points) does not resume, with one log line, and computes from point 0;
+    so does ``--restart`` with the same configuration; a checkpoint that cannot be read (a
+    state file cut short) likewise. A corrupt line in the file refuses the run before any
+    work (one line, exit 2)."""
+    import shutil
+
+    out = _shared_dir(tmp_path_factory, "critical-other")
+    if WORLD.rank == 0:
+        shutil.copytree(critical_reference, out, dirs_exist_ok=True)
+    WORLD.barrier()
+    computed = _follow_indices(monkeypatch)
+    short = [*CRITICAL.argv, "--kappa-r-max", "0.4", "--ds", "0.15", "--ds-max", "0.15", "-o",
+             str(out)]
+    rc, _, err = _cli(capsys, short)
+    assert rc == 0
+    assert "not resuming from the existing branch file (its configuration differs" in err
+    assert computed[0] == 0 and len(computed) >= 2
+    res = json.loads((out / "critical.json").read_text())
+    assert res["kind"] == "none" and res["kappa_R_end"] == pytest.approx(0.4)
+    assert [r["index"] for r in rel.records(out, CRITICAL) if "index" in r] == computed
+
+    computed.clear()
+    rc, _, err = _cli(capsys, [*short, "--restart"])
+    assert rc == 0 and computed[0] == 0 and "resuming" not in err
+
+    # a state file of the checkpoint cut short: not used
+    if WORLD.rank == 0:
+        with open(out / "branch.jsonl") as f:
+            lines = f.read().splitlines()
+        (out / "branch.jsonl").write_text("\n".join(lines[:-1]) + "\n")  # the last point
+        for f in (out / "checkpoint").glob("state-*.npz"):
+            f.write_bytes(f.read_bytes()[:100])
+    WORLD.barrier()
+    computed.clear()
+    rc, _, err = _cli(capsys, short)
+    assert rc == 0 and computed[0] == 0
+    assert "its checkpoint is missing, incomplete, unreadable" in err
+
+    # a corrupt line: refused before any work
+    if WORLD.rank == 0:
+        with open(out / "branch.jsonl", "a") as f:
+            f.write("not json\n")
+    WORLD.barrier()
+    computed.clear()
+    rc, _, err = _cli(capsys, short)
+    assert rc == 2 and computed == []
+    assert len(err.strip().splitlines()) == 1 and "is not a record" in err, err
 
 
 # ------------------------------------------------------------------------------------------

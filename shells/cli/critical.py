@@ -35,8 +35,12 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
     c.add_argument("--ds-max", type=common.positive_float("ds-max"), default=None,
                    help="largest step, in kappa L (default: range/10)")
     c.add_argument("-o", "--output", default=None,
-                   help="directory for branch.jsonl (points as computed), critical.json and "
+                   help="directory for branch.jsonl (points and critical points as computed; "
+                   "surface model: a rerun resumes from DIR/checkpoint/), critical.json and "
                    "the critical modes for ParaView (modes.bp)")
+    c.add_argument("--restart", action="store_true",
+                   help="ignore an existing branch file (surface model; the 1D model always "
+                   "computes again)")
     common.add_json(c)
     c.set_defaults(func=_cmd_critical)
     return c
@@ -50,7 +54,7 @@ def _cmd_critical(args: argparse.Namespace) -> int:
     surface = {} if args.model != "surface" else dict(
         first_only=args.first_only, size=args.size, layer_elements=args.layer_elements,
         shear_penalty=args.shear_penalty, degree=args.degree, ds=args.ds, ds_max=args.ds_max,
-        mesh_file=args.mesh)
+        mesh_file=args.mesh, resume=not args.restart)
     result = critical_run(shape, args.h_over_r, args.nu, direction=args.direction,
                           model=args.model, outdir=args.output, kappa_field=fld,
                           kappa_end=common.kappa_end(shape, args.h_over_r, args.kappa_h_max,

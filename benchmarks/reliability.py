@@ -1,7 +1,8 @@
-"""Kill and resume: ``shells branch``, ``shells critical`` (both models) and ``shells
-phase-diagram`` killed with SIGKILL at random moments, on 1 and 2 ranks, then rerun to the end;
-the final results must equal an uninterrupted run's and no point computed before a kill may be
-lost.
+"""Kill and resume: the commands killed at random moments, rerun to the end, results compared.
+
+``shells branch``, ``shells critical`` (both models) and ``shells phase-diagram`` killed with
+SIGKILL at random moments, on 1 and 2 ranks, then rerun to the end; the final results must
+equal an uninterrupted run's and no point computed before a kill may be lost.
 
     scripts/in-env python3 benchmarks/reliability.py [--trials 3] [--kills 2] [--seed 16]
         [--ranks 1 2] [--cases ...] [-o benchmarks/results/reliability.json]

@@ -40,10 +40,14 @@ __all__ = ["KnockdownConfig", "fold_kappa", "knockdown", "run_knockdown"]
 #: points of another method (the first critical point located on all counts, shorter steps
 #: when a crossing comes before the fold; /3: one mesh for all amplitudes, steps near the
 #: fold from the asymptotic law; /4: an attempt without a fold repeated in the balanced
-#: arclength norm, ``_first_critical``)
-METHOD = "first-critical-point/4"
+#: arclength norm, ``_first_critical``; /5: a crossing followed by a fold within the location
+#: tolerance is that fold, ``_first_of``)
+METHOD = "first-critical-point/5"
 #: ∂R/∂δ by central differences at δ/h = ±this (R is linear in δ to 1e-7 there, measured)
 DELTA_FD = 1.0e-3
+#: after a crossing, at most this many points are followed while looking for the fold within
+#: the location tolerance (a safety limit: the window in κ ends the search first)
+MAX_POINTS_AFTER_CROSSING = 50
 
 
 @dataclass(frozen=True)
@@ -181,12 +185,15 @@ def _balanced_weight(model: Any, ns: Any) -> float:
 
 
 def _first_critical(model: Any, ns: Any, cfg: KnockdownConfig, end: float,
-                    ds_h: float | None, kappa_start: float = 0.0, balanced: bool = False
-                    ) -> tuple[list[Any], int]:
-    """The first axisymmetric critical point from κ = ``kappa_start`` (the model's state is
-    the branch's there), steps of ``ds_h`` in κh (None: the defaults) in the arclength norm
-    of state weight 1, or with ``balanced`` steps of ``ds_h`` in κ in the norm balanced at
-    the start (``_balanced_weight``)."""
+                    ds_h: float | None, kappa_start: float = 0.0, balanced: bool = False,
+                    window: bool = True) -> tuple[list[Any], int]:
+    """The axisymmetric critical points from κ = ``kappa_start`` (the model's state is the
+    branch's there) up to the first fold, or, when a crossing comes first (``window``), up to a
+    location tolerance beyond it in κ (without ``window``: the first critical point only), with
+    steps of ``ds_h`` in κh (None: the defaults) in the arclength norm of state weight 1, or
+    with ``balanced`` steps of ``ds_h`` in κ in the norm balanced at the start
+    (``_balanced_weight``). Returns the located points in branch order and the number of
+    branch points followed."""
     from shells.axisym import default_settings
     from shells.critical import CriticalSettings, follow
     from shells.geometry import Sphere
@@ -210,15 +217,43 @@ def _first_critical(model: Any, ns: Any, cfg: KnockdownConfig, end: float,
             raise RuntimeError(f"Newton did not converge at the start kappa = {kappa_start}")
         steps["state_weight"] = _balanced_weight(model, ns)
     st = default_settings(Sphere(1.0), cfg.h_over_r, **steps)
-    crit = CriticalSettings(stop_at_fold=True, max_critical=1)
+    # every crossing is located, and the branch is followed on after the first one until it
+    # lies a location tolerance beyond it in κ: a fold within that window is the first
+    # critical point (``_first_of``)
+    crit = CriticalSettings(stop_at_fold=True, max_critical=None if window else 1)
     found: list[Any] = []
-    n = 0
-    for _, _, cps in follow(model, st, end, crit, solver=ns, kappa_start=kappa_start):
+    n = after = 0
+    for p, _, cps in follow(model, st, end, crit, solver=ns, kappa_start=kappa_start):
         n += 1
         found += cps
-        if found:
+        if any(c.kind == "fold" for c in found) or (found and not window):
             break
+        if found:
+            # a later fold lies at or above the branch's κ here (κ > 0 on these branches)
+            after += 1
+            if (p.kappa - found[0].kappa > crit.rel_tol * abs(found[0].kappa)
+                    or after > MAX_POINTS_AFTER_CROSSING):
+                break
     return found, n
+
+
+def _first_of(found: list[Any], rel_tol: float) -> tuple[Any, list[Any]]:
+    """The first critical point of one attempt's list (branch order) and the crossings located
+    before it: a crossing followed by a fold within ``rel_tol`` in κ is that fold, seen early
+    through its own eigenvalue.
+
+    Next to an imperfect sphere's fold its mode's eigenvalue reaches the level at which it is
+    resolved (measured: a scatter of 3e-6 from point to point, where it starts from 1e-4 to
+    1e-3) within 1e-5 in κ of the fold, while dκ/ds is still positive: the inertia may count
+    it negative first, a "bifurcation" of the fold's own mode (pole-localised, carrying the
+    load) located 1e-5 below the fold. The two are one critical point at the location
+    tolerance; the fold is reported, with the crossings before it."""
+    if not found or found[0].kind == "fold":
+        return (found[0] if found else None), []
+    fold = next((c for c in found if c.kind == "fold"), None)
+    if fold is not None and abs(fold.kappa - found[0].kappa) <= rel_tol * abs(fold.kappa):
+        return fold, [c for c in found if c.kind != "fold"]
+    return found[0], []
 
 
 def _approach(model: Any, ns: Any, kappa: float) -> None:
@@ -249,22 +284,30 @@ def fold_kappa(cfg: KnockdownConfig, amplitude: float, degree: int,
     model, run = _model(cfg, amplitude, degree)
     ns = NewtonSolver(model, options=SNES_OPTIONS)
     try:
-        c, n = _locate_first(cfg, amplitude, model, ns, run.h, predicted, kappa_b)
+        c, n, before = _locate_first(cfg, amplitude, model, ns, run.h, predicted, kappa_b)
     finally:
         ns.destroy()
-    return _point_record(c, run.h, n)
+    return _point_record(c, run.h, n, before)
 
 
-def _point_record(c: Any, h: float, n: int) -> dict[str, Any]:
-    return {"kind": c.kind, "kappa_h": c.kappa * h, "mode_n": c.mode_n,
-            "accuracy": c.accuracy, "branch_points": n}
+def _point_record(c: Any, h: float, n: int, before: list[Any] | None = None
+                  ) -> dict[str, Any]:
+    r = {"kind": c.kind, "kappa_h": c.kappa * h, "mode_n": c.mode_n,
+         "accuracy": c.accuracy, "branch_points": n}
+    if before:  # crossings of the fold's own eigenvalue located just before it (``_first_of``)
+        r["crossings_before"] = [{"kappa_h": b.kappa * h, "mode_n": b.mode_n,
+                                  "eigenvalue": b.eigenvalue} for b in before]
+    return r
 
 
 def _locate_first(cfg: KnockdownConfig, amplitude: float, model: Any, ns: Any, h: float,
                   predicted: float | None = None, kappa_b: float | None = None
-                  ) -> tuple[Any, int]:
-    """``fold_kappa``'s search on ``model`` (solver ``ns``): the located critical point (the
-    model left at its state) and the number of branch points followed."""
+                  ) -> tuple[Any, int, list[Any]]:
+    """``fold_kappa``'s search on ``model`` (solver ``ns``): the located critical point
+    (carrying its state and mode), the number of branch points followed and the crossings of
+    the fold's own eigenvalue located just before the fold (``_first_of``)."""
+    from shells.critical import CriticalSettings
+
     end = 1.25 * _kappa_scale(cfg) / h
     perfect = amplitude == 0
     # Every critical point of the axisymmetric problem is located, and the first one decides.
@@ -272,9 +315,13 @@ def _locate_first(cfg: KnockdownConfig, amplitude: float, model: Any, ns: Any, h
     # crossing first means a step went past the fold, which turns ever more sharply as δ → 0,
     # onto the neighbouring branch of the broken bifurcation (measured at h/R = 0.01, δ/h =
     # 0.001: a "fold" 5 % above κ_b with steps of 0.02 in κh): the run is repeated with
-    # steps 4 and 16 times shorter. Where the asymptotic law puts the fold within 0.08 in κh
-    # of κ_b, the steps are a quarter of that distance (and 4 times shorter on a retry), from
-    # 4 times that distance below κ_b. The perfect sphere's branch is the uniform shrink.
+    # steps 4 and 16 times shorter. A crossing followed by a fold within the location
+    # tolerance is that fold (``_first_of``: the fold mode's eigenvalue counted negative
+    # within 1e-5 of the fold, where it is no longer resolved; under pressure at h/R = 0.002
+    # every attempt could end so, and the run reported no limit point). Where the asymptotic
+    # law puts the fold within 0.08 in κh of κ_b, the steps are a quarter of that distance
+    # (and 4 times shorter on a retry), from 4 times that distance below κ_b. The perfect
+    # sphere's branch is the uniform shrink.
     # (start κ, step in κh) of each attempt
     ladder: list[tuple[float, float | None]] = (
         [(0.0, None)] if perfect else [(0.0, 0.02), (0.0, 0.005), (0.0, 0.00125)])
@@ -287,7 +334,7 @@ def _locate_first(cfg: KnockdownConfig, amplitude: float, model: Any, ns: Any, h
         if 0 < gap_h < 0.08:
             start = kappa_b * (1.0 - 4.0 * (1.0 - predicted))
             ladder = [(start, gap_h / 4), (start, gap_h / 16), *ladder]
-    found: list[Any] = []
+    first, before = None, []
     n = 0
     attempts = [(start, ds_h, False) for start, ds_h in ladder] if perfect else [
         (start, ds_h, b) for start, ds_h in ladder for b in (False, True)]
@@ -297,20 +344,30 @@ def _locate_first(cfg: KnockdownConfig, amplitude: float, model: Any, ns: Any, h
         try:
             if start > 0:
                 _approach(model, ns, start)
-            found, n = _first_critical(model, ns, cfg, end, ds_h, start, balanced)
+            found, n = _first_critical(model, ns, cfg, end, ds_h, start, balanced,
+                                       window=not perfect)
         except RuntimeError as e:  # a failed Newton: the next attempt
             log.info("knockdown: delta/h = %g: %s; next attempt", amplitude, e)
-            found = []
+            first, before = None, []
             continue
-        if perfect or (found and found[0].kind == "fold"):
+        first, before = _first_of(found, CriticalSettings().rel_tol)
+        if perfect or (first is not None and first.kind == "fold"):
             break
         log.info("knockdown: delta/h = %g: %s first with steps of %s in kappa h%s; next "
-                 "attempt", amplitude, found[0].kind if found else "no critical point", ds_h,
+                 "attempt", amplitude, _describe(first, h), ds_h,
                  " (balanced norm)" if balanced else "")
-    if not found or (not perfect and found[0].kind != "fold"):
+    if first is None or (not perfect and first.kind != "fold"):
         raise RuntimeError(f"no limit point of the imperfect sphere found up to kappa h = "
                            f"{end * h:.4g} at delta/h = {amplitude:g}")
-    return found[0], n
+    return first, n, before
+
+
+def _describe(c: Any, h: float) -> str:
+    """A located critical point in a few words (log messages)."""
+    if c is None:
+        return "no critical point"
+    return (f"{c.kind} at kappa h = {c.kappa * h:.7f} (mode n = {c.mode_n}, eigenvalue "
+            f"{c.eigenvalue:.2e}, no fold within the location tolerance after it)")
 
 
 def surface_first(cfg: KnockdownConfig, amplitude: float, degree: int) -> dict[str, Any]:
@@ -342,7 +399,7 @@ def perfect_sphere(cfg: KnockdownConfig, degree: int) -> dict[str, Any]:
     model, run = _model(cfg, 0.0, degree)
     ns = NewtonSolver(model, options=SNES_OPTIONS)
     try:
-        point, count = _locate_first(cfg, 0.0, model, ns, run.h)
+        point, count, _ = _locate_first(cfg, 0.0, model, ns, run.h)
         n = point.mode_n if cfg.degree is None and point.mode_n else degree
         red = reduced_equation(model, point, ns, _imperfection_derivative(cfg, n, model))
     finally:
@@ -430,6 +487,8 @@ def knockdown(cfg: KnockdownConfig, outdir: str | Path | None = None
             rec["error"] = r["error"]
         if r.get("mode_m") is not None:
             rec["mode_m"] = r["mode_m"]
+        if r.get("crossings_before"):
+            rec["crossings_before"] = r["crossings_before"]
         if rec["knockdown"] is not None:
             log.info("knockdown: delta/h = %g: kappa_max h = %.6f, knock-down %.4f (%s)", a,
                      rec["kappa_max_h"], rec["knockdown"], r["kind"])

@@ -76,6 +76,48 @@ def test_knockdown_approaches_koiters_law():
     assert errors[0] < errors[1]
 
 
+def test_a_crossing_just_before_a_fold_is_that_fold(monkeypatch):
+    """Next to a fold the fold mode's eigenvalue may be counted negative a little before
+    dκ/ds changes sign (h/R = 0.002, pressure: 1e-5 below the fold in κ). ``_first_critical``
+    follows the branch on after a crossing up to the location tolerance beyond it in κ, and
+    ``_first_of`` takes a fold within that window for the first critical point (the crossings
+    before it kept); a crossing with no fold within the window stays first."""
+    from types import SimpleNamespace
+
+    import shells.critical as critical
+    import shells.knockdown as kd
+
+    def cp(kind, kappa):
+        return SimpleNamespace(kind=kind, kappa=kappa)
+
+    def fake_follow(points):
+        def follow(*a, **k):
+            for kappa, cps in points:
+                yield SimpleNamespace(kappa=kappa), None, cps
+        return follow
+
+    cfg = KnockdownConfig(0.002, (0.1,), load="pressure")
+    cross, fold = cp("bifurcation", 1000.0), cp("fold", 1000.05)
+    # crossing, then a fold 5e-5 above it: followed on to the fold, which is first
+    monkeypatch.setattr(critical, "follow", fake_follow(
+        [(990.0, []), (1000.01, [cross]), (1000.04, []), (1000.06, [fold]), (999.0, [])]))
+    found, n = kd._first_critical(None, None, cfg, 2000.0, None)
+    assert found == [cross, fold] and n == 4
+    first, before = kd._first_of(found, 1e-4)
+    assert first is fold and before == [cross]
+    # the branch passes 1e-4 beyond the crossing without a fold: the crossing stays first
+    monkeypatch.setattr(critical, "follow", fake_follow(
+        [(1000.01, [cross]), (1000.09, []), (1000.11, []), (1000.3, [fold])]))
+    found, n = kd._first_critical(None, None, cfg, 2000.0, None)
+    assert found == [cross] and n == 3
+    assert kd._first_of(found, 1e-4) == (cross, [])
+    assert kd._first_of([cross, cp("fold", 1000.2)], 1e-4) == (cross, [])
+    assert kd._first_of([fold], 1e-4) == (fold, []) and kd._first_of([], 1e-4) == (None, [])
+    # without the window (the perfect sphere) the first critical point ends the search
+    monkeypatch.setattr(critical, "follow", fake_follow([(1000.01, [cross]), (1000.06, [fold])]))
+    assert kd._first_critical(None, None, cfg, 2000.0, None, window=False) == ([cross], 1)
+
+
 def test_rerun_reads_the_points_back(curve, monkeypatch):
     import shells.knockdown as kd
 

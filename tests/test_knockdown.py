@@ -76,6 +76,37 @@ def test_knockdown_approaches_koiters_law():
     assert errors[0] < errors[1]
 
 
+def test_balanced_norm_retry_finds_the_same_fold(monkeypatch):
+    """The retry of an attempt in the balanced arclength norm (``_first_critical`` with
+    ``balanced``): with every attempt in the norm of state weight 1 made to find nothing, the
+    retry must find the fold the weight-1 norm finds directly, to 1e-6 in κ, in a norm whose
+    state weight is not 1 (the dimpled sphere at h/R = 0.05: ξ ≈ 30)."""
+    import shells.knockdown as kd
+
+    cfg = KnockdownConfig(H, (0.04,), imperfection="dimple", width=1.0)
+    direct = kd.fold_kappa(cfg, 0.04, 9)
+    assert direct["kind"] == "fold"
+    calls, weights = [], []
+    first_critical, balanced_weight = kd._first_critical, kd._balanced_weight
+
+    def weight_one_finds_nothing(*a, **k):
+        balanced = k.get("balanced", a[6] if len(a) > 6 else False)
+        calls.append((a[4], balanced))
+        return first_critical(*a, **k) if balanced else ([], 0)
+
+    def recorded_weight(*a, **k):
+        weights.append(balanced_weight(*a, **k))
+        return weights[-1]
+
+    monkeypatch.setattr(kd, "_first_critical", weight_one_finds_nothing)
+    monkeypatch.setattr(kd, "_balanced_weight", recorded_weight)
+    retried = kd.fold_kappa(cfg, 0.04, 9)
+    assert calls == [(0.02, False), (0.02, True)]  # the first retry found it
+    assert len(weights) == 1 and abs(weights[0] - 1.0) > 1.0
+    assert retried["kind"] == "fold"
+    assert retried["kappa_h"] == pytest.approx(direct["kappa_h"], rel=1e-6)
+
+
 def test_a_crossing_just_before_a_fold_is_that_fold(monkeypatch):
     """Next to a fold the fold mode's eigenvalue may be counted negative a little before
     dκ/ds changes sign (h/R = 0.002, pressure: 1e-5 below the fold in κ). ``_first_critical``

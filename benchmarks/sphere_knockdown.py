@@ -12,9 +12,12 @@ path: ``shells.knockdown`` with ``load``), and Koiter's small-δ law.
 
 Writes benchmarks/results/sphere_knockdown.json (rewritten after every curve; the points of each
 curve are also kept in results/knockdown/, so a rerun skips what is computed) and .png, and
-prints tables.
+prints tables. ``--curves`` recomputes only the curves named (and ``--law`` the law's cases) and
+those missing from the stored JSON, and keeps every other curve of the stored JSON as it is;
+each computed curve records the method (``shells.knockdown.METHOD``) that computed it.
 
     scripts/in-env python3 benchmarks/sphere_knockdown.py [--quick]
+    scripts/in-env python3 benchmarks/sphere_knockdown.py --curves 0.002:0.3:pressure:dimple
 """
 
 from __future__ import annotations
@@ -27,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from shells.knockdown import KnockdownConfig, run_knockdown
+from shells.knockdown import METHOD, KnockdownConfig, run_knockdown
 from shells.theory import sphere_pressure_kappa_h
 
 RESULTS = Path("benchmarks/results")
@@ -56,7 +59,7 @@ def curve(h: float, nu: float, kind: str, load: str, amps: tuple[float, ...]) ->
     res = run_knockdown(cfg, Path("results/knockdown") / f"{load}-{kind}-{h}-{nu}",
                         figure=False)
     pts = res["points"]
-    return {"h_over_R": h, "nu": nu, "imperfection": kind, "load": load,
+    return {"h_over_R": h, "nu": nu, "imperfection": kind, "load": load, "method": METHOD,
             "kappa_b_h": res["kappa_b_h"], "degree": res["degree"],
             "asymptotics": res["asymptotics"], "p_b_over_E": res["p_b_over_E"],
             "p_c_over_E_classical": res["p_c_over_E_classical"], "points": pts,
@@ -69,18 +72,35 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true", help="h/R = 0.01 only, no law cases")
     ap.add_argument("--table", action="store_true",
                     help="print the curves of the stored JSON as a markdown table, no run")
+    ap.add_argument("--curves", nargs="+", metavar="H:NU[:LOAD[:IMPERFECTION]]",
+                    type=_selector, help="recompute only these curves (e.g. 0.002:0.3:pressure "
+                    "or 0.01:0.3:pressure:mode); the others are kept from the stored JSON")
+    ap.add_argument("--law", action="store_true",
+                    help="with --curves: recompute the law's cases too (kept otherwise)")
     args = ap.parse_args()
+    stored_path = RESULTS / "sphere_knockdown.json"
     if args.table:
-        table(json.loads((RESULTS / "sphere_knockdown.json").read_text()))
+        table(json.loads(stored_path.read_text()))
         return
+    stored = json.loads(stored_path.read_text()) if args.curves else None
     out: dict = {"amplitudes": AMPLITUDES, "curves": [], "law": []}
     RESULTS.mkdir(parents=True, exist_ok=True)
 
     def save() -> None:
-        (RESULTS / "sphere_knockdown.json").write_text(json.dumps(out, indent=1))
+        stored_path.write_text(json.dumps(out, indent=1))
+
+    def kept(h: float, nu: float, load: str, kind: str) -> dict | None:
+        """The stored curve, when ``--curves`` does not name it (None: compute it)."""
+        if stored is None or any(sel(h, nu, load, kind) for sel in args.curves):
+            return None
+        return next((c for c in stored["curves"] if (c["h_over_R"], c["nu"], c["load"],
+                                                      c["imperfection"]) == (h, nu, load, kind)),
+                    None)
 
     print("Koiter's law (curvature, mode imperfection): 1 - kappa_max/kappa_b against C sqrt(d)")
-    for h, nu in () if args.quick else LAW_CASES:
+    if stored is not None and not args.law:
+        out["law"] = stored["law"]
+    for h, nu in () if args.quick or out["law"] else LAW_CASES:
         c = curve(h, nu, "mode", "curvature", LAW_AMPLITUDES)
         law = c["asymptotics"]
         rows = []
@@ -108,6 +128,10 @@ def main() -> None:
     for h, nu in cases:
         for load in ("curvature", "pressure"):
             for kind in ("dimple", "mode"):
+                c = kept(h, nu, load, kind)
+                if c is not None:
+                    out["curves"].append(c)
+                    continue
                 c = curve(h, nu, kind, load, AMPLITUDES if h >= 0.01 else AMPLITUDES_THIN)
                 out["curves"].append(c)
                 save()
@@ -122,8 +146,27 @@ def main() -> None:
                 print("   knock-down: " + "  ".join(
                     "  none" if p["knockdown"] is None else f"{p['knockdown']:.4f}"
                     for p in c["points"][1:]))
+    save()
     figure(out)
     print(f"wrote {RESULTS / 'sphere_knockdown.json'} and .png")
+
+
+def _selector(text: str):
+    """``H:NU[:LOAD[:IMPERFECTION]]`` as a predicate of a curve's (h/R, ν, load, imperfection)."""
+    parts = text.split(":")
+    if not 2 <= len(parts) <= 4:
+        raise argparse.ArgumentTypeError(f"expected H:NU[:LOAD[:IMPERFECTION]], got {text!r}")
+    try:
+        h, nu = float(parts[0]), float(parts[1])
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(f"H and NU must be numbers in {text!r}") from e
+    load = parts[2] if len(parts) > 2 else None
+    kind = parts[3] if len(parts) > 3 else None
+    if load not in (None, "curvature", "pressure") or kind not in (None, "dimple", "mode"):
+        raise argparse.ArgumentTypeError(f"LOAD is curvature|pressure, IMPERFECTION "
+                                         f"dimple|mode, in {text!r}")
+    return lambda h_, nu_, load_, kind_: (h_, nu_) == (h, nu) and load in (None, load_) and \
+        kind in (None, kind_)
 
 
 def table(out: dict) -> None:

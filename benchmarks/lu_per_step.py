@@ -8,7 +8,13 @@ its fold) and the θ̄ = 5 cap (θ = 1 rad, to its first bifurcation). Counted b
 solver layer: the bordered corrector's LU factorisations within each step of
 ``continuation.arclength_steps`` (its corrector iterations and the tangent at the new point),
 and over the whole run the LU factorisations of the locator's trials, SNES's, and the LDLᵀ
-factorisations of the inertia (``stability.setup_factor``). Prints a table, writes JSON.
+factorisations of the inertia (``stability.setup_factor``). Each case runs twice in one
+process, alternating, on the same machine: with the corrector's factorisation reuse switched off
+(``ContinuationSettings.factor_reuse = 0``: a factorisation per corrector iteration and one
+for the tangent, as before issue 14) and with the driver's (``drivers.REUSE_SURFACE``); the
+located point of both is
+compared. Factorisations are counted where they happen (``solvers.setup_factor``), not where
+they are asked for. Prints a table, writes JSON.
 """
 
 from __future__ import annotations
@@ -27,15 +33,16 @@ from shells.geometry import SphericalCap
 CASES = {"cap30 up": (30.0, 3.0), "thetabar5 up": (math.degrees(1.0), 5.0)}
 
 
-def count_run(theta_deg: float, kappa_r_end: float) -> dict:
+def count_run(theta_deg: float, kappa_r_end: float, factor_reuse: float | None) -> dict:
     count: Counter = Counter()
     per_step: list[int] = []
-    real_factor, real_solve = solvers.NewtonSolver.factor, solvers.NewtonSolver.solve
+    real_lu, real_solve = solvers.setup_factor, solvers.NewtonSolver.solve
     real_setup, real_steps = stability.setup_factor, continuation.arclength_steps
+    real_settings = continuation.ContinuationSettings
 
-    def factor(self):
+    def lu(ksp, A, options):
         count["lu"] += 1
-        return real_factor(self)
+        return real_lu(ksp, A, options)
 
     def solve(self, atol=None):
         ok, its = real_solve(self, atol)
@@ -59,8 +66,13 @@ def count_run(theta_deg: float, kappa_r_end: float) -> dict:
 
     from shells import critical
 
-    solvers.NewtonSolver.factor, solvers.NewtonSolver.solve = factor, solve
+    solvers.setup_factor, solvers.NewtonSolver.solve = lu, solve
     stability.setup_factor, continuation.arclength_steps = setup, steps
+    if factor_reuse is not None:
+        def forced(**kw):  # noqa: ANN003, ANN202 - overrides the driver's own value
+            return real_settings(**{**kw, "factor_reuse": factor_reuse})
+
+        continuation.ContinuationSettings = forced
     critical_steps = critical.arclength_steps
     critical.arclength_steps = steps
     try:
@@ -69,8 +81,9 @@ def count_run(theta_deg: float, kappa_r_end: float) -> dict:
                              kappa_r_end, first_only=True)
         wall = time.perf_counter() - t0
     finally:
-        solvers.NewtonSolver.factor, solvers.NewtonSolver.solve = real_factor, real_solve
+        solvers.setup_factor, solvers.NewtonSolver.solve = real_lu, real_solve
         stability.setup_factor, continuation.arclength_steps = real_setup, real_steps
+        continuation.ContinuationSettings = real_settings
         critical.arclength_steps = critical_steps
     in_steps = sum(per_step)
     return {"theta_deg": theta_deg, "dofs": r["dofs"], "kind": r["kind"],
@@ -80,19 +93,32 @@ def count_run(theta_deg: float, kappa_r_end: float) -> dict:
             "ldlt": count["ldlt"], "wall_s": wall}
 
 
+VERSIONS = {"before": 0.0, "after": None}  # factor_reuse (None: the driver's, REUSE_SURFACE)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("-o", default="benchmarks/results/lu_per_step.json")
+    ap.add_argument("--cases", nargs="*", default=list(CASES), choices=list(CASES))
     a = ap.parse_args()
-    rows = {}
-    for name, (th, kr) in CASES.items():
-        rows[name] = count_run(th, kr)
+    rows: dict = {}
+    for name in a.cases:
+        th, kr = CASES[name]
+        rows[name] = {v: count_run(th, kr, reuse) for v, reuse in VERSIONS.items()}
+        b, f = rows[name]["before"], rows[name]["after"]
+        rows[name]["kappa_rel_change"] = abs(f["kappa_R"] - b["kappa_R"]) / abs(b["kappa_R"])
+        rows[name]["wall_ratio"] = f["wall_s"] / b["wall_s"]
         Path(a.o).write_text(json.dumps(rows, indent=1) + "\n")
-    print(f"{'case':>14} {'DOFs':>7} {'steps':>5} {'LU/step':>7} {'LU locator':>10} "
-          f"{'LDLT':>5} {'wall s':>7}")
-    for name, r in rows.items():
-        print(f"{name:>14} {r['dofs']:7d} {r['steps']:5d} {r['mean_lu_per_step']:7.2f} "
-              f"{r['lu_locator_and_start']:10d} {r['ldlt']:5d} {r['wall_s']:7.1f}")
+    print(f"{'case':>14} {'version':>7} {'DOFs':>7} {'kind':>11} {'kappa R':>10} {'steps':>5} "
+          f"{'LU/step':>7} {'LU other':>8} {'LDLT':>5} {'wall s':>7}")
+    for name, rr in rows.items():
+        for v in VERSIONS:
+            r = rr[v]
+            print(f"{name:>14} {v:>7} {r['dofs']:7d} {r['kind']:>11} {r['kappa_R']:10.6f} "
+                  f"{r['steps']:5d} {r['mean_lu_per_step']:7.2f} "
+                  f"{r['lu_locator_and_start']:8d} {r['ldlt']:5d} {r['wall_s']:7.1f}")
+        print(f"{name:>14}   after/before wall {rr['wall_ratio']:.2f}, kappa changed by "
+              f"{rr['kappa_rel_change']:.1e} (relative)")
 
 
 if __name__ == "__main__":

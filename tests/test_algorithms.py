@@ -253,3 +253,39 @@ def test_a_round_off_inertia_next_to_the_crossing_does_not_move_the_bifurcation(
     assert wrong, "no trial point fell into the injected interval: the test tests nothing"
     assert [c.kind for c in found] == ["bifurcation"]
     assert found[0].kappa == pytest.approx(1.0, rel=1e-8)
+
+
+def test_the_corrector_reuses_its_factorisation_near_the_solution(monkeypatch):
+    """Chord steps within ``factor_reuse`` of the last factored iterate, and the tangent from
+    the corrector's factorisation: the same points as a factorisation per iteration (to far
+    below the Newton tolerance), the same iterations, and at most 3 factorisations per
+    arclength step where Newton needs 4-5 (issue 14)."""
+    from shells import solvers
+
+    real = solvers.setup_factor
+    counts = []
+
+    def counted(ksp, A, options):
+        counts[-1] += 1
+        return real(ksp, A, options)
+
+    monkeypatch.setattr(solvers, "setup_factor", counted)
+    runs = {}
+    for reuse in (0.0, 1e-5):
+        counts.append(0)
+        st = ContinuationSettings(ds=0.05, ds_max=0.05, max_steps=30, factor_reuse=reuse)
+        runs[reuse] = [(p.kappa, p.scalars["w0"], p.newton_its, p.dkappa_ds)
+                       for p in continuation(FoldProblem(), st, kappa_end=3.0)]
+    (before, n_before), (after, n_after) = zip(runs.values(), counts, strict=True)
+    assert len(after) == len(before) == 31
+    for a, b in zip(after, before, strict=True):
+        # both on the branch x² + κ - 1 = 0 to the Newton tolerance
+        assert abs(a[1] ** 2 + a[0] - 1.0) < 1e-10 and abs(b[1] ** 2 + b[0] - 1.0) < 1e-10
+        # the same points: a tangent from a Jacobian at most factor_reuse away moves the
+        # predictor, and with it the next point along the branch, by ~1e-8 of a step
+        assert a[0] == pytest.approx(b[0], abs=1e-7)
+        assert a[2] == b[2]
+        assert a[3] == pytest.approx(b[3], rel=1e-5)
+    steps = len(after) - 1
+    assert n_before >= 4 * steps
+    assert n_after <= 3 * steps + 2  # (+ the start's Newton solve and tangent)

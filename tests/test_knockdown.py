@@ -79,7 +79,7 @@ def test_knockdown_approaches_koiters_law():
 def test_balanced_norm_retry_finds_the_same_fold(monkeypatch):
     """The retry of an attempt in the balanced arclength norm (``_first_critical`` with
     ``balanced``): with every attempt in the norm of state weight 1 made to find nothing, the
-    retry must find the fold the weight-1 norm finds directly, to 1e-6 in κ, in a norm whose
+    retry must find the fold the weight-1 norm finds directly, to 1e-4 in κ, in a norm whose
     state weight is not 1 (the dimpled sphere at h/R = 0.05, δ/h = 0.04: ξ = 264, measured)."""
     import shells.knockdown as kd
 
@@ -104,7 +104,9 @@ def test_balanced_norm_retry_finds_the_same_fold(monkeypatch):
     assert calls == [(0.02, False), (0.02, True)]  # the first retry found it
     assert len(weights) == 1 and abs(weights[0] - 1.0) > 1.0
     assert retried["kind"] == "fold"
-    assert retried["kappa_h"] == pytest.approx(direct["kappa_h"], rel=1e-6)
+    # both located to CriticalSettings' rel_tol, 1e-4 (their trial points differ with the norm;
+    # measured 1.6e-8 and 2.4e-6 apart in two runs)
+    assert retried["kappa_h"] == pytest.approx(direct["kappa_h"], rel=1e-4)
 
 
 def test_a_crossing_just_before_a_fold_is_that_fold(monkeypatch):

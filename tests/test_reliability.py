@@ -193,6 +193,29 @@ def _interruptions(monkeypatch, tmp_path, capsys, reference) -> tuple[bool, str]
     return True, ""
 
 
+def test_a_signal_during_teardown_keeps_the_status_and_prints_nothing():
+    """SIGINT (then SIGTERM) after ``main`` returned, from an atexit callback (where logging's
+    shutdown also runs): the command's status and no KeyboardInterrupt fragments (the default
+    handler, restored by ``main``, printed "Exception ignored in atexit callback ...
+    KeyboardInterrupt"); a second one ends the process at once with its status."""
+    import subprocess
+
+    def check():
+        problems = []
+        for sigs, want in (("SIGINT", 0), ("SIGTERM", 0), ("SIGINT, signal.SIGTERM", 143)):
+            code = ("import atexit, os, signal, sys; sys.argv = ['shells']; atexit.register("
+                    f"lambda: [os.kill(os.getpid(), s) for s in (signal.{sigs},)]); "
+                    "from shells.cli import entry; entry()")
+            r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                               env=rel.clean_env(), cwd=rel.REPO, timeout=60)
+            if r.returncode != want or r.stderr.strip() or "usage: shells" not in r.stdout:
+                problems.append(f"{sigs}: exit {r.returncode}, stderr {r.stderr[-300:]!r}")
+        return not problems, "; ".join(problems)
+
+    ok, msg = _on_rank0(check)
+    assert ok, msg
+
+
 def test_branch_killed_torn_and_resumed(shared_tmp, reference):
     """``shells branch`` (a process of its own) killed by SIGKILL at a random moment after its
     first point, a torn line, and the rerun: the uninterrupted run's points (1e-10), none

@@ -132,20 +132,20 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def entry() -> None:
     """The ``shells`` command (console script and ``python3 -m shells``): ``main()``, then exit
-    with its status. A SIGINT or SIGTERM that arrives after ``main`` has restored the handlers
-    (interpreter and MPI teardown: logging, atexit, MPI_Finalize) is noted and the run's status
-    kept: the default handler would raise KeyboardInterrupt inside whatever teardown code runs
-    and print its fragments after a complete run. A second one ends the process at once."""
-    import os
+    with its status. Once ``main`` has returned, the run is complete and its files written:
+    SIGINT and SIGTERM are ignored through the teardown (logging, atexit, MPI_Finalize, well
+    under a second; SIGKILL still ends it). Python's default handler raised KeyboardInterrupt
+    in whatever teardown code ran and printed its fragments, and after the interpreter's own
+    clean-up (which resets Python-level handlers to SIG_DFL, not SIG_IGN) a signal during
+    MPI_Finalize killed the rank: mpirun then reported a rank ended by a signal, exit 130."""
     import signal
 
-    late: list[int] = []
-
-    def _late(signum: int, frame: Any) -> None:
-        late.append(signum)
-        if len(late) > 1:
-            os._exit(128 + signum)
+    def _between(signum: int, frame: Any) -> None:
+        """``main`` restores this handler in its ``finally``, just before it returns."""
 
     for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, _late)
-    sys.exit(main())
+        signal.signal(signum, _between)
+    status = main()
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, signal.SIG_IGN)
+    sys.exit(status)

@@ -19,6 +19,7 @@ import contextlib
 import io
 import json
 import math
+import os
 import random
 
 import pytest
@@ -212,7 +213,10 @@ def _with(base: list[str], option: str, value: str) -> list[str]:
 
 def _prop(strategy, sampler, n: int):
     """Run the test on hypothesis' examples (derandomized: the same on every rank), or on n
-    seeded samples when hypothesis is not installed."""
+    seeded samples when hypothesis is not installed. SHELLS_VALIDATION_SCALE=K runs K times as
+    many (a campaign; the suite keeps the default 1)."""
+    n *= max(1, int(os.environ.get("SHELLS_VALIDATION_SCALE", "1")))
+
     def deco(fn):
         if HAVE_HYPOTHESIS:
             return settings(max_examples=n, derandomize=True, database=None, deadline=None,

@@ -274,6 +274,9 @@ def kappa_end(shape: Any, h_over_r: float, kappa_h: float | None, kappa_r: float
 #: h/R = 0.5 the faces lie at 0.75 R and 1.25 R and the expansion has no meaning any more. The
 #: thickest shells in tests/ and benchmarks/ have h/R = 0.05.
 H_OVER_R_MAX = 0.5
+#: thinner shells: the bending stiffness, (h/R)² of the stretching one, is lost in round-off
+#: (a tenth of the thinnest sphere the paper computes is 1e-4; 5e-324 overflowed the range)
+H_OVER_R_MIN = 1e-5
 
 #: Path arguments per subcommand: (attribute, label, kind, value used when the attribute is
 #: None). Kinds: "in" (a file read), "msh"/"png" (a file written, with that suffix), "dir" (an
@@ -315,9 +318,9 @@ def check_ranges(args: argparse.Namespace) -> None:
     if hs is None:
         return
     for h in hs if isinstance(hs, list) else [hs]:
-        if not (math.isfinite(h) and 0 < h <= H_OVER_R_MAX):
-            raise InputError(f"--h-over-r must lie in (0, {H_OVER_R_MAX:g}] (a thin shell), "
-                             f"got {h:g}")
+        if not (math.isfinite(h) and H_OVER_R_MIN <= h <= H_OVER_R_MAX):
+            raise InputError(f"--h-over-r must lie in [{H_OVER_R_MIN:g}, {H_OVER_R_MAX:g}] (a "
+                             f"thin shell, not thinner than double precision resolves), got {h:g}")
     rng = getattr(args, "thetabar_range", None)
     if args.command == "phase-diagram" and rng and all(math.isfinite(v) for v in rng):
         theta_deg = math.degrees(min(rng) * math.sqrt(min(hs)))

@@ -130,9 +130,14 @@ def surely(valid_lo: float, valid_hi: float, invalid_below: float, invalid_above
     return pred
 
 
-def finite_nonzero(v: str) -> bool:
-    x = _num(v)
-    return x is not None and math.isfinite(x) and x != 0
+def nonzero_up_to(limit: float):
+    """Predicate: finite, nonzero and |x| <= limit (None within 1e-9 of the limit)."""
+    def pred(v: str) -> bool | None:
+        x = _num(v)
+        if x is None or not math.isfinite(x) or x == 0:
+            return False
+        return None if abs(abs(x) - limit) <= 1e-9 * limit else abs(x) <= limit
+    return pred
 
 
 def int_in(lo: int, hi: int):
@@ -178,8 +183,8 @@ OPTIONS = [
     (AXI, "--theta-deg", THETA),
     (AXI, "--h-over-r", H),
     (AXI, "--nu", NU),
-    (AXI, "--kappa-h-max", finite_nonzero),
-    (AXI, "--kappa-r-max", finite_nonzero),
+    (AXI, "--kappa-h-max", nonzero_up_to(100)),  # common.KAPPA_H_LIMIT
+    (AXI, "--kappa-r-max", nonzero_up_to(100 / 0.04)),
     (AXI, "--radius", RADIUS),
     (AXI, "--direction", one_of("up", "down")),
     (AXI, "--model", one_of("axisym", "surface")),
@@ -189,13 +194,13 @@ OPTIONS = [
     (SURF, "--shear-penalty", in_range(0.0, math.inf, lo_open=True)),
     (SURF, "--layer-elements", in_range(0.0, math.inf, lo_open=True)),  # a sphere: no rim
     (BRANCH, "--nu", NU),
-    (BRANCH, "--kappa-h-max", finite_nonzero),
+    (BRANCH, "--kappa-h-max", nonzero_up_to(100)),
     (BRANCH, "--size", surely(0.05, 2.0, 1e-5, 2.0)),
     (BRANCH, "--ds", anything),
     (BRANCH, "--ds-max", anything),
     (BRANCH, "--method", one_of("arclength", "natural")),
     (["branch", "--shape=sphere", "--h-over-r=0.05", "--model=axisym", "-o", "out"],
-     "--kappa-r-max", finite_nonzero),
+     "--kappa-r-max", nonzero_up_to(100 / 0.05)),
     (PD, "--points", int_in(1, 10000)),
     (PD, "--nu", NU),
     (PD, "--m-max", int_in(1, 200)),

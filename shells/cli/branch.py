@@ -68,6 +68,7 @@ def _cmd_branch(args: argparse.Namespace) -> int:
         raise InputError("give exactly one of --kappa-h-max and --kappa-r-max")
     outdir = args.output or "results/branch"
     fld = field_from_args(args, shape, args.model)
+    k_end = kappa_end(shape, args.h_over_r, args.kappa_h_max, args.kappa_r_max)  # checked
     if args.model == "axisym":
         L = shape.characteristic_size()
         from shells.geometry import kappa_length
@@ -91,8 +92,7 @@ def _cmd_branch(args: argparse.Namespace) -> int:
         cont = ContinuationSettings(method=args.method, ds=args.ds,
                                     ds_max=max(args.ds, args.ds_max))
         cfg = BranchConfig(shape=shape, h_over_r=args.h_over_r, nu=args.nu,
-                           kappa_end=kappa_end(shape, args.h_over_r, args.kappa_h_max,
-                                               args.kappa_r_max),
+                           kappa_end=k_end,
                            size=args.size, layer_elements=args.layer_elements,
                            shear_penalty=args.shear_penalty, continuation=cont,
                            degree=args.degree, kappa_field=fld, mesh_file=args.mesh)

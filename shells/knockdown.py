@@ -1,8 +1,10 @@
 """Imperfection sensitivity of the closed sphere's curvature buckling (driver layer).
 
 The stress-free reference surface carries an axisymmetric imperfection of amplitude δ
-(``shells.geometry.ImperfectSphere``: a pole dimple or the buckling mode's shape); κ is imposed
-on it as on a perfect sphere. With rotational symmetry enforced (the 1D model's axisymmetric
+(``shells.geometry.ImperfectSphere``: a pole dimple or the buckling mode's shape), or on the
+surface model a spherical harmonic P_n^m(cos θ) cos(mφ) (``HarmonicImperfectSphere``,
+imperfection "harmonic": not axisymmetric for m > 0); κ is imposed on it as on a perfect
+sphere. With rotational symmetry enforced (the 1D model's axisymmetric
 problem, as in the paper and in the pressure-buckling literature) the perfect sphere's
 bifurcation becomes a limit point: the imperfect branch is followed from κ = 0 with the
 common algorithm layer (``shells.critical.follow``, folds only) up to its fold κ_max, and the
@@ -58,13 +60,17 @@ class KnockdownConfig:
         h_over_r: thickness over the sphere's radius.
         amplitudes: imperfection amplitudes δ/h (≥ 0; 0 is the perfect sphere).
         nu: Poisson ratio.
-        imperfection: "dimple" (w0 = -δ h exp(-(β/β0)²)) or "mode" (w0 = -δ h P_n(cos β)).
+        imperfection: "dimple" (w0 = -δ h exp(-(β/β0)²)), "mode" (w0 = -δ h P_n(cos β)) or
+            "harmonic" (w0 = -δ h P_n^m(cos θ) cos(mφ) / max|P_n^m|, the surface model only:
+            ``shells.geometry.HarmonicImperfectSphere``; m = 0 is "mode").
         load: "curvature" (the natural curvature κ) or "pressure" (a dead external pressure,
             continued in its equivalent curvature κ_p of the paper's Eq. (5); κ_b is then the
             buckling pressure's, classically 12 (1-ν)/√(3(1-ν²)) in κ_p h): the same code
             path, one load parameter of the 1D model (``AxisymParameters.load``).
         width: the dimple's β0 in units of sqrt(h/R).
-        degree: the mode's degree n (None: the perfect sphere's critical degree, located).
+        degree: the mode's (the harmonic's) degree n (None: the perfect sphere's critical
+            degree, located; the surface model: the thin-shell theory's, rounded).
+        order: the harmonic's order m (0 <= m <= n; "harmonic" only).
         model: "axisym" (1D, rotational symmetry enforced) or "surface" (2D: every mode can
             appear, κ_max is the first critical point of any kind; no reduced equation).
         size, element_degree: the surface model's bulk element size and degree (P3: P2 locks
@@ -88,6 +94,7 @@ class KnockdownConfig:
     model: str = "axisym"
     size: float = 0.21
     element_degree: int = 3
+    order: int = 0
 
     def __post_init__(self) -> None:
         if not (isinstance(self.h_over_r, (int, float)) and 0 < self.h_over_r <= 0.2):
@@ -109,15 +116,41 @@ class KnockdownConfig:
             raise InputError(f"element degree must be 2 or 3, got {self.element_degree!r}")
         if self.load not in ("curvature", "pressure"):
             raise InputError(f"load must be 'curvature' or 'pressure', got {self.load!r}")
-        if self.imperfection not in ("dimple", "mode"):
-            raise InputError(f"imperfection must be 'dimple' or 'mode', got "
+        if self.imperfection not in ("dimple", "mode", "harmonic"):
+            raise InputError(f"imperfection must be 'dimple', 'mode' or 'harmonic', got "
                              f"{self.imperfection!r}")
+        from shells.geometry import HARMONIC_DEGREE_MAX
+
+        if self.imperfection == "harmonic" and self.model != "surface":
+            raise InputError("the harmonic imperfection is not axisymmetric: it needs the "
+                             "surface model (--model surface; for m = 0 use --imperfection mode)")
+        top = HARMONIC_DEGREE_MAX if self.imperfection == "harmonic" else 1000
+        if self.degree is not None and not (isinstance(self.degree, int)
+                                            and not isinstance(self.degree, bool)
+                                            and 0 <= self.degree <= top):
+            raise InputError(f"the mode degree n must be an integer in [0, {top}], got "
+                             f"{self.degree!r}")
+        if not (isinstance(self.order, int) and not isinstance(self.order, bool)
+                and 0 <= self.order <= HARMONIC_DEGREE_MAX):
+            raise InputError(f"the harmonic's order m must be an integer in [0, "
+                             f"{HARMONIC_DEGREE_MAX}], got {self.order!r}")
+        if self.order and self.imperfection != "harmonic":
+            raise InputError("an order m > 0 is the harmonic imperfection's (--imperfection "
+                             "harmonic)")
+        if self.degree is not None and self.order > self.degree:
+            raise InputError(f"the harmonic's order m must not exceed its degree n, got n = "
+                             f"{self.degree}, m = {self.order}")
         if not (math.isfinite(self.width) and 0 < self.width <= 50):
             raise InputError(f"the dimple width must lie in (0, 50] (units of sqrt(h/R)), got "
                              f"{self.width!r}")
 
     def describe(self) -> dict[str, Any]:
-        return asdict(self)
+        """The fields; ``order`` only for the harmonic imperfection (the other curves' keys,
+        stored in their points files, are those of before it existed)."""
+        d = asdict(self)
+        if self.imperfection != "harmonic":
+            del d["order"]
+        return d
 
 
 def _model(cfg: KnockdownConfig, amplitude: float, degree: int) -> Any:
@@ -134,8 +167,10 @@ def _model(cfg: KnockdownConfig, amplitude: float, degree: int) -> Any:
 
 def _shape(cfg: KnockdownConfig, amplitude: float, degree: int) -> Any:
     """The unit sphere with the imperfection of ``cfg`` at ``amplitude`` (δ/h)."""
-    from shells.geometry import ImperfectSphere
+    from shells.geometry import HarmonicImperfectSphere, ImperfectSphere
 
+    if cfg.imperfection == "harmonic":
+        return HarmonicImperfectSphere(1.0, amplitude * cfg.h_over_r, degree, cfg.order)
     return ImperfectSphere(1.0, math.pi, amplitude * cfg.h_over_r, cfg.imperfection,
                            cfg.width * math.sqrt(cfg.h_over_r), degree)
 
@@ -448,6 +483,9 @@ def knockdown(cfg: KnockdownConfig, outdir: str | Path | None = None
                                              else None, root=0)
     degree = cfg.degree if cfg.degree is not None else int(round(sphere_mode_n(cfg.h_over_r,
                                                                                cfg.nu)))
+    if cfg.order > degree:
+        raise InputError(f"the harmonic's order m = {cfg.order} exceeds its degree n = {degree} "
+                         "(the critical degree): give --mode-n")
     if perfect is None:
         first = surface_first(cfg, 0.0, degree) if cfg.model == "surface" else perfect_sphere(
             cfg, degree)
@@ -540,8 +578,9 @@ def _figure(res: dict[str, Any], path: Path) -> str:
                     label=f"Koiter: 1 - {law:.3g} √(δ/h)")
         ax.legend(fontsize=8)
     c = res["config"]
-    ax.set_title(f"closed sphere, h/R = {c['h_over_r']:g}, ν = {c['nu']:g}, "
-                 f"{c['imperfection']}", fontsize=9)
+    what = c["imperfection"] + (f" n = {res['degree']}, m = {c['order']}"
+                                if c["imperfection"] == "harmonic" else "")
+    ax.set_title(f"closed sphere, h/R = {c['h_over_r']:g}, ν = {c['nu']:g}, {what}", fontsize=9)
     ax.set_xlabel("imperfection amplitude δ/h")
     ax.set_ylabel("κ_max / κ_b")
     ax.grid(alpha=0.3)

@@ -1,6 +1,6 @@
 """``shells knockdown`` (CLI layer; no library module imports it): the knock-down of a closed
-sphere's curvature buckling by an axisymmetric imperfection; the run is
-``shells.knockdown.run_knockdown``.
+sphere's curvature buckling by an imperfection (axisymmetric, or on the surface model a
+spherical harmonic); the run is ``shells.knockdown.run_knockdown``.
 """
 
 from __future__ import annotations
@@ -25,9 +25,17 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
     p.add_argument("--h-over-r", type=common.positive_float("h/R"), required=True,
                    help="thickness over R")
     p.add_argument("--nu", type=float, default=0.5, help="Poisson ratio (default 0.5)")
-    p.add_argument("--imperfection", required=True, choices=("mode", "dimple"),
+    p.add_argument("--imperfection", required=True, choices=("mode", "dimple", "harmonic"),
                    help="mode: the buckling mode's shape P_n(cos beta); dimple: "
-                   "-delta h exp(-(beta/beta0)^2) at the pole")
+                   "-delta h exp(-(beta/beta0)^2) at the pole; harmonic (--model surface): "
+                   "-delta h P_n^m(cos theta) cos(m phi) / max|P_n^m|")
+    p.add_argument("--mode-n", type=int, default=None, metavar="N",
+                   help="degree n of the mode or harmonic imperfection (default: the perfect "
+                   "sphere's critical degree; on the surface model the thin-shell estimate, "
+                   "rounded)")
+    p.add_argument("--mode-m", type=int, default=0, metavar="M",
+                   help="order m of the harmonic imperfection, 0 <= m <= n (default 0: the "
+                   "mode's shape)")
     p.add_argument("--width", type=common.positive_float("width"), default=1.0,
                    help="dimple width beta0 in units of sqrt(h/R) (default 1)")
     p.add_argument("--amplitudes", type=float, nargs="+", required=True, metavar="A",
@@ -47,11 +55,15 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
 
 
 def _cmd_knockdown(args: argparse.Namespace) -> int:
+    from shells.errors import InputError
     from shells.knockdown import KnockdownConfig, run_knockdown
 
+    if args.mode_n is not None and args.imperfection == "dimple":
+        raise InputError("--mode-n is the degree of the mode or harmonic imperfection, not of "
+                         "the dimple")
     cfg = KnockdownConfig(args.h_over_r, tuple(args.amplitudes), nu=args.nu,
                           imperfection=args.imperfection, width=args.width, load=args.load,
-                          model=args.model)
+                          model=args.model, degree=args.mode_n, order=args.mode_m)
     # the 1D model is serial: rank 0 computes and writes, the others compute without files;
     # the surface model computes on all ranks, rank 0 writes
     outdir = args.output if common.rank() == 0 else None
@@ -61,9 +73,10 @@ def _cmd_knockdown(args: argparse.Namespace) -> int:
         load = "" if cfg.load == "curvature" else (
             f" (pressure: p_b/E = {res['p_b_over_E']:.5g}, classical "
             f"{res['p_c_over_E_classical']:.5g})")
+        m = f", m = {cfg.order}" if cfg.imperfection == "harmonic" else ""
         print(f"closed sphere h/R = {cfg.h_over_r:g}, nu = {cfg.nu:g}, {cfg.load}, "
-              f"{cfg.imperfection} (n = {res['degree']}): kappa_b h = {res['kappa_b_h']:.6f}"
-              f"{load}")
+              f"{cfg.imperfection} (n = {res['degree']}{m}): kappa_b h = "
+              f"{res['kappa_b_h']:.6f}{load}")
         law = res["asymptotics"] or {"kind": "(surface model: not computed)"}
         c = law.get("coefficient")
         print(f"Koiter: {law['kind']} bifurcation" + (

@@ -219,6 +219,9 @@ def critical_surface(shape: Any, h_over_r: float, nu: float, kappa_end: float, *
     lam_end = abs(kappa_end) * L
     ds = ds if ds is not None else lam_end / 16
     ds_max = ds_max if ds_max is not None else max(ds, lam_end / 10)
+    if not ds >= 1e-7 * lam_end:
+        raise InputError(f"--ds must be at least 1e-7 of the kappa range ({1e-7 * lam_end:.3g} "
+                         f"in kappa L here), got {ds:g}")
     st = ContinuationSettings(ds=ds, ds_max=max(ds, ds_max), ds_min=1e-7 * lam_end,
                               factor_reuse=REUSE_SURFACE,
                               ds_unit="kappa")

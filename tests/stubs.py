@@ -17,9 +17,9 @@ def _stub(*args, **kwargs):
 
 
 def stub_computations(monkeypatch) -> None:
-    """Replace the meshing, branch, critical-point and phase-diagram entry points by stubs
-    raising WorkStartedError."""
-    from shells import axisym, branch, mesh, phase_diagram
+    """Replace the meshing, branch, critical-point, phase-diagram, post-buckling and knock-down
+    entry points by stubs raising WorkStartedError."""
+    from shells import axisym, branch, drivers, knockdown, mesh, phase_diagram
 
     @contextlib.contextmanager
     def no_gmsh(name):
@@ -31,3 +31,5 @@ def stub_computations(monkeypatch) -> None:
     monkeypatch.setattr(axisym, "critical", _stub)
     monkeypatch.setattr(axisym, "branch", _stub)
     monkeypatch.setattr(phase_diagram, "run_phase_diagram", _stub)
+    monkeypatch.setattr(drivers, "postbuckle_run", _stub)
+    monkeypatch.setattr(knockdown, "run_knockdown", _stub)

@@ -166,6 +166,8 @@ MESH = ["mesh", "cap", "--theta-deg=30", "--h-over-r=0.01"]
 AXI = ["critical", "--shape=cap", "--theta-deg=30", "--h-over-r=0.04", "--model=axisym"]
 SURF = ["critical", "--shape=sphere", "--h-over-r=0.05"]
 BRANCH = ["branch", "--shape=sphere", "--h-over-r=0.05", "--kappa-h-max=1", "-o", "out"]
+KD = ["knockdown", "--h-over-r=0.05", "--imperfection=dimple", "--amplitudes=0.1"]
+PB = ["postbuckle", "--shape=sphere", "--h-over-r=0.05"]
 PD = ["phase-diagram", "--h-over-r=0.04", "--thetabar-range", "1", "20", "--points=2", "-o",
       "pd"]
 # (base argv, option, predicate): the option's value replaces the base's (--option=VALUE, so
@@ -189,8 +191,8 @@ OPTIONS = [
     (AXI, "--direction", one_of("up", "down")),
     (AXI, "--model", one_of("axisym", "surface")),
     (SURF, "--size", surely(0.05, 2.0, 1e-5, 2.0)),
-    (SURF, "--degree", int_in(2, 3)),
-    (SURF, "--ds", in_range(0.0, math.inf, lo_open=True)),
+    (SURF, "--degree", int_in(3, 3)),  # P2 locks on a closed sphere: refused
+    (SURF, "--ds", surely(1e-6, math.inf, 1e-320, math.inf)),  # >= 1e-7 of the range
     (SURF, "--shear-penalty", in_range(0.0, math.inf, lo_open=True)),
     (SURF, "--layer-elements", in_range(0.0, math.inf, lo_open=True)),  # a sphere: no rim
     (BRANCH, "--nu", NU),
@@ -201,6 +203,12 @@ OPTIONS = [
     (BRANCH, "--method", one_of("arclength", "natural")),
     (["branch", "--shape=sphere", "--h-over-r=0.05", "--model=axisym", "-o", "out"],
      "--kappa-r-max", nonzero_up_to(100 / 0.05)),
+    (KD, "--h-over-r", in_range(1e-5, 0.2)),  # KnockdownConfig: a sphere up to h/R = 0.2
+    (KD, "--nu", NU),
+    (KD, "--width", in_range(0.0, 50.0, lo_open=True)),
+    (KD, "--amplitudes", in_range(0.0, 10.0)),
+    (PB, "--h-over-r", H),
+    (PB, "--nu", NU),
     (PD, "--points", int_in(1, 10000)),
     (PD, "--nu", NU),
     (PD, "--m-max", int_in(1, 200)),
@@ -279,14 +287,16 @@ def test_every_valid_cap_gets_to_the_computation(no_work, ex):
 def _argv():
     options = sorted({o for _, o, _ in OPTIONS} | {"-o", "--png", "--spec", "--shape", "--json",
                                                    "--first-only", "--restart", "--fields"})
-    commands = ["mesh", "info", "render", "branch", "critical", "phase-diagram", "frobnicate"]
+    commands = ["mesh", "info", "render", "branch", "critical", "phase-diagram", "postbuckle",
+                "knockdown", "frobnicate"]
     return st.tuples(st.sampled_from(commands),
                      st.lists(st.one_of(st.sampled_from(options), values()), max_size=8))
 
 
 def _sample_argv(rng: random.Random):
     options = sorted({o for _, o, _ in OPTIONS} | {"-o", "--png", "--spec", "--shape"})
-    commands = ["mesh", "info", "render", "branch", "critical", "phase-diagram", "frobnicate"]
+    commands = ["mesh", "info", "render", "branch", "critical", "phase-diagram", "postbuckle",
+                "knockdown", "frobnicate"]
     return rng.choice(commands), [rng.choice(options) if rng.random() < 0.5 else sample_value(rng)
                                   for _ in range(rng.randint(0, 8))]
 

@@ -192,7 +192,7 @@ OPTIONS = [
     (AXI, "--model", one_of("axisym", "surface")),
     (SURF, "--size", surely(0.05, 2.0, 1e-5, 2.0)),
     (SURF, "--degree", int_in(3, 3)),  # P2 locks on a closed sphere: refused
-    (SURF, "--ds", surely(1e-6, math.inf, 1e-320, math.inf)),  # >= 1e-7 of the range
+    (SURF, "--ds", surely(1e-5, math.inf, 1e-320, math.inf)),  # >= 1e-7 of the range (48)
     (SURF, "--shear-penalty", in_range(0.0, math.inf, lo_open=True)),
     (SURF, "--layer-elements", in_range(0.0, math.inf, lo_open=True)),  # a sphere: no rim
     (BRANCH, "--nu", NU),

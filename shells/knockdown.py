@@ -568,7 +568,7 @@ def _figure(res: dict[str, Any], path: Path) -> str:
     fig, ax = plt.subplots(figsize=(5, 3.5))
     ax.semilogx([p["delta_over_h"] for p in pts], [p["knockdown"] for p in pts], "o-",
                 label="computed")
-    law = res.get("asymptotics", {}).get("coefficient")
+    law = (res.get("asymptotics") or {}).get("coefficient")  # None on the surface model
     if law and pts:
         import numpy as np
 

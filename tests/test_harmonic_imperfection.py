@@ -258,3 +258,31 @@ def test_knockdown_config_and_cli_refusals(capsys):
     if MPI.COMM_WORLD.rank == 0:
         lines = [ln for ln in err.strip().splitlines() if ln.startswith("shells")]
         assert len(lines) == 4 and "surface model" in lines[0]
+
+
+def test_surface_models_figure_and_summary(tmp_path, capsys, monkeypatch):
+    """The surface model's curve has no reduced equation (``asymptotics`` None): the figure
+    (it raised AttributeError after a whole run) and the summary are made without it; the
+    CLI's run is stubbed with the record of a measured point (benchmarks/harmonic_knockdown.py)."""
+    from mpi4py import MPI
+
+    import shells.knockdown as kd
+    from shells.cli import main
+
+    cfg = kd.KnockdownConfig(H, (0.03,), imperfection="harmonic", model="surface", degree=9,
+                             order=2)
+    res = {"kappa_b": 1.489817 / H, "kappa_b_h": 1.489817, "load": "curvature", "degree": 9,
+           "asymptotics": None, "config": cfg.describe(), "figures": [],
+           "p_b_over_E": 0.0, "p_c_over_E_classical": 0.0,
+           "points": [{"delta_over_h": 0.03, "kappa_max_h": 1.443040, "knockdown": 0.9686,
+                       "kind": "bifurcation", "knockdown_asymptotic": None}]}
+    if MPI.COMM_WORLD.rank == 0:
+        path = kd._figure(res, tmp_path / "knockdown.png")
+        assert (tmp_path / "knockdown.png").stat().st_size > 0 and path.endswith(".png")
+    monkeypatch.setattr(kd, "run_knockdown", lambda *a, **k: res)
+    assert main(["knockdown", "--h-over-r", "0.05", "--imperfection", "harmonic", "--model",
+                 "surface", "--mode-n", "9", "--mode-m", "2", "--amplitudes", "0.03"]) == 0
+    out = capsys.readouterr().out
+    if MPI.COMM_WORLD.rank == 0:
+        assert "harmonic (n = 9, m = 2)" in out and "Koiter: not computed" in out
+        assert "0.96860" in out

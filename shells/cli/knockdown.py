@@ -77,12 +77,13 @@ def _cmd_knockdown(args: argparse.Namespace) -> int:
         print(f"closed sphere h/R = {cfg.h_over_r:g}, nu = {cfg.nu:g}, {cfg.load}, "
               f"{cfg.imperfection} (n = {res['degree']}{m}): kappa_b h = "
               f"{res['kappa_b_h']:.6f}{load}")
-        law = res["asymptotics"] or {"kind": "(surface model: not computed)"}
-        c = law.get("coefficient")
-        print(f"Koiter: {law['kind']} bifurcation" + (
-            f", 1 - kappa_max/kappa_b = {c:.4g} sqrt(delta/h)" if c else
-            ", no sqrt(delta) law for this imperfection's sign" if law["kind"] == "asymmetric"
-            else " (knock-down ~ delta^(2/3))"))
+        law = res["asymptotics"]
+        c = law and law.get("coefficient")
+        print("Koiter: not computed (surface model)" if law is None else
+              f"Koiter: {law['kind']} bifurcation" + (
+                  f", 1 - kappa_max/kappa_b = {c:.4g} sqrt(delta/h)" if c else
+                  ", no sqrt(delta) law for this imperfection's sign"
+                  if law["kind"] == "asymmetric" else " (knock-down ~ delta^(2/3))"))
         print(f"{'delta/h':>9} {'kappa_max h':>12} {'knock-down':>11} {'Koiter':>9}")
         for q in res["points"]:
             k = q.get("knockdown_asymptotic")

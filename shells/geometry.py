@@ -1109,6 +1109,12 @@ def shape_from_description(d: dict[str, Any]) -> Shape:
         return MeridianTable(tuple(tuple(p) for p in d["points"]))
     if kind == "torus":
         return Torus(radius=float(d["R"]), ring=float(d["ring"]))
+    if kind == "imperfect-sphere":
+        return ImperfectSphere(float(d["R"]), float(d["theta"]), float(d["amplitude"]),
+                               str(d["profile"]), float(d["width"]), int(d["degree"]))
+    if kind == "harmonic-sphere":
+        return HarmonicImperfectSphere(float(d["R"]), float(d["amplitude"]), int(d["degree"]),
+                                       int(d["order"]))
     if kind == "mesh":
         raise InputError("a surface known only by its mesh is read from the mesh file "
                          f"({d.get('file')!r}), not from a description")

@@ -68,6 +68,15 @@ def test_profile_is_the_spherical_harmonic_and_the_area_its_law(n, m):
     assert np.allclose(s.normal(x(th, ph)), nfd, rtol=0, atol=1e-7)
 
 
+def test_description_round_trip():
+    """A mesh's sidecar holds ``describe()``; ``shape_from_description`` rebuilds the shape."""
+    from shells.geometry import shape_from_description
+
+    for s in (HarmonicImperfectSphere(1.0, 0.005, 9, 2),
+              ImperfectSphere(1.0, math.pi, 0.005, "dimple", 0.2, 3)):
+        assert shape_from_description(s.describe()) == s
+
+
 def test_bad_harmonics_are_refused():
     for bad in ({"degree": 2, "order": 3}, {"degree": -1}, {"degree": 2.0}, {"order": True},
                 {"degree": 101}, {"amplitude": 0.2}, {"amplitude": math.nan}, {"radius": 0}):

@@ -196,7 +196,7 @@ def test_response_along_the_imperfection_same_for_every_m_and_in_1d():
     constant with f in the imperfect area element; even orders in δ cancelled by ±δ), is the
     same for every m; and for m = 0 it is the 1D model's (its meridian profile projected on
     P_n). Surface model, P3 (P2 locks: 10 % off), size 0.3, n = 4, κh = 0.5, δ = 0.1 h:
-    measured G = -0.050641, -0.050594, -0.050614, -0.050632 for m = 0 to 4 (-0.050565 for m = 0
+    measured G = -0.050641, -0.050594, -0.050614, -0.050632 for m = 0, 2, 3, 4 (-0.050565 for m = 0
     at size 0.2), the 1D model -0.050446 (n = 2: -0.013432 and -0.013395 for m = 0 and 2,
     1D -0.013386)."""
     import ufl

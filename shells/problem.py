@@ -124,6 +124,9 @@ class Problem(Protocol):
     # ``hessian_values(blocks) -> {block: values}``, the blocks' Hessians as CSR values in the
     # pattern of their ``create_hessian`` matrices, without assembling them (the 1D model's
     # m >= 1: Σ m^k C_k); a block definite by a margin is then never assembled.
+    # ``factor_options -> dict``: PETSc options (``pc_factor_...``) the problem recommends for
+    # its Jacobian's factorisation; ``shells.solvers.NewtonSolver`` puts them between its
+    # defaults and the caller's options (the 1D model on one process: PETSc's own LU).
 
 
 def get_state(problem: Problem) -> np.ndarray:

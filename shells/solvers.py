@@ -14,11 +14,14 @@ options database (``-shells_newton_snes_monitor``, ``PETSC_OPTIONS=...``):
 The package's defaults are passed as dicts, set in the database only for the duration of
 ``setFromOptions`` and removed afterwards (the global database is left as it was); an option the
 user has set under the same prefix takes precedence over the default and is left in place.
-Defaults: Newton with a basic line search, MUMPS LU.
+Defaults: Newton with a basic line search, MUMPS LU; a problem may recommend another
+factorisation (``factor_options``: the 1D model on one process, PETSc's own LU), which falls
+back to MUMPS at its first failure (``fall_back_to_mumps``).
 """
 
 from __future__ import annotations
 
+import logging
 import math
 from typing import Any
 
@@ -30,8 +33,11 @@ __all__ = [
     "apply_options",
     "configure_factor",
     "reset_factor",
+    "fall_back_to_mumps",
     "setup_factor",
 ]
+
+log = logging.getLogger("shells")
 
 #: the options prefixes (see the module docstring)
 NEWTON_PREFIX = "shells_newton_"
@@ -108,12 +114,43 @@ def reset_factor(ksp: Any, A: Any, options: dict[str, Any]) -> None:
 
 
 def setup_factor(ksp: Any, A: Any, options: dict[str, Any]) -> bool:
-    """Factor ``A`` (``ksp.setUp()``); False, and the factor reset, if the factorisation failed."""
-    ksp.setUp()
-    if int(ksp.getPC().getFailedReason()) == 0:
-        return True
+    """Factor ``A`` (``ksp.setUp()``); False, and the factor reset, if the factorisation failed.
+    A factorisation by a package other than MUMPS that fails (PETSc's own LU does not pivot: a
+    zero pivot) is repeated with MUMPS, which ``ksp`` then keeps (``fall_back_to_mumps``)."""
+    from petsc4py import PETSc
+
+    try:
+        ksp.setUp()
+    except PETSc.Error:
+        # PETSc's own LU raises where a pattern lacks a diagonal entry; MUMPS never does
+        if ksp.getPC().getFactorSolverType() == "mumps":
+            raise
+    else:
+        if int(ksp.getPC().getFailedReason()) == 0:
+            return True
+    if fall_back_to_mumps(ksp, A, options):
+        ksp.setUp()
+        if int(ksp.getPC().getFailedReason()) == 0:
+            return True
     reset_factor(ksp, A, options)
     return False
+
+
+def fall_back_to_mumps(ksp: Any, A: Any, options: dict[str, Any]) -> bool:
+    """Switch ``ksp``'s factorisation to MUMPS for good (``options`` updated to match) if it is
+    an LU or Cholesky of another package; False if it is MUMPS already (or not a factorisation).
+    MUMPS pivots; the other packages' factorisations are faster where they apply (the 1D
+    model's banded matrices on one process) but stop at a zero pivot."""
+    pc = ksp.getPC()
+    if pc.getType() not in ("lu", "cholesky") or pc.getFactorSolverType() == "mumps":
+        return False
+    log.info("a %s factorisation by '%s' failed (a zero pivot): MUMPS from now on",
+             pc.getType(), pc.getFactorSolverType())
+    options["pc_factor_mat_solver_type"] = "mumps"
+    pc.reset()
+    pc.setFactorSolverType("mumps")
+    configure_factor(ksp, A, options)
+    return True
 
 
 class NewtonSolver:
@@ -138,8 +175,12 @@ class NewtonSolver:
         self.snes.setConvergenceTest(self._converged)
         self._test: dict[str, float | None] = {}
         self.noise_accepted = False
+        # the problem's recommended factorisation (``shells.problem``: ``factor_options``)
+        # between the defaults and the caller's options
         self.options = apply_options(self.snes, self.prefix,
-                                     {**DEFAULT_SNES_OPTIONS, **(options or {})})
+                                     {**DEFAULT_SNES_OPTIONS,
+                                      **getattr(problem, "factor_options", {}),
+                                      **(options or {})})
         self.ksp = self.snes.getKSP()
         configure_factor(self.ksp, self.A, self.options)
         # a second KSP for bordered solves with its own prefix
@@ -189,15 +230,30 @@ class NewtonSolver:
         ``self.noise_accepted`` tells whether the last solve ended so. A failed solve leaves
         the state as it was.
         """
+        from petsc4py import PETSc
+
         self.problem.state.copy(self.x)
         start = self.x.copy()
         rtol, atol0, stol, max_it = self.snes.getTolerances()
-        self._test = {"atol": max(atol0, atol or 0.0), "rtol": rtol, "stol": stol,
-                      "max_it": max_it, "f0": math.inf, "noise": None, "at_noise": False,
-                      "ynorm": math.inf}
-        self.noise_accepted = False
-        self.snes.solve(None, self.x)
-        reason = self.snes.getConvergedReason()
+        for attempt in range(2):
+            self._test = {"atol": max(atol0, atol or 0.0), "rtol": rtol, "stol": stol,
+                          "max_it": max_it, "f0": math.inf, "noise": None, "at_noise": False,
+                          "ynorm": math.inf}
+            self.noise_accepted = False
+            try:
+                self.snes.solve(None, self.x)
+                reason = self.snes.getConvergedReason()
+                failed = int(self.ksp.getPC().getFailedReason()) != 0
+            except PETSc.Error:
+                # PETSc's own LU raises on a pattern without a diagonal entry
+                if attempt > 0 or self.ksp.getPC().getFactorSolverType() == "mumps":
+                    raise
+                reason, failed = -1, True
+            if not (attempt == 0 and reason <= 0 and failed
+                    and fall_back_to_mumps(self.ksp, self.A, self.options)):
+                break
+            start.copy(self.x)  # again, from the start, with a pivoting factorisation
+            self._set_state(self.x)
         its = self.snes.getIterationNumber()
         if reason <= 0 and int(self.ksp.getPC().getFailedReason()) != 0:
             reset_factor(self.ksp, self.A, self.options)  # or every later solve fails too

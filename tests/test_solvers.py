@@ -94,3 +94,79 @@ def test_newton_converges_past_the_round_off_bound_of_a_thin_shell():
     assert min(its1 + its4) >= 3
     assert all(noise1 + noise4)  # each ended at round-off (atol 1e-12 is below it)
     assert np.linalg.norm(four - one) <= 1e-6 * np.linalg.norm(one)
+
+
+def _needs_pivoting(n: int) -> PETSc.Mat:
+    """Nonsingular and symmetric with a zero diagonal (stored): [[0, 1], [1, 0]] blocks. An LU
+    without pivoting (PETSc's own) meets a zero pivot at once in any symmetric ordering."""
+    A = PETSc.Mat().createAIJ([n, n], nnz=2, comm=MPI.COMM_SELF)
+    for i in range(0, n, 2):
+        A[i, i] = A[i + 1, i + 1] = 0.0
+        A[i, i + 1] = A[i + 1, i] = 1.0
+    A.assemble()
+    return A
+
+
+def test_a_zero_pivot_of_the_native_lu_falls_back_to_mumps():
+    """PETSc's own LU (the 1D model's on one process: ``factor_options``) stops at a zero pivot;
+    ``setup_factor`` then factors with MUMPS, which the KSP keeps, and the solve is exact."""
+    n = 6
+    A = _needs_pivoting(n)
+    opts = {"pc_factor_mat_solver_type": "petsc", "pc_factor_mat_ordering_type": "rcm",
+            "mat_mumps_icntl_14": 200}
+    ksp = PETSc.KSP().create(MPI.COMM_SELF)
+    ksp.setType("preonly")
+    ksp.getPC().setType("lu")
+    ksp.getPC().setFactorSolverType("petsc")
+    configure_factor(ksp, A, opts)
+    ksp.setUp()
+    assert int(ksp.getPC().getFailedReason()) != 0  # the premise: no pivoting, a zero pivot
+    ksp.getPC().reset()
+    ksp.getPC().setFactorSolverType("petsc")
+    configure_factor(ksp, A, opts)
+    assert setup_factor(ksp, A, opts)
+    assert ksp.getPC().getFactorSolverType() == "mumps"
+    assert opts["pc_factor_mat_solver_type"] == "mumps"
+    b, x = A.createVecLeft(), A.createVecRight()
+    b.array[:] = np.arange(1.0, n + 1.0)
+    ksp.solve(b, x)
+    assert np.allclose(x.array, b.array.reshape(-1, 2)[:, ::-1].ravel(), rtol=0, atol=1e-14)
+    for o in (ksp, A, b, x):
+        o.destroy()
+
+
+def test_newton_with_the_native_lu_survives_a_zero_pivot():
+    """A problem recommending PETSc's own LU whose Jacobian needs pivoting: E = x y - κ x
+    (R = (y - κ, x), J = [[0, 1], [1, 0]]). Newton falls back to MUMPS and converges to
+    (0, κ) in one step; a problem without the recommendation keeps MUMPS throughout."""
+    from shells.algebraic import AlgebraicProblem
+    from shells.solvers import NewtonSolver
+
+    class Saddle(AlgebraicProblem):
+        factor_options = {"pc_factor_mat_solver_type": "petsc",
+                          "pc_factor_mat_ordering_type": "rcm"}
+
+        def energy(self, w, k):
+            return w[0] * w[1] - k * w[0]
+
+        def gradient(self, w, k):
+            return np.array([w[1] - k, w[0]])
+
+        def hessian(self, w, k):
+            return np.array([[0.0, 1.0], [1.0, 0.0]])
+
+        def dgradient_dkappa(self, w, k):
+            return np.array([-1.0, 0.0])
+
+    p = Saddle(2, np.array([1.0, 1.0]))
+    p.set_kappa(0.5)
+    ns = NewtonSolver(p)
+    assert ns.ksp.getPC().getFactorSolverType() == "petsc"
+    ok, its = ns.solve()
+    assert ok and its == 1
+    assert np.allclose(p.state.array, [0.0, 0.5], rtol=0, atol=1e-14)
+    assert ns.ksp.getPC().getFactorSolverType() == "mumps"
+    # the bordered solves' KSP falls back on its own, at its first factorisation
+    assert ns.factor()
+    assert ns.lin.getPC().getFactorSolverType() == "mumps"
+    ns.destroy()

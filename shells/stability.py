@@ -105,7 +105,6 @@ class _BandedCholesky:
         self.index = (i - j) + j * (self.kd + 1)
         self.diagonal = np.nonzero(rows == aj)[0]
         self.has_diagonal = len(self.diagonal) == n
-        self.buffer = np.zeros((self.kd + 1) * n)
 
     def matches(self, ai: np.ndarray, aj: np.ndarray) -> bool:
         return (len(ai) == len(self.ai) and len(aj) == len(self.aj)
@@ -117,13 +116,11 @@ class _BandedCholesky:
         from scipy.linalg import lapack
 
         d = values[self.diagonal]
-        if not (self.has_diagonal and np.all(d > 0) and np.all(np.isfinite(values))):
+        if not (self.has_diagonal and np.all(d > 0) and np.isfinite(values).all()):
             return False
-        shifted = values.copy()
-        shifted[self.diagonal] = d * (1.0 - margin)
-        buf = self.buffer
-        buf.fill(0.0)
-        buf[self.index] = shifted[self.lower]
+        buf = np.zeros((self.kd + 1) * self.n)  # dpbtrf overwrites the whole band: a new one
+        buf[self.index] = values[self.lower]
+        buf[:: self.kd + 1] *= 1.0 - margin  # the diagonal: band row 0 (the same product)
         ab = buf.reshape(self.n, self.kd + 1).T  # (kd + 1, n), Fortran-contiguous
         _, info = lapack.dpbtrf(ab, lower=1, overwrite_ab=1)
         return int(info) == 0

@@ -266,23 +266,22 @@ class ModeForms:
         matrices of ``create_matrix(self.form)``, without a PETSc matrix: Σ m^k c_k over the
         values c_k of the C_k (read once per state), mode m's conditions applied as
         ``assemble_hessian`` applies them (constrained rows and columns 0, their diagonal 1).
-        The same matrix as ``assemble_hessian``'s to round-off (Horner's order against
+        The same matrix as ``assemble_hessian``'s to round-off (BLAS' order of the sum against
         MatAXPY's sum of powers), for a test of definiteness (``shells.stability``): 0.1 ms
         per block instead of 0.4 for the PETSc matrix and the copy of its values. One process
         only."""
         C = self.coefficient_matrices()
         if self._C_values is None or self._C_values[0] is not self._C_inputs:
-            self._C_values = (self._C_inputs, [Ck.getValuesCSR()[2] for Ck in C])
-        c = self._C_values[1]
+            self._C_values = (self._C_inputs, np.vstack([Ck.getValuesCSR()[2] for Ck in C]))
+        ms = [int(m) for m in ms if m != 0]
+        if not ms:
+            return {}
+        # every block's values at once: one matrix product (m^k) @ (c_k), BLAS, instead of a
+        # Horner loop of array operations per block (3.7 ms for m = 1..12 on the θ̄ = 8 cap)
+        powers = np.array([[float(m) ** k for k in range(DEGREE + 1)] for m in ms])
+        values = powers @ self._C_values[1]
         out = {}
-        for m in ms:
-            if m == 0:
-                continue
-            v = c[DEGREE] * float(m)  # Horner, in place: no temporary per term
-            for k in range(DEGREE - 1, 0, -1):
-                v += c[k]
-                v *= float(m)
-            v += c[0]
+        for m, v in zip(ms, values, strict=True):
             zero, diagonal = self._value_masks(m)
             v[zero] = 0.0
             v[diagonal] = 1.0

@@ -1,0 +1,160 @@
+"""How reproducible a located bifurcation of the 1D model is (issue 14's "unchanged to 1e-4").
+
+    scripts/in-env python3 benchmarks/locator_noise.py [-o benchmarks/results/locator_noise.json]
+
+The case: the phase diagram's grid point h/R = 0.01, θ̄ = 15.11 going down (its first critical
+point, an m = 2 bifurcation near κR = -0.4232), located to rel_tol 1e-5 as the paper comparison
+locates it. Three measurements:
+
+1. the same run with the continuation's first step scaled by 1, 1 ± 1e-6 and 1.001: another
+   sequence of round-off along the same branch; the spread of the located κ against the
+   accuracy each run reports;
+2. the crossing eigenvalue μ of block m = 2 at the locator's trial states (the samples its
+   secant and quadratic steps use), run against run;
+3. the same eigenvalue at one κ near the crossing reached by Newton (SNES) in 8, 11 and 16
+   natural steps from κ = 0: how reproducible a state and its μ are at a fixed κ, and how far
+   the 1-ulp perturbations w (1 ± ε) of that state move μ (the round-off of the assembled
+   Hessian, whose Frobenius norm is also reported).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parent.parent
+KAPPA_FIXED = -0.4231  # κR near the crossing, for measurement 3
+
+
+def _task(rel_tol: float):  # noqa: ANN202 - (config, task)
+    from shells.phase_diagram import PhaseDiagramConfig
+    from shells.phase_diagram.config import tasks_of
+
+    cfg = PhaseDiagramConfig(h_over_r=(0.01, 0.04), thetabar_range=(1.0, 20.0), points=36,
+                             refine=3, rel_tol=rel_tol)
+    task = next(t for t in tasks_of(cfg)[0] if t.h_over_r == 0.01 and t.direction == "down"
+                and abs(t.thetabar - 15.1142857) < 1e-6)
+    return cfg, task
+
+
+def located(scale: float, rel_tol: float) -> dict:
+    """The task located with the first continuation step scaled by ``scale``; the crossing
+    eigenvalue samples of block 2 at the locator's trials."""
+    import shells.critical as critical
+    import shells.phase_diagram.tracing as tracing
+    from shells.phase_diagram import compute_task
+
+    cfg, task = _task(rel_tol)
+    samples: list[tuple[float, float]] = []
+    init, eigs_at = tracing._Branch.__init__, critical._Locator.eigs_at
+
+    def scaled_init(self, *a, **k):  # noqa: ANN001, ANN002, ANN003, ANN202
+        init(self, *a, **k)
+        self.settings = replace(self.settings, ds=self.settings.ds * scale)
+
+    def recorded(self, e, nev, blocks):  # noqa: ANN001, ANN202
+        out = eigs_at(self, e, nev, blocks)
+        if 2 in out:
+            samples.append((e.lam, out[2][0]))
+        return out
+
+    tracing._Branch.__init__, critical._Locator.eigs_at = scaled_init, recorded
+    try:
+        rec = compute_task(task, cfg)
+    finally:
+        tracing._Branch.__init__, critical._Locator.eigs_at = init, eigs_at
+    bif = rec["bifurcation"]
+    return {"first_step_scale": scale, "kappa_R": bif["kappa_R"], "mode_m": bif["mode_m"],
+            "reported_accuracy": bif["accuracy"], "dofs": rec["dofs"],
+            "samples_block2": samples}
+
+
+def fixed_kappa() -> dict:
+    """μ of block 2 at κR = KAPPA_FIXED after natural Newton steps, and under 1-ulp
+    perturbations of the state."""
+    from shells.phase_diagram.tracing import _Branch
+    from shells.problem import get_state, set_state
+    from shells.stability import Stability
+
+    cfg, task = _task(1e-5)
+    runs, states = [], []
+    for n in (9, 12, 17):
+        br = _Branch(task.theta, task.h_over_r, cfg.nu, cfg)
+        m = br.model
+        for k in np.linspace(0.0, KAPPA_FIXED, n)[1:]:
+            m.set_kappa(float(k))
+            ok, _ = br.ns.solve()
+            if not ok:
+                raise RuntimeError(f"Newton failed at kappa R = {k}")
+        st = Stability(m)
+        runs.append({"natural_steps": n - 1, "mu_2": st.eigenpairs(2, block=2)[0][0],
+                     "residual": br.ns.residual_norm()})
+        states.append(get_state(m).copy())
+        if n == 17:
+            rng = np.random.default_rng(1)
+            eps = float(np.finfo(float).eps)
+            w0 = states[-1]
+            perturbed = []
+            for _ in range(5):
+                set_state(m, w0 * (1.0 + eps * rng.choice((-1.0, 1.0), size=w0.size)))
+                perturbed.append(st.eigenpairs(2, block=2)[0][0])
+            set_state(m, w0)
+            H = st.assemble(2)
+            hnorm = float(H.norm())
+        st.destroy()
+        br.destroy()
+    diff = max(float(np.linalg.norm(s - states[0]) / np.linalg.norm(states[0]))
+               for s in states[1:])
+    return {"kappa_R": KAPPA_FIXED, "runs": runs, "state_relative_difference": diff,
+            "mu_2_one_ulp_perturbations": perturbed, "hessian_2_frobenius": hnorm}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("-o", default=str(REPO / "benchmarks/results/locator_noise.json"))
+    args = ap.parse_args()
+    t0 = time.perf_counter()
+    runs = [located(s, 1e-5) for s in (1.0, 1.0 + 1e-6, 1.0 - 1e-6, 1.001)]
+    fixed = fixed_kappa()
+    ks = [r["kappa_R"] for r in runs]
+    spread = (max(ks) - min(ks)) / abs(float(np.mean(ks)))
+    # μ at the trial nearest the crossing, run against run (the locator's own samples)
+    nearest = [min(r["samples_block2"], key=lambda s: abs(s[1])) for r in runs]
+    slope = None
+    s0 = sorted(runs[0]["samples_block2"])
+    if len(s0) >= 2:
+        (l1, m1), (l2, m2) = s0[0], s0[-1]
+        slope = (m2 - m1) / (l2 - l1)
+    out = {"case": "phase diagram h/R 0.01, thetabar 15.11, down (m = 2), rel_tol 1e-5",
+           "runs": runs, "located_spread_relative": spread,
+           "largest_reported_accuracy": max(r["reported_accuracy"] for r in runs),
+           "nearest_samples": nearest, "dmu_dkappaR": slope, "fixed_kappa": fixed,
+           "wall_time": time.perf_counter() - t0}
+    Path(args.o).write_text(json.dumps(out, indent=1))
+    print(f"{'first step x':>14} {'kappa R':>13} {'reported acc.':>14}")
+    for r in runs:
+        print(f"{r['first_step_scale']:>14.7g} {r['kappa_R']:>13.9f} "
+              f"{r['reported_accuracy']:>14.2e}")
+    print(f"spread of the located kappa: {spread:.2e} relative")
+    print("mu_2 at the trial nearest the crossing: " + ", ".join(
+        f"{mu:.3e} at kappa R {lam:.7f}" for lam, mu in nearest))
+    if slope is not None:
+        print(f"d mu / d kappa R = {slope:.3e}")
+    mus = [r["mu_2"] for r in fixed["runs"]]
+    steps = [r["natural_steps"] for r in fixed["runs"]]
+    ulp = fixed["mu_2_one_ulp_perturbations"]
+    print(f"at kappa R = {KAPPA_FIXED} by natural Newton steps {steps}: "
+          f"mu_2 = {', '.join(f'{m:.3e}' for m in mus)}, states equal to "
+          f"{fixed['state_relative_difference']:.1e}; 1-ulp perturbations move mu_2 by up to "
+          f"{max(ulp) - min(ulp):.1e}; ||H_2||_F = {fixed['hessian_2_frobenius']:.2e}")
+    assert math.isfinite(spread)
+
+
+if __name__ == "__main__":
+    main()

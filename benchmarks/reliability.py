@@ -85,8 +85,11 @@ def clean_env(**extra: str) -> dict[str, str]:
 #: (of its largest value), eigenvalue 1.2e-7, accuracy 2.1e-7, orbit 1.4e-8, the quotient
 #: 2.3e-10, the located κ 1.7e-12 (compared to ``RTOL``); the campaign's 4 resumed 2-rank runs
 #: (benchmarks/results/reliability.json): 6.0e-10, 3.4e-8, 6.3e-8, 9.4e-8, 1.6e-10, and every
-#: other number 5.8e-12. On one rank every run is the same to the last bit.
-PARALLEL_RTOL: dict[str, float] = {"dkappa_ds": 1e-8, "eigenvalue": 1e-5, "accuracy": 1e-5,
+#: other number 5.8e-12. On one rank every run is the same to the last bit. A bifurcation's
+#: accuracy also holds a measured round-off (``shells.critical.EIGEN_ROUNDOFF``: the change of
+#: its eigenvalue under 1-ulp perturbations of the state), itself a difference of round-offs:
+#: compared as an order of magnitude there (0.9: within a factor 10).
+PARALLEL_RTOL: dict[str, float] = {"dkappa_ds": 1e-8, "eigenvalue": 1e-5, "accuracy": 0.9,
                                    "mode_rayleigh.orbit": 1e-5, "mode_rayleigh.x": 1e-8}
 
 

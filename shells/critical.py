@@ -61,6 +61,19 @@ __all__ = ["CriticalSettings", "CriticalPoint", "FollowResume", "SwitchResume", 
            "locate", "switch_branch"]
 
 
+#: the eigenvalues near 0 of a stability block are reproducible only to about this multiple
+#: of their change under 1-ulp perturbations of the state (``_Locator.eigenvalue_roundoff``),
+#: so a crossing only to that over |dμ/dκ|, which the reported accuracy includes. Measured
+#: (benchmarks/locator_noise.py) on the 1D model's m = 2 block of the θ̄ = 15.11 cap going
+#: down (h/R = 0.01; ||H||_F = 4.6e9 from the slope penalty, dμ/dκR = 2.3e-3): 1-ulp
+#: perturbations move the crossing eigenvalue by up to 1e-7, the locator's trial states next to
+#: the crossing scatter it by 3e-7 run against run (first step scaled by 1 ± 1e-6) and the
+#: located κ by 3.8e-4 relative, where the interpolation alone claimed at most 1.6e-6 (with this
+#: factor the four runs report 0.7e-4 to 3.4e-4; the θ̄ = 8 cap's κ > 0 bifurcations, which
+#: scatter by ~1e-7, 3e-7 to 2e-6)
+EIGEN_ROUNDOFF = 6.0
+
+
 @dataclass(frozen=True)
 class CriticalSettings:
     """How critical points are located.
@@ -305,6 +318,32 @@ class _Locator:
         (converged) point."""
         self._load(e.state, e.lam)
         return {b: tuple(sorted(self.stab.eigenpairs(nev, block=b)[0])) for b in blocks}
+
+    def eigenvalue_roundoff(self, e: _Eval, block: Hashable) -> float:
+        """The round-off of block's eigenvalue nearest 0 at an evaluated point, measured:
+        ``EIGEN_ROUNDOFF`` times its largest change under two 1-ulp perturbations w (1 ± ε)
+        (random signs, a fixed seed) of the point's state. 0 where it cannot be measured (an
+        eigensolve that fails: the shift-invert factorisation of an exactly singular block,
+        as at an algebraic problem's exact root)."""
+        from petsc4py import PETSc
+
+        self._load(e.state, e.lam)
+        w0 = get_state(self.problem)
+        rng = np.random.default_rng(20261203 + self.problem.comm.rank)
+        eps = float(np.finfo(float).eps)
+        change = 0.0
+        try:
+            mu0 = self.stab.eigenpairs(1, block=block)[0]
+            for _ in range(2):
+                set_state(self.problem, w0 * (1.0 + eps * rng.choice((-1.0, 1.0), size=w0.size)))
+                mu = self.stab.eigenpairs(1, block=block)[0]
+                if mu and mu0:
+                    change = max(change, abs(mu[0] - mu0[0]))
+        except PETSc.Error:
+            change = 0.0
+        finally:
+            self._load(e.state, e.lam)
+        return EIGEN_ROUNDOFF * change
 
     def counts_at(self, e: _Eval, blocks: tuple[Hashable, ...]) -> dict[Hashable, int]:
         """The negative counts of ``blocks`` at an evaluated (converged) point."""
@@ -712,6 +751,11 @@ def _locate_crossing(loc: _Locator, p0: Point, w0: np.ndarray, lo: _Eval, hi: _E
         accuracy = abs(hi.lam - lo.lam) / 2
     # the mode at the trial point nearest the critical point (on the near side)
     near = lo if lo.sigma > lo0.sigma else hi
+    fl, fh = crossing(lo, block), crossing(hi, block)
+    if math.isfinite(fl) and math.isfinite(fh) and fl != fh and hi.lam != lo.lam:
+        # no better than the round-off of the crossing eigenvalue allows
+        accuracy = max(accuracy, loc.eigenvalue_roundoff(near, block)
+                       * abs(hi.lam - lo.lam) / abs(fh - fl))
     if interpolated is not None and hi.lam != lo.lam:
         # the root was interpolated from eigenvalue samples: its nearest trial state may lie
         # well away from it (a branch switch starts from the state); one trial at the root

@@ -333,7 +333,10 @@ class _Locator:
         eps = float(np.finfo(float).eps)
         change = 0.0
         try:
-            mu0 = self.stab.eigenpairs(1, block=block)[0]
+            # the point's own eigenvalue nearest 0 where the locator computed it already
+            known = e.eigs.get(block)
+            mu0 = ([min(known, key=abs)] if known
+                   else self.stab.eigenpairs(1, block=block)[0])
             for _ in range(2):
                 set_state(self.problem, w0 * (1.0 + eps * rng.choice((-1.0, 1.0), size=w0.size)))
                 mu = self.stab.eigenpairs(1, block=block)[0]

@@ -53,7 +53,23 @@ def main(argv: Sequence[str] | None = None) -> int:
         return (f"shells: interrupted ({signal.Signals(signum).name}); rerun the same command "
                 "to resume")
 
+    def _importing(frame: Any) -> bool:
+        """The interrupted code is importing a module (import machinery on its stack)."""
+        while frame is not None:
+            if frame.f_code.co_filename.startswith("<frozen importlib"):
+                return True
+            frame = frame.f_back
+        return False
+
     def _terminate(signum: int, frame: Any) -> None:
+        if _importing(frame):
+            # a KeyboardInterrupt inside a C extension's module initialisation (dolfinx's
+            # nanobind module calls back into Python for its enums) aborted the process with
+            # a native backtrace, or ended it by SIGINT, in 8 of 300 signals sent within 0.5 s
+            # of a 1D branch's first record: act once the import is done (polled every 50 ms)
+            signal.signal(signal.SIGALRM, lambda _s, f: _terminate(signum, f))
+            signal.setitimer(signal.ITIMER_REAL, 0.05)
+            return
         signalled.append(signum)
         from mpi4py import MPI
 
@@ -80,6 +96,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if threading.current_thread() is threading.main_thread():
         for signum in (signal.SIGINT, signal.SIGTERM):
             handlers[signum] = signal.signal(signum, _terminate)
+        handlers[signal.SIGALRM] = signal.getsignal(signal.SIGALRM) or signal.SIG_DFL
 
     def _interrupted() -> int:
         # every file a run writes is whole at any moment (appended lines, renamed
@@ -126,6 +143,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             comm.Abort(1)
         return 1
     finally:
+        if handlers:
+            signal.setitimer(signal.ITIMER_REAL, 0.0)  # no deferred interrupt after this
         for signum, handler in handlers.items():
             signal.signal(signum, handler)
 

@@ -231,7 +231,21 @@ def run(argv: list[str], out: Path, ranks: int = 1, *, after: float | None = Non
         for pid in left:
             os.kill(pid, signal.SIGKILL)
         err += f"\n[orphaned processes {left}]"
+    if signalled is not None and ranks > 1:
+        _remove_session_dirs(p.pid)
     return Run(p.returncode, time.perf_counter() - t0, err, signalled)
+
+
+def _remove_session_dirs(pid: int) -> None:
+    """The session folder of an mpirun that a signal ended (``prterun.<host>.<pid>.<n>`` in
+    the temporary folder): left behind, it makes a later mpirun that gets the same process id
+    fail to start ("PMIX_ERR_EXISTS ... prte_session_dir failed", seen on a machine with 113
+    such folders from earlier campaigns)."""
+    import shutil
+    import tempfile
+
+    for d in Path(tempfile.gettempdir()).glob(f"prterun.*.{pid}.*"):
+        shutil.rmtree(d, ignore_errors=True)
 
 
 def records(out: Path, case: Case) -> list[dict[str, Any]]:

@@ -10,8 +10,22 @@ from __future__ import annotations
 
 __version__ = "0.1.0"
 
+from typing import Any
+
 from shells.errors import InputError
-from shells.geometry import Disk, EllipsoidalCap, Sphere, SphericalCap, make_shape
 
 __all__ = ["__version__", "InputError", "Sphere", "SphericalCap", "EllipsoidalCap", "Disk",
            "make_shape"]
+
+#: imported on first use: ``import shells`` stays light (SciPy alone takes 0.36 s), so the
+#: ``shells`` command installs its signal handlers before any heavy import (a Ctrl-C in that
+#: time ended in a KeyboardInterrupt traceback)
+_GEOMETRY = ("Sphere", "SphericalCap", "EllipsoidalCap", "Disk", "make_shape")
+
+
+def __getattr__(name: str) -> Any:
+    if name in _GEOMETRY:
+        from shells import geometry
+
+        return getattr(geometry, name)
+    raise AttributeError(f"module 'shells' has no attribute {name!r}")

@@ -19,14 +19,20 @@ from collections.abc import Sequence
 from typing import Any
 
 from shells import __version__
-from shells.cli import branch, critical, knockdown, mesh, phase_diagram, postbuckle
-from shells.cli.common import Parser, check_paths, check_ranges, rank, setup_logging
 from shells.errors import InputError
 
 __all__ = ["entry", "main"]
 
+#: signals that arrived between ``entry`` and ``main``'s own handlers (``entry``'s records them)
+_EARLY: list[int] = []
+
 
 def _build_parser() -> argparse.ArgumentParser:
+    # the subcommands (NumPy, SciPy, the geometry) are imported here, once ``main`` handles
+    # signals, not when ``shells.cli`` is imported
+    from shells.cli import branch, critical, knockdown, mesh, phase_diagram, postbuckle
+    from shells.cli.common import Parser
+
     p = Parser(prog="shells", description="Thin elastic shells with natural curvature "
                "(FEniCSx): meshes, branches, buckling and snap-through.")
     p.add_argument("--version", action="version", version=f"shells {__version__}")
@@ -46,7 +52,6 @@ def _build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; returns the exit status (0 ok, 2 bad input, 1 failure)."""
     argv = list(sys.argv[1:] if argv is None else argv)
-    parser = _build_parser()
     signalled: list[int] = []
 
     def _message(signum: int) -> str:
@@ -98,6 +103,11 @@ def main(argv: Sequence[str] | None = None) -> int:
             handlers[signum] = signal.signal(signum, _terminate)
         handlers[signal.SIGALRM] = signal.getsignal(signal.SIGALRM) or signal.SIG_DFL
 
+    def rank() -> int:
+        from shells.cli.common import rank
+
+        return rank()
+
     def _interrupted() -> int:
         # every file a run writes is whole at any moment (appended lines, renamed
         # checkpoints): the same command resumes
@@ -106,14 +116,19 @@ def main(argv: Sequence[str] | None = None) -> int:
             print(_message(signum), file=sys.stderr)
         return 128 + signum
     try:
+        if _EARLY and handlers:
+            _terminate(_EARLY.pop(), None)  # before main's handlers: now it is handled
+        parser = _build_parser()
+        from shells.cli import common
+
         args = parser.parse_args(argv)
-        setup_logging(args.verbose)
+        common.setup_logging(args.verbose)
         if args.command is None:
             if rank() == 0:
                 parser.print_help()
             return 0
-        check_ranges(args)
-        check_paths(args)
+        common.check_ranges(args)
+        common.check_paths(args)
         return int(args.func(args) or 0)
     except InputError as e:
         msg = " ".join(str(e).splitlines())  # one line, whatever the message holds
@@ -160,7 +175,9 @@ def entry() -> None:
     import signal
 
     def _between(signum: int, frame: Any) -> None:
-        """``main`` restores this handler in its ``finally``, just before it returns."""
+        """Until ``main`` has its own handlers the signal is recorded (``main`` then acts on
+        it); ``main`` restores this handler in its ``finally``, just before it returns."""
+        _EARLY.append(signum)
 
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, _between)

@@ -117,7 +117,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 128 + signum
     try:
         if _EARLY and handlers:
-            _terminate(_EARLY.pop(), None)  # before main's handlers: now it is handled
+            # before main's handlers: handled now, the last one named, none left for later
+            signum = _EARLY[-1]
+            _EARLY.clear()
+            _terminate(signum, None)
         parser = _build_parser()
         from shells.cli import common
 

@@ -121,9 +121,10 @@ class Problem(Protocol):
         """The mode (m, n) of an eigenvector of the block's Hessian."""
 
     # Optional (``shells.stability`` uses it where a problem has it, ``hasattr``):
-    # ``hessian_values(blocks) -> {block: values}``, the blocks' Hessians as CSR values in the
-    # pattern of their ``create_hessian`` matrices, without assembling them (the 1D model's
-    # m >= 1: Σ m^k C_k); a block definite by a margin is then never assembled.
+    # ``definite_blocks(blocks, margin) -> {block: bool} | None``: whether each block's
+    # Hessian H has a Cholesky factor of H - margin diag(H), decided without assembling it (the
+    # 1D model on one process: element matrices condensed on its chain of cells); blocks left
+    # out, or None, are tested on their assembled matrices.
     # ``factor_options -> dict``: PETSc options (``pc_factor_...``) the problem recommends for
     # its Jacobian's factorisation; ``shells.solvers.NewtonSolver`` puts them between its
     # defaults and the caller's options (the 1D model on one process: PETSc's own LU).

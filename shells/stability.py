@@ -27,6 +27,10 @@ count reported is MUMPS' or that of a block definite by a margin. On the 1D mode
 the test costs about a third of the MUMPS factorisation it replaces (0.5 against 1.5 ms,
 measured on a loaded machine; benchmarks/axisym_speed.py), and located points are unchanged
 to the last digit (tests/test_stability.py compares the counts with MUMPS' block by block).
+A problem may decide the same test itself without assembling its blocks
+(``definite_blocks``, ``shells.problem``): the 1D model on one process factors its element
+matrices condensed on the meridian's chain of cells (``shells.axisym.chain``), every block
+m = 0..12 of a point in about 6 ms instead of 21.
 """
 
 from __future__ import annotations
@@ -289,22 +293,23 @@ class Stability:
 
     def negative_counts(self, blocks: Iterable[Hashable] | None = None) -> dict[Hashable, int]:
         """The negative count of every block (default: all of the problem's blocks). A problem
-        that gives the values of blocks without assembling their matrices
-        (``hessian_values(blocks)``: {block: CSR values in the pattern of its
-        ``create_hessian``}, the 1D model's m ≥ 1) has those tested first: a block definite by
-        the margin is not assembled at all (its matrix is then not the block's: call
-        ``inertia`` before ``eigenpairs(assemble=False)``)."""
+        that tests its blocks' definiteness without assembling them
+        (``definite_blocks(blocks, margin)``: {block: bool}, the same test as the banded
+        Cholesky's; the 1D model on one process) has that answer used first: a block definite
+        by the margin is not assembled at all (its matrix is then not the block's: call
+        ``inertia`` before ``eigenpairs(assemble=False)``), one that is not goes straight to
+        MUMPS."""
         blocks = self.blocks() if blocks is None else tuple(blocks)
-        values = (self.problem.hessian_values(blocks)
-                  if self.banded_test and hasattr(self.problem, "hessian_values") else {})
+        decided = (self.problem.definite_blocks(blocks, DEFINITE_MARGIN)
+                   if self.banded_test and hasattr(self.problem, "definite_blocks") else None)
+        decided = decided or {}
         out = {}
         for blk in blocks:
-            if blk in values and self._block(blk).definite(DEFINITE_MARGIN, values[blk]):
+            if decided.get(blk):
                 self.calls["banded"] += 1
                 out[blk] = 0
-            else:
-                tested = blk in values and self._block(blk).banded is not None
-                out[blk] = self.inertia(blk, test=not tested)[0]
+            else:  # not definite by the margin (MUMPS), or not decided (the banded test first)
+                out[blk] = self.inertia(blk, test=blk not in decided)[0]
         return out
 
     def mass(self, block: Hashable = None) -> Any:

@@ -87,17 +87,20 @@ def test_polynomial_mode_hessians_equal_direct_assembly(shape, h, kappas):
 
 
 def test_coefficient_matrices_follow_the_state():
-    """The C_k are assembled once per state and again after any change of it: κ alone
-    (``set_kappa``), a Newton solve, the state vector written directly."""
+    """The C_k (in parallel; on one process the element matrices they come from) are made
+    once per state and again after any change of it: κ alone (``set_kappa``), a Newton solve,
+    the state vector written directly."""
     model = loaded(Sphere(1.0), 0.01, (50.0,))
     mf = model.mode_forms
+    key = "_C_inputs" if mf._chain_setup() is None else "_E_inputs"
     assert world_max(differences(model, 5)["frobenius"]) <= 1e-10
-    inputs = mf._C_inputs
+    inputs = getattr(mf, key)
+    assert inputs is not None
     assert world_max(differences(model, 20)["frobenius"]) <= 1e-10
-    assert everywhere(mf._C_inputs is inputs)  # same state: not reassembled
+    assert everywhere(getattr(mf, key) is inputs)  # same state: not made again
     model.set_kappa(80.0)  # no solve: only κ changed
     assert world_max(differences(model, 5)["frobenius"]) <= 1e-10
-    assert everywhere(mf._C_inputs is not inputs)
+    assert everywhere(getattr(mf, key) is not inputs)
     ns = NewtonSolver(model, options=SNES_OPTIONS)
     assert everywhere(ns.solve()[0])
     ns.destroy()
@@ -116,8 +119,9 @@ def test_inertia_is_that_of_the_direct_assembly():
     blocks = tuple(range(31))
     stab = Stability(model)
     poly = stab.negative_counts(blocks)
-    model.assemble_hessian = (  # the instance's blocks from the direct form
+    model.assemble_hessian = (  # the instance's blocks from the direct form, all by MUMPS
         lambda b, H: model.mode_forms.assemble_hessian(b, H, direct=True))
+    stab.banded_test = False
     direct = stab.negative_counts(blocks)
     stab.destroy()
     counts = np.array([poly[b] for b in blocks], dtype=float)
@@ -128,21 +132,46 @@ def test_inertia_is_that_of_the_direct_assembly():
     assert counts.sum() > 0
 
 
-def test_hessian_values_are_those_of_the_assembled_blocks():
-    """``hessian_values`` (Σ m^k c_k on the CSR values, conditions by masks) equals the
-    assembled H_m entry by entry to round-off (relative 1e-13 of the largest entry; its
-    constrained rows and columns exactly) for m = 1, 2, 3, 5, 20, 60; m = 0 is left out."""
-    model = loaded(SphericalCap(1.0, math.radians(60)), 0.02, (1.0, 2.0))
-    values = model.hessian_values((None, *MODES))
-    assert set(values) == set(MODES) - {0}
-    H = model.create_hessian(1)
-    worst = 0.0
-    for m in values:
-        model.assemble_hessian(m, H)
-        _, _, ref = H.getValuesCSR()
-        zero, diagonal = model.mode_forms._value_masks(m)
-        assert np.array_equal(values[m][zero] != 0, ref[zero] != 0)
-        assert np.all(values[m][diagonal] == 1.0) and np.all(ref[diagonal] == 1.0)
-        worst = max(worst, np.max(np.abs(values[m] - ref)) / np.max(np.abs(ref)))
-    H.destroy()
-    assert world_max(worst) <= 1e-13, worst
+@pytest.mark.parametrize("shape, h, kappas", [
+    (Sphere(1.0), 0.01, tuple(f * sphere_kappa_b_h(0.5) / 0.01 for f in (0.5, 1.0, 1.1))),
+    (SphericalCap(1.0, math.radians(60)), 0.02, (1.0, 2.0)),
+], ids=["sphere past its bifurcation", "cap"])
+def test_definiteness_from_element_matrices_is_that_of_the_assembled_blocks(shape, h, kappas):
+    """``ModeForms.definite`` (element matrices condensed on the chain of cells,
+    ``shells.axisym.chain``) answers as the banded Cholesky of the assembled H_m
+    (``shells.stability``) for m = 0, 1, 2, 3, 5, 20, 60, at margins on both sides of each
+    block's own threshold: the largest margin τ* at which the assembled test still says
+    "definite" (bisection, to a factor 1.02) is found again within a factor 1.1 (both sides
+    tested), so both test the same number, the lowest eigenvalue of the diagonally scaled
+    block; an indefinite block is refused by both at every margin."""
+    from shells.stability import _Block
+
+    model = loaded(shape, h, kappas)
+    mf = model.mode_forms
+    block = _Block(model, 1, {})
+
+    def assembled(m: int, tau: float) -> bool:
+        model.assemble_hessian(m, block.H)
+        return block.definite(tau)
+
+    def chain(m: int, tau: float) -> bool:
+        out = mf.definite([m], tau)
+        assert out is not None  # one process (COMM_SELF): the chain test is available
+        return out[m]
+
+    seen = {"definite": 0, "indefinite": 0}
+    for m in MODES:
+        if not assembled(m, 1e-16):
+            assert not chain(m, 1e-16) and not chain(m, 0.0), m
+            seen["indefinite"] += 1
+            continue
+        seen["definite"] += 1
+        lo, hi = 1e-16, 1.0  # assembled: definite at lo, not at hi
+        while hi / lo > 1.02:
+            mid = math.sqrt(lo * hi)
+            lo, hi = (mid, hi) if assembled(m, mid) else (lo, mid)
+        assert chain(m, lo / 1.1) and not chain(m, hi * 1.1), (m, lo)
+    block.destroy()
+    # the cap below its critical points: all definite; the sphere past κ_b: some not
+    assert everywhere(seen["definite"] >= (1 if shape.closed else len(MODES)))
+    assert everywhere(seen["indefinite"] >= (1 if shape.closed else 0))

@@ -563,10 +563,11 @@ class AxisymModel(FormProblem):
             return
         self.mode_forms.assemble_hessian(block, H)  # m ≥ 1: Σ m^k C_k, C_k once per state
 
-    def hessian_values(self, blocks: Any) -> dict[Any, np.ndarray]:
-        """The values of the blocks m ≥ 1 without their matrices (``ModeForms.hessian_values``),
-        for ``shells.stability``'s test of definiteness; block None and m = 0 are left out."""
-        return self.mode_forms.hessian_values([b for b in blocks if b is not None])
+    def definite_blocks(self, blocks: Any, margin: float) -> dict[Any, bool] | None:
+        """Whether H_m - ``margin`` diag(H_m) has a Cholesky factor, for each m of ``blocks``
+        (``ModeForms.definite``, one process; block None is left out), for
+        ``shells.stability``'s test of definiteness."""
+        return self.mode_forms.definite([b for b in blocks if b is not None], margin)
 
     def assemble_mass(self, block: Any) -> Any:
         if block is None:

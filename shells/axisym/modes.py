@@ -15,8 +15,10 @@ are removed by value constraints that they violate (restriction to such a hyperp
 inertia): m = 0: W = 0 at the top pole (z-translation), D = 0 on the widest parallel (rotation
 about z); m = 1: D = 0 at the top pole (translation) and W = 0 on the widest parallel (tilt). A
 slope constraint at the pole would do for the tilt in principle, but a point has no capacity
-for slopes in 2D: it leaves a spurious near-zero eigenvalue. Inertia per m: a banded
-Cholesky where H_m is definite by a margin, else MUMPS LDLᵀ (``shells.stability``).
+for slopes in 2D: it leaves a spurious near-zero eigenvalue. Inertia per m: a Cholesky test
+where H_m is definite by a margin (on one process from element matrices, ``definite`` and
+``shells.axisym.chain``; else the banded Cholesky of the assembled H_m), else MUMPS LDLᵀ
+(``shells.stability``).
 
 Assembly. m = 0 from that form with its own phases and m = 0 put in as numbers
 (``axisymmetric_form``: the direct form's values, bit for bit on the θ̄ = 8 cap and the
@@ -42,6 +44,7 @@ factorisations (benchmarks/axisym_mode_assembly.py, docs/model.md).
 
 from __future__ import annotations
 
+import logging
 import math
 from typing import Any
 
@@ -51,6 +54,8 @@ from shells.axisym.model import JIT_OPTIONS, AxisymModel, Jet, _dirichlet
 from shells.errors import InputError
 
 __all__ = ["ModeForms"]
+
+log = logging.getLogger("shells")
 
 #: the phase Constants of mode 0 and of every m ≥ 1 (``ModeForms.set_mode``)
 _PHASES: dict[int, dict[str, float]] = {
@@ -119,10 +124,13 @@ class ModeForms:
         self._axisymmetric_form: Any = None  # H_0's own form (``axisymmetric_form``)
         self._C: list[Any] | None = None  # the matrices C_k
         self._C_inputs: list[np.ndarray] | None = None  # what they were assembled from
-        self._read: tuple[list, list] = ([], [])  # the coefficients and Constants they read
+        self._read: tuple[dict, dict] = ({}, {})  # the coefficients and Constants they read
         self._rows: dict[int, Any] = {}  # the constrained rows of each class of m
-        self._C_values: tuple[Any, list[np.ndarray]] | None = None  # (of which C_k, values)
-        self._masks: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # ``hessian_values``
+        self._chain: Any = None  # ``definite``'s tabulator and chain test (False: unavailable)
+        self._E: np.ndarray | None = None  # ``element_matrices``
+        self._E_inputs: list[np.ndarray] | None = None  # what they were tabulated from
+        self._csr: Any = None  # ``_set_from_elements``: the CSR pattern, element positions
+        self._masks: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # constrained positions
 
     # -- H_m = Σ m^k C_k for m ≥ 1 --------------------------------------------------------
     def coefficient_ufl(self) -> list[Any]:
@@ -165,8 +173,9 @@ class ModeForms:
         from dolfinx import fem
 
         if self._axisymmetric_form is None:
-            self._axisymmetric_form = fem.form(self._fixed_mode_ufl(0)[0],
-                                               jit_options=JIT_OPTIONS)
+            ufl_form = self._fixed_mode_ufl(0)[0]
+            self._axisymmetric_form = fem.form(ufl_form, jit_options=JIT_OPTIONS)
+            self._register_reads([ufl_form])
         return self._axisymmetric_form
 
     @property
@@ -177,33 +186,44 @@ class ModeForms:
         if self._coefficient_forms is None:
             ufl_forms = self.coefficient_ufl()
             self._coefficient_forms = [fem.form(f, jit_options=JIT_OPTIONS) for f in ufl_forms]
-            coefficients = {id(w): w for f in ufl_forms for w in f.coefficients()}
-            constants = {id(k): k for f in ufl_forms for k in f.constants()}
-            self._read = (list(coefficients.values()), list(constants.values()))
+            self._register_reads(ufl_forms)
         return self._coefficient_forms
 
-    def _inputs(self) -> list[np.ndarray]:
-        """Everything the coefficient forms read (views, not copies): each coefficient's local
-        array (ghosts included), each Constant's value, the mesh geometry."""
+    def _register_reads(self, ufl_forms: list[Any]) -> None:
         coefficients, constants = self._read
-        return ([w.x.array for w in coefficients] + [np.atleast_1d(k.value) for k in constants]
+        for f in ufl_forms:
+            coefficients.update({id(w): w for w in f.coefficients()})
+            constants.update({id(k): k for k in f.constants()})
+
+    def _inputs(self) -> list[np.ndarray]:
+        """Everything the coefficient forms and H_0's form read (views, not copies): each
+        coefficient's local array (ghosts included), each Constant's value, the geometry."""
+        coefficients, constants = self._read
+        return ([w.x.array for w in coefficients.values()]
+                + [np.atleast_1d(k.value) for k in constants.values()]
                 + [self.model.mesh.geometry.x])
+
+    def _stale(self, old: list[np.ndarray] | None) -> tuple[bool, list[np.ndarray]]:
+        """Whether the inputs differ from ``old`` (compared exactly; collective: a change on
+        any rank counts), and the current inputs."""
+        from mpi4py import MPI
+
+        inputs = self._inputs()
+        stale = old is None or len(old) != len(inputs) or not all(
+            a.shape == b.shape and np.array_equal(a, b) for a, b in zip(old, inputs, strict=True))
+        comm = self.model.comm
+        if comm.size > 1:
+            stale = comm.allreduce(stale, op=MPI.LOR)
+        return stale, inputs
 
     def coefficient_matrices(self) -> list[Any]:
         """C_0..C_4 at the model's current state: assembled (no boundary conditions) on first
         use and again whenever any input of the coefficient forms differs from the one they
         were assembled from (compared exactly; collective: a change on any rank counts)."""
         from dolfinx.fem.petsc import assemble_matrix, create_matrix
-        from mpi4py import MPI
 
         forms = self.coefficient_forms
-        inputs = self._inputs()
-        old = self._C_inputs
-        stale = old is None or len(old) != len(inputs) or not all(
-            a.shape == b.shape and np.array_equal(a, b) for a, b in zip(old, inputs, strict=True))
-        comm = self.model.comm
-        if comm.size > 1:
-            stale = comm.allreduce(stale, op=MPI.LOR)
+        stale, inputs = self._stale(self._C_inputs)
         if stale:
             if self._C is None:  # the direct form's pattern: that of every H_m's matrix
                 self._C = [create_matrix(self.form) for _ in forms]
@@ -237,7 +257,10 @@ class ModeForms:
         """H_m at the model's state into H (a matrix of ``create_matrix(self.form)``) with mode
         m's conditions (zero rows and columns, unit diagonal), flagged symmetric. ``direct``:
         from ``form``; m = 0: from ``axisymmetric_form``; m ≥ 1: Σ m^k C_k
-        (``coefficient_matrices``)."""
+        (``coefficient_matrices``). On one process both come from the element matrices
+        (``element_matrices``): Σ m^k of theirs, summed into H's values by their positions,
+        the conditions applied to those values (the same matrix to round-off, 0.7 ms a block
+        instead of five assemblies of the C_k after each change of state)."""
         from petsc4py import PETSc
 
         from shells.formproblem import FormProblem
@@ -245,6 +268,10 @@ class ModeForms:
         bcs = self.set_mode(m)
         if direct:
             FormProblem._assemble_symmetric(H, self.form, bcs)
+            return
+        E = self.element_matrices()
+        if E is not None:  # one process: from the element matrices, no assembly of forms
+            self._set_from_elements(H, self._block_elements(E, [m])[0], m)
             return
         if m == 0:
             FormProblem._assemble_symmetric(H, self.axisymmetric_form, bcs)
@@ -261,46 +288,101 @@ class ModeForms:
         H.zeroRowsColumns(self._constrained_rows(m), diag=1.0)
         H.setOption(H.Option.SYMMETRIC, True)
 
-    def hessian_values(self, ms: list[int]) -> dict[int, np.ndarray]:
-        """The nonzero values of H_m (m ≥ 1; m = 0 is left out), in the CSR order of the
-        matrices of ``create_matrix(self.form)``, without a PETSc matrix: Σ m^k c_k over the
-        values c_k of the C_k (read once per state), mode m's conditions applied as
-        ``assemble_hessian`` applies them (constrained rows and columns 0, their diagonal 1).
-        The same matrix as ``assemble_hessian``'s to round-off (BLAS' order of the sum against
-        MatAXPY's sum of powers), for a test of definiteness (``shells.stability``): 0.1 ms
-        per block instead of 0.4 for the PETSc matrix and the copy of its values. One process
-        only."""
-        C = self.coefficient_matrices()
-        if self._C_values is None or self._C_values[0] is not self._C_inputs:
-            self._C_values = (self._C_inputs, np.vstack([Ck.getValuesCSR()[2] for Ck in C]))
-        ms = [int(m) for m in ms if m != 0]
-        if not ms:
-            return {}
-        # every block's values at once: one matrix product (m^k) @ (c_k), BLAS, instead of a
-        # Horner loop of array operations per block (3.7 ms for m = 1..12 on the θ̄ = 8 cap)
-        powers = np.array([[float(m) ** k for k in range(DEGREE + 1)] for m in ms])
-        values = powers @ self._C_values[1]
-        out = {}
-        for m, v in zip(ms, values, strict=True):
-            zero, diagonal = self._value_masks(m)
-            v[zero] = 0.0
-            v[diagonal] = 1.0
-            out[m] = v
+    def _chain_setup(self) -> Any:
+        """(tabulator, chain test) of ``shells.axisym.chain`` for this space, made on first use;
+        None in parallel or where it cannot be set up (no C compiler, an unexpected mesh)."""
+        if self.model.comm.size > 1 or self._chain is False:
+            return None
+        if self._chain is None:
+            try:
+                from shells.axisym.chain import CellTabulator, ChainCholesky
+
+                layout = self.V.dofmap.dof_layout
+                tab = CellTabulator([*self.coefficient_forms, self.axisymmetric_form])
+                chain = ChainCholesky(self.V.dofmap.list,
+                                      (list(layout.entity_dofs(0, 0)),
+                                       list(layout.entity_dofs(0, 1))),
+                                      list(layout.entity_dofs(1, 0)))
+                for key in (0, 1, 2, 3):  # every condition on a vertex DOF
+                    chain._constraint_indices(np.asarray(self._constrained_rows(key).getIndices()))
+            except Exception as e:  # the assembled path instead
+                log.debug("element matrices of the mode forms not available: %s", e)
+                self._chain = False
+                return None
+            self._chain = (tab, chain)
+        return self._chain
+
+    def element_matrices(self) -> np.ndarray | None:
+        """The element matrices of C_0..C_4 and of H_0 on every cell (6, cells, 21, 21) at
+        the model's current state: tabulated on first use and again whenever an input of the
+        forms changed (as ``coefficient_matrices``). None in parallel (``_chain_setup``)."""
+        setup = self._chain_setup()
+        if setup is None:
+            return None
+        stale, inputs = self._stale(self._E_inputs)
+        if stale:
+            self._E_inputs = None  # not valid while being tabulated
+            self._E = setup[0].tabulate()
+            self._E_inputs = [a.copy() for a in inputs]
+        return self._E
+
+    @staticmethod
+    def _block_elements(E: np.ndarray, ms: list[int]) -> np.ndarray:
+        """The element matrices of H_m for each m: Σ m^k of the C_k's (one matrix product),
+        H_0's own for m = 0."""
+        powers = np.array([[float(m) ** k for k in range(DEGREE + 1)] for m in ms]
+                          ).reshape(len(ms), DEGREE + 1)
+        out = (powers @ E[:DEGREE + 1].reshape(DEGREE + 1, -1)).reshape(len(ms), *E.shape[1:])
+        for i, m in enumerate(ms):
+            if m == 0:
+                out[i] = E[DEGREE + 1]
         return out
 
-    def _value_masks(self, m: int) -> tuple[np.ndarray, np.ndarray]:
-        """The CSR positions of mode m's constrained rows and columns, and of their diagonal."""
+    def _set_from_elements(self, H: Any, Em: np.ndarray, m: int) -> None:
+        """H's values from the element matrices Em of H_m: summed by their CSR positions, mode
+        m's constrained rows and columns 0 and their diagonal 1, flagged symmetric."""
+        if self._csr is None:
+            from dolfinx import fem
+
+            pattern = fem.create_matrix(self.form)  # the CSR order of PETSc's matrices too
+            indptr, indices = pattern.indptr.copy(), pattern.indices.copy()
+            n = len(indptr) - 1
+            rows = np.repeat(np.arange(n), np.diff(indptr))
+            keys = rows.astype(np.int64) * n + indices
+            dm = self.V.dofmap.list.astype(np.int64)
+            k = dm.shape[1]
+            ekeys = (np.repeat(dm, k, axis=1) * n + np.tile(dm, (1, k))).ravel()
+            pos = np.searchsorted(keys, ekeys)
+            assert np.array_equal(keys[pos], ekeys)
+            self._csr = (indptr.astype(np.int32), indices.astype(np.int32), pos, rows)
+        indptr, indices, pos, rows = self._csr
+        values = np.bincount(pos, weights=Em.ravel(), minlength=len(indices))
         key = min(int(m), 3)
         if key not in self._masks:
-            ai, aj, _ = self.coefficient_matrices()[0].getValuesCSR()
-            rows = np.repeat(np.arange(len(ai) - 1), np.diff(ai))
-            lo = self._C[0].getOwnershipRange()[0]
-            cons = np.asarray(self._constrained_rows(m).getIndices()) - lo
+            cons = np.asarray(self._constrained_rows(m).getIndices())
             hit = np.isin(rows, cons)
-            zero = np.nonzero(hit | np.isin(aj - lo, cons))[0]
-            diagonal = np.nonzero(hit & (rows == aj - lo))[0]
-            self._masks[key] = (zero, diagonal)
-        return self._masks[key]
+            self._masks[key] = (np.nonzero(hit | np.isin(indices, cons))[0],
+                                np.nonzero(hit & (rows == indices))[0])
+        zero, diagonal = self._masks[key]
+        values[zero] = 0.0
+        values[diagonal] = 1.0
+        H.setValuesCSR(indptr, indices, values)
+        H.assemble()
+        H.setOption(H.Option.SYMMETRIC, True)
+
+    def definite(self, ms: list[int], margin: float) -> dict[int, bool] | None:
+        """For each m: is H_m - ``margin`` diag(H_m) positive definite (a Cholesky factor
+        exists)? From the element matrices (``element_matrices``), combined for all m at once
+        and condensed on the chain of cells (``shells.axisym.chain``): the banded Cholesky's
+        answer without assembling any H_m. One process only; None where that is not
+        available (the caller then tests the assembled blocks)."""
+        E = self.element_matrices()
+        if E is None:
+            return None
+        ms = [int(m) for m in ms]
+        constrained = [np.asarray(self._constrained_rows(m).getIndices()) for m in ms]
+        answers = self._chain[1].definite(self._block_elements(E, ms), constrained, margin)
+        return dict(zip(ms, answers, strict=True))
 
     def radial_axial(self, f: Any) -> tuple[Any, Any]:
         """(u_r, u_z) amplitudes of a mode ``f`` in ``V`` (U and W; phases as last set)."""

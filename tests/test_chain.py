@@ -1,0 +1,82 @@
+"""The chain test of definiteness (shells.axisym.chain) on synthetic chains of cells, against
+the dense eigenvalues of the assembled matrix: cells in any order and of either orientation,
+constrained vertex DOFs, margins on both sides of the threshold. Milliseconds; every rank
+runs the same (sequential) check."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from shells.axisym.chain import ChainCholesky
+
+# a cell's element rows: vertex a (rows 0, 4), interior (1, 2, 3), vertex b (rows 5, 6)
+VERTEX_A, VERTEX_B, INTERIOR = [0, 4], [5, 6], [1, 2, 3]
+
+
+def _chain(ncells: int, seed: int, shift: float):
+    """Element matrices (random, symmetric) of a chain with cells shuffled and half of them
+    reversed; the global DOFs: 2 per vertex, 3 interior per cell. Returns the cell DOFs, the
+    elements, the assembled dense matrix."""
+    rng = np.random.default_rng(seed)
+    nv = ncells + 1
+    n = 2 * nv + 3 * ncells
+    vertex = rng.permutation(2 * nv).reshape(nv, 2)  # global DOFs of each chain vertex
+    interior = 2 * nv + rng.permutation(3 * ncells).reshape(ncells, 3)
+    dofs = np.zeros((ncells, 7), dtype=np.int64)
+    for p in range(ncells):
+        a, b = (vertex[p + 1], vertex[p]) if rng.random() < 0.5 else (vertex[p], vertex[p + 1])
+        dofs[p, VERTEX_A], dofs[p, VERTEX_B], dofs[p, INTERIOR] = a, b, interior[p]
+    order = rng.permutation(ncells)
+    dofs = dofs[order]
+    E = np.empty((ncells, 7, 7))
+    for c in range(ncells):
+        B = rng.standard_normal((7, 7))
+        E[c] = B @ B.T / 7 + shift * np.eye(7)
+    H = np.zeros((n, n))
+    for c in range(ncells):
+        H[np.ix_(dofs[c], dofs[c])] += E[c]
+    return dofs, E, H
+
+
+def _scaled_lowest(H: np.ndarray, constrained: np.ndarray) -> float:
+    H = H.copy()
+    H[constrained, :] = 0.0
+    H[:, constrained] = 0.0
+    H[constrained, constrained] = 1.0
+    d = 1.0 / np.sqrt(np.diag(H))
+    return float(np.linalg.eigvalsh(d[:, None] * H * d[None, :])[0])
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_chain_test_decides_as_the_scaled_lowest_eigenvalue(seed):
+    """Definite by margin τ iff the lowest eigenvalue of D^-1/2 H D^-1/2 exceeds τ (D the
+    diagonal), tested at τ = 0.8 and 1.25 times that eigenvalue, with and without two
+    constrained vertex DOFs; an indefinite matrix (negative shift) is refused at τ = 0."""
+    dofs, E, H = _chain(40, seed, shift=-0.05 if seed % 3 == 0 else 0.02)
+    chain = ChainCholesky(dofs, (VERTEX_A, VERTEX_B), INTERIOR)
+    assert chain.size == 2 * 41 and chain.kd == 3
+    rng = np.random.default_rng(seed)
+    for constrained in (np.zeros(0, dtype=np.int64), np.sort(rng.choice(dofs[:, VERTEX_A].ravel(),
+                                                                        2, replace=False))):
+        low = _scaled_lowest(H, constrained)
+        if low <= 0:
+            assert chain.definite(E[None].copy(), [constrained], 0.0) == [False]
+            continue
+        assert chain.definite(E[None].copy(), [constrained], 0.8 * low) == [True]
+        assert chain.definite(E[None].copy(), [constrained], 1.25 * low) == [False]
+
+
+def test_chain_refuses_what_it_cannot_test():
+    """Cells that do not form one chain (a vertex shared by three cells), a constrained
+    interior DOF, a NaN: refused (ValueError), or answered False."""
+    dofs, E, _ = _chain(10, 1, shift=0.5)
+    bad = dofs.copy()
+    bad[3, VERTEX_A] = bad[7, VERTEX_A]  # cells 3 and 7 now share a vertex with others
+    with pytest.raises(ValueError):
+        ChainCholesky(bad, (VERTEX_A, VERTEX_B), INTERIOR)
+    chain = ChainCholesky(dofs, (VERTEX_A, VERTEX_B), INTERIOR)
+    with pytest.raises(ValueError):
+        chain.definite(E[None].copy(), [dofs[0, INTERIOR][:1]], 0.0)
+    E[4, 1, 1] = np.nan
+    assert chain.definite(E[None].copy(), [np.zeros(0, dtype=np.int64)], 0.0) == [False]

@@ -319,17 +319,21 @@ class Stability:
         return b.M[block]
 
     def eigenpairs(self, nev: int = 6, *, modes: bool = False, assemble: bool = True,
-                   block: Hashable = None) -> tuple[list[float], list[Any]]:
+                   block: Hashable = None, ncv: int | None = None
+                   ) -> tuple[list[float], list[Any]]:
         """The ``nev`` eigenvalues of H v = μ M v nearest 0 of a block (M: its mass),
         ascending, and with ``modes`` their eigenvectors. ``assemble=False``: the block's
-        matrix as last assembled (by ``inertia``)."""
+        matrix as last assembled (by ``inertia``). ``ncv``: the Krylov subspace's size
+        (default max(2 nev + 10, 24); its cost grows with it, a solve converges in one
+        restart at the default)."""
         H = self.assemble(block) if assemble else self._block(block).H
         b = self._block(block)
         eps = b.eigensolver()
         eps.setOperators(H, self.mass(block))  # new values: a numeric refactorisation
         size = H.getSize()[0]  # a tiny problem cannot have more than its size
         nev = min(nev, size)
-        eps.setDimensions(nev=nev, ncv=min(max(2 * nev + 10, 24), size))
+        ncv = max(2 * nev + 10, 24) if ncv is None else max(int(ncv), nev + 1)
+        eps.setDimensions(nev=nev, ncv=min(ncv, size))
         if b.user_options:
             eps.setFromOptions()
         rand = eps.getBV().getRandomContext()

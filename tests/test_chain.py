@@ -12,6 +12,7 @@ from shells.axisym.chain import ChainCholesky
 
 # a cell's element rows: vertex a (rows 0, 4), interior (1, 2, 3), vertex b (rows 5, 6)
 VERTEX_A, VERTEX_B, INTERIOR = [0, 4], [5, 6], [1, 2, 3]
+ONE = np.ones((1, 1))  # one block, the (only) form times 1
 
 
 def _chain(ncells: int, seed: int, shift: float):
@@ -61,10 +62,10 @@ def test_chain_test_decides_as_the_scaled_lowest_eigenvalue(seed):
                                                                         2, replace=False))):
         low = _scaled_lowest(H, constrained)
         if low <= 0:
-            assert chain.definite(E[None].copy(), [constrained], 0.0) == [False]
+            assert chain.definite(E[None], ONE, [-1], [constrained], 0.0) == [False]
             continue
-        assert chain.definite(E[None].copy(), [constrained], 0.8 * low) == [True]
-        assert chain.definite(E[None].copy(), [constrained], 1.25 * low) == [False]
+        assert chain.definite(E[None], ONE, [-1], [constrained], 0.8 * low) == [True]
+        assert chain.definite(E[None], ONE, [-1], [constrained], 1.25 * low) == [False]
 
 
 def test_chain_refuses_what_it_cannot_test():
@@ -77,6 +78,25 @@ def test_chain_refuses_what_it_cannot_test():
         ChainCholesky(bad, (VERTEX_A, VERTEX_B), INTERIOR)
     chain = ChainCholesky(dofs, (VERTEX_A, VERTEX_B), INTERIOR)
     with pytest.raises(ValueError):
-        chain.definite(E[None].copy(), [dofs[0, INTERIOR][:1]], 0.0)
+        chain.definite(E[None], ONE, [-1], [dofs[0, INTERIOR][:1]], 0.0)
     E[4, 1, 1] = np.nan
-    assert chain.definite(E[None].copy(), [np.zeros(0, dtype=np.int64)], 0.0) == [False]
+    assert chain.definite(E[None], ONE, [-1], [np.zeros(0, dtype=np.int64)], 0.0) == [False]
+
+
+def test_blocks_combined_from_several_forms_are_those_combined_beforehand():
+    """Blocks Σ_k w_k E_k and a form of their own, in one call, answer as each matrix
+    combined beforehand: the combination in the C loop is the sum it should be."""
+    dofs, E0, _ = _chain(30, 11, shift=0.03)
+    E1 = _chain(30, 12, shift=-0.02)[1]  # element values only (any symmetric matrices)
+    chain = ChainCholesky(dofs, (VERTEX_A, VERTEX_B), INTERIOR)
+    E = np.stack([E0, E1, E0 - 3.0 * E1])
+    none = np.zeros(0, dtype=np.int64)
+    weights = np.array([[1.0, 0.0], [1.0, 0.5], [1.0, -3.0], [0.0, 1.0], [0.0, 0.0]])
+    own = [-1, -1, -1, -1, 2]
+    for margin in (0.0, 1e-3, 1e-2):
+        got = chain.definite(E, weights, own, [none] * 5, margin)
+        want = [chain.definite((w[0] * E0 + w[1] * E1)[None], ONE, [-1], [none], margin)[0]
+                for w in weights[:4]]
+        want.append(chain.definite(E[2][None], ONE, [-1], [none], margin)[0])
+        assert got == want, (margin, got, want)
+    assert True in got and False in got  # both answers occur

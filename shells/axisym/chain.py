@@ -51,9 +51,9 @@ _C_DECL = """
 void tabulate_cells(int nforms, const uintptr_t* kernels, int ncells, int n, double* out,
                     const double* const* coeffs, const int* ncoeff,
                     const double* const* consts, const double* coords, int ncoord);
-void condense_chain(int nb, int ncells, int n, const double* E, const int* order,
-                    int ni, const int* irow, int nv, const int* vrow, double scale,
-                    double* band, int size, int* failed);
+void condense_chain(int nb, int ncells, int n, int nk, const double* E, const double* powers,
+                    const int* own, const int* order, int ni, const int* irow, int nv,
+                    const int* vrow, double scale, double* band, int size, int* failed);
 """
 
 _C_SOURCE = r"""
@@ -79,45 +79,74 @@ void tabulate_cells(int nforms, const uintptr_t* kernels, int ncells, int n, dou
   }
 }
 
-/* For each block b: the cells' element matrices E[b, c] (n x n, row-major), taken in chain
-   order (cell order[p] between chain vertices p and p + 1), diagonal scaled by `scale`; the
-   ni interior rows irow[p] eliminated by Cholesky, the Schur complement on the 2 nv/2 vertex
-   rows vrow[p] (lower vertex first) added into LAPACK's lower band storage of block b
-   (kd = nv - 1, column-major (kd + 1) x size, entry (i, j) at (i - j) + j (kd + 1)).
-   failed[b] = 1 if an interior pivot is not positive (or not finite). */
+/* For each block b, the matrix assembled from the element matrices
+     A_b[c] = own[b] >= 0 ? E[own[b], c] : sum_k powers[b, k] E[k, c]   (k < nk)
+   (E: forms x cells x n x n, row-major), cells taken in chain order (cell order[p] between
+   chain vertices p and p + 1), diagonal scaled by `scale`: the ni interior rows irow[p]
+   eliminated by Cholesky, the Schur complement on the nv vertex rows vrow[p] (lower vertex
+   first) added into LAPACK's lower band storage of block b (kd = nv - 1, column-major
+   (kd + 1) x size, entry (i, j) at (i - j) + j (kd + 1)). failed[b] = 1 if an interior pivot
+   is not positive (or not finite). Cells outer, blocks inner: a cell's element matrices stay
+   in cache while every block reads them. */
 #define NI_MAX 32
 #define NV_MAX 32
-void condense_chain(int nb, int ncells, int n, const double* E, const int* order,
-                    int ni, const int* irow, int nv, const int* vrow, double scale,
-                    double* band, int size, int* failed)
+#define NK_MAX 8
+void condense_chain(int nb, int ncells, int n, int nk, const double* E, const double* powers,
+                    const int* own, const int* order, int ni, const int* irow, int nv,
+                    const int* vrow, double scale, double* band, int size, int* failed)
 {
   const int kd1 = nv;  /* kd + 1 */
   const int half = nv / 2;
+  const long nn = (long)n * n;
   double a[NI_MAX][NI_MAX], y[NI_MAX][NV_MAX], sv[NV_MAX][NV_MAX];
-  if (ni > NI_MAX || nv > NV_MAX) { for (int b = 0; b < nb; ++b) failed[b] = 1; return; }
-  for (int b = 0; b < nb; ++b)
+  double w[NK_MAX];
+  const double* Ek[NK_MAX];
+  if (ni > NI_MAX || nv > NV_MAX || nk > NK_MAX)
   {
-    double* ab = band + (long)b * kd1 * size;
-    failed[b] = 0;
-    for (long i = 0; i < (long)kd1 * size; ++i) ab[i] = 0.0;
-    for (int p = 0; p < ncells && !failed[b]; ++p)
+    for (int b = 0; b < nb; ++b) failed[b] = 1;
+    return;
+  }
+  for (int b = 0; b < nb; ++b) failed[b] = 0;
+  for (long i = 0; i < (long)nb * kd1 * size; ++i) band[i] = 0.0;
+  for (int p = 0; p < ncells; ++p)
+  {
+    const int* ir = irow + (long)p * ni;
+    const int* vr = vrow + (long)p * nv;
+    for (int b = 0; b < nb; ++b)
     {
-      const double* A = E + ((long)b * ncells + order[p]) * n * n;
-      const int* ir = irow + (long)p * ni;
-      const int* vr = vrow + (long)p * nv;
+      if (failed[b]) continue;
+      int terms;
+      if (own[b] >= 0)
+      {
+        terms = 1;
+        w[0] = 1.0;
+        Ek[0] = E + ((long)own[b] * ncells + order[p]) * nn;
+      }
+      else
+      {
+        terms = nk;
+        for (int k = 0; k < nk; ++k)
+        {
+          w[k] = powers[(long)b * nk + k];
+          Ek[k] = E + ((long)k * ncells + order[p]) * nn;
+        }
+      }
+#define ENTRY(r, c, out) { double t_ = 0.0; const long o_ = (long)(r) * n + (c); \
+        for (int k_ = 0; k_ < terms; ++k_) t_ += w[k_] * Ek[k_][o_]; out = t_; }
       for (int i = 0; i < ni; ++i)
       {
-        for (int j = 0; j <= i; ++j) a[i][j] = A[ir[i] * n + ir[j]];
+        for (int j = 0; j <= i; ++j) ENTRY(ir[i], ir[j], a[i][j]);
         a[i][i] *= scale;
-        for (int j = 0; j < nv; ++j) y[i][j] = A[ir[i] * n + vr[j]];
+        for (int j = 0; j < nv; ++j) ENTRY(ir[i], vr[j], y[i][j]);
       }
       for (int i = 0; i < nv; ++i)
       {
-        for (int j = 0; j <= i; ++j) sv[i][j] = A[vr[i] * n + vr[j]];
+        for (int j = 0; j <= i; ++j) ENTRY(vr[i], vr[j], sv[i][j]);
         sv[i][i] *= scale;
       }
+#undef ENTRY
       /* Cholesky a = L L^T (lower, in place), y <- L^-1 y, column by column */
-      for (int k = 0; k < ni; ++k)
+      for (int k = 0; k < ni && !failed[b]; ++k)
       {
         double d = a[k][k];
         for (int j = 0; j < k; ++j) d -= a[k][j] * a[k][j];
@@ -137,8 +166,9 @@ void condense_chain(int nb, int ncells, int n, const double* E, const int* order
           y[k][j] = t / d;
         }
       }
-      if (failed[b]) break;
+      if (failed[b]) continue;
       /* the Schur complement's lower triangle, added at rows/cols p half .. p half + nv */
+      double* ab = band + (long)b * kd1 * size;
       const long base = (long)p * half;
       for (int i = 0; i < nv; ++i)
         for (int j = 0; j <= i; ++j)
@@ -330,9 +360,10 @@ class ChainCholesky:
                                            pos * kd1)
         return self._constraint_cache[key]
 
-    def definite(self, E: np.ndarray, constrained: list[np.ndarray], margin: float
-                 ) -> list[bool]:
-        """For each b: is the matrix assembled from the element matrices E[b] (cells, n, n),
+    def definite(self, E: np.ndarray, powers: np.ndarray, own: list[int],
+                 constrained: list[np.ndarray], margin: float) -> list[bool]:
+        """For each block b: is the matrix assembled from the element matrices
+        A_b = E[own[b]] (own[b] ≥ 0) or Σ_k powers[b, k] E[k] (E: forms x cells x n x n),
         with the DOFs ``constrained[b]`` set to unit rows and columns, such that H - margin
         diag(H) has a Cholesky factor? (Then H is positive definite; NaN or a non-positive
         pivot: False.)"""
@@ -341,12 +372,19 @@ class ChainCholesky:
         lib = _library()
         ffi = lib.ffi
         E = np.ascontiguousarray(E, dtype=np.float64)
-        nb, ncells, n = E.shape[0], E.shape[1], E.shape[2]
+        ncells, n = E.shape[1], E.shape[2]
+        powers = np.ascontiguousarray(powers, dtype=np.float64)
+        nb, nk = powers.shape
+        own_arr = np.ascontiguousarray(own, dtype=np.intc)
+        if nb != len(own_arr) or nb != len(constrained) or np.any(own_arr >= len(E)) \
+                or nk > len(E):
+            raise ValueError("inconsistent blocks")
         kd1 = self.kd + 1
         ab = np.empty((nb, kd1 * self.size))
         failed = np.zeros(nb, dtype=np.intc)
         ptr = lambda a, t: ffi.cast(t, ffi.from_buffer(a))  # noqa: E731
-        lib.lib.condense_chain(nb, ncells, n, ptr(E, "double*"), ptr(self._order, "int*"),
+        lib.lib.condense_chain(nb, ncells, n, nk, ptr(E, "double*"), ptr(powers, "double*"),
+                               ptr(own_arr, "int*"), ptr(self._order, "int*"),
                                self._irow.shape[1], ptr(self._irow, "int*"),
                                self._vrow.shape[1], ptr(self._vrow, "int*"), 1.0 - margin,
                                ptr(ab, "double*"), self.size, ptr(failed, "int*"))

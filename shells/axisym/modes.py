@@ -327,11 +327,16 @@ class ModeForms:
         return self._E
 
     @staticmethod
+    def _powers(ms: list[int]) -> np.ndarray:
+        """(m^k) for k = 0..DEGREE, one row per m."""
+        return np.array([[float(m) ** k for k in range(DEGREE + 1)] for m in ms]
+                        ).reshape(len(ms), DEGREE + 1)
+
+    @staticmethod
     def _block_elements(E: np.ndarray, ms: list[int]) -> np.ndarray:
         """The element matrices of H_m for each m: Σ m^k of the C_k's (one matrix product),
         H_0's own for m = 0."""
-        powers = np.array([[float(m) ** k for k in range(DEGREE + 1)] for m in ms]
-                          ).reshape(len(ms), DEGREE + 1)
+        powers = ModeForms._powers(ms)
         out = (powers @ E[:DEGREE + 1].reshape(DEGREE + 1, -1)).reshape(len(ms), *E.shape[1:])
         for i, m in enumerate(ms):
             if m == 0:
@@ -381,7 +386,9 @@ class ModeForms:
             return None
         ms = [int(m) for m in ms]
         constrained = [np.asarray(self._constrained_rows(m).getIndices()) for m in ms]
-        answers = self._chain[1].definite(self._block_elements(E, ms), constrained, margin)
+        powers = self._powers(ms)
+        own = [DEGREE + 1 if m == 0 else -1 for m in ms]  # H_0 has its own form
+        answers = self._chain[1].definite(E, powers, own, constrained, margin)
         return dict(zip(ms, answers, strict=True))
 
     def radial_axial(self, f: Any) -> tuple[Any, Any]:

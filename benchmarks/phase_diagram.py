@@ -655,11 +655,16 @@ def explanations(pts: list[dict[str, Any]], fit: dict[str, Any],
                  f"enough to move the root by ~{nz['located_spread_relative']:.0e}. Where the "
                  "eigenvalue crosses this slowly (the κ < 0 losses of symmetry of deep caps at "
                  "h/R = 0.01) a located point is therefore reproducible to about 4e-4, whatever "
-                 "the tolerance; the folds, the κ > 0 bifurcations and the fits far better. A "
-                 "rerun at rel_tol 1e-5 before and after the 1D solver changes of issue 14 "
-                 "moved the fits by at most 5.5e-6, the plate limit by 3.3e-5, every κ > 0 "
-                 "point by at most 1.1e-5 and the κ < 0 points by up to 4.1e-4 (θ̄ = 15.11), "
-                 "the spread above (`benchmarks/locator_noise.py`).\n")
+                 "the tolerance; the folds, the κ > 0 bifurcations and the fits far better. "
+                 "Reruns at rel_tol 1e-5 before and after the 1D solver changes of issue 14 "
+                 "(its per-point checks by banded Cholesky, then from element matrices "
+                 "condensed on the chain of cells, `shells.axisym.chain`) moved the fits by at "
+                 "most 5.5e-6 and 6.8e-6, every κ > 0 point by at most 1.1e-5 and 5.9e-6, and "
+                 "the κ < 0 points by up to 4.1e-4 and 3.4e-4, the spread above "
+                 "(`benchmarks/locator_noise.py`). The plate limit at h/r = 0.01 is such a "
+                 "slow crossing too: it moved by 3.3e-5 and 3.6e-4 (4.6027, 4.6033 with other "
+                 "steps, 4.6044), inside its reported accuracy (2e-2 relative: round-off "
+                 "dominates the disk's m = 2 eigenvalue at κ r = 0.046).\n")
     if below:
         t.append(f"**α, β (snap line).** Our folds lie {-100 * max(below):.1f} % to "
                  f"{-100 * min(below):.1f} % (mean {-100 * float(sum(below) / len(below)):.1f} %)"

@@ -401,11 +401,10 @@ class _Locator:
         if not ok:
             raise RuntimeError(f"corrector failed at sigma = {sigma:.3e}")
         e = _Eval(sigma, lam, self._signed_tl(), get_state(self.problem))
-        for i, b in enumerate(blocks):
-            e.counts[b] = self.stab.inertia(b)[0]
-            if base is not None and e.counts[b] != base[b]:
-                e.complete = i == len(blocks) - 1
-                break
+        if blocks:
+            # one call: a problem that tests all blocks' definiteness at once does so here too
+            e.counts.update(self.stab.negative_counts(blocks, base=base))
+            e.complete = len(e.counts) == len(blocks)
         log.debug("locate:   negative %d %s, dkappa/ds %.3e (%.1f s)", _total(e.counts),
                   {b: c for b, c in e.counts.items() if c}, e.tl, time.perf_counter() - t0)
         return e

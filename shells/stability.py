@@ -291,14 +291,16 @@ class Stability:
     def negative_count(self, block: Hashable = None) -> int:
         return self.inertia(block)[0]
 
-    def negative_counts(self, blocks: Iterable[Hashable] | None = None) -> dict[Hashable, int]:
+    def negative_counts(self, blocks: Iterable[Hashable] | None = None,
+                        base: dict[Hashable, int] | None = None) -> dict[Hashable, int]:
         """The negative count of every block (default: all of the problem's blocks). A problem
         that tests its blocks' definiteness without assembling them
         (``definite_blocks(blocks, margin)``: {block: bool}, the same test as the banded
         Cholesky's; the 1D model on one process) has that answer used first: a block definite
         by the margin is not assembled at all (its matrix is then not the block's: call
         ``inertia`` before ``eigenpairs(assemble=False)``), one that is not goes straight to
-        MUMPS."""
+        MUMPS. ``base``: stop after the first block (in the given order) whose count differs
+        from ``base[block]``: the counts up to it."""
         blocks = self.blocks() if blocks is None else tuple(blocks)
         decided = (self.problem.definite_blocks(blocks, DEFINITE_MARGIN)
                    if self.banded_test and hasattr(self.problem, "definite_blocks") else None)
@@ -310,6 +312,8 @@ class Stability:
                 out[blk] = 0
             else:  # not definite by the margin (MUMPS), or not decided (the banded test first)
                 out[blk] = self.inertia(blk, test=blk not in decided)[0]
+            if base is not None and out[blk] != base[blk]:
+                break
         return out
 
     def mass(self, block: Hashable = None) -> Any:

@@ -114,8 +114,11 @@ def test_banded_cholesky_decides_definiteness_by_the_scaled_eigenvalue(lowest, d
 def test_banded_inertia_is_that_of_mumps_on_the_deep_cap():
     """The θ̄ = 8 cap (h/R = 0.01, θ = 46.2°) at states before, between and right at its
     bifurcations (m = 5 at κR = 5.12315, m = 4 at 5.14014, m = 3 at 5.34935): the negative
-    count of every block m = 0..12 with the banded test equals MUMPS' alone; the test decides
-    most blocks and leaves the indefinite and the nearly singular ones to MUMPS."""
+    count of every block m = 0..12 with the banded test (and MUMPS on the condensed block where
+    the test fails) equals MUMPS' alone on the whole block, except where the block's
+    eigenvalue nearest 0 lies within round-off of 0 (|μ| < 1e-7, measured -5.9e-9 at
+    5.12315: its sign is then the factorisation's); the test decides most blocks and leaves
+    the indefinite and the nearly singular ones to MUMPS."""
     from shells.axisym import SNES_OPTIONS, AxisymModel, AxisymParameters
     from shells.geometry import SphericalCap
 
@@ -124,15 +127,21 @@ def test_banded_inertia_is_that_of_mumps_on_the_deep_cap():
     fast, ref = Stability(model), Stability(model)
     ref.banded_test = False
     blocks = tuple(range(13))
-    seen = []
+    seen, rounded = [], []
     for k in (1.0, 2.5, 4.0, 4.8, 5.0, 5.1, 5.12315, 5.14014, 5.2, 5.34935, 5.45):
         model.set_kappa(k)
         ok, _ = ns.solve()
         assert ok
         counts = fast.negative_counts(blocks)
-        assert counts == ref.negative_counts(blocks), k
-        seen.append(sum(counts.values()))
+        exact = ref.negative_counts(blocks)
+        for m in blocks:
+            if counts[m] != exact[m]:
+                mu = ref.eigenpairs(1, block=m)[0][0]
+                assert abs(counts[m] - exact[m]) == 1 and abs(mu) < 1e-7, (k, m, mu)
+                rounded.append((k, m))
+        seen.append(sum(exact.values()))
     assert seen[0] == 0 and seen[-1] >= 3  # m = 3, 4, 5 (and 6 crosses at 5.439)
+    assert len(rounded) <= 3  # only right at a crossing
     assert fast.calls["banded"] > 0.8 * len(blocks) * len(seen)
     assert fast.calls["mumps"] >= sum(seen)  # every negative count came from MUMPS
     for s in (fast, ref):

@@ -404,3 +404,50 @@ class ChainCholesky:
             _, info = lapack.dpbtrf(band.reshape(self.size, kd1).T, lower=1, overwrite_ab=1)
             out.append(int(info) == 0)
         return out
+
+    def schur(self, E: np.ndarray, powers: np.ndarray, own: int, constrained: np.ndarray
+              ) -> tuple[np.ndarray, int] | None:
+        """The Schur complement S of one block (element matrices as in ``definite``, no margin)
+        on the vertex DOFs, with the block's conditions, as CSR values in the pattern
+        ``schur_pattern``, and the number of eliminated interior DOFs; None if an interior
+        block is not positive definite. Haynsworth: the block's inertia is S's with that many
+        more positive eigenvalues."""
+        lib = _library()
+        ffi = lib.ffi
+        E = np.ascontiguousarray(E, dtype=np.float64)
+        ncells, n = E.shape[1], E.shape[2]
+        powers = np.ascontiguousarray(np.atleast_2d(powers), dtype=np.float64)
+        kd1 = self.kd + 1
+        ab = np.empty(kd1 * self.size)
+        failed = np.zeros(1, dtype=np.intc)
+        own_arr = np.array([own], dtype=np.intc)
+        ptr = lambda a, t: ffi.cast(t, ffi.from_buffer(a))  # noqa: E731
+        lib.lib.condense_chain(1, ncells, n, powers.shape[1], ptr(E, "double*"),
+                               ptr(powers, "double*"), ptr(own_arr, "int*"),
+                               ptr(self._order, "int*"), self._irow.shape[1],
+                               ptr(self._irow, "int*"), self._vrow.shape[1],
+                               ptr(self._vrow, "int*"), 1.0, ptr(ab, "double*"), self.size,
+                               ptr(failed, "int*"))
+        if failed[0] or not np.isfinite(ab).all():
+            return None
+        zero, diagonal = self._constraint_indices(np.asarray(constrained))
+        ab[zero] = 0.0
+        ab[diagonal] = 1.0
+        _, _, source = self.schur_pattern()
+        return ab[source], len(self.interior_rows) * ncells
+
+    def schur_pattern(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """CSR (indptr, indices) of the band's full symmetric storage, and for each entry its
+        position in the lower band storage."""
+        if getattr(self, "_schur_pattern", None) is None:
+            kd, kd1, size = self.kd, self.kd + 1, self.size
+            indptr, indices, source = [0], [], []
+            for i in range(size):
+                for j in range(max(0, i - kd), min(size, i + kd + 1)):
+                    indices.append(j)
+                    source.append((i - j) + j * kd1 if i >= j else (j - i) + i * kd1)
+                indptr.append(len(indices))
+            self._schur_pattern = (np.asarray(indptr, dtype=np.int32),
+                                   np.asarray(indices, dtype=np.int32),
+                                   np.asarray(source, dtype=np.int64))
+        return self._schur_pattern

@@ -569,6 +569,13 @@ class AxisymModel(FormProblem):
         ``shells.stability``'s test of definiteness."""
         return self.mode_forms.definite([b for b in blocks if b is not None], margin)
 
+    def condensed_hessian(self, block: Any) -> tuple[Any, int] | None:
+        """H_m with its cells' interior DOFs eliminated (``ModeForms.condensed_hessian``): a
+        smaller matrix of the same inertia but for the returned number of positive
+        eigenvalues, for ``shells.stability``'s exact counts; None for block None, in
+        parallel, or where it does not apply."""
+        return None if block is None else self.mode_forms.condensed_hessian(block)
+
     def assemble_mass(self, block: Any) -> Any:
         if block is None:
             return self._assemble_mass(self.mass, self.bcs)

@@ -130,6 +130,7 @@ class ModeForms:
         self._E: np.ndarray | None = None  # ``element_matrices``
         self._E_inputs: list[np.ndarray] | None = None  # what they were tabulated from
         self._csr: Any = None  # ``_set_from_elements``: the CSR pattern, element positions
+        self._schur: Any = None  # ``condensed_hessian``'s matrix
         self._masks: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # constrained positions
 
     # -- H_m = Σ m^k C_k for m ≥ 1 --------------------------------------------------------
@@ -374,6 +375,33 @@ class ModeForms:
         H.setValuesCSR(indptr, indices, values)
         H.assemble()
         H.setOption(H.Option.SYMMETRIC, True)
+
+    def condensed_hessian(self, m: int) -> tuple[Any, int] | None:
+        """H_m's Schur complement on the vertex DOFs (the interior DOFs eliminated cell by cell,
+        ``shells.axisym.chain``) as a PETSc matrix (one, reused for every m), and the number of
+        eliminated DOFs: H_m's inertia is the matrix's with that many more positive
+        eigenvalues. None in parallel, or if an interior block is not positive definite."""
+        E = self.element_matrices()
+        if E is None:
+            return None
+        m = int(m)
+        out = self._chain[1].schur(E, self._powers([m]), DEGREE + 1 if m == 0 else -1,
+                                   np.asarray(self._constrained_rows(m).getIndices()))
+        if out is None:
+            return None
+        values, eliminated = out
+        indptr, indices, _ = self._chain[1].schur_pattern()
+        if self._schur is None:
+            from petsc4py import PETSc
+
+            size = len(indptr) - 1
+            self._schur = PETSc.Mat().createAIJ([size, size], csr=(indptr, indices, values),
+                                                comm=PETSc.COMM_SELF)
+        else:
+            self._schur.setValuesCSR(indptr, indices, values)
+        self._schur.assemble()
+        self._schur.setOption(self._schur.Option.SYMMETRIC, True)
+        return self._schur, eliminated
 
     def definite(self, ms: list[int], margin: float) -> dict[int, bool] | None:
         """For each m: is H_m - ``margin`` diag(H_m) positive definite (a Cholesky factor

@@ -125,6 +125,10 @@ class Problem(Protocol):
     # Hessian H has a Cholesky factor of H - margin diag(H), decided without assembling it (the
     # 1D model on one process: element matrices condensed on its chain of cells); blocks left
     # out, or None, are tested on their assembled matrices.
+    # ``condensed_hessian(block) -> (matrix, k) | None``: a smaller matrix with the block's
+    # inertia but for k fewer positive eigenvalues (a Schur complement after eliminating k
+    # DOFs on which the block is positive definite), factored instead of the block for the
+    # exact count of a block that is not definite (the 1D model on one process).
     # ``factor_options -> dict``: PETSc options (``pc_factor_...``) the problem recommends for
     # its Jacobian's factorisation; ``shells.solvers.NewtonSolver`` puts them between its
     # defaults and the caller's options (the 1D model on one process: PETSc's own LU).

@@ -100,3 +100,28 @@ def test_blocks_combined_from_several_forms_are_those_combined_beforehand():
         want.append(chain.definite(E[2][None], ONE, [-1], [none], margin)[0])
         assert got == want, (margin, got, want)
     assert True in got and False in got  # both answers occur
+
+
+def test_without_the_compiled_loop_the_assembled_path_finds_the_same_point(monkeypatch):
+    """Where the C loop cannot be built (here: an unwritable cache folder), the 1D model keeps
+    the assembled blocks (banded Cholesky, MUMPS) and finds the same critical point: the 30°
+    cap's m = 2 bifurcation going down (h/R = 0.04) within its reported accuracy."""
+    import math
+    from pathlib import Path
+
+    from shells import axisym
+    from shells.axisym import chain
+    from shells.geometry import SphericalCap
+
+    cap = SphericalCap(1.0, math.radians(30))
+    fast = axisym.critical(cap, 0.04, 0.5, direction="down", max_critical=1)
+    monkeypatch.setattr(chain, "_LIBRARY", None)
+    monkeypatch.setattr(chain, "_cache_dir", lambda: Path("/proc/no-such-folder/shells"))
+    with pytest.raises(OSError):
+        chain._library()
+    slow = axisym.critical(cap, 0.04, 0.5, direction="down", max_critical=1)
+    assert chain._LIBRARY is None  # the run never had the loop: the assembled path
+    a, b = fast["critical_points"][0], slow["critical_points"][0]
+    assert (a["kind"], a["mode_m"]) == (b["kind"], b["mode_m"]) == ("bifurcation", 2)
+    assert abs(a["kappa_R"] - b["kappa_R"]) <= max(a["accuracy"], b["accuracy"], 1e-9)
+    assert abs(a["kappa_R"] / -0.6622 - 1) < 1e-3

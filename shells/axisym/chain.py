@@ -1,6 +1,7 @@
 """Definiteness of the 1D model's Fourier blocks from their element matrices, condensed on the
-meridian's chain of cells (problem layer: ``ModeForms.definite``, behind
-``AxisymModel.definite_blocks``).
+meridian's chain of cells (problem layer: ``ModeForms.definite`` and
+``ModeForms.condensed_hessian``, behind ``AxisymModel.definite_blocks`` and
+``AxisymModel.condensed_hessian``).
 
 Why. A stability check of the 1D model tests every Fourier block H_m (m = 0..12) at every point
 of a branch. Assembled, each block is a sparse matrix of 3000 rows and half-bandwidth 20, and
@@ -12,13 +13,17 @@ matrices:
 1. ``CellTabulator``: one C loop (compiled once with cffi, cached like FFCx's own modules)
    calls the forms' FFCx kernels cell by cell into an array of element matrices: no sparse
    insertion, no copies out of PETSc (1.8 ms for the five C_k and H_0 against 4.7 ms).
-2. The element matrices of every block are combined at once (one matrix product over m^k).
-3. ``ChainCholesky``: the nine interior DOFs of a cell (its P3 and P2 interior nodes) couple to
-   nothing outside it, so they are eliminated cell by cell (batched 9 x 9 Cholesky factors),
-   and what remains is the Schur complement on the vertex DOFs, a block tridiagonal matrix of
-   6 x 6 blocks (half-bandwidth 11, 1200 rows), factored by ``dpbtrf``. Boundary conditions
-   (on vertex DOFs only) are applied to that complement: a constrained DOF's row and column are
-   zeroed and its diagonal is one, which is what the complement of the constrained matrix is.
+2. ``ChainCholesky``: the nine interior DOFs of a cell (its P3 and P2 interior nodes) couple to
+   nothing outside it, so they are eliminated cell by cell (a 9 x 9 Cholesky factor in a second
+   C loop, which also forms each block's element matrix Σ m^k C_k on the fly: cells outer,
+   blocks inner), and what remains is the Schur complement on the vertex DOFs, a block
+   tridiagonal matrix of 6 x 6 blocks (half-bandwidth 11, 1200 rows), factored by ``dpbtrf``
+   (2.8 ms for m = 0..12, then 0.1 ms a block). Boundary conditions (on vertex DOFs only) are
+   applied to that complement: a constrained DOF's row and column are zeroed and its diagonal
+   is one, which is what the complement of the constrained matrix is.
+3. ``ChainCholesky.schur``: that complement without the margin, as CSR values, for MUMPS' exact
+   count of a block that is not definite: its inertia is the block's but for one positive
+   eigenvalue per eliminated DOF (Haynsworth), at 1200 rows instead of 3000.
 
 The answer is the same as the banded Cholesky's of the assembled block: H - τ diag(H) is
 positive definite iff its interior blocks are and the Schur complement is (Haynsworth), and
@@ -249,6 +254,7 @@ class CellTabulator:
         self.n = V.dofmap.dof_layout.num_dofs * V.dofmap.bs
 
     def tabulate(self) -> np.ndarray:
+        """(forms, cells, n, n): every form's element matrix on every local cell, now."""
         from dolfinx.fem.assemble import _pack_coefficients, _pack_constants
 
         ffi = self._ffi
@@ -273,7 +279,8 @@ class CellTabulator:
 
 class ChainCholesky:
     """Positive definiteness by a margin of symmetric matrices assembled from element matrices
-    on a chain of cells (module docstring): ``definite(E, constrained, margin)``.
+    on a chain of cells (module docstring): ``definite(E, powers, own, constrained, margin)``,
+    and their Schur complements on the vertex DOFs (``schur``).
 
     Args (construction):
         cell_dofs: (cells, n) global DOF of each element row (one process: local = global).

@@ -20,7 +20,10 @@ where H_m is definite by a margin (on one process from element matrices, ``defin
 ``shells.axisym.chain``; else the banded Cholesky of the assembled H_m), else MUMPS LDLᵀ
 (``shells.stability``).
 
-Assembly. m = 0 from that form with its own phases and m = 0 put in as numbers
+Assembly (on one process the C_k and H_0 are not assembled at all: their element matrices are
+tabulated once per state by a C loop over the FFCx kernels, every H_m's definiteness and exact
+count come from them, ``shells.axisym.chain``, and a PETSc H_m is summed from them where a
+solver needs one). m = 0 from that form with its own phases and m = 0 put in as numbers
 (``axisymmetric_form``: the direct form's values, bit for bit on the θ̄ = 8 cap and the
 sphere, at a quarter of its cost). For m ≥ 1 the phases
 are fixed and m enters the perturbation's jet linearly (φ-derivatives ∝ m, ∂_φφ ∝ m²) while

@@ -1,7 +1,9 @@
 """Assembly of the 1D model's mode Hessians H_m: direct (the one mode form per m) against the
 polynomial H_m = Σ m^k C_k (the five C_k assembled once per state, then MatAXPY and the
 conditions), at a closed sphere's state near buckling, h/R = 0.002, ν = 1/2, with the run's
-default discretisation and modes (309 cells, m = 0..62).
+default discretisation and modes (309 cells, m = 0..62). On one process "polynomial" is now
+the element-matrix path (``shells.axisym.chain``: H_m summed from tabulated element matrices,
+definiteness and exact counts from their condensation); "direct" assembles every block.
 
 Measures (median and minimum over repetitions, the two methods interleaved; wall time, so
 other processes on a shared machine count: the minimum is the robust figure): the assembly of
@@ -66,8 +68,9 @@ def main(out: str = "benchmarks/results/axisym_mode_assembly.json", repeats: int
     t_compile = _timed(lambda: mf.coefficient_forms)  # JIT (cached after the first run)
     H, D = model.create_hessian(1), model.create_hessian(1)
 
-    def new_state() -> None:  # what a new continuation point does to the C_k's cache
+    def new_state() -> None:  # what a new continuation point does to the C_k's caches
         mf._C_inputs = None
+        mf._E_inputs = None  # the element matrices (one process, ``shells.axisym.chain``)
 
     def poly_all() -> None:
         new_state()
@@ -108,14 +111,18 @@ def main(out: str = "benchmarks/results/axisym_mode_assembly.json", repeats: int
     for _ in range(repeats):
         for name, times in (("polynomial", t_check_poly), ("direct", t_check_direct)):
             if name == "direct":
-                model.assemble_hessian = direct  # this instance only: the direct path
+                model.assemble_hessian = direct  # this instance only: the direct path,
+                model.definite_blocks = lambda blocks, margin: None  # every block assembled
+                model.condensed_hessian = lambda block: None
             else:
-                vars(model).pop("assemble_hessian", None)
+                for k in ("assemble_hessian", "definite_blocks", "condensed_hessian"):
+                    vars(model).pop(k, None)
             new_state()
             t0 = time.perf_counter()
             counts[name] = stab.negative_counts(blocks)
             times.append(time.perf_counter() - t0)
-    vars(model).pop("assemble_hessian", None)
+    for k in ("assemble_hessian", "definite_blocks", "condensed_hessian"):
+        vars(model).pop(k, None)
     counts_poly, counts_direct = counts["polynomial"], counts["direct"]
     stab.destroy()
     H.destroy()
@@ -124,16 +131,22 @@ def main(out: str = "benchmarks/results/axisym_mode_assembly.json", repeats: int
     # the whole first-critical-point run, polynomial then direct (class-level switch)
     crit_times: dict[str, list[float]] = {"polynomial": [], "direct": []}
     crit_res: dict[str, Any] = {}
-    saved = AxisymModel.assemble_hessian
+    names = ("assemble_hessian", "definite_blocks", "condensed_hessian")
+    saved = {k: getattr(AxisymModel, k) for k in names}
+    direct_methods = {"assemble_hessian": _direct,
+                      "definite_blocks": lambda self, blocks, margin: None,
+                      "condensed_hessian": lambda self, block: None}
     try:
         for _ in range(max(1, repeats // 2)):
             for name, times in crit_times.items():
-                AxisymModel.assemble_hessian = _direct if name == "direct" else saved
+                for k in names:
+                    setattr(AxisymModel, k, direct_methods[k] if name == "direct" else saved[k])
                 t0 = time.perf_counter()
                 crit_res[name] = critical(Sphere(1.0), H_OVER_R, NU, "up", max_critical=1)
                 times.append(time.perf_counter() - t0)
     finally:
-        AxisymModel.assemble_hessian = saved
+        for k in names:
+            setattr(AxisymModel, k, saved[k])
     crit = {name: {"wall_s": _stats(crit_times[name]), "kappa_h": r["kappa_h"],
                    "mode_n": r["mode_n"], "kind": r["kind"]} for name, r in crit_res.items()}
 

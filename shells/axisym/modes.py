@@ -41,8 +41,8 @@ MatZeroRowsColumns), flagged symmetric. It equals the direct assembly to round-o
 Frobenius difference ≤ 7e-16 measured for m ≤ 62, constrained rows identical:
 tests/test_axisym_modes.py) at five assemblies per state instead of one per m: on the closed
 sphere at h/R = 0.002 (m = 0..62) 0.65 ms per block instead of 6.1 ms (the C_k: 10 ms per
-state), a stability check over all blocks 0.32 s instead of 0.64 s, now mostly the LDLᵀ
-factorisations (benchmarks/axisym_mode_assembly.py, docs/model.md).
+state), a stability check over all blocks 0.32 s instead of 0.64 s; with the element-matrix
+path 0.034 s (benchmarks/axisym_mode_assembly.py, docs/model.md).
 """
 
 from __future__ import annotations

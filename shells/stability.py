@@ -169,16 +169,36 @@ def _band_ordering(n: int, rows: np.ndarray, ai: np.ndarray, aj: np.ndarray) -> 
     return best
 
 
+class _Inertia:
+    """MUMPS' LDLᵀ of one matrix object (under the inertia prefix, configured once): its
+    inertia after each change of values, the symbolic factorisation kept."""
+
+    def __init__(self, A: Any, options: dict[str, Any]) -> None:
+        from petsc4py import PETSc
+
+        self.ksp = PETSc.KSP().create(A.getComm())
+        self.options = apply_options(self.ksp, INERTIA_PREFIX, options)
+        configure_factor(self.ksp, A, self.options)
+
+    def of(self, A: Any) -> tuple[int, int, int] | None:
+        """(negative, zero, positive) of A (the configured object), None if it cannot be
+        factored."""
+        self.ksp.setOperators(A)  # same object as configured: keeps the MUMPS controls
+        if not setup_factor(self.ksp, A, self.options):
+            return None
+        neg, zero, pos = self.ksp.getPC().getFactorMatrix().getInertia()
+        return int(neg), int(zero), int(pos)
+
+    def destroy(self) -> None:
+        self.ksp.destroy()
+
+
 class _Block:
     """The matrix and LDLᵀ factor of one block layout, and its banded Cholesky test."""
 
     def __init__(self, problem: Any, block: Hashable, options: dict[str, Any]) -> None:
-        from petsc4py import PETSc
-
         self.H = problem.create_hessian(block)
-        self.ksp = PETSc.KSP().create(problem.comm)
-        self.options = apply_options(self.ksp, INERTIA_PREFIX, options)
-        configure_factor(self.ksp, self.H, self.options)
+        self.factor = _Inertia(self.H, options)
         self.M: dict[Hashable, Any] = {}
         # the banded test applies: on one process, and (once H's pattern is seen) to a band
         # no wider than MAX_BANDWIDTH
@@ -221,15 +241,11 @@ class _Block:
             self.eps = eps
         return self.eps
 
-    def definite(self, margin: float, values: np.ndarray | None = None) -> bool:
-        """H (as assembled, or the matrix of H's pattern with these CSR ``values``) positive
-        definite by ``margin`` (``_BandedCholesky``); False where the test does not apply (in
-        parallel, a wide band; values before H's pattern was seen)."""
+    def definite(self, margin: float) -> bool:
+        """H as assembled positive definite by ``margin`` (``_BandedCholesky``); False where
+        the test does not apply (in parallel, a wide band)."""
         if not self.testable:
             return False
-        if values is not None:
-            ok = self.banded is not None and len(values) == len(self.banded.aj)
-            return ok and self.banded.definite(values, margin)
         ai, aj, values = self.H.getValuesCSR()
         if self.banded is None or not self.banded.matches(ai, aj):
             self.banded = _BandedCholesky(ai, aj)
@@ -238,7 +254,7 @@ class _Block:
         return self.testable and self.banded.definite(values, margin)
 
     def destroy(self) -> None:
-        for o in (self.eps, self.ksp, self.H, *self.M.values()):
+        for o in (self.eps, self.factor, self.H, *self.M.values()):
             if o is not None:
                 o.destroy()
 
@@ -254,7 +270,7 @@ class Stability:
         self.problem = problem
         self.options = {**INERTIA_OPTIONS, **(options or {})}
         self._blocks: dict[Hashable, _Block] = {}
-        self._condensed: dict[Any, tuple[Any, dict[str, Any]]] = {}  # ``_exact_inertia``'s
+        self._condensed: dict[int, _Inertia] = {}  # ``_exact_inertia``'s, by matrix
         #: how many inertias the banded test decided, and how many MUMPS
         self.calls = {"banded": 0, "mumps": 0}
 
@@ -282,12 +298,11 @@ class Stability:
             self.calls["banded"] += 1
             return 0, 0, int(b.H.getSize()[0])
         self.calls["mumps"] += 1
-        b.ksp.setOperators(b.H)  # same object as configured: keeps the MUMPS controls
-        if not setup_factor(b.ksp, b.H, b.options):
+        counts = b.factor.of(b.H)
+        if counts is None:
             raise RuntimeError(f"the Hessian's LDL^T factorisation failed (block {block}): "
                                "no inertia")
-        neg, zero, pos = b.ksp.getPC().getFactorMatrix().getInertia()
-        return int(neg), int(zero), int(pos)
+        return counts
 
     def _exact_inertia(self, block: Hashable) -> tuple[int, int, int]:
         """MUMPS' inertia of a block known not to be definite by the margin: of the problem's
@@ -299,21 +314,14 @@ class Stability:
         if cond is None:
             return self.inertia(block, test=False)
         S, eliminated = cond
-        key = ("condensed", id(S))
-        if key not in self._condensed:
-            from petsc4py import PETSc
-
-            ksp = PETSc.KSP().create(S.getComm())
-            opts = apply_options(ksp, INERTIA_PREFIX, self.options)
-            configure_factor(ksp, S, opts)
-            self._condensed[key] = (ksp, opts)
-        ksp, opts = self._condensed[key]
+        if id(S) not in self._condensed:  # the problem keeps S: one factor per matrix object
+            self._condensed[id(S)] = _Inertia(S, self.options)
         self.calls["mumps"] += 1
-        ksp.setOperators(S)
-        if not setup_factor(ksp, S, opts):
+        counts = self._condensed[id(S)].of(S)
+        if counts is None:
             return self.inertia(block, test=False)
-        neg, zero, pos = ksp.getPC().getFactorMatrix().getInertia()
-        return int(neg), int(zero), int(pos) + int(eliminated)
+        neg, zero, pos = counts
+        return neg, zero, pos + int(eliminated)
 
     def negative_count(self, block: Hashable = None) -> int:
         return self.inertia(block)[0]
@@ -435,6 +443,6 @@ class Stability:
         for b in self._blocks.values():
             b.destroy()
         self._blocks.clear()
-        for ksp, _ in self._condensed.values():
-            ksp.destroy()
+        for f in self._condensed.values():
+            f.destroy()
         self._condensed.clear()

@@ -343,6 +343,7 @@ class ChainCholesky:
         self.size = nv * nvd
         self.kd = 2 * nvd - 1
         self._constraint_cache: dict[Any, tuple[np.ndarray, np.ndarray]] = {}
+        self._schur_pattern: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self._order = np.ascontiguousarray(self.order, dtype=np.intc)
         self._irow = np.ascontiguousarray(np.tile(self.interior_rows, (ncells, 1)), dtype=np.intc)
         self._vrow = np.ascontiguousarray(rows, dtype=np.intc)
@@ -446,7 +447,7 @@ class ChainCholesky:
     def schur_pattern(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """CSR (indptr, indices) of the band's full symmetric storage, and for each entry its
         position in the lower band storage."""
-        if getattr(self, "_schur_pattern", None) is None:
+        if self._schur_pattern is None:
             kd, kd1, size = self.kd, self.kd + 1, self.size
             indptr, indices, source = [0], [], []
             for i in range(size):

@@ -125,6 +125,11 @@ class Problem(Protocol):
     # Hessian H has a Cholesky factor of H - margin diag(H), decided without assembling it (the
     # 1D model on one process: element matrices condensed on its chain of cells); blocks left
     # out, or None, are tested on their assembled matrices.
+    # ``block_inertia(block, growth) -> (negative, zero, positive) | None``: the block's
+    # exact inertia from a factorisation the problem does itself, None where it cannot vouch
+    # for it (an unpivoted LDLᵀ whose |L||D||Lᵀ| exceeds ``growth`` times the matrix's
+    # diagonal; the 1D model on one process); then ``condensed_hessian`` or the block goes
+    # to MUMPS.
     # ``condensed_hessian(block) -> (matrix, k) | None``: a smaller matrix with the block's
     # inertia but for k fewer positive eigenvalues (a Schur complement after eliminating k
     # DOFs on which the block is positive definite), factored instead of the block for the

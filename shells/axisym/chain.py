@@ -59,6 +59,7 @@ void tabulate_cells(int nforms, const uintptr_t* kernels, int ncells, int n, dou
 void condense_chain(int nb, int ncells, int n, int nk, const double* E, const double* powers,
                     const int* own, const int* order, int ni, const int* irow, int nv,
                     const int* vrow, double scale, double* band, int size, int* failed);
+int band_ldlt(double* ab, int n, int kd, double growth, int* counts);
 """
 
 _C_SOURCE = r"""
@@ -184,6 +185,53 @@ void condense_chain(int nb, int ncells, int n, int nk, const double* E, const do
         }
     }
   }
+}
+
+/* LDL^T without pivoting of a symmetric band matrix (LAPACK's lower band storage, as
+   condense_chain's, kd <= NV_MAX), in place; counts[0] / counts[1] = the negative / positive
+   pivots. Returns 0, or 1 where the factorisation cannot vouch for the inertia: a zero or
+   non-finite diagonal entry or pivot, or growth: a diagonal entry of |L| |D| |L^T| (its
+   off-diagonal entries are bounded by the diagonal's geometric means) above `growth` times
+   |a_jj|. Within that growth, the factors are those of A + dA with |dA_ij| <= (kd + 1) eps
+   growth sqrt(|a_ii a_jj|) (to first order): the inertia of the diagonally scaled matrix up
+   to a perturbation of that size (the error analysis of Cholesky, Higham, Accuracy
+   and Stability of Numerical Algorithms, ch. 10, applies to LDL^T without pivoting). */
+int band_ldlt(double* ab, int n, int kd, double growth, int* counts)
+{
+  const int kd1 = kd + 1;
+  double v[NV_MAX + 1];
+  counts[0] = counts[1] = 0;
+  if (kd > NV_MAX) return 1;
+  for (int j = 0; j < n; ++j)
+  {
+    const int k0 = j - kd > 0 ? j - kd : 0;
+    const double ajj = ab[j * kd1];
+    if (!(fabs(ajj) > 0.0) || !isfinite(ajj)) return 1;
+    /* v_k = L_jk d_k for k < j; d_j = a_jj - sum L_jk v_k; g = sum L_jk^2 |d_k| + |d_j| */
+    double d = ajj, g = 0.0;
+    for (int k = k0; k < j; ++k)
+    {
+      const double ljk = ab[(j - k) + k * kd1];
+      const double dk = ab[k * kd1];
+      v[k - k0] = ljk * dk;
+      d -= ljk * v[k - k0];
+      g += ljk * ljk * fabs(dk);
+    }
+    g += fabs(d);
+    if (!(fabs(d) > 0.0) || !isfinite(d) || !(g <= growth * fabs(ajj))) return 1;
+    ab[j * kd1] = d;
+    counts[d < 0.0 ? 0 : 1] += 1;
+    const int iend = j + kd < n - 1 ? j + kd : n - 1;
+    for (int i = j + 1; i <= iend; ++i)
+    {
+      /* L_ij = (a_ij - sum_{k >= i - kd} L_ik v_k) / d_j */
+      double t = ab[(i - j) + j * kd1];
+      const int ks = i - kd > k0 ? i - kd : k0;
+      for (int k = ks; k < j; ++k) t -= ab[(i - k) + k * kd1] * v[k - k0];
+      ab[(i - j) + j * kd1] = t / d;
+    }
+  }
+  return 0;
 }
 """
 
@@ -413,20 +461,16 @@ class ChainCholesky:
             out.append(int(info) == 0)
         return out
 
-    def schur(self, E: np.ndarray, powers: np.ndarray, own: int, constrained: np.ndarray
-              ) -> tuple[np.ndarray, int] | None:
-        """The Schur complement S of one block (element matrices as in ``definite``, no margin)
-        on the vertex DOFs, with the block's conditions, as CSR values in the pattern
-        ``schur_pattern``, and the number of eliminated interior DOFs; None if an interior
-        block is not positive definite. Haynsworth: the block's inertia is S's with that many
-        more positive eigenvalues."""
+    def _condensed(self, E: np.ndarray, powers: np.ndarray, own: int, constrained: np.ndarray
+                   ) -> np.ndarray | None:
+        """One block's Schur complement on the vertex DOFs (no margin), with its conditions, in
+        lower band storage; None if an interior block is not positive definite."""
         lib = _library()
         ffi = lib.ffi
         E = np.ascontiguousarray(E, dtype=np.float64)
         ncells, n = E.shape[1], E.shape[2]
         powers = np.ascontiguousarray(np.atleast_2d(powers), dtype=np.float64)
-        kd1 = self.kd + 1
-        ab = np.empty(kd1 * self.size)
+        ab = np.empty((self.kd + 1) * self.size)
         failed = np.zeros(1, dtype=np.intc)
         own_arr = np.array([own], dtype=np.intc)
         ptr = lambda a, t: ffi.cast(t, ffi.from_buffer(a))  # noqa: E731
@@ -441,8 +485,44 @@ class ChainCholesky:
         zero, diagonal = self._constraint_indices(np.asarray(constrained))
         ab[zero] = 0.0
         ab[diagonal] = 1.0
+        return ab
+
+    def eliminated(self) -> int:
+        """How many interior DOFs the condensation eliminates."""
+        return len(self.interior_rows) * len(self.order)
+
+    def schur(self, E: np.ndarray, powers: np.ndarray, own: int, constrained: np.ndarray
+              ) -> tuple[np.ndarray, int] | None:
+        """The Schur complement S of one block (element matrices as in ``definite``, no margin)
+        on the vertex DOFs, with the block's conditions, as CSR values in the pattern
+        ``schur_pattern``, and the number of eliminated interior DOFs; None if an interior
+        block is not positive definite. Haynsworth: the block's inertia is S's with that many
+        more positive eigenvalues."""
+        ab = self._condensed(E, powers, own, constrained)
+        if ab is None:
+            return None
         _, _, source = self.schur_pattern()
-        return ab[source], len(self.interior_rows) * ncells
+        return ab[source], self.eliminated()
+
+    def inertia(self, E: np.ndarray, powers: np.ndarray, own: int, constrained: np.ndarray,
+                growth: float) -> tuple[int, int, int] | None:
+        """(negative, zero, positive) eigenvalue counts of one block (as in ``schur``): the
+        Schur complement's by its LDLᵀ without pivoting (C ``band_ldlt``), plus the eliminated
+        DOFs' positive ones (Haynsworth). None where that factorisation cannot vouch for the
+        count (a zero pivot, or a diagonal of |L||D||Lᵀ| above ``growth`` times the matrix's:
+        then its backward error may exceed (kd + 1) ε ``growth`` of the diagonally scaled
+        matrix), or an interior block is not positive definite: the caller then asks MUMPS."""
+        ab = self._condensed(E, powers, own, constrained)
+        if ab is None:
+            return None
+        lib = _library()
+        ffi = lib.ffi
+        counts = np.zeros(2, dtype=np.intc)
+        status = lib.lib.band_ldlt(ffi.cast("double*", ffi.from_buffer(ab)), self.size, self.kd,
+                                   float(growth), ffi.cast("int*", ffi.from_buffer(counts)))
+        if status != 0:
+            return None
+        return int(counts[0]), 0, int(counts[1]) + self.eliminated()
 
     def schur_pattern(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """CSR (indptr, indices) of the band's full symmetric storage, and for each entry its

@@ -569,6 +569,12 @@ class AxisymModel(FormProblem):
         ``shells.stability``'s test of definiteness."""
         return self.mode_forms.definite([b for b in blocks if b is not None], margin)
 
+    def block_inertia(self, block: Any, growth: float) -> tuple[int, int, int] | None:
+        """H_m's inertia by an LDLᵀ of its condensed form that vouches for it
+        (``ModeForms.inertia``), for ``shells.stability``'s exact counts; None for block None,
+        in parallel, or where that factorisation cannot vouch for the count."""
+        return None if block is None else self.mode_forms.inertia(block, growth)
+
     def condensed_hessian(self, block: Any) -> tuple[Any, int] | None:
         """H_m with its cells' interior DOFs eliminated (``ModeForms.condensed_hessian``): a
         smaller matrix of the same inertia but for the returned number of positive

@@ -406,6 +406,18 @@ class ModeForms:
         self._schur.setOption(self._schur.Option.SYMMETRIC, True)
         return self._schur, eliminated
 
+    def inertia(self, m: int, growth: float) -> tuple[int, int, int] | None:
+        """H_m's inertia from its element matrices condensed on the chain of cells, by an LDLᵀ
+        without pivoting that vouches for its count (``ChainCholesky.inertia``, ``growth``);
+        None in parallel or where it cannot vouch (the caller then asks MUMPS)."""
+        E = self.element_matrices()
+        if E is None:
+            return None
+        m = int(m)
+        return self._chain[1].inertia(E, self._powers([m]), DEGREE + 1 if m == 0 else -1,
+                                      np.asarray(self._constrained_rows(m).getIndices()),
+                                      growth)
+
     def definite(self, ms: list[int], margin: float) -> dict[int, bool] | None:
         """For each m: is H_m - ``margin`` diag(H_m) positive definite (a Cholesky factor
         exists)? From the element matrices (``element_matrices``), combined for all m at once

@@ -130,6 +130,10 @@ class Problem(Protocol):
     # for it (an unpivoted LDLᵀ whose |L||D||Lᵀ| exceeds ``growth`` times the matrix's
     # diagonal; the 1D model on one process); then ``condensed_hessian`` or the block goes
     # to MUMPS.
+    # ``block_factor(block) -> solver | None``: the block's Hessian at the current state (as
+    # ``assemble_hessian`` assembles it) factored by the problem, ``solver.solve(b, x)``
+    # writing H^-1 b into x (arrays of the local DOFs): the operator of the shift-invert
+    # eigensolves instead of MUMPS (the 1D model on one process); None: MUMPS.
     # ``condensed_hessian(block) -> (matrix, k) | None``: a smaller matrix with the block's
     # inertia but for k fewer positive eigenvalues (a Schur complement after eliminating k
     # DOFs on which the block is positive definite), factored instead of the block for the

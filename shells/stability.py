@@ -198,6 +198,20 @@ class _Inertia:
         self.ksp.destroy()
 
 
+class _ProblemSolve:
+    """The PC (petsc4py's python type) of the eigensolves that use a problem's own
+    factorisation (``block_factor``): applies ``solver``, set before each solve."""
+
+    def __init__(self) -> None:
+        self.solver: Any = None
+
+    def setUp(self, pc: Any) -> None:  # noqa: N802 - petsc4py's name
+        pass
+
+    def apply(self, pc: Any, x: Any, y: Any) -> None:
+        self.solver.solve(x.array_r, y.array_w)
+
+
 class _Block:
     """The matrix and LDLᵀ factor of one block layout, and its banded Cholesky test."""
 
@@ -210,33 +224,28 @@ class _Block:
         self.testable = problem.comm.size == 1
         self.banded: _BandedCholesky | None = None
         self.eps: Any = None  # the layout's eigensolver (``eigensolver``), made on first use
+        self.shell_eps: Any = None  # the one with the problem's factorisation (``_ProblemSolve``)
+        self.shell = _ProblemSolve()
         self._seed = 0
         self.user_options = False
 
-    def eigensolver(self) -> Any:
+    def eigensolver(self, shell: bool = False) -> Any:
         """The layout's SLEPc EPS: shift-invert about 0 with MUMPS, for H v = μ M v (GHEP),
         made once and reused by every eigensolve of the layout's blocks. Reuse keeps the
         factorisation's symbolic analysis and the EPS's set-up between solves (on the 1D
         model's Fourier blocks 11.7 against 20.6 ms a solve, eigenvalues equal to 5e-12);
         its random start vector is reseeded before each solve (``eigenpairs``), so a solve
-        does not depend on the solves before it."""
+        does not depend on the solves before it. ``shell``: the layout's second EPS, whose
+        shift-invert applies ``self.shell`` (a problem's own factorisation) instead of MUMPS;
+        the same settings otherwise."""
         from petsc4py import PETSc
-        from slepc4py import SLEPc
 
+        if shell:
+            if self.shell_eps is None:
+                self.shell_eps = self._new_eps(shell=True)
+            return self.shell_eps
         if self.eps is None:
-            eps = SLEPc.EPS().create(self.H.getComm())
-            eps.setProblemType(SLEPc.EPS.ProblemType.GHEP)
-            eps.setTarget(0.0)
-            eps.setWhichEigenpairs(SLEPc.EPS.Which.TARGET_REAL)
-            st = eps.getST()
-            st.setType(SLEPc.ST.Type.SINVERT)
-            st.setShift(0.0)
-            ksp = st.getKSP()
-            ksp.setType("preonly")
-            pc = ksp.getPC()
-            pc.setType("lu")
-            pc.setFactorSolverType("mumps")
-            eps.setTolerances(1e-10, 200)
+            eps = self._new_eps(shell=False)
             eps.setOptionsPrefix(EIGEN_PREFIX)
             eps.setFromOptions()  # the user's -shells_eigen_... options
             self._seed = eps.getBV().getRandomContext().getSeed()
@@ -245,6 +254,28 @@ class _Block:
                                     for k in PETSc.Options().getAll())
             self.eps = eps
         return self.eps
+
+    def _new_eps(self, shell: bool) -> Any:
+        from slepc4py import SLEPc
+
+        eps = SLEPc.EPS().create(self.H.getComm())
+        eps.setProblemType(SLEPc.EPS.ProblemType.GHEP)
+        eps.setTarget(0.0)
+        eps.setWhichEigenpairs(SLEPc.EPS.Which.TARGET_REAL)
+        st = eps.getST()
+        st.setType(SLEPc.ST.Type.SINVERT)
+        st.setShift(0.0)
+        ksp = st.getKSP()
+        ksp.setType("preonly")
+        pc = ksp.getPC()
+        if shell:
+            pc.setType("python")
+            pc.setPythonContext(self.shell)
+        else:
+            pc.setType("lu")
+            pc.setFactorSolverType("mumps")
+        eps.setTolerances(1e-10, 200)
+        return eps
 
     def definite(self, margin: float) -> bool:
         """H as assembled positive definite by ``margin`` (``_BandedCholesky``); False where
@@ -259,7 +290,7 @@ class _Block:
         return self.testable and self.banded.definite(values, margin)
 
     def destroy(self) -> None:
-        for o in (self.eps, self.factor, self.H, *self.M.values()):
+        for o in (self.eps, self.shell_eps, self.factor, self.H, *self.M.values()):
             if o is not None:
                 o.destroy()
 
@@ -382,6 +413,14 @@ class Stability:
         H = self.assemble(block) if assemble else self._block(block).H
         b = self._block(block)
         eps = b.eigensolver()
+        # the problem's own factorisation where it has one (``block_factor``; not with a
+        # user's eigensolver options, nor in the reference mode without the banded test)
+        solver = (self.problem.block_factor(block)
+                  if self.banded_test and not b.user_options
+                  and hasattr(self.problem, "block_factor") else None)
+        if solver is not None:
+            b.shell.solver = solver
+            eps = b.eigensolver(shell=True)
         eps.setOperators(H, self.mass(block))  # new values: a numeric refactorisation
         size = H.getSize()[0]  # a tiny problem cannot have more than its size
         nev = min(nev, size)
@@ -396,7 +435,10 @@ class Stability:
         except Exception:
             # a failed factorisation (an exactly singular block) leaves MUMPS unusable for the
             # next solve ("invalid JOB"): the next one starts from a new EPS
-            b.eps = None
+            if solver is None:
+                b.eps = None
+            else:
+                b.shell_eps = None
             eps.destroy()
             raise
         if eps.getConverged() < nev:

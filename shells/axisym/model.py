@@ -575,6 +575,11 @@ class AxisymModel(FormProblem):
         in parallel, or where that factorisation cannot vouch for the count."""
         return None if block is None else self.mode_forms.inertia(block, growth)
 
+    def block_factor(self, block: Any) -> Any:
+        """H_m factored on the chain of cells (``ModeForms.factor``), for ``shells.stability``'s
+        shift-invert eigensolves; None for block None, in parallel, or where it fails."""
+        return None if block is None else self.mode_forms.factor(block)
+
     def condensed_hessian(self, block: Any) -> tuple[Any, int] | None:
         """H_m with its cells' interior DOFs eliminated (``ModeForms.condensed_hessian``): a
         smaller matrix of the same inertia but for the returned number of positive

@@ -123,6 +123,7 @@ class ModeForms:
         self.form = fem.form(self.hessian_ufl, jit_options=JIT_OPTIONS)
         self.mass = fem.form(ufl.inner(v_, v) * model.r0 * model.g * model.dx)
         self._bcs = {k: self._conditions(k) for k in (0, 1, 2, 3)}
+        self._expanded: Any = None  # ``hessian_ufl`` with its derivatives expanded
         self._coefficient_forms: list[Any] | None = None
         self._axisymmetric_form: Any = None  # H_0's own form (``axisymmetric_form``)
         self._C: list[Any] | None = None  # the matrices C_k
@@ -165,7 +166,9 @@ class ModeForms:
         rep[c["m"]] = (ufl.as_ufl(0.0) if m == 0 else
                        fem.Function(fem.functionspace(self.model.mesh, ("DG", 0))))
         rep[self.pert] = ufl.zero(*self.pert.ufl_shape)
-        return ufl.replace(expand_derivatives(self.hessian_ufl), rep), rep[c["m"]]
+        if self._expanded is None:  # once: both uses expand the same Hessian (0.1 s each)
+            self._expanded = expand_derivatives(self.hessian_ufl)
+        return ufl.replace(self._expanded, rep), rep[c["m"]]
 
     @property
     def axisymmetric_form(self) -> Any:
@@ -417,6 +420,18 @@ class ModeForms:
         return self._chain[1].inertia(E, self._powers([m]), DEGREE + 1 if m == 0 else -1,
                                       np.asarray(self._constrained_rows(m).getIndices()),
                                       growth)
+
+    def factor(self, m: int) -> Any:
+        """H_m factored from its element matrices on the chain of cells (``ChainLU``: solves
+        H_m x = b, the matrix as ``assemble_hessian`` assembles it); None in parallel, or where
+        the factorisation does not apply or fails (the caller then uses MUMPS)."""
+        E = self.element_matrices()
+        if E is None:
+            return None
+        m = int(m)
+        f = self._chain[1].factor(E, self._powers([m]), DEGREE + 1 if m == 0 else -1,
+                                  np.asarray(self._constrained_rows(m).getIndices()))
+        return f if f is not None and f.ok else None
 
     def definite(self, ms: list[int], margin: float) -> dict[int, bool] | None:
         """For each m: is H_m - ``margin`` diag(H_m) positive definite (a Cholesky factor

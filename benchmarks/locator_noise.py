@@ -12,9 +12,11 @@ locates it. Three measurements:
 2. the crossing eigenvalue μ of block m = 2 at the locator's trial states (the samples its
    secant and quadratic steps use), run against run;
 3. the same eigenvalue at one κ near the crossing reached by Newton (SNES) in 8, 11 and 16
-   natural steps from κ = 0: how reproducible a state and its μ are at a fixed κ, and how far
+   natural steps from κ = 0: how reproducible a state and its μ are at a fixed κ, how far
    the 1-ulp perturbations w (1 ± ε) of that state move μ (the round-off of the assembled
-   Hessian, whose Frobenius norm is also reported).
+   Hessian, whose Frobenius norm is also reported), and how far the state solved again at
+   κ (1 ± 1e-10 .. 1e-9) moves it (a new sequence of round-off in the state itself, which the
+   locator's reported accuracy measures: ``shells.critical.eigenvalue_roundoff``).
 """
 
 from __future__ import annotations
@@ -107,12 +109,25 @@ def fixed_kappa() -> dict:
             set_state(m, w0)
             H = st.assemble(2)
             hnorm = float(H.norm())
+            # the same state solved again at κ (1 ± η), η ~ 1e-10 (the locator's round-off
+            # measure, ``shells.critical.ROUNDOFF_SHIFT``): a new sequence of round-off
+            resolved = []
+            for eta in (1e-10, -1e-10, 2e-10, -2e-10, 1e-9):
+                set_state(m, w0)
+                m.set_kappa(float(KAPPA_FIXED * (1.0 + eta)))
+                ok, _ = br.ns.solve()
+                if not ok:
+                    raise RuntimeError("Newton failed at a shifted kappa")
+                resolved.append(st.eigenpairs(2, block=2)[0][0])
+            set_state(m, w0)
+            m.set_kappa(float(KAPPA_FIXED))
         st.destroy()
         br.destroy()
     diff = max(float(np.linalg.norm(s - states[0]) / np.linalg.norm(states[0]))
                for s in states[1:])
     return {"kappa_R": KAPPA_FIXED, "runs": runs, "state_relative_difference": diff,
-            "mu_2_one_ulp_perturbations": perturbed, "hessian_2_frobenius": hnorm}
+            "mu_2_one_ulp_perturbations": perturbed, "mu_2_resolved_shifted": resolved,
+            "hessian_2_frobenius": hnorm}
 
 
 def main() -> None:
@@ -149,10 +164,12 @@ def main() -> None:
     mus = [r["mu_2"] for r in fixed["runs"]]
     steps = [r["natural_steps"] for r in fixed["runs"]]
     ulp = fixed["mu_2_one_ulp_perturbations"]
+    res = fixed["mu_2_resolved_shifted"]
     print(f"at kappa R = {KAPPA_FIXED} by natural Newton steps {steps}: "
           f"mu_2 = {', '.join(f'{m:.3e}' for m in mus)}, states equal to "
           f"{fixed['state_relative_difference']:.1e}; 1-ulp perturbations move mu_2 by up to "
-          f"{max(ulp) - min(ulp):.1e}; ||H_2||_F = {fixed['hessian_2_frobenius']:.2e}")
+          f"{max(ulp) - min(ulp):.1e}; solved again at kappa (1 +- 1e-10 .. 1e-9) by up to "
+          f"{max(res) - min(res):.1e}; ||H_2||_F = {fixed['hessian_2_frobenius']:.2e}")
     assert math.isfinite(spread)
 
 

@@ -632,6 +632,7 @@ def explanations(pts: list[dict[str, Any]], fit: dict[str, Any],
         nz = json.loads(noise_file.read_text())
         fx = nz["fixed_kappa"]
         ulp = fx["mu_2_one_ulp_perturbations"]
+        res = fx.get("mu_2_resolved_shifted") or ulp
         ks = [r["kappa_R"] for r in nz["runs"]]
         t.append("**How reproducible a located point is.** A location tolerance is not the "
                  "whole error: the shallowest crossings are limited by round-off. The "
@@ -648,8 +649,10 @@ def explanations(pts: list[dict[str, Any]], fit: dict[str, Any],
                  f"Fourier block's Hessian has a Frobenius norm of {fx['hessian_2_frobenius']:.1e}"
                  " (the penalty tying the slope fields, 1e4 / g² on cells of size 1e-2 R): "
                  "eigenvalues near 0 carry a round-off of order ε ||H|| = "
-                 f"{2.2e-16 * fx['hessian_2_frobenius']:.0e}. Measured: 1-ulp perturbations of "
-                 f"one state move it by up to {max(ulp) - min(ulp):.0e}, and the locator's "
+                 f"{2.2e-16 * fx['hessian_2_frobenius']:.0e}. Measured: solving one state "
+                 "again at κ (1 ± 1e-10), a new sequence of round-off in the state, moves it "
+                 f"by up to {max(res) - min(res):.0e} (1-ulp perturbations of the state by "
+                 f"{max(ulp) - min(ulp):.0e}), and the locator's "
                  "trial states next to the crossing give it " + ", ".join(
                      f"{mu:.1e}" for _, mu in nz["nearest_samples"]) + " run against run, "
                  f"enough to move the root by ~{nz['located_spread_relative']:.0e}. Where the "

@@ -62,16 +62,19 @@ __all__ = ["CriticalSettings", "CriticalPoint", "FollowResume", "SwitchResume", 
 
 
 #: the eigenvalues near 0 of a stability block are reproducible only to about this multiple
-#: of their change under 1-ulp perturbations of the state (``_Locator.eigenvalue_roundoff``),
-#: so a crossing only to that over |dμ/dκ|, which the reported accuracy includes. Measured
-#: (benchmarks/locator_noise.py) on the 1D model's m = 2 block of the θ̄ = 15.11 cap going
-#: down (h/R = 0.01; ||H||_F = 4.6e9 from the slope penalty, dμ/dκR = 2.3e-3): 1-ulp
-#: perturbations move the crossing eigenvalue by up to 1e-7, the locator's trial states next to
-#: the crossing scatter it by 3e-7 run against run (first step scaled by 1 ± 1e-6) and the
-#: located κ by 3.8e-4 relative, where the interpolation alone claimed at most 1.6e-6 (with this
-#: factor the four runs report 0.7e-4 to 3.4e-4; the θ̄ = 8 cap's κ > 0 bifurcations, which
-#: scatter by ~1e-7, 3e-7 to 2e-6)
+#: of their change when the point is solved again at a κ shifted by round-off
+#: (``_Locator.eigenvalue_roundoff``), so a crossing only to that over |dμ/dκ|, which the
+#: reported accuracy includes. Measured (benchmarks/locator_noise.py) on the 1D model's m = 2
+#: block of the θ̄ = 15.11 cap going down (h/R = 0.01; ||H||_F = 4.6e9 from the slope penalty,
+#: dμ/dκR = 2.3e-3): solving the state again at κ (1 ± 1e-10) moves the crossing eigenvalue by
+#: up to 1.9e-7 (1-ulp perturbations of the state alone by 1.5e-11 with the model's own
+#: factorisation, by 1e-7 with MUMPS), the locator's trial states next to the crossing scatter
+#: it by 3.5e-7 run against run (first step scaled by 1 ± 1e-6, 1.001) and the located κ by
+#: 3.1e-4 relative, where the interpolation alone claimed at most 1.6e-6 (with this factor the
+#: four runs report 1.5e-4 to 7.0e-4)
 EIGEN_ROUNDOFF = 6.0
+#: the relative shift of κ at which ``_Locator.eigenvalue_roundoff`` solves a point again
+ROUNDOFF_SHIFT = 1.0e-10
 #: Krylov subspace of the round-off measurement's solves (one eigenvalue, nearest 0): 8 converges
 #: as 24 does (the same value to 1e-12 on the θ̄ = 8 cap) at half the cost of a solve
 ROUNDOFF_NCV = 8
@@ -324,10 +327,16 @@ class _Locator:
 
     def eigenvalue_roundoff(self, e: _Eval, block: Hashable) -> float:
         """The round-off of block's eigenvalue nearest 0 at an evaluated point, measured:
-        ``EIGEN_ROUNDOFF`` times its largest change under two 1-ulp perturbations w (1 ± ε)
-        (random signs, a fixed seed) of the point's state. 0 where it cannot be measured (an
-        eigensolve that fails: the shift-invert factorisation of an exactly singular block,
-        as at an algebraic problem's exact root)."""
+        ``EIGEN_ROUNDOFF`` times its largest change when the point is solved again at
+        κL (1 ± ``ROUNDOFF_SHIFT``) (the corrector from the point's state; where it fails,
+        a 1-ulp perturbation w (1 ± ε) of the state, random signs, a fixed seed, instead).
+        The shift is far too small to change the physics (dμ/dκ times it is ~1e-13 on the 1D
+        model's caps), but the state solved again carries a new sequence of round-off, which
+        the Jacobian's condition amplifies: on a thin cap that moves μ by up to 1e-7, far more
+        than 1-ulp perturbations of the state do once the eigensolve itself is reproducible
+        (the 1D model's own factorisation, ``block_factor``). 0 where it cannot be measured
+        (an eigensolve that fails: the shift-invert factorisation of an exactly singular
+        block, as at an algebraic problem's exact root)."""
         from petsc4py import PETSc
 
         self._load(e.state, e.lam)
@@ -335,19 +344,29 @@ class _Locator:
         rng = np.random.default_rng(20261203 + self.problem.comm.rank)
         eps = float(np.finfo(float).eps)
         change = 0.0
+        zero = self.w0.duplicate()
+        zero.set(0.0)
         try:
             # the point's own eigenvalue nearest 0 where the locator computed it already
             known = e.eigs.get(block)
             mu0 = ([min(known, key=abs)] if known
                    else self.stab.eigenpairs(1, block=block, ncv=ROUNDOFF_NCV)[0])
-            for _ in range(2):
-                set_state(self.problem, w0 * (1.0 + eps * rng.choice((-1.0, 1.0), size=w0.size)))
+            for sign in (1.0, -1.0):
+                self._load(e.state, e.lam)
+                lam = e.lam * (1.0 + sign * ROUNDOFF_SHIFT) if e.lam != 0 else \
+                    sign * ROUNDOFF_SHIFT
+                c = _bordered_newton(self.ar, self.st_locate, lam, plane=(zero, 1.0, zero),
+                                     singular_ok=True)
+                if not c.ok:
+                    set_state(self.problem,
+                              w0 * (1.0 + eps * rng.choice((-1.0, 1.0), size=w0.size)))
                 mu = self.stab.eigenpairs(1, block=block, ncv=ROUNDOFF_NCV)[0]
                 if mu and mu0:
                     change = max(change, abs(mu[0] - mu0[0]))
         except PETSc.Error:
             change = 0.0
         finally:
+            zero.destroy()
             self._load(e.state, e.lam)
         return EIGEN_ROUNDOFF * change
 

@@ -48,7 +48,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["CellTabulator", "ChainCholesky", "ChainLU"]
+__all__ = ["CellTabulator", "ChainCholesky", "ChainLU", "ElementAssembler"]
 
 log = logging.getLogger("shells")
 
@@ -417,6 +417,84 @@ class CellTabulator:
             ffi.new("const double*[]", [ptr(a) for a in consts]),
             ptr(self._coords), self._coords.shape[1])
         return out
+
+
+_VALUES = "shells_csr_values"  # the attribute holding a matrix's own value array
+
+
+class ElementAssembler:
+    """A bilinear form's matrix from its element matrices (one process): each entry the sum of
+    the element values at its position, added in cell order as dolfinx's assembler adds them
+    (the same values), the rows and columns of constrained DOFs zero and their diagonal a
+    given value (as ``assemble_matrix(..., bcs, diagonal)``), into a PETSc matrix of the
+    form's pattern (``create_matrix(form)``) by one ``setValuesCSR``: no per-cell insertion.
+
+    Args:
+        form: the compiled form (its pattern and its test space's cell DOFs).
+    """
+
+    def __init__(self, form: Any) -> None:
+        from dolfinx import fem
+
+        pattern = fem.create_matrix(form)  # the CSR order of PETSc's matrices too
+        indptr, indices = pattern.indptr.copy(), pattern.indices.copy()
+        n = len(indptr) - 1
+        rows = np.repeat(np.arange(n), np.diff(indptr))
+        keys = rows.astype(np.int64) * n + indices
+        dm = form.function_spaces[0].dofmap
+        cells = np.asarray(dm.list if hasattr(dm, "list") else dm.map()).astype(np.int64)
+        bs = dm.bs
+        if bs > 1:  # blocked dofmap: each node's bs DOFs
+            cells = (cells[:, :, None] * bs + np.arange(bs)).reshape(len(cells), -1)
+        k = cells.shape[1]
+        ekeys = (np.repeat(cells, k, axis=1) * n + np.tile(cells, (1, k))).ravel()
+        pos = np.searchsorted(keys, ekeys)
+        if not np.array_equal(keys[np.minimum(pos, len(keys) - 1)], ekeys):
+            raise ValueError("an element entry outside the form's pattern")
+        self._indptr, self._indices = indptr.astype(np.int32), indices.astype(np.int32)
+        self._pos, self._rows = pos, rows
+        self._masks: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+
+    def set(self, A: Any, elements: np.ndarray, constrained: np.ndarray,
+            diagonal: float = 1.0) -> None:
+        """A's values from ``elements`` (cells x n x n, rows in the dofmap's order), the
+        ``constrained`` DOFs' rows and columns zero and their diagonal ``diagonal``;
+        assembled."""
+        values = np.bincount(self._pos, weights=elements.ravel(),
+                             minlength=len(self._indices))
+        key = np.asarray(constrained).tobytes()
+        if key not in self._masks:
+            cons = np.asarray(constrained)
+            hit = np.isin(self._rows, cons)
+            self._masks[key] = (np.nonzero(hit | np.isin(self._indices, cons))[0],
+                                np.nonzero(hit & (self._rows == self._indices))[0])
+        zero, diag = self._masks[key]
+        values[zero] = 0.0
+        values[diag] = diagonal
+        own = A.getAttr(_VALUES)
+        if own is not None and own.shape == values.shape:
+            own[:] = values  # the matrix's own value array (``create_matrix``)
+        else:
+            A.setValuesCSR(self._indptr, self._indices, values)
+        A.assemble()  # also marks the values changed, for a factorisation's reuse test
+
+    def create_matrix(self) -> Any:
+        """A sequential AIJ matrix of the form's pattern whose value array is a numpy array
+        ``set`` writes in place (``setValuesCSR`` costs 0.35 ms on the θ̄ = 8 cap's 2000
+        rows, the write 0.01 ms), with identity local-to-global maps (dolfinx's assembler can
+        still assemble into it)."""
+        from petsc4py import PETSc
+
+        n = len(self._indptr) - 1
+        values = np.zeros(len(self._indices))
+        A = PETSc.Mat().createAIJWithArrays([n, n], (self._indptr, self._indices, values),
+                                            comm=PETSc.COMM_SELF)
+        lg = PETSc.LGMap().create(np.arange(n, dtype=PETSc.IntType), comm=PETSc.COMM_SELF)
+        A.setLGMap(lg, lg)
+        lg.destroy()
+        A.setAttr(_VALUES, values)
+        A.assemble()
+        return A
 
 
 class ChainCholesky:

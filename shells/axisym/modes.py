@@ -133,9 +133,8 @@ class ModeForms:
         self._chain: Any = None  # ``definite``'s tabulator and chain test (False: unavailable)
         self._E: np.ndarray | None = None  # ``element_matrices``
         self._E_inputs: list[np.ndarray] | None = None  # what they were tabulated from
-        self._csr: Any = None  # ``_set_from_elements``: the CSR pattern, element positions
+        self._csr: Any = None  # ``_set_from_elements``'s ``ElementAssembler``
         self._schur: Any = None  # ``condensed_hessian``'s matrix
-        self._masks: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # constrained positions
 
     # -- H_m = Σ m^k C_k for m ≥ 1 --------------------------------------------------------
     def coefficient_ufl(self) -> list[Any]:
@@ -351,35 +350,13 @@ class ModeForms:
         return out
 
     def _set_from_elements(self, H: Any, Em: np.ndarray, m: int) -> None:
-        """H's values from the element matrices Em of H_m: summed by their CSR positions, mode
+        """H's values from the element matrices Em of H_m (``chain.ElementAssembler``), mode
         m's constrained rows and columns 0 and their diagonal 1, flagged symmetric."""
         if self._csr is None:
-            from dolfinx import fem
+            from shells.axisym.chain import ElementAssembler
 
-            pattern = fem.create_matrix(self.form)  # the CSR order of PETSc's matrices too
-            indptr, indices = pattern.indptr.copy(), pattern.indices.copy()
-            n = len(indptr) - 1
-            rows = np.repeat(np.arange(n), np.diff(indptr))
-            keys = rows.astype(np.int64) * n + indices
-            dm = self.V.dofmap.list.astype(np.int64)
-            k = dm.shape[1]
-            ekeys = (np.repeat(dm, k, axis=1) * n + np.tile(dm, (1, k))).ravel()
-            pos = np.searchsorted(keys, ekeys)
-            assert np.array_equal(keys[pos], ekeys)
-            self._csr = (indptr.astype(np.int32), indices.astype(np.int32), pos, rows)
-        indptr, indices, pos, rows = self._csr
-        values = np.bincount(pos, weights=Em.ravel(), minlength=len(indices))
-        key = min(int(m), 3)
-        if key not in self._masks:
-            cons = np.asarray(self._constrained_rows(m).getIndices())
-            hit = np.isin(rows, cons)
-            self._masks[key] = (np.nonzero(hit | np.isin(indices, cons))[0],
-                                np.nonzero(hit & (rows == indices))[0])
-        zero, diagonal = self._masks[key]
-        values[zero] = 0.0
-        values[diagonal] = 1.0
-        H.setValuesCSR(indptr, indices, values)
-        H.assemble()
+            self._csr = ElementAssembler(self.form)
+        self._csr.set(H, Em, np.asarray(self._constrained_rows(m).getIndices()))
         H.setOption(H.Option.SYMMETRIC, True)
 
     def condensed_hessian(self, m: int) -> tuple[Any, int] | None:

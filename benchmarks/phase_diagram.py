@@ -661,13 +661,16 @@ def explanations(pts: list[dict[str, Any]], fit: dict[str, Any],
                  "the tolerance; the folds, the κ > 0 bifurcations and the fits far better. "
                  "Reruns at rel_tol 1e-5 before and after the 1D solver changes of issue 14 "
                  "(its per-point checks by banded Cholesky, then from element matrices "
-                 "condensed on the chain of cells, `shells.axisym.chain`) moved the fits by at "
-                 "most 5.5e-6 and 4.0e-6 (7.2e-6 per h/R), every κ > 0 point by at most 1.1e-5 "
-                 "and 5.9e-6, and the κ < 0 points by up to 4.1e-4 and 2.8e-4, the spread above "
-                 "(`benchmarks/locator_noise.py`). The plate limit at h/r = 0.01 is such a "
-                 "slow crossing too: it moved by 3.3e-5 and 3.6e-4 (4.6027, 4.6033 with other "
-                 "steps, 4.6044), inside its reported accuracy (2e-2 relative: round-off "
-                 "dominates the disk's m = 2 eigenvalue at κ r = 0.046).\n")
+                 "condensed on the chain of cells, `shells.axisym.chain`, then exact counts "
+                 "and eigensolves with the model's own factorisations of the condensed blocks) "
+                 "moved the fits by at most 5.5e-6, 4.0e-6 and 1.7e-5 (b and c, fitted to the "
+                 "κ < 0 points; α, β and θ̄_s unchanged; θ̄_c 1.9e-6), every κ > 0 point by "
+                 "at most 1.1e-5, 5.9e-6 and 3.5e-6, and the κ < 0 points by up to 4.1e-4, "
+                 "2.8e-4 and 3.1e-4, the spread above (`benchmarks/locator_noise.py`). The "
+                 "plate limit at h/r = 0.01 is such a slow crossing too: it moved by 3.3e-5, "
+                 "3.6e-4 and 1.6e-4 (4.6027, 4.6033 with other steps, 4.6044, 4.6036), inside "
+                 "its reported accuracy (2e-2 relative: round-off dominates the disk's m = 2 "
+                 "eigenvalue at κ r = 0.046).\n")
     if below:
         t.append(f"**α, β (snap line).** Our folds lie {-100 * max(below):.1f} % to "
                  f"{-100 * min(below):.1f} % (mean {-100 * float(sum(below) / len(below)):.1f} %)"

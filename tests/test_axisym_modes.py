@@ -202,3 +202,27 @@ def test_eigenpairs_with_the_chain_factorisation_are_those_with_mumps(shape, h, 
     assert negative >= (18 if shape.closed else 0)
     for s in (fast, ref):
         s.destroy()
+
+
+def test_jacobian_from_element_matrices_is_dolfinx_assembly():
+    """The Jacobian assembled from its element matrices into a matrix whose values are written
+    in place (one process) is dolfinx's assembly of the same form to the last bit, on a
+    loaded cap and a loaded sphere; dolfinx can still assemble into that matrix."""
+    from shells.formproblem import FormProblem
+
+    for shape, h, kappas in ((SphericalCap(1.0, math.radians(60)), 0.02, (1.0, 2.0)),
+                             (Sphere(1.0), 0.01, (20.0, 60.0))):
+        model = loaded(shape, h, kappas)
+        assert model._jacobian_elements() is not None  # one process (COMM_SELF): the fast path
+        A, B, C = model.create_jacobian(), FormProblem.create_jacobian(model), \
+            model.create_jacobian()
+        model.assemble_jacobian(A)
+        FormProblem.assemble_jacobian(model, B)
+        FormProblem.assemble_jacobian(model, C)  # dolfinx into the in-place matrix
+        for X in (A, C):
+            (ia, ja, va), (ib, jb, vb) = X.getValuesCSR(), B.getValuesCSR()
+            assert np.array_equal(ia, ib) and np.array_equal(ja, jb)
+            assert np.array_equal(va, vb)
+        assert B.norm() > 0
+        for X in (A, B, C):
+            X.destroy()

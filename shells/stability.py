@@ -22,15 +22,18 @@ succeeds only if the diagonally scaled matrix D^-1/2 H D^-1/2 has no eigenvalue 
 a round-off of order kd ε (kd the half-bandwidth, ε the unit round-off; 2e-15 at kd = 20),
 well inside the margin, while MUMPS' own inertia is decided by round-off only far below it.
 Any block that fails the test (indefinite, singular, or merely within τ of singular: the
-crossing block next to a critical point) gets the exact count from MUMPS as before, so every
-count reported is MUMPS' or that of a block definite by a margin. On the 1D model's blocks
+crossing block next to a critical point) gets an exact count: MUMPS', or the problem's own
+where it vouches for it (``block_inertia``: the 1D model's unpivoted LDLᵀ of the condensed
+block within a growth bound, ``LDLT_GROWTH``), so every count reported is that of a backward
+stable factorisation or of a block definite by a margin. On the 1D model's blocks
 the test costs about a third of the MUMPS factorisation it replaces (0.5 against 1.5 ms,
 measured on a loaded machine; benchmarks/axisym_speed.py), and located points are unchanged
 to the last digit (tests/test_stability.py compares the counts with MUMPS' block by block).
 A problem may decide the same test itself without assembling its blocks
 (``definite_blocks``, ``shells.problem``): the 1D model on one process factors its element
 matrices condensed on the meridian's chain of cells (``shells.axisym.chain``), every block
-m = 0..12 of a point in about 6 ms instead of 21.
+m = 0..12 of a point in about 6 ms instead of 21. The eigensolves' shift-invert likewise applies
+the problem's own factorisation where it has one (``block_factor``, through a python PC).
 """
 
 from __future__ import annotations

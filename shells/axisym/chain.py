@@ -1,7 +1,8 @@
-"""Definiteness of the 1D model's Fourier blocks from their element matrices, condensed on the
-meridian's chain of cells (problem layer: ``ModeForms.definite`` and
-``ModeForms.condensed_hessian``, behind ``AxisymModel.definite_blocks`` and
-``AxisymModel.condensed_hessian``).
+"""Definiteness, exact counts and solves of the 1D model's Fourier blocks from their element
+matrices, condensed on the meridian's chain of cells (problem layer: ``ModeForms.definite``,
+``inertia``, ``factor`` and ``condensed_hessian``, behind ``AxisymModel.definite_blocks``,
+``block_inertia``, ``block_factor`` and ``condensed_hessian``; and the Jacobian assembled
+from its element matrices, ``AxisymModel.assemble_jacobian``).
 
 Why. A stability check of the 1D model tests every Fourier block H_m (m = 0..12) at every point
 of a branch. Assembled, each block is a sparse matrix of 3000 rows and half-bandwidth 20, and
@@ -17,19 +18,24 @@ matrices:
    nothing outside it, so they are eliminated cell by cell (a 9 x 9 Cholesky factor in a second
    C loop, which also forms each block's element matrix Σ m^k C_k on the fly: cells outer,
    blocks inner), and what remains is the Schur complement on the vertex DOFs, a block
-   tridiagonal matrix of 6 x 6 blocks (half-bandwidth 11, 1200 rows), factored by ``dpbtrf``
-   (2.8 ms for m = 0..12, then 0.1 ms a block). Boundary conditions (on vertex DOFs only) are
-   applied to that complement: a constrained DOF's row and column are zeroed and its diagonal
-   is one, which is what the complement of the constrained matrix is.
-3. ``ChainCholesky.schur``: that complement without the margin, as CSR values, for MUMPS' exact
-   count of a block that is not definite: its inertia is the block's but for one positive
-   eigenvalue per eliminated DOF (Haynsworth), at 1200 rows instead of 3000.
+   tridiagonal matrix of 6 x 6 blocks (half-bandwidth 11, 1200 rows), factored by a banded
+   Cholesky in C (as ``dpbtrf``; 4 ms for m = 0..12 all told). Boundary conditions (on vertex
+   DOFs only) are applied to that complement: a constrained DOF's row and column are zeroed and
+   its diagonal is one, which is what the complement of the constrained matrix is.
+3. The exact count of a block that is not definite, from that complement without the margin:
+   its inertia is the block's but for one positive eigenvalue per eliminated DOF
+   (Haynsworth), at 1200 rows instead of 3000. ``ChainCholesky.inertia`` counts it by an LDLᵀ
+   without pivoting that vouches for its count within a growth bound; ``ChainCholesky.schur``
+   hands it to MUMPS as CSR values where it does not.
+4. ``ChainCholesky.factor`` (``ChainLU``): the block for solves, the interior factors kept and
+   the complement factored by LAPACK's banded LU (the shift-invert eigensolves' operator).
+   ``ElementAssembler``: a form's matrix from element matrices, written in place.
 
 The answer is the same as the banded Cholesky's of the assembled block: H - τ diag(H) is
 positive definite iff its interior blocks are and the Schur complement is (Haynsworth), and
 both factorisations are backward stable, so they can differ only for a block within round-off
 of the margin τ (``shells.stability.DEFINITE_MARGIN``), where either answer is a correct one.
-A block that fails goes to MUMPS' LDLᵀ for its exact count, as before.
+A block that fails gets its exact count (3.).
 
 One process only (the caller asks only then); a mesh whose cells do not form one chain, or a
 constrained interior DOF, makes ``ChainCholesky`` refuse at construction (``ValueError``) and
@@ -61,6 +67,9 @@ void condense_chain(int nb, int ncells, int n, int nk, const double* E, const do
                     const int* vrow, double scale, double* band, int size, int* failed,
                     double* keep_l, double* keep_y);
 int band_ldlt(double* ab, int n, int kd, double growth, int* counts);
+void band_cholesky_tests(int nb, double* bands, int n, int kd, const long* zero,
+                         const long* zero_start, const long* diag, const long* diag_start,
+                         double diag_value, int* ok);
 void chain_solve(int ncells, int ni, int nv, const double* keep_l, const double* keep_y,
                  const int* idof, const int* vdof, const char* fixed, int size,
                  const double* lu, const int* piv, const double* b, double* z, double* bv,
@@ -250,6 +259,48 @@ int band_ldlt(double* ab, int n, int kd, double growth, int* counts)
     }
   }
   return 0;
+}
+
+/* For each of nb band matrices (lower band storage, n x (kd + 1) each, one after the other):
+   the entries zero[zero_start[b] .. zero_start[b + 1]) set to 0 and diag[diag_start[b] ..]
+   to diag_value (a block's constrained rows and columns), then ok[b] = 1 if every diagonal
+   entry is positive, every entry finite and the Cholesky factorisation (left-looking, in
+   place) meets only positive pivots, else 0. */
+void band_cholesky_tests(int nb, double* bands, int n, int kd, const long* zero,
+                         const long* zero_start, const long* diag, const long* diag_start,
+                         double diag_value, int* ok)
+{
+  const int kd1 = kd + 1;
+  for (int b = 0; b < nb; ++b)
+  {
+    double* ab = bands + (long)b * kd1 * n;
+    ok[b] = 0;
+    for (long z = zero_start[b]; z < zero_start[b + 1]; ++z) ab[zero[z]] = 0.0;
+    for (long z = diag_start[b]; z < diag_start[b + 1]; ++z) ab[diag[z]] = diag_value;
+    int good = 1;
+    for (long i = 0; i < (long)kd1 * n && good; ++i)
+      if (!isfinite(ab[i])) good = 0;
+    for (int j = 0; j < n && good; ++j)
+      if (!(ab[j * kd1] > 0.0)) good = 0;
+    for (int j = 0; j < n && good; ++j)
+    {
+      const int k0 = j - kd > 0 ? j - kd : 0;
+      double d = ab[j * kd1];
+      for (int k = k0; k < j; ++k) { const double l = ab[(j - k) + k * kd1]; d -= l * l; }
+      if (!(d > 0.0)) { good = 0; break; }
+      d = sqrt(d);
+      ab[j * kd1] = d;
+      const int iend = j + kd < n - 1 ? j + kd : n - 1;
+      for (int i = j + 1; i <= iend; ++i)
+      {
+        double t = ab[(i - j) + j * kd1];
+        const int ks = i - kd > k0 ? i - kd : k0;
+        for (int k = ks; k < j; ++k) t -= ab[(i - k) + k * kd1] * ab[(j - k) + k * kd1];
+        ab[(i - j) + j * kd1] = t / d;
+      }
+    }
+    ok[b] = good;
+  }
 }
 
 /* Solves with a matrix condensed by condense_chain (nb = 1, its factors kept) and its vertex
@@ -596,9 +647,8 @@ class ChainCholesky:
         A_b = E[own[b]] (own[b] ≥ 0) or Σ_k powers[b, k] E[k] (E: forms x cells x n x n),
         with the DOFs ``constrained[b]`` set to unit rows and columns, such that H - margin
         diag(H) has a Cholesky factor? (Then H is positive definite; NaN or a non-positive
-        pivot: False.)"""
-        from scipy.linalg import lapack
-
+        pivot: False.) The constraints and the banded Cholesky of every block in one C call
+        (``band_cholesky_tests``, the left-looking algorithm of LAPACK's ``dpbtrf``)."""
         lib = _library()
         ffi = lib.ffi
         E = np.ascontiguousarray(E, dtype=np.float64)
@@ -609,6 +659,8 @@ class ChainCholesky:
         if nb != len(own_arr) or nb != len(constrained) or np.any(own_arr >= len(E)) \
                 or nk > len(E):
             raise ValueError("inconsistent blocks")
+        if nb == 0:
+            return []
         kd1 = self.kd + 1
         ab = np.empty((nb, kd1 * self.size))
         failed = np.zeros(nb, dtype=np.intc)
@@ -620,21 +672,21 @@ class ChainCholesky:
                                ptr(ab, "double*"), self.size, ptr(failed, "int*"),
                                ffi.NULL, ffi.NULL)
         ok = failed == 0
-        out = []
+        zs, ds = [], []
         for b in range(nb):
-            if not ok[b]:
-                out.append(False)
-                continue
             zero, diagonal = self._constraint_indices(np.asarray(constrained[b]))
-            band = ab[b]
-            band[zero] = 0.0
-            band[diagonal] = 1.0 - margin
-            if not (np.all(band[::kd1] > 0) and np.isfinite(band).all()):
-                out.append(False)
-                continue
-            _, info = lapack.dpbtrf(band.reshape(self.size, kd1).T, lower=1, overwrite_ab=1)
-            out.append(int(info) == 0)
-        return out
+            zs.append(zero)
+            ds.append(diagonal)
+        zero = np.ascontiguousarray(np.concatenate(zs), dtype=np.int64)
+        diag = np.ascontiguousarray(np.concatenate(ds), dtype=np.int64)
+        zero_start = np.ascontiguousarray(np.cumsum([0] + [len(z) for z in zs]), dtype=np.int64)
+        diag_start = np.ascontiguousarray(np.cumsum([0] + [len(d) for d in ds]), dtype=np.int64)
+        passed = np.zeros(nb, dtype=np.intc)
+        lib.lib.band_cholesky_tests(nb, ptr(ab, "double*"), self.size, self.kd,
+                                    ptr(zero, "long*"), ptr(zero_start, "long*"),
+                                    ptr(diag, "long*"), ptr(diag_start, "long*"), 1.0 - margin,
+                                    ptr(passed, "int*"))
+        return [bool(ok[b] and passed[b]) for b in range(nb)]
 
     def _condensed(self, E: np.ndarray, powers: np.ndarray, own: int, constrained: np.ndarray,
                    keep: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray | None:

@@ -364,12 +364,10 @@ class ModeForms:
         ``shells.axisym.chain``) as a PETSc matrix (one, reused for every m), and the number of
         eliminated DOFs: H_m's inertia is the matrix's with that many more positive
         eigenvalues. None in parallel, or if an interior block is not positive definite."""
-        E = self.element_matrices()
-        if E is None:
+        block = self._chain_block(m)
+        if block is None:
             return None
-        m = int(m)
-        out = self._chain[1].schur(E, self._powers([m]), DEGREE + 1 if m == 0 else -1,
-                                   np.asarray(self._constrained_rows(m).getIndices()))
+        out = self._chain[1].schur(*block)
         if out is None:
             return None
         values, eliminated = out
@@ -390,25 +388,26 @@ class ModeForms:
         """H_m's inertia from its element matrices condensed on the chain of cells, by an LDLᵀ
         without pivoting that vouches for its count (``ChainCholesky.inertia``, ``growth``);
         None in parallel or where it cannot vouch (the caller then asks MUMPS)."""
-        E = self.element_matrices()
-        if E is None:
-            return None
-        m = int(m)
-        return self._chain[1].inertia(E, self._powers([m]), DEGREE + 1 if m == 0 else -1,
-                                      np.asarray(self._constrained_rows(m).getIndices()),
-                                      growth)
+        block = self._chain_block(m)
+        return None if block is None else self._chain[1].inertia(*block, growth)
 
     def factor(self, m: int) -> Any:
         """H_m factored from its element matrices on the chain of cells (``ChainLU``: solves
         H_m x = b, the matrix as ``assemble_hessian`` assembles it); None in parallel, or where
         the factorisation does not apply or fails (the caller then uses MUMPS)."""
+        block = self._chain_block(m)
+        f = None if block is None else self._chain[1].factor(*block)
+        return f if f is not None and f.ok else None
+
+    def _chain_block(self, m: int) -> tuple[np.ndarray, np.ndarray, int, np.ndarray] | None:
+        """``ChainCholesky``'s arguments for H_m at the current state (element matrices, the
+        powers of m, H_0's own form for m = 0, the constrained DOFs); None in parallel."""
         E = self.element_matrices()
         if E is None:
             return None
         m = int(m)
-        f = self._chain[1].factor(E, self._powers([m]), DEGREE + 1 if m == 0 else -1,
-                                  np.asarray(self._constrained_rows(m).getIndices()))
-        return f if f is not None and f.ok else None
+        return (E, self._powers([m]), DEGREE + 1 if m == 0 else -1,
+                np.asarray(self._constrained_rows(m).getIndices()))
 
     def definite(self, ms: list[int], margin: float) -> dict[int, bool] | None:
         """For each m: is H_m - ``margin`` diag(H_m) positive definite (a Cholesky factor

@@ -31,6 +31,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from shells.axisym.chain import _cache_dir
 from shells.axisym.mesh import MeridianMesh, _supported, make_meridian_nodes
 from shells.errors import InputError
 from shells.formproblem import FormProblem
@@ -53,8 +54,11 @@ __all__ = ["AxisymModel", "AxisymParameters", "Jet"]
 #: what the load parameter ``kappa`` imposes (``AxisymParameters.load``)
 LOADS = ("curvature", "pressure", "equivalent", "equivalent_normal", "local_pressure")
 
-#: the mode Hessian's kernel is long (the second variation of the whole density at two phases)
-JIT_OPTIONS: dict[str, Any] = {"timeout": 300}
+#: the mode Hessian's kernel is long to compile (the second variation of the whole density at
+#: two phases); the 1D model's forms go to a cache folder of their own (``~/.cache/shells/ffcx``):
+#: FFCx lists its cache folder at every lookup of a compiled form (2.4 ms a form in a shared
+#: folder of 3900 files, 0.1 ms in one of 84: the 21 forms of a run, 50 ms of its set-up)
+JIT_OPTIONS: dict[str, Any] = {"timeout": 300, "cache_dir": str(_cache_dir() / "ffcx")}
 
 
 # ------------------------------------------------------------------------------------------------
@@ -369,8 +373,8 @@ class AxisymModel(FormProblem):
             if self.params.load == "equivalent_normal" and self.K is not None:
                 q = q + self._laplacian(f)
             ad, nz = self.area_density, self.r0t / self.g
-            qz = (fem.assemble_scalar(fem.form(q * nz * ad * self.dx))
-                  / fem.assemble_scalar(fem.form(ad * self.dx)))
+            qz = (fem.assemble_scalar(fem.form(q * nz * ad * self.dx, jit_options=JIT_OPTIONS))
+                  / fem.assemble_scalar(fem.form(ad * self.dx, jit_options=JIT_OPTIONS)))
             self._q = (q, float(qz))
         return self._q
 
@@ -404,9 +408,10 @@ class AxisymModel(FormProblem):
         from dolfinx import fem
 
         dens = self.energy_density(self.base_jet(self.w))
-        self._derive_forms(dens["total"] * self.area_density * self.dx)
+        self._derive_forms(dens["total"] * self.area_density * self.dx, JIT_OPTIONS)
         dw, w_ = ufl.TestFunction(self.W), ufl.TrialFunction(self.W)
-        self.mass = fem.form(ufl.inner(w_, dw) * self.area_density * self.dx)
+        self.mass = fem.form(ufl.inner(w_, dw) * self.area_density * self.dx,
+                             jit_options=JIT_OPTIONS)
         u, _ = ufl.split(self.w)
         n0r, n0z = -self.z0t / self.g, self.r0t / self.g
         ad = self.area_density
@@ -415,7 +420,7 @@ class AxisymModel(FormProblem):
         sf["uz_integral"] = u[1] * ad * self.dx
         sf["nz_integral"] = n0z * ad * self.dx
         sf["area"] = ad * self.dx
-        self._scalar_forms = {k: fem.form(v) for k, v in sf.items()}
+        self._scalar_forms = {k: fem.form(v, jit_options=JIT_OPTIONS) for k, v in sf.items()}
 
     def _axis_conditions(self) -> list[Any]:
         """u_r = 0 and p_z = 0 on the axis (each pole); u_z = 0 at the top pole (gauge)."""
@@ -689,8 +694,8 @@ class AxisymModel(FormProblem):
         if fourier:
             grad2 = grad2 + (m_c * wn / self.r0) ** 2
         ad = self.area_density
-        forms = (fem.form(grad2 * ad * self.dx), fem.form(wn * wn * ad * self.dx),
-                 fem.form(uz * ad * self.dx), fem.form(ad * self.dx))
+        forms = tuple(fem.form(q * ad * self.dx, jit_options=JIT_OPTIONS)
+                      for q in (grad2, wn * wn, uz, 1.0))
         return f, shift, m_c, forms
 
 

@@ -121,7 +121,8 @@ class ModeForms:
         v, v_ = ufl.TestFunction(self.V), ufl.TrialFunction(self.V)
         self.hessian_ufl = ufl.derivative(ufl.derivative(energy, self.pert, v), self.pert, v_)
         self.form = fem.form(self.hessian_ufl, jit_options=JIT_OPTIONS)
-        self.mass = fem.form(ufl.inner(v_, v) * model.r0 * model.g * model.dx)
+        self.mass = fem.form(ufl.inner(v_, v) * model.r0 * model.g * model.dx,
+                             jit_options=JIT_OPTIONS)
         self._bcs = {k: self._conditions(k) for k in (0, 1, 2, 3)}
         self._expanded: Any = None  # ``hessian_ufl`` with its derivatives expanded
         self._coefficient_forms: list[Any] | None = None

@@ -649,29 +649,16 @@ class ChainCholesky:
         diag(H) has a Cholesky factor? (Then H is positive definite; NaN or a non-positive
         pivot: False.) The constraints and the banded Cholesky of every block in one C call
         (``band_cholesky_tests``, the left-looking algorithm of LAPACK's ``dpbtrf``)."""
+        if len(powers) != len(own) or len(own) != len(constrained):
+            raise ValueError("inconsistent blocks")
+        if len(own) == 0:
+            return []
+        nb = len(own)
+        ab, failed = self._condense(E, powers, own, 1.0 - margin)
+        ok = failed == 0
         lib = _library()
         ffi = lib.ffi
-        E = np.ascontiguousarray(E, dtype=np.float64)
-        ncells, n = E.shape[1], E.shape[2]
-        powers = np.ascontiguousarray(powers, dtype=np.float64)
-        nb, nk = powers.shape
-        own_arr = np.ascontiguousarray(own, dtype=np.intc)
-        if nb != len(own_arr) or nb != len(constrained) or np.any(own_arr >= len(E)) \
-                or nk > len(E):
-            raise ValueError("inconsistent blocks")
-        if nb == 0:
-            return []
-        kd1 = self.kd + 1
-        ab = np.empty((nb, kd1 * self.size))
-        failed = np.zeros(nb, dtype=np.intc)
         ptr = lambda a, t: ffi.cast(t, ffi.from_buffer(a))  # noqa: E731
-        lib.lib.condense_chain(nb, ncells, n, nk, ptr(E, "double*"), ptr(powers, "double*"),
-                               ptr(own_arr, "int*"), ptr(self._order, "int*"),
-                               self._irow.shape[1], ptr(self._irow, "int*"),
-                               self._vrow.shape[1], ptr(self._vrow, "int*"), 1.0 - margin,
-                               ptr(ab, "double*"), self.size, ptr(failed, "int*"),
-                               ffi.NULL, ffi.NULL)
-        ok = failed == 0
         zs, ds = [], []
         for b in range(nb):
             zero, diagonal = self._constraint_indices(np.asarray(constrained[b]))
@@ -688,28 +675,43 @@ class ChainCholesky:
                                     ptr(passed, "int*"))
         return [bool(ok[b] and passed[b]) for b in range(nb)]
 
-    def _condensed(self, E: np.ndarray, powers: np.ndarray, own: int, constrained: np.ndarray,
-                   keep: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray | None:
-        """One block's Schur complement on the vertex DOFs (no margin), with its conditions, in
-        lower band storage; None if an interior block is not positive definite. ``keep``:
-        arrays (cells x ni x ni, cells x ni x nv) that receive the cells' interior factors."""
+    def _condense(self, E: np.ndarray, powers: np.ndarray, own: list[int], scale: float,
+                  keep: tuple[np.ndarray, np.ndarray] | None = None
+                  ) -> tuple[np.ndarray, np.ndarray]:
+        """C ``condense_chain`` for the blocks A_b = E[own[b]] (own[b] ≥ 0) or
+        Σ_k powers[b, k] E[k], their diagonals scaled by ``scale``: their Schur complements
+        (blocks x lower band storage, no conditions applied) and which failed (an interior
+        block not positive definite). ``keep`` (one block only): arrays (cells x ni x ni,
+        cells x ni x nv) that receive the cells' interior factors."""
         lib = _library()
         ffi = lib.ffi
         E = np.ascontiguousarray(E, dtype=np.float64)
         ncells, n = E.shape[1], E.shape[2]
         powers = np.ascontiguousarray(np.atleast_2d(powers), dtype=np.float64)
-        ab = np.empty((self.kd + 1) * self.size)
-        failed = np.zeros(1, dtype=np.intc)
-        own_arr = np.array([own], dtype=np.intc)
+        nb, nk = powers.shape
+        own_arr = np.ascontiguousarray(own, dtype=np.intc)
+        if nb != len(own_arr) or np.any(own_arr >= len(E)) or nk > len(E) \
+                or (keep is not None and nb != 1):
+            raise ValueError("inconsistent blocks")
+        ab = np.empty((nb, (self.kd + 1) * self.size))
+        failed = np.zeros(nb, dtype=np.intc)
         ptr = lambda a, t: ffi.cast(t, ffi.from_buffer(a))  # noqa: E731
         kl, ky = ((ptr(keep[0], "double*"), ptr(keep[1], "double*")) if keep is not None
                   else (ffi.NULL, ffi.NULL))
-        lib.lib.condense_chain(1, ncells, n, powers.shape[1], ptr(E, "double*"),
-                               ptr(powers, "double*"), ptr(own_arr, "int*"),
-                               ptr(self._order, "int*"), self._irow.shape[1],
-                               ptr(self._irow, "int*"), self._vrow.shape[1],
-                               ptr(self._vrow, "int*"), 1.0, ptr(ab, "double*"), self.size,
-                               ptr(failed, "int*"), kl, ky)
+        lib.lib.condense_chain(nb, ncells, n, nk, ptr(E, "double*"), ptr(powers, "double*"),
+                               ptr(own_arr, "int*"), ptr(self._order, "int*"),
+                               self._irow.shape[1], ptr(self._irow, "int*"),
+                               self._vrow.shape[1], ptr(self._vrow, "int*"), scale,
+                               ptr(ab, "double*"), self.size, ptr(failed, "int*"), kl, ky)
+        return ab, failed
+
+    def _condensed(self, E: np.ndarray, powers: np.ndarray, own: int, constrained: np.ndarray,
+                   keep: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray | None:
+        """One block's Schur complement on the vertex DOFs (no margin), with its conditions, in
+        lower band storage; None if an interior block is not positive definite. ``keep``:
+        arrays (cells x ni x ni, cells x ni x nv) that receive the cells' interior factors."""
+        ab, failed = self._condense(E, powers, [own], 1.0, keep)
+        ab = ab[0]
         if failed[0] or not np.isfinite(ab).all():
             return None
         zero, diagonal = self._constraint_indices(np.asarray(constrained))

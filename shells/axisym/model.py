@@ -555,9 +555,11 @@ class AxisymModel(FormProblem):
             try:
                 from shells.axisym.chain import CellTabulator, ElementAssembler
 
-                cons = np.unique(np.concatenate(
-                    [np.asarray(bc.dof_indices()[0][: bc.dof_indices()[1]]) for bc in self.bcs]
-                    or [np.zeros(0, dtype=np.int32)]))
+                owned = [np.zeros(0, dtype=np.int32)]
+                for bc in self.bcs:
+                    dofs, first_ghost = bc.dof_indices()
+                    owned.append(np.asarray(dofs[:first_ghost]))
+                cons = np.unique(np.concatenate(owned))
                 self._jacobian_fast = (CellTabulator([self.hessian]),
                                        ElementAssembler(self.hessian), cons)
             except Exception as e:  # dolfinx's assembly instead

@@ -18,6 +18,12 @@ price of a parallel factorisation per solve).
   x² = 2 (λ - 1), y = 2λ - 1 is stable (Hessian [[1, -x], [-x, 2x²]] for λ < (c_1 + 1)/2) and
   lies below the fundamental one, E = -(λ - 1)²/2.
 
+* ``SubcriticalPitchforkProblem``: the pitchfork with x's quartic term negative and a sextic
+  one, ½ (1 - y) x² - ¼ x⁴ + ⅙ x⁶: the bifurcated branch y = κ + x²/2,
+  κ = 1 - 3x²/2 + x⁴ goes down from κ = 1, unstable (Hessian Schur complement x² (4x² - 3)),
+  to a fold at x² = 3/4, κ = 7/16, and up again stable: a branch that a parameter of the state
+  (x) follows through the fold in κ.
+
 * ``FoldPitchforkProblem`` (two stability blocks, like the Fourier blocks of the axisymmetric
   model): E = x³/3 + (λ - 1) x + ½ (c - λ) z² + ¼ z⁴. Branch z = 0, x = sqrt(1 - λ): block 0
   (x) has its fold at λ = 1, block 1 (z) a pitchfork at λ = c < 1 just before it, so that
@@ -36,7 +42,8 @@ import numpy as np
 
 from shells.problem import ModeInfo
 
-__all__ = ["AlgebraicProblem", "FoldProblem", "FoldPitchforkProblem", "PitchforkProblem"]
+__all__ = ["AlgebraicProblem", "FoldProblem", "FoldPitchforkProblem", "PitchforkProblem",
+           "SubcriticalPitchforkProblem"]
 
 
 class AlgebraicProblem:
@@ -287,6 +294,28 @@ class PitchforkProblem(AlgebraicProblem):
         d = np.zeros_like(w)
         d[0] = -1.0
         return d
+
+
+class SubcriticalPitchforkProblem(PitchforkProblem):
+    """``PitchforkProblem`` with the x-terms ½ (1 - y) x² - ¼ x⁴ + ⅙ x⁶: a subcritical
+    pitchfork at κ = 1 whose branch κ = 1 - 3x²/2 + x⁴ turns at the fold x² = 3/4, κ = 7/16
+    (see the module docstring)."""
+
+    def energy(self, w: np.ndarray, k: float) -> float:
+        x = w[1]
+        return super().energy(w, k) - 0.5 * x**4 + x**6 / 6
+
+    def gradient(self, w: np.ndarray, k: float) -> np.ndarray:
+        g = super().gradient(w, k)
+        x = w[1]
+        g[1] += -2 * x**3 + x**5
+        return g
+
+    def hessian(self, w: np.ndarray, k: float) -> np.ndarray:
+        H = super().hessian(w, k)
+        x = w[1]
+        H[1, 1] += -6 * x * x + 5 * x**4
+        return H
 
 
 class FoldPitchforkProblem(AlgebraicProblem):

@@ -428,8 +428,8 @@ def _arclength(ns, st, lam0, lam_end, L, point, its0, direction, initial_tangent
 
 def arclength_steps(ar: _Arclength, st: ContinuationSettings, lam: float, lam_end: float,
                     direction: float, *, secant_from: tuple[Any, float] | None = None,
-                    reject: Callable[[], bool] | None = None, **corrector: Any
-                    ) -> Iterator[tuple[int, float, float, np.ndarray]]:
+                    reject: Callable[[], bool] | None = None, control: Any = None,
+                    **corrector: Any) -> Iterator[tuple[int, float, float, np.ndarray]]:
     """The pseudo-arclength loop, from the converged state in ``ar`` at λ = ``lam``.
 
     Predictor along the unit tangent (τ_w, τ_λ), the corrector (``_bordered_newton`` with
@@ -444,9 +444,25 @@ def arclength_steps(ar: _Arclength, st: ContinuationSettings, lam: float, lam_en
     converged corrector, may refuse the point (a jump to another branch): the step is halved,
     at most 3 times. Yields (iterations, step, τ_λ, the pins' multipliers) per point; the
     problem's state holds the point.
+
+    ``control`` (a state-shaped vector e; secant tangents only): the branch is parametrised by
+    c = e·w instead of its arclength. The secant is scaled to a unit change of c, the step is
+    a change of c, and the corrector's hyperplane is e·(w - w_p) = 0 with λ free: natural
+    continuation in c, through folds in λ, as long as c itself keeps moving along the branch
+    (the run ends where it stops moving). A localised dimple is followed this way: measured
+    by its depth it grows steadily, while its share of the whole state's norm, which the
+    arclength measures, is small and the arclength steps let the corrector slide along the
+    nearly neutral directions of a cluster of bifurcations onto other branches (a closed
+    sphere's; ``shells.critical.switch_branch``).
     """
     w = ar.w
     secant = secant_from is not None
+    if control is not None and not secant:
+        raise ValueError("a control parameter needs secant tangents (secant_from)")
+    plane_c = None
+    if control is not None:  # cw plane_c·x = e·x: the hyperplane e·(w - w_p) = 0
+        plane_c = control.copy()
+        plane_c.scale(1.0 / ar.cw)
     # the previous point's state (secant tangent) or tangent (Jacobian tangent: its orientation)
     prev = w.duplicate()
     zero = w.duplicate()
@@ -462,7 +478,14 @@ def arclength_steps(ar: _Arclength, st: ContinuationSettings, lam: float, lam_en
                 w.copy(ar.tw)
                 ar.tw.axpy(-1.0, prev)
                 tl = lam - lam_prev
-                norm = math.sqrt(ar.cw * ar.tw.dot(ar.tw) + tl * tl)
+                if control is None:
+                    norm = math.sqrt(ar.cw * ar.tw.dot(ar.tw) + tl * tl)
+                else:
+                    norm = abs(control.dot(ar.tw))
+                    if not norm > 0.0:
+                        log.info("continuation: the control parameter stopped moving at "
+                                 "kappa L = %.6g", lam)
+                        return
                 ar.tw.scale(1.0 / norm)
                 ar.tl = tl / norm
             w.copy(ar.w_old)
@@ -478,7 +501,8 @@ def arclength_steps(ar: _Arclength, st: ContinuationSettings, lam: float, lam_en
                 if landing:  # λ = λ_end: the hyperplane τ = (0, 1)
                     c = _bordered_newton(ar, st, lam_end, plane=(zero, 1.0, zero), **corrector)
                 else:
-                    c = _bordered_newton(ar, st, lam_p, **corrector)
+                    c = _bordered_newton(ar, st, lam_p, plane=None if plane_c is None else (
+                        plane_c, 0.0, ar.wp), **corrector)
                 if c.ok and not landing and (c.lam - lam_end) * direction > 0:
                     # the corrector crossed λ_end: land on it from the chord's interpolant
                     f = (lam_end - lam) / (c.lam - lam)
@@ -521,6 +545,8 @@ def arclength_steps(ar: _Arclength, st: ContinuationSettings, lam: float, lam_en
     finally:
         prev.destroy()
         zero.destroy()
+        if plane_c is not None:
+            plane_c.destroy()
 
 
 class Correction(NamedTuple):

@@ -884,6 +884,21 @@ def follow(problem: Any, settings: ContinuationSettings, kappa_end: float,
     or dκ/ds changes sign, or, with ``locate_when(point, counts before, counts after)``, when
     that says so (folds are always located); ``locate_points=False``: stability only.
 
+    Localised branches (``control`` = a state-shaped vector e, the functional c = e·w, e.g.
+    the depth of a dimple at a pole; no pins). Where several bifurcations nearly coincide, a
+    single critical mode is an arbitrary member of the cluster, chosen by round-off (which
+    crossed first at the located state), and the branches along different members part
+    within a few steps. The direction followed is instead the cluster's combination of largest
+    c: the projection of e on the ``cluster`` eigenvectors nearest 0 (φ_0 among them), which
+    for a closed sphere's axisymmetric modes P_n (all of value 1 at the pole) is a packet
+    localised at the pole. The first point has c - c_c = ``sign`` × ``ds`` × f (λ free), with
+    ``cluster``, 2 and 1 eigenvectors in turn until its corrector converges; the branch is then
+    followed with c as its parameter (``continuation.arclength_steps``' ``control``: secant
+    predictor, corrector at fixed c, no deflation), steps in c from ``settings``. The return
+    tests stay (distance from the fundamental branch; a side crossed when c - c_c changes
+    sign). Measured on the h/R = 0.01 closed sphere (1D model): first amplitudes 0.25 and 0.35
+    give the same dimple branch, which the arclength loop did not (docs/model.md).
+
     Resuming: ``track(r)``, if given, is called at every point just before it is yielded, with
     its ``FollowResume`` r; ``follow(..., resume=r)`` with the same problem (any partition: r's
     arrays are this rank's owned values), settings and arguments then continues after that
@@ -1103,7 +1118,8 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
                   factors: tuple[float, ...] = (1.0, 0.5, 0.25, 2.0),
                   min_amplitude: float = 0.5, release_pins: int | None = None,
                   deflate: int = 0, resume: SwitchResume | None = None,
-                  track: Callable[[SwitchResume], None] | None = None) -> Iterator[Point]:
+                  track: Callable[[SwitchResume], None] | None = None,
+                  control: Any = None, cluster: int = 1) -> Iterator[Point]:
     """Follow the branch that bifurcates at ``cp`` along its critical mode.
 
     1. The critical state w_c (``cp.state``) and its κ (least squares: the residual is affine
@@ -1135,6 +1151,21 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
        dominant components along that many near-null eigenvectors of the Jacobian other than
        the followed mode (``_Deflation``; for clusters of nearly simultaneous bifurcations,
        the closed sphere's neighbouring degrees on the 1D model).
+
+    Localised branches (``control`` = a state-shaped vector e, the functional c = e·w, e.g.
+    the depth of a dimple at a pole; no pins). Where several bifurcations nearly coincide, a
+    single critical mode is an arbitrary member of the cluster, chosen by round-off (which
+    crossed first at the located state), and the branches along different members part
+    within a few steps. The direction followed is instead the cluster's combination of largest
+    c: the projection of e on the ``cluster`` eigenvectors nearest 0 (φ_0 among them), which
+    for a closed sphere's axisymmetric modes P_n (all of value 1 at the pole) is a packet
+    localised at the pole. The first point has c - c_c = ``sign`` × ``ds`` × f (λ free), with
+    ``cluster``, 2 and 1 eigenvectors in turn until its corrector converges; the branch is then
+    followed with c as its parameter (``continuation.arclength_steps``' ``control``: secant
+    predictor, corrector at fixed c, no deflation), steps in c from ``settings``. The return
+    tests stay (distance from the fundamental branch; a side crossed when c - c_c changes
+    sign). Measured on the h/R = 0.01 closed sphere (1D model): first amplitudes 0.25 and 0.35
+    give the same dimple branch, which the arclength loop did not (docs/model.md).
 
     Resuming: ``track(r)``, if given, is called at every point just before it is yielded, with
     its ``SwitchResume`` r; ``switch_branch(..., resume=r)`` with the same problem (partition),
@@ -1195,9 +1226,10 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
         ar.lam_ref = 0.01 * max(abs(lam_c), abs(lam_end))
         max_dlam = 2.0 * abs(lam_end - lam_c) + 0.1 * abs(lam_c)
         ar.w.copy(wc)
-        k = max(1, cp.multiplicity if pinned is None else pinned)
-        dirs, vals = _critical_directions(problem, ar, cp.mode, k)
-        pins = dirs[1:]
+        k = 1 if control is not None else max(1, cp.multiplicity if pinned is None else pinned)
+        dirs, vals = _critical_directions(problem, ar, cp.mode,
+                                          max(k, cluster) if control is not None else k)
+        pins = dirs[1:k]
         defl_stab = Stability(problem) if deflate else None
         defl = _Deflation(problem, defl_stab, deflate, keep=dirs[0]) if deflate else None
         log.info("switch: critical state at kappa L = %.6g, eigenvalues %s", lam_c,
@@ -1206,6 +1238,15 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
         st_first = replace(settings, max_newton_its=max(settings.max_newton_its, 30))
         corrector = dict(pins=pins, wc=wc, singular_ok=True, deflate=defl, max_dlam=max_dlam,
                          keep_best=False)
+        # with a control, each point off the first corrector's is converged by plain Newton to
+        # ``newton_tol``: at fixed c the Jacobian is regular on the branch (measured: 4-5
+        # quadratic iterations to 1e-15 on the 1D spheres with penalty 1e4-1e5), and the
+        # corrector's acceptance of a stalled Newton (``singular_ok``: the residual bound
+        # after 3 iterations) kept states off the branch there (h/R = 0.01: a point 1 % off
+        # in κ, its last Newton step 17 in κL; with penalty 1e6 at h/R = 0.001 no Newton
+        # converges, its increments stay near 1e-3 R); the deflation, which removes the
+        # cluster's components from every increment, bent the branch onto others
+        strict = dict(corrector, singular_ok=False, deflate=None)
         sgn = 1.0 if sign >= 0 else -1.0
 
         # the amplitude is measured along φ_0 made orthogonal (in the continuation norm's
@@ -1223,6 +1264,12 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
             wp.axpy(-1.0, wc)
             return ar.cw * amp_dir.dot(wp)
 
+        c_c = 0.0 if control is None else control.dot(wc)
+
+        def side_amplitude() -> float:
+            """What decides the side: the amplitude along φ_0, or c - c_c with a control."""
+            return amplitude() if control is None else control.dot(ar.w) - c_c
+
         def deviation() -> float:
             """The distance (continuation norm) of the state from the fundamental branch's
             linear prediction w_c + (λ - λ_c) z: unlike the amplitude along φ_0 it stays
@@ -1237,7 +1284,7 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
             """On the other side of the mode: the amplitude changed sign and the state lies
             along -φ_0 (its deviation ``dev`` is mostly that amplitude), i.e. a step jumped
             across the fundamental branch, not a branch that left the mode's shape."""
-            return amp * a1 < 0 and abs(amp) >= 0.5 * dev
+            return amp * a1 < 0 and (control is not None or abs(amp) >= 0.5 * dev)
 
         def point(index: int, its: int, step: float, tl: float, s: np.ndarray) -> Point:
             sc = problem.scalars()
@@ -1256,25 +1303,54 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
                          newton_its=its, step=step, dkappa_ds=tl,
                          wall_time=time.perf_counter() - t_start, scalars=sc)
 
-        # first point: amplitude a along φ_0, λ free
+        # first point: amplitude a along φ_0 (or c - c_c = a along the cluster's direction of
+        # largest c), λ free
         first = None
+        plane_dir, preds = amp_dir, [pred]
+        if control is not None and resume is None:
+            plane_dir = control.copy()
+            plane_dir.scale(1.0 / ar.cw)
+            preds = []
+            for size in sorted({min(cluster, len(dirs)), min(2, len(dirs)), 1}, reverse=True):
+                d = dirs[0].duplicate()
+                d.set(0.0)
+                for v in dirs[:size]:
+                    d.axpy(control.dot(v) / v.dot(v), v)
+                cd = control.dot(d)
+                if abs(cd) > 0.0:
+                    d.scale(1.0 / cd)  # unit change of c
+                    preds.append(d)
+                else:
+                    d.destroy()
         for f in (() if resume is not None else factors):
             a = sgn * ds * f
-            wc.copy(wp)
-            wp.axpy(a, pred)
-            wp.copy(ar.w)
-            ar.sync()
-            c = _bordered_newton(ar, st_first, lam_c, plane=(amp_dir, 0.0, wp), **corrector)
-            log.info("switch: amplitude %.4g: %s in %d its, kappa L = %.6g", a,
-                     "converged" if c.ok else "failed", c.its, c.lam)
-            if c.ok:
-                first = a
+            for d in preds:
+                wc.copy(wp)
+                wp.axpy(a, d)
+                wp.copy(ar.w)
+                ar.sync()
+                c = _bordered_newton(ar, st_first, lam_c, plane=(plane_dir, 0.0, wp),
+                                     **corrector)
+                if c.ok and control is not None:  # converged to newton_tol from there
+                    ar.w.copy(wp)
+                    c = _bordered_newton(ar, st_first, c.lam, plane=(plane_dir, 0.0, wp),
+                                         **strict)
+                log.info("switch: amplitude %.4g: %s in %d its, kappa L = %.6g", a,
+                         "converged" if c.ok else "failed", c.its, c.lam)
+                if c.ok:
+                    first = a
+                    break
+            if first is not None:
                 break
+        if control is not None and resume is None:
+            for d in preds:
+                d.destroy()
+            plane_dir.destroy()
         if first is None and resume is None:
             raise RuntimeError("branch switching: the corrector did not converge off the "
                                f"fundamental branch at amplitudes {ds} x {factors}")
         if resume is None:
-            a1, dev1 = first, deviation()
+            a1, dev1 = (first if control is None else side_amplitude()), deviation()
         else:
             a1, dev1 = resume.first_amplitude, resume.first_distance
         last = [dev1 if resume is None else resume.distance]  # the last accepted point's
@@ -1285,7 +1361,7 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
             cluster of bifurcations; measured: from a sphere's dimple branch back to the
             fundamental branch 25 % lower in κ): refused, the step is shortened."""
             dev = deviation()
-            return crossed(amplitude(), dev) or dev < 0.25 * last[0]
+            return crossed(side_amplitude(), dev) or dev < 0.25 * last[0]
 
         def checkpoint(p: Point, lam: float, ds_next: float) -> None:
             """``track`` the point ``p`` at λ = ``lam`` (the loop's), the next step
@@ -1319,12 +1395,14 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
             if release_pins is not None and index >= release_pins:
                 pins.clear()
         st = replace(settings, ds=ds_next, max_steps=settings.max_steps - index)
+        # with a control the loop neither deflates nor accepts a stalled Newton (``strict``)
         steps = arclength_steps(ar, st, lam, lam_end, direction, secant_from=(secant_w, lam_prev),
-                                reject=jumped, **corrector)
+                                reject=jumped, control=control,
+                                **(corrector if control is None else strict))
         for its, step, tl, s in steps:
             index += 1
             p = point(index, its, step, tl, s)
-            amp = p.scalars["mode_amplitude"]
+            amp = side_amplitude()
             dev = deviation()
             log.debug("switch: point %d at kappa L = %.8g: amplitude %.4g, distance %.4g (first "
                       "point %.4g, %.4g)", index, p.kappa_L, amp, dev, a1, dev1)

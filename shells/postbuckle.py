@@ -13,6 +13,12 @@ bifurcated branch on both sides (driver layer, on the algorithm layer's ``follow
 3. the bifurcated branch on both sides of the mode (amplitude +a and -a), by secant
    pseudo-arclength, until κ leaves [``kappa_min_ratio`` κ_c, κ_max], after ``max_points``
    points, or when the branch returns to the fundamental one (``branch`` = "bifurcated").
+   The 1D model's closed sphere instead: the dimple at the top pole, switched onto along the
+   combination of its cluster of nearly simultaneous axisymmetric modes (degrees n, n ± 1,
+   ...) that deepens the pole most, its depth Ψ3(pole)/h the branch's parameter (steps of
+   ``amplitude`` to 4 ``amplitude`` thicknesses; side -1 pushes the pole in, +1 out; the
+   summary's ``parameter``: "psi3_pole_over_h", else "arclength"; ``switch_branch``'s
+   ``control``).
 
 Each bifurcated point carries ``side`` (+1/-1, the sign of the first amplitude), ``start``
 ("down" or "up": where κ goes from κ_c on that side) and ``subcritical`` (it goes back against
@@ -97,7 +103,7 @@ class PostbuckleConfig(RunScales):
         cells, size, layer_elements, degree: discretisation of the 1D / surface model (None:
             the model's defaults; the surface model: 3 layer elements, size and degree of
             ``shells.model.default_discretisation``, P3 where P2 locks).
-        penalty: the 1D model's C1 penalty (None: 1e6 on closed shells, else its default).
+        penalty: the 1D model's C1 penalty (None: 1e5 on closed shells, else its default).
         kappa_field: the natural-curvature stimulus (``shells.stimulus``; default: uniform).
         mesh_file: the surface model on a user's mesh (``shells.mesh.load_mesh``) of ``shape``
             instead of meshing it.
@@ -186,6 +192,13 @@ class PostbuckleConfig(RunScales):
 #: there, 1.0 at 0.57, 10 reaches 0.5)
 DEFLATE = 4
 ROUNDOFF = 10.0
+#: the 1D closed sphere's dimple branch: switched onto along the projection of the pole's
+#: depth on this many eigenvectors nearest 0 at κ_b (its neighbouring degrees; h/R = 0.01:
+#: 4.6e-7, 2.5e-6, then 2.5e-4 ... 9.6e-4; h/R = 0.001: six within 1e-5) and followed with
+#: the depth Ψ3(pole)/h as the parameter (``switch_branch``'s ``control``)
+CLUSTER = 6
+#: the 1D model's C1 penalty on closed shells (see ``_Run``)
+CLOSED_PENALTY = 1.0e5
 
 
 class _Run:
@@ -205,9 +218,11 @@ class _Run:
             # closed sphere that is a pole-localised, mirror-symmetric imperfection (measured:
             # Legendre content 3.6e-6 h at κh = 1, h/R = 0.01, for penalty 1e4, exactly 10x less
             # per decade of penalty, independent of the mesh), which the near-critical even
-            # degrees amplify into a fold 2e-4 before κ_b: 1e6 makes it 100x smaller
+            # degrees amplify into a fold 2e-4 before κ_b: 1e5 makes it 10x smaller. Not 1e6:
+            # then on the dimple branch of the h/R = 0.001 sphere no Newton iteration converges
+            # (its increments stay near 1e-3 R; with 1e5: 5 quadratic iterations to 1e-15)
             penalty = cfg.penalty if cfg.penalty is not None else (
-                1.0e6 if cfg.shape.closed else 1.0e4)
+                CLOSED_PENALTY if cfg.shape.closed else 1.0e4)
             rc = RunConfig(shape=cfg.shape, h_over_r=cfg.h_over_r, nu=cfg.nu,
                            direction=cfg.direction, cells=cfg.cells, penalty=penalty,
                            kappa_field=cfg.kappa_field)
@@ -312,6 +327,7 @@ def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], 
     run = _Run(cfg)
     kappa_stop = cfg.kappa_stop
     st, crit = _settings(cfg, kappa_stop)
+    control = None
     try:
         bifs = []
         cp = None if resume is None else resume[0]
@@ -356,7 +372,14 @@ def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], 
             log.info("postbuckle: resumed at the critical point; side(s) %s already done",
                      sorted(done_sides) or "none")
         lam_c = abs(cp.kappa_L)
-        sst = ContinuationSettings(ds=cfg.amplitude, ds_max=max(4 * cfg.amplitude, 0.01 * lam_c),
+        # the 1D closed sphere: the dimple at the pole, its depth the branch's parameter
+        # (steps in thicknesses of depth; the arclength steps slid onto other branches of the
+        # cluster, their path depended on the first amplitude and on round-off)
+        dimple = cfg.model == "axisym" and cfg.shape.closed
+        control = run.model.pole_functional() if dimple else None
+        sst = ContinuationSettings(ds=cfg.amplitude, ds_max=(4 * cfg.amplitude if dimple else
+                                                             max(4 * cfg.amplitude,
+                                                                 0.01 * lam_c)),
                                    ds_min=1e-6 * cfg.amplitude, target_newton_its=5,
                                    max_steps=cfg.max_points,
                                    residual_roundoff=ROUNDOFF if cfg.model == "axisym" else 0.1)
@@ -412,7 +435,8 @@ def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], 
                     points = iter(()) if ended_before is not None else switch_branch(
                         run.model, cp, sst, kappa_stop, ds=amp, solver=run.ns, sign=side,
                         pinned=pinned, min_amplitude=0.1, deflate=deflate,
-                        resume=None if cont is None else cont.switch, track=track)
+                        resume=None if cont is None else cont.switch, track=track,
+                        control=control, cluster=CLUSTER if dimple else 1)
                     for p in points:
                         if first is None:
                             first = p.kappa
@@ -448,12 +472,15 @@ def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], 
                          "retried", side, n, amp)
             yield from held
             sides[int(side)] = {"points": n, "ended": ended, "first_amplitude": amp,
+                                "parameter": "psi3_pole_over_h" if dimple else "arclength",
                                 "start": None if first is None else (
                                     "down" if abs(first) < abs(cp.kappa) else "up")}
             log.info("postbuckle: side %+d: %d points, %s", side, n, ended)
             yield {"side_end": {"side": int(side), **sides[int(side)]}}
         yield {"summary": {"sides": sides, "dofs": run.model.num_dofs()}}
     finally:
+        if control is not None:
+            control.destroy()
         run.destroy()
 
 

@@ -12,7 +12,13 @@ import math
 import numpy as np
 import pytest
 
-from shells.algebraic import AlgebraicProblem, FoldPitchforkProblem, FoldProblem, PitchforkProblem
+from shells.algebraic import (
+    AlgebraicProblem,
+    FoldPitchforkProblem,
+    FoldProblem,
+    PitchforkProblem,
+    SubcriticalPitchforkProblem,
+)
 from shells.continuation import ContinuationSettings, continuation
 from shells.critical import CriticalSettings, follow, switch_branch
 from shells.problem import Problem
@@ -197,6 +203,44 @@ def test_switching_onto_the_pitchfork_branch():
         amp.append(abs(p.scalars["mode_amplitude"]))
     slope = float(np.polyfit(np.log(dk), np.log(amp), 1)[0])
     assert slope == pytest.approx(0.5, abs=0.01)
+
+
+def test_a_state_parameter_follows_a_subcritical_branch_through_its_fold():
+    """``switch_branch(..., control=e)`` with e·w = x: the subcritical branch
+    κ = 1 - 3x²/2 + x⁴ in steps of x, down through its fold (x² = 3/4, κ = 7/16) and up to the
+    end of the range, exactly on the branch; one negative eigenvalue before the fold, none
+    after (until y = κ + x²/2 passes the z-bifurcations at c_i); x grows at every step."""
+    P = SubcriticalPitchforkProblem()
+    run = list(follow(P, STEPS, 1.5, CriticalSettings(rel_tol=1e-8, stop_at_first=True)))
+    cp = run[-1][2][0]
+    assert cp.kind == "bifurcation" and cp.kappa == pytest.approx(1.0, rel=1e-8)
+    e = P.state.duplicate()
+    e.set(0.0)
+    e.setValue(1, 1.0) if e.getOwnershipRange()[0] <= 1 < e.getOwnershipRange()[1] else None
+    e.assemble()
+    stab = Stability(P)
+    pts = []
+    for p in switch_branch(P, cp, ContinuationSettings(ds=0.05, ds_max=0.1), 1.5, ds=0.05,
+                           control=e, sign=1.0):
+        pts.append((p, stab.negative_count()))
+    stab.destroy()
+    xs = [p.scalars["w1"] for p, _ in pts]
+    ks = [p.kappa for p, _ in pts]
+    assert xs[0] == pytest.approx(0.05, abs=1e-12)  # the first point's x - x_c
+    assert all(b > a for a, b in zip(xs, xs[1:], strict=False))
+    for p, neg in pts:
+        x, k = p.scalars["w1"], p.kappa
+        assert k == pytest.approx(1 - 1.5 * x * x + x**4, abs=1e-9)
+        assert p.scalars["w0"] == pytest.approx(k + 0.5 * x * x, abs=1e-9)
+        y = p.scalars["w0"]
+        if abs(x * x - 0.75) > 1e-6 and min(abs(y - c) for c in P.c) > 1e-6:
+            # x's Schur complement x² (4x² - 3), and each z_i once y passes c_i
+            assert neg == (x * x < 0.75) + sum(y > c for c in P.c)
+    # the fold was passed on the branch, not jumped: no point below it, some near it
+    assert 7 / 16 - 1e-9 <= min(ks) < 0.46
+    assert ks[-1] == pytest.approx(1.5, rel=1e-12)  # landed on the end of the range
+    assert sum(neg == 1 for _, neg in pts) >= 5 and sum(neg == 0 for _, neg in pts) >= 3
+    e.destroy()
 
 
 def test_switching_resumes_after_a_tracked_point():

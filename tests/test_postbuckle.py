@@ -10,11 +10,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from shells import axisym
 from shells.geometry import Sphere
-from shells.postbuckle import PostbuckleConfig, postbuckle
+from shells.postbuckle import CLOSED_PENALTY, PostbuckleConfig, postbuckle
 from shells.theory import sphere_psi3_linear
 
 H = 0.01
@@ -22,12 +23,21 @@ H = 0.01
 
 @pytest.fixture(scope="module")
 def sphere_run():
-    recs = list(postbuckle(PostbuckleConfig(Sphere(1.0), H, max_points=10)))
+    functional = []  # |e·w - Ψ3(pole)/h| at each bifurcated point (e: the model's functional)
+
+    def on_point(model, rec):
+        if rec.get("branch") == "bifurcated":
+            e = model.pole_functional()
+            functional.append(abs(e.dot(model.state) - rec["psi3_pole_over_h"]))
+            e.destroy()
+
+    recs = list(postbuckle(PostbuckleConfig(Sphere(1.0), H, max_points=10), on_point))
     fund = [r for r in recs if r.get("branch") == "fundamental"]
     cp = next(r["critical_point"] for r in recs if "critical_point" in r)
     down = [r for r in recs if r.get("branch") == "bifurcated" and r["side"] == -1]
     up = [r for r in recs if r.get("branch") == "bifurcated" and r["side"] == 1]
     summary = recs[-1]["summary"]
+    summary["functional"] = functional
     return fund, cp, down, up, summary
 
 
@@ -46,9 +56,9 @@ def test_bifurcation_located_and_agrees_with_the_per_mode_locator(sphere_run):
     _, cp, *_ = sphere_run
     assert cp["kind"] == "bifurcation" and cp["mode_m"] == 0
     assert cp["accuracy"] < 1e-4
-    # the same model (penalty 1e6, as the driver uses on closed shells), its own locator
-    # (bisection on the per-mode inertia along chord-parametrised steps)
-    ref = axisym.critical(Sphere(1.0), H, 0.5, penalty=1.0e6)
+    # the same model (the driver's penalty on closed shells), its own locator (bisection on
+    # the per-mode inertia along chord-parametrised steps)
+    ref = axisym.critical(Sphere(1.0), H, 0.5, penalty=CLOSED_PENALTY)
     assert cp["kappa_h"] == pytest.approx(ref["kappa_h"], rel=1e-4)
     # the degree: 19 or 20 (the two cross 1e-4 apart; sphere_mode_n = 19.4)
     assert abs(cp["mode_n"] - axisym.sphere_mode_n(H, 0.5)) < 1.0
@@ -76,6 +86,33 @@ def test_subcritical_branch_starts_at_kappa_b_and_goes_down(sphere_run):
     assert summary["sides"][-1]["points"] == len(down)
 
 
+def test_the_dimple_is_followed_by_its_depth_whatever_the_first_amplitude(sphere_run):
+    """The inward side is the dimple at the pole, parametrised by its depth Ψ3(pole)/h (the
+    model's ``pole_functional``, exact: e·w equals the scalar to round-off): its points lie
+    on one curve κ(Ψ3) whether the first point is a quarter or 0.35 of a thickness deep (the
+    arclength loop's branches parted there, as they did with round-off), each converged by
+    Newton (residual within its bound)."""
+    _, _, down, _, summary = sphere_run
+    assert max(summary["functional"]) < 1e-10
+    assert summary["sides"][-1]["parameter"] == "psi3_pole_over_h"
+    other = [r for r in postbuckle(PostbuckleConfig(Sphere(1.0), H, max_points=10,
+                                                    amplitude=0.35, sides=(-1,)))
+             if r.get("branch") == "bifurcated"]
+    assert len(other) == 10
+    for branch in (down, other):
+        assert all(r["residual"] <= r["residual_bound"] for r in branch)
+        assert all(r["negative_count_axisymmetric"] == 1 for r in branch)
+    depth = lambda b: np.array([-r["psi3_pole_over_h"] for r in b])  # noqa: E731
+    ratio = lambda b: np.array([r["kappa"] / r["kappa_c"] for r in b])  # noqa: E731
+    lo = max(depth(down)[0], depth(other)[0])
+    hi = min(depth(down)[-1], depth(other)[-1])
+    assert hi > lo + 2.0  # two thicknesses of common depth at least
+    grid = np.linspace(lo, hi, 25)
+    # (the linear interpolation between points 0.2-0.5 h apart costs up to 3.5e-4)
+    assert np.interp(grid, depth(down), ratio(down)) == pytest.approx(
+        np.interp(grid, depth(other), ratio(other)), abs=1e-3)
+
+
 def test_postbuckle_cli_json_contract_and_shapes(capsys, shared_tmp):
     """``shells postbuckle`` on a thick sphere (h/R = 0.05, n ~ 8): the JSON keys the CLI
     promises, the branch file, and a 3D shape per side for ParaView."""
@@ -96,7 +133,7 @@ def test_postbuckle_cli_json_contract_and_shapes(capsys, shared_tmp):
             assert key in cp, key
         assert cp["kind"] == "bifurcation" and cp["mode_m"] == 0
         assert cp["kappa_h"] == pytest.approx(axisym.critical(Sphere(1.0), 0.05, 0.5,
-                                                              penalty=1.0e6)["kappa_h"],
+                                                              penalty=CLOSED_PENALTY)["kappa_h"],
                                               rel=2e-4)
         pts = d["points"]
         for key in ("kappa_R", "kappa_h", "psi3_over_h", "energy", "newton_its", "branch",

@@ -418,6 +418,7 @@ class AxisymModel(FormProblem):
         sf = {k: v * ad * self.dx for k, v in dens.items()}
         sf["psi3_integral"] = (u[0] * n0r + u[1] * n0z) * ad * self.dx
         sf["uz_integral"] = u[1] * ad * self.dx
+        self._uz_integral = sf["uz_integral"]  # its derivative: ``pole_functional``
         sf["nz_integral"] = n0z * ad * self.dx
         sf["area"] = ad * self.dx
         self._scalar_forms = {k: fem.form(v, jit_options=JIT_OPTIONS) for k, v in sf.items()}
@@ -469,6 +470,25 @@ class AxisymModel(FormProblem):
         out["apex_uz_over_h"] = float(disp) / h
         out["psi3_pole_over_h"] = float(uz[0] - self.assemble("uz_integral") / area) / h
         return out
+
+    def pole_functional(self) -> Any:
+        """The state-shaped vector e with e·w = Ψ3(pole)/h, the ``psi3_pole_over_h`` of
+        ``scalars`` (exactly: it is linear in w), zero on the constrained DOFs: the normal
+        displacement of the top pole (t = 0) relative to the centroid's, (u_z(0) - ū_z)/h
+        with u_z(0) = 0 (the gauge), i.e. -∂/∂w ∫ u_z dA / (A h). The parameter of a closed
+        sphere's dimple branch (``shells.postbuckle``)."""
+        import ufl
+        from dolfinx import fem
+        from dolfinx.fem.petsc import assemble_vector
+        from petsc4py import PETSc
+
+        form = fem.form(ufl.derivative(self._uz_integral, self.w, ufl.TestFunction(self.W)),
+                        jit_options=JIT_OPTIONS)
+        e = assemble_vector(form)  # the residual's layout, as ``create_vector``
+        e.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        e.scale(-1.0 / (self.assemble("area") * float(self.h.value)))
+        self.zero_constrained(e)
+        return e
 
     def meridian_profile(self) -> dict[str, np.ndarray]:
         """The state on the meridian at the mesh vertices, pole to pole/rim: reference t, r°,

@@ -459,10 +459,11 @@ def arclength_steps(ar: _Arclength, st: ContinuationSettings, lam: float, lam_en
     secant = secant_from is not None
     if control is not None and not secant:
         raise ValueError("a control parameter needs secant tangents (secant_from)")
-    plane_c = None
+    plane_c = scratch = None
     if control is not None:  # cw plane_c·x = e·x: the hyperplane e·(w - w_p) = 0
         plane_c = control.copy()
         plane_c.scale(1.0 / ar.cw)
+        scratch = w.duplicate()
     # the previous point's state (secant tangent) or tangent (Jacobian tangent: its orientation)
     prev = w.duplicate()
     zero = w.duplicate()
@@ -517,6 +518,12 @@ def arclength_steps(ar: _Arclength, st: ContinuationSettings, lam: float, lam_en
                 if c.ok and jumped(w, ar.w_old, step * float(ar.tw.norm())):
                     log.debug("continuation: a jump at kappa L = %.6g refused; step cut", c.lam)
                     c = c._replace(ok=False)
+                if c.ok and control is not None and not landing and _turned(
+                        ar, scratch, c.lam - lam, step):
+                    # past a fold of the control there is no solution at the predictor's c
+                    # nearby: Newton lands on another part of the branch with that c
+                    log.debug("continuation: a turn at kappa L = %.6g refused; step cut", c.lam)
+                    c = c._replace(ok=False)
                 if c.ok and (reject is None or jumps >= 3 or not reject()):
                     if secant:
                         break
@@ -545,8 +552,32 @@ def arclength_steps(ar: _Arclength, st: ContinuationSettings, lam: float, lam_en
     finally:
         prev.destroy()
         zero.destroy()
-        if plane_c is not None:
-            plane_c.destroy()
+        for v in (plane_c, scratch):
+            if v is not None:
+                v.destroy()
+
+
+#: with a ``control``, a step is refused whose secant turns from the predictor's direction by
+#: more than MAX_TURN (radians) or is longer than MAX_STRETCH times the predictor's step, both
+#: in the continuation norm: past a fold of the control its corrector, at a value of c the
+#: branch no longer takes nearby, lands on a farther part of the branch (measured on
+#: ``SubcriticalPitchforkProblem`` with c = 0.3 x + y: 27 times the predictor's step, turned by
+#: 20 degrees only)
+MAX_TURN = math.pi / 3
+MAX_STRETCH = 3.0
+
+
+def _turned(ar: _Arclength, scratch: Any, dlam: float, step: float) -> bool:
+    """Whether the step from ``ar.w_old`` to the state (λ by ``dlam``) turns by more than
+    ``MAX_TURN`` from the predictor's direction (τ_w, τ_λ) or stretches beyond ``MAX_STRETCH``
+    times ``step`` along it."""
+    ar.w.copy(scratch)
+    scratch.axpy(-1.0, ar.w_old)
+    dot = ar.cw * ar.tw.dot(scratch) + ar.tl * dlam
+    nd = math.sqrt(max(ar.cw * scratch.dot(scratch), 0.0) + dlam * dlam)
+    nt = math.sqrt(max(ar.cw * ar.tw.dot(ar.tw), 0.0) + ar.tl * ar.tl)
+    return (not (nd > 0 and nt > 0) or dot < math.cos(MAX_TURN) * nd * nt
+            or nd > MAX_STRETCH * step * nt)
 
 
 class Correction(NamedTuple):

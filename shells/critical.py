@@ -231,6 +231,8 @@ class SwitchResume:
             tests measure against.
         state, state_prev: this rank's owned state values at the point and at the one before
             it (w_c before the first).
+        by_arclength, ds_max: a branch followed with a ``control`` went on by arclength past a
+            fold of the control (``switch_branch``), with this largest step.
     """
 
     index: int
@@ -243,6 +245,8 @@ class SwitchResume:
     distance: float
     state: np.ndarray = field(repr=False)
     state_prev: np.ndarray = field(repr=False)
+    by_arclength: bool = False
+    ds_max: float = 0.0
 
     def scalars(self) -> dict[str, Any]:
         """The scalars (JSON-ready; the same on every rank); the arrays are left out."""
@@ -894,10 +898,14 @@ def follow(problem: Any, settings: ContinuationSettings, kappa_end: float,
     localised at the pole. The first point has c - c_c = ``sign`` × ``ds`` × f (λ free), with
     ``cluster``, 2 and 1 eigenvectors in turn until its corrector converges; the branch is then
     followed with c as its parameter (``continuation.arclength_steps``' ``control``: secant
-    predictor, corrector at fixed c, no deflation), steps in c from ``settings``. The return
-    tests stay (distance from the fundamental branch; a side crossed when c - c_c changes
-    sign). Measured on the h/R = 0.01 closed sphere (1D model): first amplitudes 0.25 and 0.35
-    give the same dimple branch, which the arclength loop did not (docs/model.md).
+    predictor, corrector at fixed c converged by plain Newton, no deflation), steps in c from
+    ``settings``. Where c turns (a fold of c on the branch: the steps in c are refused until
+    they fall below ``ds_min``), the branch goes on by secant arclength from the last two
+    points (steps up to the largest a step of c took; points carry ``control_parameter`` 1
+    before, 0 after). The return tests stay (distance from the fundamental branch; a side
+    crossed when c - c_c changes sign while c is the parameter). Measured on the h/R = 0.01
+    closed sphere (1D model): first amplitudes 0.25 and 0.35 give the same dimple branch,
+    which the arclength loop did not (docs/model.md).
 
     Resuming: ``track(r)``, if given, is called at every point just before it is yielded, with
     its ``FollowResume`` r; ``follow(..., resume=r)`` with the same problem (any partition: r's
@@ -1162,10 +1170,14 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
     localised at the pole. The first point has c - c_c = ``sign`` × ``ds`` × f (λ free), with
     ``cluster``, 2 and 1 eigenvectors in turn until its corrector converges; the branch is then
     followed with c as its parameter (``continuation.arclength_steps``' ``control``: secant
-    predictor, corrector at fixed c, no deflation), steps in c from ``settings``. The return
-    tests stay (distance from the fundamental branch; a side crossed when c - c_c changes
-    sign). Measured on the h/R = 0.01 closed sphere (1D model): first amplitudes 0.25 and 0.35
-    give the same dimple branch, which the arclength loop did not (docs/model.md).
+    predictor, corrector at fixed c converged by plain Newton, no deflation), steps in c from
+    ``settings``. Where c turns (a fold of c on the branch: the steps in c are refused until
+    they fall below ``ds_min``), the branch goes on by secant arclength from the last two
+    points (steps up to the largest a step of c took; points carry ``control_parameter`` 1
+    before, 0 after). The return tests stay (distance from the fundamental branch; a side
+    crossed when c - c_c changes sign while c is the parameter). Measured on the h/R = 0.01
+    closed sphere (1D model): first amplitudes 0.25 and 0.35 give the same dimple branch,
+    which the arclength loop did not (docs/model.md).
 
     Resuming: ``track(r)``, if given, is called at every point just before it is yielded, with
     its ``SwitchResume`` r; ``switch_branch(..., resume=r)`` with the same problem (partition),
@@ -1217,6 +1229,7 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
     wp = wc.duplicate()
     dirs: list[Any] = []
     amp_dir = tangent = pred = defl_stab = steps = resume_prev = None
+    extra: list[Any] = []
     t_start = time.perf_counter()
     try:
         ar.w.array_w[:] = cp.state[:n]
@@ -1265,6 +1278,8 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
             return ar.cw * amp_dir.dot(wp)
 
         c_c = 0.0 if control is None else control.dot(wc)
+        by_arc = [resume is not None and resume.by_arclength]  # past a fold of the control
+        arc_max = [0.0 if resume is None else resume.ds_max]  # the arclength steps' ds_max
 
         def side_amplitude() -> float:
             """What decides the side: the amplitude along φ_0, or c - c_c with a control."""
@@ -1284,7 +1299,9 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
             """On the other side of the mode: the amplitude changed sign and the state lies
             along -φ_0 (its deviation ``dev`` is mostly that amplitude), i.e. a step jumped
             across the fundamental branch, not a branch that left the mode's shape."""
-            return amp * a1 < 0 and (control is not None or abs(amp) >= 0.5 * dev)
+            if control is not None:  # (past a fold of c, c - c_c may change sign freely)
+                return amp * a1 < 0 and not by_arc[0]
+            return amp * a1 < 0 and abs(amp) >= 0.5 * dev
 
         def point(index: int, its: int, step: float, tl: float, s: np.ndarray) -> Point:
             sc = problem.scalars()
@@ -1299,6 +1316,8 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
             sc["residual"] = ns.residual_norm()
             # (with the corrector's last Jacobian and ∂R/∂λ)
             sc["residual_bound"] = ar.residual_bound(settings, ar.get_lambda())
+            if control is not None:  # 1: at a fixed c, 0: by arclength past a fold of c
+                sc["control_parameter"] = 0.0 if by_arc[0] else 1.0
             return Point(index=index, kappa=ar.get_lambda() / L, kappa_L=ar.get_lambda(),
                          newton_its=its, step=step, dkappa_ds=tl,
                          wall_time=time.perf_counter() - t_start, scalars=sc)
@@ -1371,7 +1390,8 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
                 track(SwitchResume(index=p.index, lam=lam, lam_prev=prev[1], ds=ds_next,
                                    direction=direction, first_amplitude=a1,
                                    first_distance=dev1, distance=last[0], state=state,
-                                   state_prev=prev[0]))
+                                   state_prev=prev[0], by_arclength=by_arc[0],
+                                   ds_max=arc_max[0]))
                 prev[:] = [state, lam]
 
         if resume is None:
@@ -1394,32 +1414,64 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
             prev = [resume.state, lam]
             if release_pins is not None and index >= release_pins:
                 pins.clear()
-        st = replace(settings, ds=ds_next, max_steps=settings.max_steps - index)
-        # with a control the loop neither deflates nor accepts a stalled Newton (``strict``)
-        steps = arclength_steps(ar, st, lam, lam_end, direction, secant_from=(secant_w, lam_prev),
-                                reject=jumped, control=control,
-                                **(corrector if control is None else strict))
-        for its, step, tl, s in steps:
-            index += 1
-            p = point(index, its, step, tl, s)
-            amp = side_amplitude()
-            dev = deviation()
-            log.debug("switch: point %d at kappa L = %.8g: amplitude %.4g, distance %.4g (first "
-                      "point %.4g, %.4g)", index, p.kappa_L, amp, dev, a1, dev1)
-            last[0] = dev
-            if dev < min_amplitude * dev1 or crossed(amp, dev):
-                raise RuntimeError(
-                    f"branch switching: back on the fundamental branch at kappa = {p.kappa:.6g}"
-                    f" (mode amplitude {amp:.3g}, distance {dev:.3g}; first point {a1:.3g}, "
-                    f"{dev1:.3g})")
-            checkpoint(p, p.kappa_L, next_step(st, step, its))
-            yield p
-            if release_pins is not None and index >= release_pins and pins:
-                pins.clear()
+        # the last two points (their secant starts the arclength loop past a fold of c)
+        cur, before = ar.w.copy(), secant_w.copy()
+        extra += [cur, before]
+        lam_before = lam_prev
+        while True:
+            if by_arc[0]:
+                st = replace(settings, ds=ds_next, ds_max=arc_max[0], ds_min=1e-6 * arc_max[0],
+                             max_steps=settings.max_steps - index)
+            else:
+                st = replace(settings, ds=ds_next, max_steps=settings.max_steps - index)
+            # with a control the loop neither deflates nor accepts a stalled Newton (``strict``)
+            steps = arclength_steps(ar, st, lam, lam_end, direction,
+                                    secant_from=(before, lam_before), reject=jumped,
+                                    control=None if by_arc[0] else control,
+                                    **(corrector if control is None else strict))
+            arc_last = 0.0
+            for its, step, tl, s in steps:
+                index += 1
+                cur.copy(before)
+                ar.w.copy(cur)
+                lam_before, lam = lam, ar.get_lambda()
+                before.copy(wp)
+                wp.axpy(-1.0, cur)
+                arc_last = math.sqrt(max(ar.cw * wp.dot(wp), 0.0) + (lam - lam_before) ** 2)
+                if not by_arc[0]:
+                    arc_max[0] = max(arc_max[0], arc_last)
+                p = point(index, its, step, tl, s)
+                amp = side_amplitude()
+                dev = deviation()
+                log.debug("switch: point %d at kappa L = %.8g: amplitude %.4g, distance %.4g "
+                          "(first point %.4g, %.4g)", index, p.kappa_L, amp, dev, a1, dev1)
+                last[0] = dev
+                if dev < min_amplitude * dev1 or crossed(amp, dev):
+                    raise RuntimeError(
+                        f"branch switching: back on the fundamental branch at kappa = "
+                        f"{p.kappa:.6g} (mode amplitude {amp:.3g}, distance {dev:.3g}; first "
+                        f"point {a1:.3g}, {dev1:.3g})")
+                checkpoint(p, p.kappa_L, next_step(st, step, its))
+                yield p
+                if release_pins is not None and index >= release_pins and pins:
+                    pins.clear()
+            steps.close()
+            landed = abs(lam - lam_end) <= 1e-12 * max(1.0, abs(lam_end))
+            if control is None or by_arc[0] or landed or index >= settings.max_steps:
+                break
+            # c stopped moving (a fold of c on the branch: its Jacobian at fixed c is singular
+            # there): the branch goes on by arclength from the last two points, steps up to
+            # the largest a step of c took (strict corrector still)
+            by_arc[0] = True
+            ds_next = min(arc_last, arc_max[0]) if arc_last > 0 else arc_max[0]
+            log.info("switch: the control parameter turns at kappa L = %.6g; the branch goes "
+                     "on by arclength", lam)
+            if not arc_max[0] > 0:
+                break
     finally:
         if steps is not None:
             steps.close()
-        for v in (wc, wp, *dirs, *([] if resume_prev is None else [resume_prev])):
+        for v in (wc, wp, *dirs, *([] if resume_prev is None else [resume_prev]), *extra):
             v.destroy()
         for obj in (amp_dir, tangent, pred, defl_stab):
             if obj is not None:

@@ -216,7 +216,8 @@ def test_a_state_parameter_follows_a_subcritical_branch_through_its_fold():
     assert cp.kind == "bifurcation" and cp.kappa == pytest.approx(1.0, rel=1e-8)
     e = P.state.duplicate()
     e.set(0.0)
-    e.setValue(1, 1.0) if e.getOwnershipRange()[0] <= 1 < e.getOwnershipRange()[1] else None
+    if e.getOwnershipRange()[0] <= 1 < e.getOwnershipRange()[1]:
+        e.setValue(1, 1.0)
     e.assemble()
     stab = Stability(P)
     pts = []
@@ -241,6 +242,35 @@ def test_a_state_parameter_follows_a_subcritical_branch_through_its_fold():
     assert ks[-1] == pytest.approx(1.5, rel=1e-12)  # landed on the end of the range
     assert sum(neg == 1 for _, neg in pts) >= 5 and sum(neg == 0 for _, neg in pts) >= 3
     e.destroy()
+
+
+def test_the_branch_goes_on_by_arclength_past_a_fold_of_its_control():
+    """With c = 0.3 x + y as the control, c has a maximum on the subcritical branch
+    (dc/dx = 0.3 - 2x + 4x³ = 0 at x = 0.157): the steps in c stop there, the branch goes on by
+    arclength from the last two points (``control_parameter`` 0), still exactly on it, to the
+    end of the range."""
+    P = SubcriticalPitchforkProblem()
+    run = list(follow(P, STEPS, 1.5, CriticalSettings(rel_tol=1e-8, stop_at_first=True)))
+    cp = run[-1][2][0]
+    e = P.state.duplicate()
+    e.set(0.0)
+    lo, hi = e.getOwnershipRange()
+    for i, v in ((0, 1.0), (1, 0.3)):
+        if lo <= i < hi:
+            e.setValue(i, v)
+    e.assemble()
+    pts = list(switch_branch(P, cp, ContinuationSettings(ds=0.005, ds_max=0.01), 1.5, ds=0.005,
+                             control=e, sign=1.0))
+    e.destroy()
+    by_c = [p for p in pts if p.scalars["control_parameter"] == 1.0]
+    by_s = [p for p in pts if p.scalars["control_parameter"] == 0.0]
+    assert by_c and by_s and pts[: len(by_c)] == by_c  # c first, then arclength
+    assert max(p.scalars["w1"] for p in by_c) == pytest.approx(0.157, abs=0.03)
+    for p in pts:
+        x, k = p.scalars["w1"], p.kappa
+        assert k == pytest.approx(1 - 1.5 * x * x + x**4, abs=1e-9)
+    assert pts[-1].kappa == pytest.approx(1.5, rel=1e-12)
+    assert min(p.kappa for p in pts) < 0.46  # through the fold in κ as well
 
 
 def test_switching_resumes_after_a_tracked_point():

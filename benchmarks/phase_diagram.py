@@ -250,7 +250,7 @@ def _shapes_3d_rows(d: dict) -> list[str]:
 def _postbuckling_rows(d: dict) -> list[str]:
     """The closed sphere's Ψ3 law and post-buckling branch (benchmarks/sphere_postbuckling.py)."""
     rows = []
-    mins = []
+    at_depth = []
     for r in d["results"]:
         h, cp = r["h_over_R"], r["critical_point"]
         rows.append(
@@ -259,44 +259,43 @@ def _postbuckling_rows(d: dict) -> list[str]:
             f"{r['slope_psi3_vs_kappa_h']:.5f} | {_rel(r['slope_psi3_vs_kappa_h'], -1 / 12)} | "
             f"κ_b h = {cp['kappa_h']:.5f} (n = {cp['mode_n']}; thin limit 1.5119, "
             f"{_rel(cp['kappa_h'], r['kappa_b_h_thin_limit'])}), located by the common "
-            "algorithm layer (`shells.postbuckle`, penalty 1e6) |")
-        sides = r["summary"]["sides"]
-        pts = [p for p in r["points"] if p["branch"] == "bifurcated"]
-        inward = [p for p in pts if p["psi3_pole_over_h"] < -1.0]
-        # the subcritical side (it starts towards smaller κ) whose pole dimples inwards and
-        # that reaches the smallest κ; else the first side that dimples inwards
-        sub = [p for p in inward if p.get("start") == "down"]
-        side = (min(sub, key=lambda p: p["kappa"])["side"] if sub
-                else inward[0]["side"] if inward else None)
-        down = [p for p in pts if p["side"] == side]
-        if down:
-            # the branch is trusted while the pole keeps dimpling inwards: a rise of the pole
-            # by more than 1 h marks a jump of the continuation onto another branch
-            poles = [p["psi3_pole_over_h"] for p in down]
-            jump = next((i for i in range(1, len(poles)) if poles[i] > poles[i - 1] + 1.0), None)
-            good = down[: jump if jump is not None else len(down)]
-            kmin = min(p["kappa"] for p in good) / cp["kappa"]
-            mins.append(kmin)
-            s = sides[str(side)]
-            note = (f"; then the continuation jumps to another branch (the pole back to "
-                    f"{poles[jump]:.1f} h at κ/κ_b = {down[jump]['kappa'] / cp['kappa']:.3f}): "
-                    "an open point" if jump is not None else "")
-            rows.append(
-                f"| closed sphere, 1D, h/R = {h:g}: post-buckling branch (rotational symmetry "
-                f"enforced) | subcritical, unstable | subcritical: κ falls from κ_b as the pole "
-                f"dimples inwards, to κ/κ_b = {kmin:.3f} at Ψ3(pole)/h = "
-                f"{min(p['psi3_pole_over_h'] for p in good):.1f} ({s['points']} points, ended: "
-                f"{s['ended']}{note}) | – | one more negative m = 0 eigenvalue than the "
-                "fundamental branch; `benchmarks/sphere_postbuckling.py`, figure "
-                "benchmarks/results/sphere_postbuckling.png |")
-    if len(mins) > 1:
-        rows.append("| post-buckling vs h/R | \"does not vary considerably\" | κ/κ_b reached "
-                    "on the trusted part of the traced branches: "
-                    + ", ".join(f"{m:.3f}" for m in mins)
-                    + " (h/R = " + ", ".join(f"{r['h_over_R']:g}" for r in d["results"])
-                    + ") | – | in κ/κ_b all fall steeply from κ_b; in Ψ3(pole)/h the curves do "
-                    "not collapse (the thinner shell dimples far deeper at the same κ/κ_b): "
-                    "compare the figure; docs/model.md |")
+            "algorithm layer (`shells.postbuckle`, penalty 1e5) |")
+        # side -1: the dimple at the pole, followed with its depth as the parameter while
+        # the depth grows (``control_parameter`` 1), then by arclength past a fold of it
+        down = [p for p in r["points"] if p["branch"] == "bifurcated" and p["side"] == -1]
+        if not down:
+            continue
+        s = r["summary"]["sides"]["-1"]
+        by_depth = [p for p in down if p.get("control_parameter", 1.0) == 1.0]
+        deepest = min(by_depth, key=lambda p: p["psi3_pole_over_h"])
+        past = down[len(by_depth):]
+        note = (f"; the depth turns at {deepest['psi3_pole_over_h']:.2f} h (κ/κ_b = "
+                f"{deepest['kappa'] / cp['kappa']:.3f}) and the branch goes on by arclength to "
+                f"κ/κ_b = {min(p['kappa'] for p in past) / cp['kappa']:.3f}, the pole back to "
+                f"{past[-1]['psi3_pole_over_h']:.2f} h" if past else "")
+        neg = sorted({p["negative_count_axisymmetric"] for p in by_depth})
+        at_depth.append((h, r.get("kappa_over_kappa_b_at_depth", {})))
+        rows.append(
+            f"| closed sphere, 1D, h/R = {h:g}: post-buckling branch (rotational symmetry "
+            f"enforced) | subcritical, unstable | subcritical: κ falls from κ_b as the pole "
+            f"dimples inwards, to κ/κ_b = {deepest['kappa'] / cp['kappa']:.3f} at Ψ3(pole)/h "
+            f"= {deepest['psi3_pole_over_h']:.1f} ({s['points']} points, ended: "
+            f"{s['ended']}{note}) | – | negative m = 0 eigenvalues while the depth grows: "
+            f"{', '.join(map(str, neg))} (the fundamental branch: 0); "
+            "`benchmarks/sphere_postbuckling.py`, figure "
+            "benchmarks/results/sphere_postbuckling.png |")
+    if len(at_depth) > 1:
+        def fmt(v: float | None) -> str:
+            return "–" if v is None else f"{v:.3f}"
+
+        depths = sorted({k for _, a in at_depth for k in a}, key=float)
+        rows.append(
+            "| post-buckling vs h/R | \"does not vary considerably\" | κ/κ_b at the pole "
+            "depths Ψ3(pole)/h = " + ", ".join(f"-{k}" for k in depths) + ": "
+            + "; ".join(f"h/R = {h:g}: " + ", ".join(fmt(a.get(k)) for k in depths)
+                        for h, a in at_depth)
+            + " | – | the thin shells' curves collapse in κ/κ_b against Ψ3(pole)/h (within "
+            "about 2 %); the thick one's dimple stops deepening at 2.5 h; docs/model.md |")
     return rows
 
 

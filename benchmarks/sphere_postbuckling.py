@@ -55,16 +55,33 @@ def run_one(h: float, max_points: int) -> dict:
                              [r["psi3_pole_over_h"] for r in lin], 1)[0])
     keys = ("kappa", "kappa_h", "psi3_pole_over_h", "psi3_over_h", "energy", "negative_count",
             "negative_count_axisymmetric", "mode_amplitude", "branch", "side", "start",
-            "subcritical", "kappa_c")
+            "subcritical", "kappa_c", "control_parameter")
     return {"h_over_R": h, "critical_point": cp, "wall_s": time.perf_counter() - t0,
             "kappa_b_h_thin_limit": sphere_kappa_b_h(0.5),
             "slope_psi3_vs_kappa_h": slope, "slope_theory": -1.0 / 12 / (1 + h * h / 12),
             "min_kappa_over_kappa_b": min(r["kappa"] for r in down) / cp["kappa"] if down
             else None,
+            "kappa_over_kappa_b_at_depth": _at_depths(down, cp["kappa"]),
             "summary": recs[-1]["summary"],
             "points": [{k: r.get(k) for k in keys} for r in fund + bif],
             "profiles": {str(k): {kk: (vv.tolist() if isinstance(vv, np.ndarray) else vv)
                                   for kk, vv in p.items()} for k, p in profiles.items()}}
+
+
+DEPTHS = (2.0, 5.0, 10.0, 20.0)  # Ψ3(pole)/h = -depth: where the curves are compared
+
+
+def _at_depths(down: list[dict], kc: float) -> dict[str, float | None]:
+    """κ/κ_b on the inward side at the pole depths ``DEPTHS`` (linear interpolation over the
+    part parametrised by the depth, where it grows monotonically; None if not reached)."""
+    part = [r for r in down if r.get("control_parameter", 1.0) == 1.0]
+    d = np.array([-r["psi3_pole_over_h"] for r in part])
+    k = np.array([r["kappa"] / kc for r in part])
+    out: dict[str, float | None] = {}
+    for depth in DEPTHS:
+        ok = len(d) > 1 and np.all(np.diff(d) > 0) and d[0] <= depth <= d[-1]
+        out[f"{depth:g}"] = float(np.interp(depth, d, k)) if ok else None
+    return out
 
 
 def figure(results: list[dict], out: Path) -> list[str]:
@@ -89,18 +106,17 @@ def figure(results: list[dict], out: Path) -> list[str]:
             d = [p for p in pts if p["branch"] == "bifurcated" and p["side"] == side]
             if not d:
                 continue
-            # the side whose pole dimples inwards is the paper's branch (for an odd degree
-            # the other side is its mirror image, dimpled at the south pole)
-            inward = min(p["psi3_pole_over_h"] for p in d) < -1.0
+            # side -1 pushes the pole in (the dimple, the paper's branch), +1 out
+            inward = side == -1
             ax.plot([1.0] + [p["kappa"] / kc for p in d],
                     [f[-1]["psi3_pole_over_h"]] + [p["psi3_pole_over_h"] for p in d],
                     "-" if inward else ":", color=c, lw=1.5 if inward else 1,
                     label=f"h/R = {h:g}, n = {res['critical_point']['mode_n']}"
-                    + (" (pole inwards, unstable)" if inward else " (other side)"))
+                    + (" (pole inwards, unstable)" if inward else " (pole outwards)"))
     ax.set_xlabel(r"$\kappa/\kappa_b$")
     ax.set_ylabel(r"$\Psi_3(\mathrm{pole})/h$")
     ax.set_xlim(0, 1.05)
-    ax.set_ylim(-12, 1.0)
+    ax.set_ylim(-40, 1.0)
     ax.legend(fontsize=8, loc="lower left")
     ax.set_title("closed sphere, 1D model, nu = 1/2")
     ref = next((r for r in results if r["h_over_R"] == 0.01), results[0])
@@ -160,12 +176,16 @@ def main(outdir: str = "benchmarks/results", *flags: str) -> None:
     (out / "sphere_postbuckling.json").write_text(json.dumps(
         {"results": results, "files": files}, indent=1, default=float))
     print(f"{'h/R':>6} {'kappa_b h':>10} {'n':>3} {'slope':>9} {'theory':>9} "
-          f"{'min k/kb':>8} {'wall s':>6}")
+          f"{'min k/kb':>8} " + " ".join(f"{'k/kb@' + format(-d, 'g'):>9}" for d in DEPTHS)
+          + f" {'wall s':>6}")
     for r in results:
         cp = r["critical_point"]
+        at = r["kappa_over_kappa_b_at_depth"]
         print(f"{r['h_over_R']:6g} {cp['kappa_h']:10.5f} {cp['mode_n']:3d} "
               f"{r['slope_psi3_vs_kappa_h']:9.5f} {r['slope_theory']:9.5f} "
-              f"{r['min_kappa_over_kappa_b'] or math.nan:8.3f} {r['wall_s']:6.1f}")
+              f"{r['min_kappa_over_kappa_b'] or math.nan:8.3f} "
+              + " ".join(f"{at[f'{d:g}'] if at[f'{d:g}'] is not None else math.nan:9.4f}"
+                         for d in DEPTHS) + f" {r['wall_s']:6.1f}")
     print("files:", ", ".join(files))
 
 

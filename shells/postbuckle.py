@@ -185,11 +185,11 @@ class PostbuckleConfig(RunScales):
         return d
 
 
-#: the 1D model's branch switching: near-null modes deflated from its corrector steps (the
-#: neighbouring degrees of a sphere's buckling mode), and the round-off factor of its residual
-#: bound: with the penalty 1e6 the residual stalls at about 10 ε ||J||_F ||w|| on the inward
-#: branch of the h/R = 0.01 sphere below κ/κ_b = 0.94 (measured; the default 0.1 stopped it
-#: there, 1.0 at 0.57, 10 reaches 0.5)
+#: the 1D model's branch switching: near-null modes deflated from its first corrector's steps
+#: (the neighbouring degrees of a sphere's buckling mode), and the round-off factor of the
+#: residual bound: with the penalty 1e6 the residual stalled at about 10 ε ||J||_F ||w|| on the
+#: arclength-followed inward branch of the h/R = 0.01 sphere below κ/κ_b = 0.94 (measured then;
+#: the dimple's points are now converged by plain Newton, their residuals far below the bound)
 DEFLATE = 4
 ROUNDOFF = 10.0
 #: the 1D closed sphere's dimple branch: switched onto along the projection of the pole's

@@ -273,6 +273,35 @@ def test_the_branch_goes_on_by_arclength_past_a_fold_of_its_control():
     assert min(p.kappa for p in pts) < 0.46  # through the fold in κ as well
 
 
+def test_a_controlled_branch_resumes_on_either_side_of_the_fold_of_its_control():
+    """``switch_branch(..., control=e, resume=r)`` continues as the uninterrupted run did, from
+    a point followed with c and from one past the fold of c (by arclength): the same later
+    points."""
+    P = SubcriticalPitchforkProblem()
+    run = list(follow(P, STEPS, 1.5, CriticalSettings(rel_tol=1e-8, stop_at_first=True)))
+    cp = run[-1][2][0]
+    e = P.state.duplicate()
+    e.set(0.0)
+    lo, hi = e.getOwnershipRange()
+    for i, v in ((0, 1.0), (1, 0.3)):
+        if lo <= i < hi:
+            e.setValue(i, v)
+    e.assemble()
+    st = ContinuationSettings(ds=0.005, ds_max=0.01)
+    tracked = []
+    full = list(switch_branch(P, cp, st, 1.5, ds=0.005, control=e, track=tracked.append))
+    flags = [r.by_arclength for r in tracked]
+    k_c, k_s = flags.index(False) + 2, flags.index(True) + 3  # one of each kind
+    assert not flags[k_c] and flags[k_s]
+    for k in (k_c, k_s):
+        rest = list(switch_branch(P, cp, st, 1.5, ds=0.005, control=e, resume=tracked[k]))
+        assert [(p.index, p.newton_its, p.step) for p in rest] == [
+            (p.index, p.newton_its, p.step) for p in full[k + 1:]]
+        assert [p.kappa for p in rest] == pytest.approx([p.kappa for p in full[k + 1:]],
+                                                        rel=1e-10)
+    e.destroy()
+
+
 def test_switching_resumes_after_a_tracked_point():
     """``switch_branch(..., resume=r)`` from the ``SwitchResume`` r tracked at a point continues
     as the uninterrupted run: the same later points (κ, iterations, steps)."""

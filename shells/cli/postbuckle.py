@@ -13,10 +13,11 @@ the keys of ``shells branch``'s points plus ``branch``, ``stable``, ``negative_c
 ``subcritical``), ``sides`` (per side: points, how it ended, up/down, ``parameter``),
 ``branch_file``, and the shapes written. The 1D model's closed sphere follows the dimple at the
 pole with its depth Ψ3(pole)/h as the parameter (side -1: the pole in; points past a fold of the
-depth, followed by arclength, carry ``control_parameter`` 0). With -o, every point is appended to DIR/postbuckle.jsonl as computed; with
-``--fields``, the 1D model writes each bifurcated state (``last``: the last one of each side) as
-a 3D surface DIR/shapes/side{+1,-1}_NNN.vts (arrays ``displacement``, ``normal_displacement``)
-and its meridian as CSV; the surface model writes VTX fields DIR/fields_side{+1,-1}.bp.
+depth, followed by arclength, carry ``control_parameter`` 0). With -o, every point is
+appended to DIR/postbuckle.jsonl as computed; with ``--fields``, the 1D model writes each
+bifurcated state (``last``: the last one of each side) as a 3D surface
+DIR/shapes/side{+1,-1}_NNN.vts (arrays ``displacement``, ``normal_displacement``) and its
+meridian as CSV; the surface model writes VTX fields DIR/fields_side{+1,-1}.bp.
 """
 
 from __future__ import annotations

@@ -888,25 +888,6 @@ def follow(problem: Any, settings: ContinuationSettings, kappa_end: float,
     or dκ/ds changes sign, or, with ``locate_when(point, counts before, counts after)``, when
     that says so (folds are always located); ``locate_points=False``: stability only.
 
-    Localised branches (``control`` = a state-shaped vector e, the functional c = e·w, e.g.
-    the depth of a dimple at a pole; no pins). Where several bifurcations nearly coincide, a
-    single critical mode is an arbitrary member of the cluster, chosen by round-off (which
-    crossed first at the located state), and the branches along different members part
-    within a few steps. The direction followed is instead the cluster's combination of largest
-    c: the projection of e on the ``cluster`` eigenvectors nearest 0 (φ_0 among them), which
-    for a closed sphere's axisymmetric modes P_n (all of value 1 at the pole) is a packet
-    localised at the pole. The first point has c - c_c = ``sign`` × ``ds`` × f (λ free), with
-    ``cluster``, 2 and 1 eigenvectors in turn until its corrector converges; the branch is then
-    followed with c as its parameter (``continuation.arclength_steps``' ``control``: secant
-    predictor, corrector at fixed c converged by plain Newton, no deflation), steps in c from
-    ``settings``. Where c turns (a fold of c on the branch: the steps in c are refused until
-    they fall below ``ds_min``), the branch goes on by secant arclength from the last two
-    points (steps up to the largest a step of c took; points carry ``control_parameter`` 1
-    before, 0 after). The return tests stay (distance from the fundamental branch; a side
-    crossed when c - c_c changes sign while c is the parameter). Measured on the h/R = 0.01
-    closed sphere (1D model): first amplitudes 0.25 and 0.35 give the same dimple branch,
-    which the arclength loop did not (docs/model.md).
-
     Resuming: ``track(r)``, if given, is called at every point just before it is yielded, with
     its ``FollowResume`` r; ``follow(..., resume=r)`` with the same problem (any partition: r's
     arrays are this rank's owned values), settings and arguments then continues after that

@@ -205,6 +205,18 @@ def test_switching_onto_the_pitchfork_branch():
     assert slope == pytest.approx(0.5, abs=0.01)
 
 
+def _functional(P, weights):
+    """A state-shaped vector e with e·w = Σ weights[i] w_i (on any partition)."""
+    e = P.state.duplicate()
+    e.set(0.0)
+    lo, hi = e.getOwnershipRange()
+    for i, v in weights.items():
+        if lo <= i < hi:
+            e.setValue(i, v)
+    e.assemble()
+    return e
+
+
 def test_a_state_parameter_follows_a_subcritical_branch_through_its_fold():
     """``switch_branch(..., control=e)`` with e·w = x: the subcritical branch
     κ = 1 - 3x²/2 + x⁴ in steps of x, down through its fold (x² = 3/4, κ = 7/16) and up to the
@@ -214,11 +226,7 @@ def test_a_state_parameter_follows_a_subcritical_branch_through_its_fold():
     run = list(follow(P, STEPS, 1.5, CriticalSettings(rel_tol=1e-8, stop_at_first=True)))
     cp = run[-1][2][0]
     assert cp.kind == "bifurcation" and cp.kappa == pytest.approx(1.0, rel=1e-8)
-    e = P.state.duplicate()
-    e.set(0.0)
-    if e.getOwnershipRange()[0] <= 1 < e.getOwnershipRange()[1]:
-        e.setValue(1, 1.0)
-    e.assemble()
+    e = _functional(P, {1: 1.0})
     stab = Stability(P)
     pts = []
     for p in switch_branch(P, cp, ContinuationSettings(ds=0.05, ds_max=0.1), 1.5, ds=0.05,
@@ -252,13 +260,7 @@ def test_the_branch_goes_on_by_arclength_past_a_fold_of_its_control():
     P = SubcriticalPitchforkProblem()
     run = list(follow(P, STEPS, 1.5, CriticalSettings(rel_tol=1e-8, stop_at_first=True)))
     cp = run[-1][2][0]
-    e = P.state.duplicate()
-    e.set(0.0)
-    lo, hi = e.getOwnershipRange()
-    for i, v in ((0, 1.0), (1, 0.3)):
-        if lo <= i < hi:
-            e.setValue(i, v)
-    e.assemble()
+    e = _functional(P, {0: 1.0, 1: 0.3})
     pts = list(switch_branch(P, cp, ContinuationSettings(ds=0.005, ds_max=0.01), 1.5, ds=0.005,
                              control=e, sign=1.0))
     e.destroy()
@@ -280,13 +282,7 @@ def test_a_controlled_branch_resumes_on_either_side_of_the_fold_of_its_control()
     P = SubcriticalPitchforkProblem()
     run = list(follow(P, STEPS, 1.5, CriticalSettings(rel_tol=1e-8, stop_at_first=True)))
     cp = run[-1][2][0]
-    e = P.state.duplicate()
-    e.set(0.0)
-    lo, hi = e.getOwnershipRange()
-    for i, v in ((0, 1.0), (1, 0.3)):
-        if lo <= i < hi:
-            e.setValue(i, v)
-    e.assemble()
+    e = _functional(P, {0: 1.0, 1: 0.3})
     st = ContinuationSettings(ds=0.005, ds_max=0.01)
     tracked = []
     full = list(switch_branch(P, cp, st, 1.5, ds=0.005, control=e, track=tracked.append))

@@ -99,7 +99,9 @@ class PostbuckleConfig(RunScales):
         max_points: at most this many points per side of the bifurcated branch.
         sides: the sides of the critical mode followed, +1 and/or -1 (a pitchfork's two are
             mirror images: one may do).
-        amplitude: first mode amplitude (RMS in thicknesses) of the bifurcated branch.
+        amplitude: first mode amplitude (RMS in thicknesses) of the bifurcated branch; on the
+            1D model's closed shells the first point's change of the pole's depth Ψ3(pole)/h,
+            and the depth's first step (up to 4 times this).
         cells, size, layer_elements, degree: discretisation of the 1D / surface model (None:
             the model's defaults; the surface model: 3 layer elements, size and degree of
             ``shells.model.default_discretisation``, P3 where P2 locks).

@@ -231,8 +231,9 @@ class SwitchResume:
             tests measure against.
         state, state_prev: this rank's owned state values at the point and at the one before
             it (w_c before the first).
-        by_arclength, ds_max: a branch followed with a ``control`` went on by arclength past a
-            fold of the control (``switch_branch``), with this largest step.
+        by_arclength, ds_max, stretch_min: a branch followed with a ``control`` went on by
+            arclength past a fold of the control (``switch_branch``), with this largest step;
+            the smallest arclength per unit change of the control so far.
     """
 
     index: int
@@ -247,6 +248,7 @@ class SwitchResume:
     state_prev: np.ndarray = field(repr=False)
     by_arclength: bool = False
     ds_max: float = 0.0
+    stretch_min: float = 0.0
 
     def scalars(self) -> dict[str, Any]:
         """The scalars (JSON-ready; the same on every rank); the arrays are left out."""
@@ -1101,6 +1103,12 @@ def _m_inner(M: Any, x: Any, y: Any) -> float:
     return out
 
 
+#: with a ``control``, the branch goes on by arclength once a step's arclength per unit change
+#: of the control exceeds this multiple of its smallest so far (a fold of the control ahead:
+#: there it grows without bound, and the steps in the control would be cut ever shorter)
+FOLD_STRETCH = 10.0
+
+
 def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSettings,
                   kappa_end: float, *, ds: float = 0.25, solver: NewtonSolver | None = None,
                   sign: float = 1.0, pinned: int | None = None,
@@ -1261,6 +1269,9 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
         c_c = 0.0 if control is None else control.dot(wc)
         by_arc = [resume is not None and resume.by_arclength]  # past a fold of the control
         arc_max = [0.0 if resume is None else resume.ds_max]  # the arclength steps' ds_max
+        # the smallest arclength per unit change of c: near a fold of c it grows without bound
+        stretch_min = [math.inf if resume is None or not resume.stretch_min > 0
+                       else resume.stretch_min]
 
         def side_amplitude() -> float:
             """What decides the side: the amplitude along φ_0, or c - c_c with a control."""
@@ -1372,7 +1383,9 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
                                    direction=direction, first_amplitude=a1,
                                    first_distance=dev1, distance=last[0], state=state,
                                    state_prev=prev[0], by_arclength=by_arc[0],
-                                   ds_max=arc_max[0]))
+                                   ds_max=arc_max[0],
+                                   stretch_min=(stretch_min[0] if math.isfinite(stretch_min[0])
+                                                else 0.0)))
                 prev[:] = [state, lam]
 
         if resume is None:
@@ -1419,8 +1432,13 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
                 before.copy(wp)
                 wp.axpy(-1.0, cur)
                 arc_last = math.sqrt(max(ar.cw * wp.dot(wp), 0.0) + (lam - lam_before) ** 2)
-                if not by_arc[0]:
+                turning = False
+                if control is not None and not by_arc[0]:
                     arc_max[0] = max(arc_max[0], arc_last)
+                    dc = abs(control.dot(wp))
+                    stretch = arc_last / dc if dc > 0 else math.inf
+                    turning = stretch > FOLD_STRETCH * stretch_min[0]
+                    stretch_min[0] = min(stretch_min[0], stretch)
                 p = point(index, its, step, tl, s)
                 amp = side_amplitude()
                 dev = deviation()
@@ -1436,15 +1454,18 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
                 yield p
                 if release_pins is not None and index >= release_pins and pins:
                     pins.clear()
+                if turning:  # c is about to turn: on by arclength before the steps crawl
+                    break
             steps.close()
             landed = abs(lam - lam_end) <= 1e-12 * max(1.0, abs(lam_end))
             if control is None or by_arc[0] or landed or index >= settings.max_steps:
                 break
-            # c stopped moving (a fold of c on the branch: its Jacobian at fixed c is singular
-            # there): the branch goes on by arclength from the last two points, steps up to
-            # the largest a step of c took (strict corrector still)
+            # c stopped moving, or is about to (a fold of c on the branch: its Jacobian at
+            # fixed c is singular there): the branch goes on by arclength from the last two
+            # points, steps up to the largest a step of c took (strict corrector still)
             by_arc[0] = True
-            ds_next = min(arc_last, arc_max[0]) if arc_last > 0 else arc_max[0]
+            # (the last steps in c were cut towards the fold: not below a tenth of the largest)
+            ds_next = min(max(arc_last, 0.1 * arc_max[0]), arc_max[0])
             log.info("switch: the control parameter turns at kappa L = %.6g; the branch goes "
                      "on by arclength", lam)
             if not arc_max[0] > 0:

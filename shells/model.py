@@ -576,6 +576,33 @@ class ShellModel(FormProblem):
         h = float(self.h.value)
         return {"apex_uz_over_h": disp / h, "psi3_pole_over_h": (uz_top - mean_uz) / h}
 
+    def pole_functional(self) -> Any:
+        """The state-shaped vector e with e·w = Ψ3(pole)/h, the ``psi3_pole_over_h`` of
+        ``scalars`` on a shape of revolution with a pole: (u_z(pole) - ū_z)/h, ū_z = ∫ u_z dA / A
+        (linear in w; the pole node's u_z once, on the rank that owns it)."""
+        import ufl
+        from dolfinx import fem
+        from dolfinx.fem.petsc import assemble_vector
+        from petsc4py import PETSc
+
+        if not (self.shape.of_revolution and getattr(self.shape, "has_pole", True)):
+            raise InputError("the pole's depth needs a shape of revolution with a pole")
+        v = ufl.TestFunction(self.W)
+        e = assemble_vector(fem.form(v[2] * self.dx))
+        e.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        e.scale(-1.0 / self.assemble("area"))
+        r_top, z_top = (float(c) for c in self.shape.meridian(np.array(0.0)))
+        x = self.owned_dof_coordinates()
+        tol = 1e-8 * self.shape.characteristic_size()
+        hit = np.nonzero(np.linalg.norm(x - np.array([r_top, 0.0, z_top]), axis=1) < tol)[0]
+        if self.shell.comm.allreduce(min(len(hit), 1)) == 0:
+            raise InputError("the mesh has no node at the pole: its depth is not defined")
+        arr = e.getArray()  # owned values, 6 per node (u, θ)
+        arr[hit[:1] * 6 + 2] += 1.0
+        e.setArray(arr)
+        e.scale(1.0 / float(self.h.value))
+        return e
+
     def set_everted_guess(self) -> None:
         """Set the state to the open shell mirrored through its rim plane (an isometry).
 

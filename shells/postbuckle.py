@@ -13,12 +13,14 @@ bifurcated branch on both sides (driver layer, on the algorithm layer's ``follow
 3. the bifurcated branch on both sides of the mode (amplitude +a and -a), by secant
    pseudo-arclength, until κ leaves [``kappa_min_ratio`` κ_c, κ_max], after ``max_points``
    points, or when the branch returns to the fundamental one (``branch`` = "bifurcated").
-   The 1D model's closed sphere instead: the dimple at the top pole, switched onto along the
-   combination of its cluster of nearly simultaneous axisymmetric modes (degrees n, n ± 1,
-   ...) that deepens the pole most, its depth Ψ3(pole)/h the branch's parameter (steps of
-   ``amplitude`` to 4 ``amplitude`` thicknesses; side -1 pushes the pole in, +1 out; the
-   summary's ``parameter``: "psi3_pole_over_h", else "arclength"; ``switch_branch``'s
-   ``control``).
+   A closed shell with a pole (the sphere; on either model, not on a user's mesh) instead:
+   the dimple at the top pole, switched onto along the combination of its cluster of nearly
+   simultaneous modes (the 1D model: degrees n, n ± 1, ...; the surface model: the located
+   multiplet) that deepens the pole most, its depth Ψ3(pole)/h the branch's parameter (steps
+   of ``amplitude`` to 4 ``amplitude`` thicknesses; side -1 pushes the pole in, +1 out; past a
+   fold of the depth by arclength; the summary's ``parameter``: "psi3_pole_over_h", else
+   "arclength"; ``switch_branch``'s ``control``). The two models' dimples agree within 0.4 %
+   in κ/κ_b at equal depth (h/R = 0.05, ``benchmarks/dimple_2d.py``).
 
 Each bifurcated point carries ``side`` (+1/-1, the sign of the first amplitude), ``start``
 ("down" or "up": where κ goes from κ_c on that side) and ``subcritical`` (it goes back against
@@ -99,8 +101,8 @@ class PostbuckleConfig(RunScales):
         max_points: at most this many points per side of the bifurcated branch.
         sides: the sides of the critical mode followed, +1 and/or -1 (a pitchfork's two are
             mirror images: one may do).
-        amplitude: first mode amplitude (RMS in thicknesses) of the bifurcated branch; on the
-            1D model's closed shells the first point's change of the pole's depth Ψ3(pole)/h,
+        amplitude: first mode amplitude (RMS in thicknesses) of the bifurcated branch; on
+            closed shells with a pole the first point's change of the pole's depth Ψ3(pole)/h,
             and the depth's first step (up to 4 times this).
         cells, size, layer_elements, degree: discretisation of the 1D / surface model (None:
             the model's defaults; the surface model: 3 layer elements, size and degree of
@@ -194,10 +196,11 @@ class PostbuckleConfig(RunScales):
 #: the dimple's points are now converged by plain Newton, their residuals far below the bound)
 DEFLATE = 4
 ROUNDOFF = 10.0
-#: the 1D closed sphere's dimple branch: switched onto along the projection of the pole's
-#: depth on this many eigenvectors nearest 0 at κ_b (its neighbouring degrees; h/R = 0.01:
-#: 4.6e-7, 2.5e-6, then 2.5e-4 ... 9.6e-4; h/R = 0.001: six within 1e-5) and followed with
-#: the depth Ψ3(pole)/h as the parameter (``switch_branch``'s ``control``)
+#: the closed sphere's dimple branch: switched onto along the projection of the pole's depth
+#: on this many eigenvectors nearest 0 at κ_b, or on the located multiplet if larger (the 1D
+#: model: the neighbouring degrees, h/R = 0.01: 4.6e-7, 2.5e-6, then 2.5e-4 ... 9.6e-4; h/R =
+#: 0.001: six within 1e-5; the surface model at h/R = 0.05: the 36 modes of degrees 8 and 9),
+#: and followed with the depth Ψ3(pole)/h as the parameter (``switch_branch``'s ``control``)
 CLUSTER = 6
 #: the 1D model's C1 penalty on closed shells (see ``_Run``)
 CLOSED_PENALTY = 1.0e5
@@ -374,10 +377,12 @@ def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], 
             log.info("postbuckle: resumed at the critical point; side(s) %s already done",
                      sorted(done_sides) or "none")
         lam_c = abs(cp.kappa_L)
-        # the 1D closed sphere: the dimple at the pole, its depth the branch's parameter
-        # (steps in thicknesses of depth; the arclength steps slid onto other branches of the
-        # cluster, their path depended on the first amplitude and on round-off)
-        dimple = cfg.model == "axisym" and cfg.shape.closed
+        # a closed shell with a pole (the sphere): the dimple at the pole, its depth the
+        # branch's parameter (steps in thicknesses of depth; on the 1D model the arclength
+        # steps slid onto other branches of the cluster, their path depended on the first
+        # amplitude and on round-off; the surface model's multiplet has no preferred member)
+        dimple = (cfg.shape.closed and getattr(cfg.shape, "of_revolution", True)
+                  and getattr(cfg.shape, "has_pole", True) and cfg.mesh_file is None)
         control = run.model.pole_functional() if dimple else None
         sst = ContinuationSettings(ds=cfg.amplitude, ds_max=(4 * cfg.amplitude if dimple else
                                                              max(4 * cfg.amplitude,
@@ -438,7 +443,8 @@ def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], 
                         run.model, cp, sst, kappa_stop, ds=amp, solver=run.ns, sign=side,
                         pinned=pinned, min_amplitude=0.1, deflate=deflate,
                         resume=None if cont is None else cont.switch, track=track,
-                        control=control, cluster=CLUSTER if dimple else 1)
+                        control=control,
+                        cluster=max(CLUSTER, cp.multiplicity or 1) if dimple else 1)
                     for p in points:
                         if first is None:
                             first = p.kappa

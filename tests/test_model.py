@@ -61,6 +61,22 @@ def test_sphere_psi3_matches_uniform_shrink(sphere_model, sphere_solver, kh):
     assert s["psi3_over_h"] == pytest.approx(-kh / 12, rel=0.02)
 
 
+def test_the_pole_functional_is_the_pole_depth(sphere_model):
+    """``pole_functional()`` e: e·w = ``psi3_pole_over_h`` for any state (here random, on
+    every rank's owned values), the functional the dimple branch is followed with."""
+    m = sphere_model
+    n = m.state.getLocalSize()
+    rng = np.random.default_rng(1 + m.shell.comm.rank)
+    m.w.x.array[:n] = rng.standard_normal(n) * H
+    m.w.x.scatter_forward()
+    e = m.pole_functional()
+    value = e.dot(m.state)
+    e.destroy()
+    assert value == pytest.approx(m.scalars()["psi3_pole_over_h"], rel=1e-10, abs=1e-12)
+    m.w.x.array[:] = 0.0
+    m.w.x.scatter_forward()
+
+
 def test_sphere_linear_law_small_kappa(sphere_model, sphere_solver):
     """Psi3/h -> -(kappa h/12) / (1 + (h/R)^2/12) as kappa -> 0 (the supplement's Eq. S-Psi3)."""
     slopes = []

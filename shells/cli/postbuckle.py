@@ -11,9 +11,9 @@ an entry of ``shells critical``'s ``critical_points``), ``points`` (fundamental 
 the keys of ``shells branch``'s points plus ``branch``, ``stable``, ``negative_count``,
 ``psi3_pole_over_h``, ``mode_amplitude``, and on bifurcated points ``side``, ``start``,
 ``subcritical``), ``sides`` (per side: points, how it ended, up/down, ``parameter``),
-``branch_file``, and the shapes written. The 1D model's closed sphere follows the dimple at the
-pole with its depth Ψ3(pole)/h as the parameter (side -1: the pole in; points past a fold of the
-depth, followed by arclength, carry ``control_parameter`` 0). With -o, every point is
+``branch_file``, and the shapes written. A closed sphere (either model) follows the dimple at
+the pole with its depth Ψ3(pole)/h as the parameter (side -1: the pole in; points past a fold of
+the depth, followed by arclength, carry ``control_parameter`` 0). With -o, every point is
 appended to DIR/postbuckle.jsonl as computed; with ``--fields``, the 1D model writes each
 bifurcated state (``last``: the last one of each side) as a 3D surface
 DIR/shapes/side{+1,-1}_NNN.vts (arrays ``displacement``, ``normal_displacement``) and its

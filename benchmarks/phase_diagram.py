@@ -299,6 +299,20 @@ def _postbuckling_rows(d: dict) -> list[str]:
     return rows
 
 
+def _dimple_2d_row(d: dict) -> str:
+    """The closed sphere's dimple branch, surface model against 1D (benchmarks/dimple_2d.py)."""
+    rows = [r for r in d["rows"] if r["difference"] is not None]
+    worst = max(abs(r["difference"]) for r in rows)
+    pairs = ", ".join(f"{r['depth']:g} h: {r['surface']:.4f} / {r['axisym']:.4f}" for r in rows)
+    return (f"| closed sphere, h/R = {d['h_over_R']:g}: post-buckling branch, surface model (no "
+            "symmetry imposed) against 1D | – (a check of the two models) | κ/κ_b at pole depths "
+            "(2D / 1D): "
+            f"{pairs} | {100 * worst:.1f} % | the dimple at the pole followed by its depth on "
+            f"both models; 2D κ_b h = {d['surface']['kappa_b_h']:.5f} ({d['surface']['dofs']} "
+            f"DOFs) against 1D {d['axisym']['kappa_b_h']:.5f}: the difference is the 2D mesh's "
+            "own error; `benchmarks/dimple_2d.py`, docs/model.md |")
+
+
 def _edge_bulk_row(d: dict) -> str:
     """The W_edge dominance row from benchmarks/edge_bulk_scaling.py's JSON (finest layer)."""
     rows = d["rows"]
@@ -445,6 +459,9 @@ def render(data: dict[str, Any]) -> str:
     if pb.exists():
         for row in _postbuckling_rows(json.loads(pb.read_text())):
             w(row)
+    d2 = RESULTS / "dimple_2d.json"
+    if d2.exists():
+        w(_dimple_2d_row(json.loads(d2.read_text())))
     s3 = RESULTS / "shapes_3d.json"
     if s3.exists():
         for row in _shapes_3d_rows(json.loads(s3.read_text())):

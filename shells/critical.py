@@ -1426,14 +1426,15 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
             arc_last = 0.0
             for its, step, tl, s in steps:
                 index += 1
-                cur.copy(before)
-                ar.w.copy(cur)
-                lam_before, lam = lam, ar.get_lambda()
-                before.copy(wp)
-                wp.axpy(-1.0, cur)
-                arc_last = math.sqrt(max(ar.cw * wp.dot(wp), 0.0) + (lam - lam_before) ** 2)
                 turning = False
-                if control is not None and not by_arc[0]:
+                if control is not None and not by_arc[0]:  # what a switch to arclength needs
+                    cur.copy(before)
+                    ar.w.copy(cur)
+                    lam_before, lam = lam, ar.get_lambda()
+                    before.copy(wp)
+                    wp.axpy(-1.0, cur)
+                    arc_last = math.sqrt(max(ar.cw * wp.dot(wp), 0.0)
+                                         + (lam - lam_before) ** 2)
                     arc_max[0] = max(arc_max[0], arc_last)
                     dc = abs(control.dot(wp))
                     stretch = arc_last / dc if dc > 0 else math.inf
@@ -1457,8 +1458,9 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
                 if turning:  # c is about to turn: on by arclength before the steps crawl
                     break
             steps.close()
-            landed = abs(lam - lam_end) <= 1e-12 * max(1.0, abs(lam_end))
-            if control is None or by_arc[0] or landed or index >= settings.max_steps:
+            landed = abs(ar.get_lambda() - lam_end) <= 1e-12 * max(1.0, abs(lam_end))
+            if (control is None or by_arc[0] or landed or index >= settings.max_steps
+                    or not arc_max[0] > 0):
                 break
             # c stopped moving, or is about to (a fold of c on the branch: its Jacobian at
             # fixed c is singular there): the branch goes on by arclength from the last two
@@ -1468,8 +1470,6 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
             ds_next = min(max(arc_last, 0.1 * arc_max[0]), arc_max[0])
             log.info("switch: the control parameter turns at kappa L = %.6g; the branch goes "
                      "on by arclength", lam)
-            if not arc_max[0] > 0:
-                break
     finally:
         if steps is not None:
             steps.close()

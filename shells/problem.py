@@ -138,6 +138,10 @@ class Problem(Protocol):
     # inertia but for k fewer positive eigenvalues (a Schur complement after eliminating k
     # DOFs on which the block is positive definite), factored instead of the block for the
     # exact count of a block that is not definite (the 1D model on one process).
+    # ``pole_functional() -> vector``: e with e·w = the top pole's depth Ψ3(pole)/h (a
+    # state-shaped vector; both models, shapes of revolution with a pole): the parameter a
+    # closed sphere's dimple branch is followed with (``switch_branch``'s ``control``, chosen by
+    # ``shells.postbuckle``).
     # ``factor_options -> dict``: PETSc options (``pc_factor_...``) the problem recommends for
     # its Jacobian's factorisation; ``shells.solvers.NewtonSolver`` puts them between its
     # defaults and the caller's options (the 1D model on one process: PETSc's own LU).

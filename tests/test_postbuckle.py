@@ -145,7 +145,6 @@ def test_postbuckle_cli_json_contract_and_shapes(capsys, shared_tmp):
         assert "header" in json.loads(lines[0]) and "summary" in json.loads(lines[-1])
         shapes = sorted((out / "shapes").glob("*.vts"))
         assert shapes and all(f in d["files"] for f in map(str, shapes))
-        import numpy as np
         import pyvista
 
         g = pyvista.read(shapes[-1])  # the energy densities of the axisymmetric state

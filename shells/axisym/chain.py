@@ -478,7 +478,8 @@ class ElementAssembler:
     the element values at its position, added in cell order as dolfinx's assembler adds them
     (the same values), the rows and columns of constrained DOFs zero and their diagonal a
     given value (as ``assemble_matrix(..., bcs, diagonal)``), into a PETSc matrix of the
-    form's pattern (``create_matrix(form)``) by one ``setValuesCSR``: no per-cell insertion.
+    form's pattern (``create_matrix(form)``) by one ``setValuesCSR``, or written in place into
+    a matrix of ``create_matrix``: no per-cell insertion.
 
     Args:
         form: the compiled form (its pattern and its test space's cell DOFs).

@@ -1024,6 +1024,48 @@ def _state_kappa(ns: NewtonSolver, ar: _Arclength, lam: float) -> float:
     return lam
 
 
+#: the response direction's factorisation (``_response_direction``), under the PETSc prefix
+#: ``shells_response_``
+RESPONSE_OPTIONS: dict[str, Any] = {"ksp_type": "preonly", "pc_type": "lu",
+                                    "pc_factor_mat_solver_type": "mumps"}
+
+
+def _response_direction(problem: Any, control: Any, sigma: float) -> Any:
+    """The state's linear response to the functional e (``control``) as a force, on an elastic
+    foundation σ M: d = (H + σ M)⁻¹ e at the current state (H: block None's Hessian, M: its
+    mass), scaled to e·d = 1. In the eigenvectors φ_i (H φ_i = μ_i M φ_i) d ∝ Σ (e·φ_i)
+    φ_i / (μ_i + σ): with σ the spread of a cluster of near-null eigenvalues, its members
+    weigh alike and the modes beyond it fade as 1/μ_i. For a closed sphere poked at its pole
+    (e: the pole's depth) that is a dimple localised there, made of every degree near the
+    critical one in full, where the projection of e on the eigenvectors nearest 0 holds only
+    the degrees (and the members of their 2n + 1 multiplets) that the eigensolve returned."""
+    from petsc4py import PETSc
+
+    from shells.solvers import apply_options, configure_factor, setup_factor
+
+    stab = Stability(problem)
+    A = ksp = None
+    try:
+        A = stab.assemble(None).copy()
+        A.axpy(sigma, stab.mass(None), structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+        ksp = PETSc.KSP().create(problem.comm)
+        options = apply_options(ksp, "shells_response_", RESPONSE_OPTIONS)
+        configure_factor(ksp, A, options)
+        if not setup_factor(ksp, A, options):
+            raise RuntimeError("branch switching: the response's matrix H + sigma M could "
+                               "not be factored")
+        d = control.duplicate()
+        ksp.solve(control, d)
+        problem.zero_constrained(d)
+        d.scale(1.0 / control.dot(d))
+        return d
+    finally:
+        for obj in (ksp, A):
+            if obj is not None:
+                obj.destroy()
+        stab.destroy()
+
+
 def _critical_directions(problem: Any, ar: _Arclength, mode: np.ndarray, k: int
                          ) -> tuple[list[Any], list[float]]:
     """The critical eigenspace at the model's current state: the eigenvector closest to ``mode``
@@ -1116,7 +1158,8 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
                   min_amplitude: float = 0.5, release_pins: int | None = None,
                   deflate: int = 0, resume: SwitchResume | None = None,
                   track: Callable[[SwitchResume], None] | None = None,
-                  control: Any = None, cluster: int = 1) -> Iterator[Point]:
+                  control: Any = None, cluster: int = 1, response: bool = False
+                  ) -> Iterator[Point]:
     """Follow the branch that bifurcates at ``cp`` along its critical mode.
 
     1. The critical state w_c (``cp.state``) and its κ (least squares: the residual is affine
@@ -1157,7 +1200,9 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
     c: the projection of e on the ``cluster`` eigenvectors nearest 0 (φ_0 among them), which
     for a closed sphere's axisymmetric modes P_n (all of value 1 at the pole) is a packet
     localised at the pole. The first point has c - c_c = ``sign`` × ``ds`` × f (λ free), with
-    ``cluster``, 2 and 1 eigenvectors in turn until its corrector converges; the branch is then
+    ``cluster``, 2 and 1 eigenvectors in turn until its corrector converges (``response``:
+    first along the state's response to e as a force, ``_response_direction``, which holds
+    every degree of a multiplet whether or not the cluster's eigenvectors do); the branch is then
     followed with c as its parameter (``continuation.arclength_steps``' ``control``: secant
     predictor, corrector at fixed c converged by plain Newton, no deflation), steps in c from
     ``settings``. Where c turns (a fold of c on the branch: the steps in c are refused until
@@ -1322,6 +1367,9 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
             plane_dir = control.copy()
             plane_dir.scale(1.0 / ar.cw)
             preds = []
+            if response:
+                preds.append(_response_direction(problem, control,
+                                                 max(abs(v) for v in vals)))
             for size in sorted({min(cluster, len(dirs)), min(2, len(dirs)), 1}, reverse=True):
                 d = dirs[0].duplicate()
                 d.set(0.0)

@@ -689,15 +689,23 @@ class ShellModel(FormProblem):
         return out
 
     def orbit_overlap(self, vec: Any) -> float:
-        """|cos| of the angle (L² of the normal components) between a mode and the tangent of
-        the current state's orbit under rotations about the axis: a rotation by ε moves the
-        normal displacement w = u·n° by -ε ∂_φ w (n° and the reference surface are
-        axisymmetric). 1: the mode only turns the pattern (a neutral direction of the
-        continuum, broken by the mesh); 0 for an axisymmetric state, which has no orbit, and
-        on a surface known only by its mesh, which has no axis of symmetry."""
+        """|cos| of the angle (L² of the normal components) between a mode and the tangent
+        space of the current state's orbit under the rotations that map the reference surface
+        onto itself (``shells.problem.orbit_cosine``): a rotation by ε about an axis a moves
+        the normal displacement w = u·n° by -ε (a × x)·∇w (n° and the reference surface are
+        invariant). A shell of revolution: a about its axis (turning a pattern). A closed
+        sphere: any a through its centre, modulo the rigid motions that the gauge adds (a
+        translation, a rotation of the deformed sphere): a dimple at the pole, which has no
+        orbit about the axis, slides over the sphere. 1: the mode only turns or slides the
+        pattern (a neutral direction of the continuum, broken by the mesh); 0 for a state with
+        no orbit (an axisymmetric one of a shell of revolution) and on a surface known only by
+        its mesh, which has no axis of symmetry."""
         import ufl
         from dolfinx import fem
         from mpi4py import MPI
+
+        from shells.geometry import Sphere
+        from shells.problem import orbit_cosine
 
         if not self.shape.of_revolution:
             return 0.0
@@ -706,20 +714,24 @@ class ShellModel(FormProblem):
             self._orbit_v = fem.Function(self.W)
             uv, _ = self.split(self._orbit_v)
             us, _ = self.split(self.w)
-            x = self._x
-            e_phi = ufl.as_vector([-x[1], x[0], 0.0])
-            wv, dws = ufl.dot(uv, self.n0), ufl.dot(e_phi, ufl.grad(ufl.dot(us, self.n0)))
-            ws = ufl.dot(us, self.n0)
-            self._orbit_forms = [fem.form(f * self.dx) for f in (wv * dws, wv * wv, dws * dws,
-                                                                   ws * ws)]
+            x, n0 = self._x, self.n0
+            ws, wv = ufl.dot(us, n0), ufl.dot(uv, n0)
+            axes = [ufl.as_vector(a) for a in ((0.0, 0.0, 1.0), (1.0, 0.0, 0.0),
+                                               (0.0, 1.0, 0.0))]
+            sphere = isinstance(self.shape, Sphere)
+            basis = [ufl.dot(ufl.cross(a, x), ufl.grad(ws)) for a in axes[: 3 if sphere else 1]]
+            if sphere:  # the rigid motions: translations, rotations of the deformed sphere
+                basis += [n0[i] for i in range(3)] + [ufl.dot(ufl.cross(a, us), n0) for a in axes]
+            nb = len(basis)
+            forms = ([wv * b for b in basis] + [basis[i] * basis[j] for i in range(nb)
+                                                for j in range(i, nb)] + [wv * wv, ws * ws])
+            self._orbit_forms = (3 if sphere else 1, nb, [fem.form(f * self.dx) for f in forms])
         vec.copy(self._orbit_v.x.petsc_vec)
         self._orbit_v.x.scatter_forward()
         comm = self.shell.comm
-        cross, v2, t2, s2 = (comm.allreduce(fem.assemble_scalar(f), op=MPI.SUM)
-                             for f in self._orbit_forms)
-        if t2 <= 1e-12 * max(s2, 1e-300) or v2 <= 0:
-            return 0.0
-        return abs(cross) / math.sqrt(v2 * t2)
+        tangents, nb, forms = self._orbit_forms
+        vals = np.array([comm.allreduce(fem.assemble_scalar(f), op=MPI.SUM) for f in forms])
+        return orbit_cosine(vals[:nb], vals[nb:-2], vals[-2], vals[-1], tangents)
 
     def azimuthal_spectrum(self, vec: Any, m_max: int = 12, radial: int = 8) -> np.ndarray:
         """The power of a mode's normal component w = u·n° in each azimuthal wavenumber m =

@@ -30,13 +30,14 @@ modes, the only ones it can follow past a bifurcation).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Hashable
 from dataclasses import dataclass, field
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-__all__ = ["ModeInfo", "Problem", "get_state", "set_state"]
+__all__ = ["ModeInfo", "Problem", "get_state", "orbit_cosine", "set_state"]
 
 
 @dataclass(frozen=True)
@@ -47,6 +48,43 @@ class ModeInfo:
     m: int | None = None
     n: int | None = None
     rayleigh: dict[str, float] = field(default_factory=dict)
+
+
+def orbit_cosine(cross: np.ndarray, gram: np.ndarray, v2: float, s2: float,
+                 tangents: int) -> float:
+    """How far a mode v lies along the orbit of a state under a symmetry of the reference
+    surface, modulo rigid motions: |cos| of the angle between v and the orbit's tangent space
+    in the quotient of L² by the rigid motions' span (the gauge picks one representative of
+    each rigid motion, so the orbit's tangent in the gauged space is a tangent plus a rigid
+    motion). From the inner products of v and of the basis b_i, the ``tangents`` orbit
+    tangents first, then the rigid motions: ``cross`` = (v·b_i), ``gram`` = (b_i·b_j) for
+    i ≤ j row by row, ``v2`` = v·v; ``s2`` the state's own squared norm (the scale below which
+    a tangent counts as zero). 0 when every tangent vanishes (a state with no orbit)."""
+    cross = np.asarray(cross, dtype=float)
+    n = len(cross)
+    G = np.zeros((n, n))
+    G[np.triu_indices(n)] = gram
+    G = G + np.triu(G, 1).T
+    d = np.diag(G)
+    has = np.arange(n) < tangents
+    live = np.where(has, d > 1e-12 * max(s2, 1e-300), d > 0)
+    if not (live & has).any() or not v2 > 0:
+        return 0.0
+
+    def projected(idx: np.ndarray) -> float:
+        """|P v|² on the span of the basis functions ``idx`` (Jacobi-scaled, rank-revealing)."""
+        if idx.size == 0:
+            return 0.0
+        sc = 1.0 / np.sqrt(d[idx])
+        lam, Q = np.linalg.eigh(G[np.ix_(idx, idx)] * np.outer(sc, sc))
+        k = lam > 1e-10 * lam.max()
+        return float(np.sum((Q[:, k].T @ (cross[idx] * sc)) ** 2 / lam[k]))
+
+    rigid = projected(np.flatnonzero(live & ~has))
+    rest = v2 - rigid
+    if not rest > 1e-10 * v2:  # v is a rigid motion (to round-off): no orbit direction
+        return 0.0
+    return float(min(1.0, math.sqrt(max(projected(np.flatnonzero(live)) - rigid, 0.0) / rest)))
 
 
 @runtime_checkable

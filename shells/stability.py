@@ -462,22 +462,29 @@ class Stability:
         vecs = [vecs[i] for i in order][:nev] if modes else []
         return vals, vecs
 
-    def negative_count_modulo_orbit(self, block: Hashable = None, threshold: float = 0.7
-                                    ) -> tuple[int, int]:
+    def negative_count_modulo_orbit(self, block: Hashable = None, threshold: float = 0.7,
+                                    count: int | None = None) -> tuple[int, int]:
         """(negative count, how many of those eigenvectors lie along the state's symmetry
         orbit): ``classify_mode(v).rayleigh["orbit"]`` ≥ ``threshold``, the problem's overlap
-        with the orbit tangent (a pattern's rotation about the axis of a shell of revolution,
-        neutral in the continuum, of either sign on a mesh). The second is 0 for problems that
-        report no orbit; eigenpairs are computed only when the count is positive. (Measured on
+        with the orbit tangent (a pattern's rotation about the axis of a shell of revolution, a
+        dimple's sliding over a closed sphere: neutral in the continuum, of either sign on a
+        mesh), among the n + 1 eigenpairs nearest 0, n the negative count. The second is 0 for
+        problems that report no orbit; eigenpairs are computed only when the count is
+        positive. ``count``: the block's negative count where the caller has it already
+        (``negative_counts``): a neutral mode's sign is round-off, and another factorisation
+        may decide it otherwise. (Measured on
         the 30° cap's m = 2 branch, h/R = 0.04, size 0.25: the orientation mode's overlap falls
         from 0.92 next to the bifurcation to 0.82 at κR = -1.15, as the discrete orbit tangent
         departs from the continuum one; the next two modes stay below 0.38.)"""
-        n = self.negative_count(block)
+        n = self.negative_count(block) if count is None else int(count)
         if n == 0:
             return 0, 0
-        vals, vecs = self.eigenpairs(n + 1, modes=True, assemble=False, block=block)
+        vals, vecs = self.eigenpairs(n + 1, modes=True, assemble=count is not None, block=block)
         orbit = 0
         try:
+            # (the eigenvalues nearest 0 need not hold the negative ones the inertia counts:
+            # a pair of positive orbit modes nearer 0 than the one negative eigenvalue, measured
+            # on the surface model's dimple at 0.7 h, must not count)
             for val, v in zip(vals, vecs, strict=True):
                 info = self.problem.classify_mode(v, block)
                 if val < 0 and (info.rayleigh or {}).get("orbit", 0.0) >= threshold:

@@ -77,6 +77,51 @@ def test_the_pole_functional_is_the_pole_depth(sphere_model):
     m.w.x.scatter_forward()
 
 
+def test_a_dimple_sliding_over_the_sphere_is_its_orbit(sphere_model):
+    """On a closed sphere a rotation about any axis through the centre is a symmetry: a dimple
+    at the pole (here w = g n°, g a Gaussian of width 0.5 R about the pole) slides over the
+    sphere along (a × x)·∇g n°, a = e_x: 2 y g / σ², e_y: -2 x g / σ². A mode along any
+    combination of the two, with a rigid translation added (the gauge's), lies along the orbit
+    (``orbit_overlap`` ≈ 1, to the interpolation's error); a translation alone, a pattern of
+    other symmetry, or any mode of a uniform state (no orbit) does not (0)."""
+    from dolfinx import fem
+
+    m = sphere_model
+    sigma = 0.5
+
+    def g(x):
+        return -0.05 * np.exp(-(x[0] ** 2 + x[1] ** 2 + (x[2] - 1.0) ** 2) / sigma ** 2)
+
+    def field(f):  # (u, θ) = (f(x) as a 3-vector, 0)
+        return lambda x: np.vstack([f(x) * np.ones((1, x.shape[1])), np.zeros((3, x.shape[1]))])
+
+    def normal(x):
+        return x / np.linalg.norm(x, axis=0)
+
+    v = fem.Function(m.W)
+
+    def overlap(f):
+        v.interpolate(field(f))
+        v.x.scatter_forward()
+        return m.classify_mode(v.x.petsc_vec).rayleigh["orbit"]
+
+    m.w.interpolate(field(lambda x: g(x) * normal(x)))
+    m.w.x.scatter_forward()
+    try:
+        shift = np.array([[0.0], [0.3], [0.1]])
+        assert overlap(lambda x: 2 * x[1] * g(x) / sigma ** 2 * normal(x) + shift) > 0.999
+        assert overlap(lambda x: (1.2 * x[1] - 1.6 * x[0]) * g(x) / sigma ** 2 * normal(x)
+                       ) > 0.999
+        assert overlap(lambda x: np.zeros_like(x) + shift) == 0.0
+        assert overlap(lambda x: (x[0] ** 2 - x[1] ** 2) * g(x) * normal(x)) < 1e-8
+        m.w.x.array[:] = 0.0
+        m.w.x.scatter_forward()
+        assert overlap(lambda x: 2 * x[1] * g(x) / sigma ** 2 * normal(x)) == 0.0
+    finally:
+        m.w.x.array[:] = 0.0
+        m.w.x.scatter_forward()
+
+
 def test_sphere_linear_law_small_kappa(sphere_model, sphere_solver):
     """Psi3/h -> -(kappa h/12) / (1 + (h/R)^2/12) as kappa -> 0 (the supplement's Eq. S-Psi3)."""
     slopes = []

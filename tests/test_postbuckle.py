@@ -16,6 +16,7 @@ import pytest
 from shells import axisym
 from shells.geometry import Sphere
 from shells.postbuckle import CLOSED_PENALTY, PostbuckleConfig, postbuckle
+from shells.stability import Stability
 from shells.theory import sphere_psi3_linear
 
 H = 0.01
@@ -24,12 +25,22 @@ H = 0.01
 @pytest.fixture(scope="module")
 def sphere_run():
     functional = []  # |e·w - Ψ3(pole)/h| at each bifurcated point (e: the model's functional)
+    sliding = []  # (μ, orbit overlap) of the m = 1 block's two lowest modes, deeper than 1 h
+    stab = []
 
     def on_point(model, rec):
         if rec.get("branch") == "bifurcated":
             e = model.pole_functional()
             functional.append(abs(e.dot(model.state) - rec["psi3_pole_over_h"]))
             e.destroy()
+            if rec["psi3_pole_over_h"] < -1.0:
+                if not stab:
+                    stab.append(Stability(model))
+                vals, vecs = stab[0].eigenpairs(2, modes=True, block=1)
+                sliding.append([(mu, model.classify_mode(v, 1).rayleigh["orbit"])
+                                for mu, v in zip(vals, vecs, strict=True)])
+                for v in vecs:
+                    v.destroy()
 
     recs = list(postbuckle(PostbuckleConfig(Sphere(1.0), H, max_points=10), on_point))
     fund = [r for r in recs if r.get("branch") == "fundamental"]
@@ -38,6 +49,7 @@ def sphere_run():
     up = [r for r in recs if r.get("branch") == "bifurcated" and r["side"] == 1]
     summary = recs[-1]["summary"]
     summary["functional"] = functional
+    summary["sliding"] = sliding
     return fund, cp, down, up, summary
 
 
@@ -111,6 +123,24 @@ def test_the_dimple_is_followed_by_its_depth_whatever_the_first_amplitude(sphere
     # (the linear interpolation between points 0.2-0.5 h apart costs up to 3.5e-4)
     assert np.interp(grid, depth(down), ratio(down)) == pytest.approx(
         np.interp(grid, depth(other), ratio(other)), abs=1e-3)
+
+
+def test_the_dimple_slides_over_the_sphere_at_no_cost(sphere_run):
+    """A rotation about the sphere's centre moves a dimple at the pole over the sphere: an
+    m = 1 direction, neutral in the continuum. On the dimple branch the m = 1 block's lowest
+    mode is that direction (``classify_mode``'s orbit overlap, modulo the gauge's rigid
+    motions, ≥ 0.99: measured 0.9999998) with an eigenvalue near 0 (below 1e-4 of the next
+    one's, measured 3e-6 to 4e-5); the next mode is not (overlap < 0.02). Where that
+    eigenvalue comes out negative, the records count the pair (cos, sin) apart as
+    ``orientation_modes`` and it does not make the point unstable."""
+    _, _, down, _, summary = sphere_run
+    assert len(summary["sliding"]) >= 3
+    for (mu1, o1), (mu2, o2) in summary["sliding"]:
+        assert abs(mu1) < 1e-4 * mu2
+        assert o1 >= 0.99 and o2 < 0.5
+    for r in down:
+        assert r["orientation_modes"] == 2 * r["negative_counts"][1]  # a pair, or none
+        assert r["stable"] == (r["negative_count"] == r["orientation_modes"])
 
 
 def test_the_dimple_branch_hardly_varies_with_h_over_r(sphere_run):

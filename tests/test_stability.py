@@ -151,3 +151,38 @@ def test_banded_inertia_is_that_of_mumps_on_the_deep_cap():
     for s in (fast, ref):
         s.destroy()
     ns.destroy()
+
+
+def test_orbit_cosine_measures_the_orbit_modulo_rigid_motions():
+    """``orbit_cosine`` on vectors of R^40 (the L² inner products of the models replaced by
+    the Euclidean one): a tangent plus any rigid motion is along the orbit (1); a rigid motion
+    alone, a vector orthogonal to both, or a state without orbit (vanishing tangent) is not
+    (0); without rigid motions it is the plain |cos| with the tangent."""
+    import numpy as np
+
+    from shells.problem import orbit_cosine
+
+    rng = np.random.default_rng(7)
+    t1, t2, r1, r2 = rng.standard_normal((4, 40))
+
+    def cos(v, basis, tangents):
+        gram = [basis[i] @ basis[j] for i in range(len(basis)) for j in range(i, len(basis))]
+        return orbit_cosine(np.array([v @ b for b in basis]), np.array(gram), v @ v, 1.0,
+                            tangents)
+
+    basis = [t1, t2, r1, r2]
+    assert cos(0.3 * t1 - 2.0 * t2 + 5.0 * r1 - r2, basis, 2) == pytest.approx(1.0, abs=1e-12)
+    assert cos(t2 + 0.1 * r2, basis, 2) == pytest.approx(1.0, abs=1e-12)
+    assert cos(2.0 * r1 - r2, basis, 2) == 0.0
+    q, _ = np.linalg.qr(np.array(basis).T, mode="complete")
+    assert cos(q[:, 10], basis, 2) == pytest.approx(0.0, abs=1e-12)
+    assert cos(t1 + r1, [0.0 * t1, r1], 1) == 0.0  # no orbit: the tangent vanishes
+    v = rng.standard_normal(40)
+    assert cos(v, [t1], 1) == pytest.approx(abs(v @ t1) / math.sqrt((v @ v) * (t1 @ t1)),
+                                            rel=1e-12)
+    # a mode partly along the orbit: its share of the quotient by the rigid motions
+    w = q[:, 10]
+    w = w / np.linalg.norm(w)
+    tp = t1 - np.array([r1, r2]).T @ np.linalg.lstsq(np.array([r1, r2]).T, t1, rcond=None)[0]
+    tp = tp / np.linalg.norm(tp)
+    assert cos(0.6 * tp + 0.8 * w + 3.0 * r2, [t1, r1, r2], 1) == pytest.approx(0.6, rel=1e-12)

@@ -43,7 +43,7 @@ from shells.geometry import (
     Shape,
     SphericalCap,
 )
-from shells.problem import ModeInfo
+from shells.problem import ModeInfo, orbit_cosine
 from shells.stimulus import UNIFORM, CurvatureField, field_radius
 
 if TYPE_CHECKING:
@@ -693,7 +693,45 @@ class AxisymModel(FormProblem):
         x = (float(fem.assemble_scalar(g2)) / max(float(fem.assemble_scalar(w2)), 1e-300)
              * self.shape.R ** 2)
         n = int(round((-1 + math.sqrt(1 + 4 * max(x, 0.0))) / 2))
-        return ModeInfo(m=m, n=n, rayleigh={"x": x})
+        rayleigh = {"x": x}
+        if m == 1:
+            rayleigh["orbit"] = self._sliding_overlap(f, float(fem.assemble_scalar(w2)))
+        return ModeInfo(m=m, n=n, rayleigh=rayleigh)
+
+    def _sliding_overlap(self, f: Any, w2: float) -> float:
+        """|cos| of the angle (L² of the normal components) between an m = 1 mode of a closed
+        sphere (``f``, its normal component's ∫ w² dω = ``w2``) and the tangent space of the
+        current state's orbit under the rotations about the sphere's centre that move the pole,
+        modulo rigid motions: a rotation by ε about the y axis moves the normal displacement
+        w(s) of an axisymmetric state by -ε R cos φ ∂_s w (the reference sphere and n° being
+        invariant), an m = 1 pattern of amplitude ∂_s w; the rigid-motion gauge adds to it a
+        translation along x (normal amplitude n°_r) and a rotation of the deformed sphere
+        about y (amplitude u_z n°_r - u_r n°_z), both m = 1 too. A dimple at the pole slides
+        over the sphere along that tangent: neutral in the continuum, of either sign on the
+        meridian's mesh (as ``ShellModel``'s ``orbit_overlap`` on the surface model). 0 for a
+        uniform state, which has no orbit."""
+        from dolfinx import default_scalar_type, fem
+
+        if "orbit" not in self._degree_forms:
+            mf = self.mode_forms
+            ur, uz = mf.radial_axial(f)
+            nr, nz = -self.z0t / self.g, self.r0t / self.g
+            wm = ur * nr + uz * nz
+            shift = fem.Constant(self.mesh, default_scalar_type(0.0))
+            sr, sz = self._radial_axial(self.w)
+            ws = sr * nr + (sz - shift) * nz
+            basis = [ws.dx(0) / self.g, nr, (sz - shift) * nr - sr * nz]
+            ad = self.area_density
+            qs = [wm * b for b in basis] + [basis[i] * basis[j] for i in range(3)
+                                            for j in range(i, 3)] + [ws * ws, sz]
+            forms = tuple(fem.form(q * ad * self.dx, jit_options=JIT_OPTIONS) for q in qs)
+            self._degree_forms["orbit"] = (shift, forms)
+        shift, forms = self._degree_forms["orbit"]
+        # the gauge u_z(pole) = 0 translates the state along the axis: removed, as in the
+        # degree's Rayleigh quotient
+        shift.value = float(fem.assemble_scalar(forms[-1])) / self.assemble("area")
+        vals = np.array([float(fem.assemble_scalar(q)) for q in forms[:-1]])
+        return orbit_cosine(vals[:3], vals[3:9], w2, vals[9], tangents=1)
 
     @staticmethod
     def _radial_axial(f: Any) -> tuple[Any, Any]:

@@ -428,7 +428,10 @@ class Stability:
         size = H.getSize()[0]  # a tiny problem cannot have more than its size
         nev = min(nev, size)
         ncv = max(2 * nev + 10, 24) if ncv is None else max(int(ncv), nev + 1)
-        eps.setDimensions(nev=nev, ncv=min(ncv, size))
+        # mpd too: a reused EPS keeps the mpd its first set-up derived from that call's ncv,
+        # and a later, larger nev then fails SLEPc's check ncv <= nev + mpd (measured: the
+        # orbit count's n + 1 pairs after a smaller solve, on a coarse sphere's dimple)
+        eps.setDimensions(nev=nev, ncv=min(ncv, size), mpd=min(ncv, size))
         if b.user_options:
             eps.setFromOptions()
         rand = eps.getBV().getRandomContext()

@@ -186,3 +186,22 @@ def test_orbit_cosine_measures_the_orbit_modulo_rigid_motions():
     tp = t1 - np.array([r1, r2]).T @ np.linalg.lstsq(np.array([r1, r2]).T, t1, rcond=None)[0]
     tp = tp / np.linalg.norm(tp)
     assert cos(0.6 * tp + 0.8 * w + 3.0 * r2, [t1, r1, r2], 1) == pytest.approx(0.6, rel=1e-12)
+
+
+def test_a_larger_eigensolve_after_a_smaller_one_on_the_same_block(meshes):
+    """The block's EPS is reused: a solve for 30 pairs after one for 2 (the orbit count asks
+    n + 1 after the stability check's few) works and agrees with it (SLEPc had kept the first
+    set-up's mpd: 'ncv must not be larger than nev + mpd')."""
+    model = ShellModel(meshes[0.3], ModelParameters(h=H, nu=0.5))
+    ns, stab = NewtonSolver(model), Stability(model)
+    try:
+        model.kappa.value = 0.5 / H
+        ok, _ = ns.solve()
+        assert ok
+        few, _ = stab.eigenpairs(2)
+        many, _ = stab.eigenpairs(30)
+        assert len(many) == 30
+        assert sorted(many, key=abs)[:2] == pytest.approx(sorted(few, key=abs), rel=1e-6)
+    finally:
+        ns.destroy()
+        stab.destroy()

@@ -249,17 +249,25 @@ class _Run:
             self.ns = NewtonSolver(self.model)
         self.stab = Stability(self.model)
 
-    def stability(self) -> dict[str, Any]:
+    def stability(self, orbit: bool = True) -> dict[str, Any]:
+        """The point's stability record; ``orbit`` False: no mode is counted as an orientation
+        mode (the fundamental branch: a state with the shell's symmetry has no orbit, and the
+        tangent of its mesh-sized asymmetry, as the P_n of a closed sphere's penalty
+        imperfection, rotated, is a member of the unstable multiplet past κ_b: measured, the
+        1D sphere's fundamental point at 1.02 κ_b counted 4 of its 57)."""
         if self.cfg.model == "surface":
             # a rotation of the buckling pattern about the axis is neutral for the shell; on
             # the mesh (exactly C_k-symmetric) its eigenvalue is tiny and of either sign, and
             # it does not decide stability: counted apart
-            n, orbit = self.stab.negative_count_modulo_orbit(None)
-            return {"stable": n - orbit == 0, "negative_count": n, "orientation_modes": orbit}
+            if not orbit:
+                n = self.stab.negative_count(None)
+                return {"stable": n == 0, "negative_count": n, "orientation_modes": 0}
+            n, slid = self.stab.negative_count_modulo_orbit(None)
+            return {"stable": n - slid == 0, "negative_count": n, "orientation_modes": slid}
         counts = self.stab.negative_counts()
         total = sum(c if m == 0 else 2 * c for m, c in counts.items())
         slide = 0
-        if self.cfg.shape.closed and counts.get(1, 0) > 0:
+        if orbit and self.cfg.shape.closed and counts.get(1, 0) > 0:
             # on a closed sphere a rotation about its centre slides a dimple at the pole over
             # it: neutral, an m = 1 pair of either sign on the meridian's mesh (measured at
             # h/R = 0.05: 1e-7 to 4e-6 against 0.005 to 0.4 for the block's next mode,
@@ -273,7 +281,7 @@ class _Run:
     def record(self, p: Any, branch: str, **extra: Any) -> dict[str, Any]:
         d = p.as_dict()
         d.update(branch=branch, kappa_R=p.kappa * self.cfg.R, kappa_h=p.kappa * self.cfg.h,
-                 **self.stability())
+                 **self.stability(orbit=branch != "fundamental"))
         d.setdefault("mode_amplitude", 0.0)
         d.update(extra)
         return d

@@ -133,7 +133,11 @@ def test_the_dimple_slides_over_the_sphere_at_no_cost(sphere_run):
     one's, measured 3e-6 to 4e-5); the next mode is not (overlap < 0.02). Where that
     eigenvalue comes out negative, the records count the pair (cos, sin) apart as
     ``orientation_modes`` and it does not make the point unstable."""
-    _, _, down, _, summary = sphere_run
+    fund, _, down, _, summary = sphere_run
+    # the uniform fundamental state has no orbit (its mesh-sized asymmetry's rotation would be
+    # an unstable member of the multiplet past κ_b)
+    assert fund[-1]["negative_count"] > 0
+    assert all(r["orientation_modes"] == 0 for r in fund)
     assert len(summary["sliding"]) >= 3
     for (mu1, o1), (mu2, o2) in summary["sliding"]:
         assert abs(mu1) < 1e-4 * mu2

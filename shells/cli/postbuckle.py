@@ -9,7 +9,9 @@ Follows the fundamental branch, locates its K-th bifurcation, switches and follo
 bifurcated branch on both sides. JSON (last line with --json): ``critical_point`` (the keys of
 an entry of ``shells critical``'s ``critical_points``), ``points`` (fundamental and bifurcated:
 the keys of ``shells branch``'s points plus ``branch``, ``stable``, ``negative_count``,
-``psi3_pole_over_h``, ``mode_amplitude``, and on bifurcated points ``side``, ``start``,
+``orientation_modes`` (the negative ones that only turn a pattern about the axis or slide a
+sphere's dimple over it: neutral, not counted against ``stable``), ``psi3_pole_over_h``,
+``mode_amplitude``, and on bifurcated points ``side``, ``start``,
 ``subcritical``), ``sides`` (per side: points, how it ended, up/down, ``parameter``),
 ``branch_file``, and the shapes written. A closed sphere (either model) follows the dimple at
 the pole with its depth Ψ3(pole)/h as the parameter (side -1: the pole in; points past a fold of
@@ -107,13 +109,14 @@ def _cmd_postbuckle(args: argparse.Namespace) -> int:
               f"{cp['kind']} at kappa R = {cp['kappa_R']:.6f} (kappa h = {cp['kappa_h']:.6f}), "
               f"m = {cp['mode_m']}, n = {cp['mode_n']}")
         print(f"{'branch':>11} {'side':>4} {'kappa R':>10} {'kappa/kc':>8} {'Psi3 pole/h':>11} "
-              f"{'amplitude':>9} {'neg':>4}")
+              f"{'amplitude':>9} {'neg':>4} {'orbit':>5}")
         for p in points:
             if p["branch"] == "fundamental" and p is not points[-1] and p["index"] % 10:
                 continue
             print(f"{p['branch']:>11} {p.get('side', ''):>4} {p['kappa_R']:10.4f} "
                   f"{p['kappa'] / cp['kappa']:8.4f} {p['psi3_pole_over_h']:11.4f} "
-                  f"{p['mode_amplitude']:9.3f} {p['negative_count']:4d}")
+                  f"{p['mode_amplitude']:9.3f} {p['negative_count']:4d} "
+                  f"{p.get('orientation_modes', 0):5d}")
         for side, s in (sides or {}).items():
             print(f"side {int(side):+d}: {s['points']} points, starts {s['start']}, "
                   f"ended: {s['ended']}")

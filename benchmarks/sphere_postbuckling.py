@@ -54,14 +54,16 @@ def run_one(h: float, max_points: int) -> dict:
     slope = float(np.polyfit([r["kappa_h"] for r in lin],
                              [r["psi3_pole_over_h"] for r in lin], 1)[0])
     keys = ("kappa", "kappa_h", "psi3_pole_over_h", "psi3_over_h", "energy", "negative_count",
-            "negative_count_axisymmetric", "mode_amplitude", "branch", "side", "start",
-            "subcritical", "kappa_c", "control_parameter")
+            "negative_count_axisymmetric", "negative_counts", "orientation_modes",
+            "mode_amplitude", "branch", "side", "start", "subcritical", "kappa_c",
+            "control_parameter")
     return {"h_over_R": h, "critical_point": cp, "wall_s": time.perf_counter() - t0,
             "kappa_b_h_thin_limit": sphere_kappa_b_h(0.5),
             "slope_psi3_vs_kappa_h": slope, "slope_theory": -1.0 / 12 / (1 + h * h / 12),
             "min_kappa_over_kappa_b": min(r["kappa"] for r in down) / cp["kappa"] if down
             else None,
             "kappa_over_kappa_b_at_depth": _at_depths(down, cp["kappa"]),
+            "secondary": _secondary(down, cp["kappa"]),
             "summary": recs[-1]["summary"],
             "points": [{k: r.get(k) for k in keys} for r in fund + bif],
             "profiles": {str(k): {kk: (vv.tolist() if isinstance(vv, np.ndarray) else vv)
@@ -69,6 +71,23 @@ def run_one(h: float, max_points: int) -> dict:
 
 
 DEPTHS = (2.0, 5.0, 10.0, 20.0)  # Ψ3(pole)/h = -depth: where the curves are compared
+
+
+def _secondary(down: list[dict], kc: float) -> dict | None:
+    """The first point of the inward side, past its first two (next to κ_b the neighbouring
+    degrees are still unstable), where the dimple has a negative eigenvalue besides its own and
+    besides its sliding over the sphere (``orientation_modes``): depth, κ/κ_b and the Fourier
+    blocks m with a negative count there (m = 0: an axisymmetric one more). None if none."""
+    for r in down[2:]:
+        if r["negative_count"] - r["orientation_modes"] > 1:
+            counts = r["negative_counts"]
+            blocks = [m for m, c in enumerate(counts) if c > (1 if m == 0 else 0)
+                      and not (m == 1 and 2 * c <= r["orientation_modes"])]
+            return {"depth": -r["psi3_pole_over_h"], "kappa_over_kappa_b": r["kappa"] / kc,
+                    "negative_count": r["negative_count"],
+                    "orientation_modes": r["orientation_modes"], "blocks": blocks,
+                    "negative_counts": counts}
+    return None
 
 
 def _at_depths(down: list[dict], kc: float) -> dict[str, float | None]:
@@ -186,6 +205,14 @@ def main(outdir: str = "benchmarks/results", *flags: str) -> None:
               f"{r['min_kappa_over_kappa_b'] or math.nan:8.3f} "
               + " ".join(f"{at[f'{d:g}'] if at[f'{d:g}'] is not None else math.nan:9.4f}"
                          for d in DEPTHS) + f" {r['wall_s']:6.1f}")
+    for r in results:
+        sec = r["secondary"]
+        print(f"h/R = {r['h_over_R']:g}, inward side: " + (
+            "one negative eigenvalue (the dimple's own, its sliding apart) to the last point"
+            if sec is None else
+            f"a negative eigenvalue besides the dimple's own and its sliding from "
+            f"{sec['depth']:.1f} h deep (kappa/kappa_b = {sec['kappa_over_kappa_b']:.3f}): "
+            f"blocks m = {sec['blocks']}, counts by m {sec['negative_counts']}"))
     print("files:", ", ".join(files))
 
 

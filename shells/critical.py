@@ -34,7 +34,7 @@ from __future__ import annotations
 import logging
 import math
 import time
-from collections.abc import Callable, Hashable, Iterable, Iterator
+from collections.abc import Callable, Hashable, Iterable, Iterator, Sequence
 from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
@@ -1158,8 +1158,8 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
                   min_amplitude: float = 0.5, release_pins: int | None = None,
                   deflate: int = 0, resume: SwitchResume | None = None,
                   track: Callable[[SwitchResume], None] | None = None,
-                  control: Any = None, cluster: int = 1, response: bool = False
-                  ) -> Iterator[Point]:
+                  control: Any = None, cluster: int = 1, response: bool = False,
+                  phase: Sequence[Any] = ()) -> Iterator[Point]:
     """Follow the branch that bifurcates at ``cp`` along its critical mode.
 
     1. The critical state w_c (``cp.state``) and its κ (least squares: the residual is affine
@@ -1202,7 +1202,11 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
     localised at the pole. The first point has c - c_c = ``sign`` × ``ds`` × f (λ free), with
     ``cluster``, 2 and 1 eigenvectors in turn until its corrector converges (``response``:
     first along the state's response to e as a force, ``_response_direction``, which holds
-    every degree of a multiplet whether or not the cluster's eigenvectors do); the branch is then
+    every degree of a multiplet whether or not the cluster's eigenvectors do; ``phase``:
+    functionals ψ_j held at their values at w_c, as pins, along the whole branch, for a
+    neutral direction the state would otherwise drift along, a dimple's sliding over a closed
+    sphere: where its eigenvalue, of either sign on a mesh, crosses 0 the corrector at fixed
+    c is singular and the steps stall); the branch is then
     followed with c as its parameter (``continuation.arclength_steps``' ``control``: secant
     predictor, corrector at fixed c converged by plain Newton, no deflation), steps in c from
     ``settings``. Where c turns (a fold of c on the branch: the steps in c are refused until
@@ -1276,7 +1280,7 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
         k = 1 if control is not None else max(1, cp.multiplicity if pinned is None else pinned)
         dirs, vals = _critical_directions(problem, ar, cp.mode,
                                           max(k, cluster) if control is not None else k)
-        pins = dirs[1:k]
+        pins = dirs[1:k] if control is None or not phase else list(phase)
         defl_stab = Stability(problem) if deflate else None
         defl = _Deflation(problem, defl_stab, deflate, keep=dirs[0]) if deflate else None
         log.info("switch: critical state at kappa L = %.6g, eigenvalues %s", lam_c,

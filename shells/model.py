@@ -603,6 +603,30 @@ class ShellModel(FormProblem):
         e.scale(1.0 / float(self.h.value))
         return e
 
+    def pole_moments(self) -> list[Any]:
+        """Two state-shaped vectors e_x, e_y with e_a·w = ∫ (u·n°) x_a dA / (A h): the first
+        moments of the normal displacement about the axis, where a dimple at the pole has its
+        centre. Held fixed, they stop the dimple sliding over a closed sphere (its orbit of
+        rotations, neutral: a phase condition, ``switch_branch``'s ``phase``) without
+        constraining the dimple itself or a pattern m ≥ 2 about the pole (their moments
+        vanish)."""
+        import ufl
+        from dolfinx import fem
+        from dolfinx.fem.petsc import assemble_vector
+        from petsc4py import PETSc
+
+        v = ufl.TestFunction(self.W)
+        u_n = ufl.dot(ufl.as_vector([v[0], v[1], v[2]]), self.n0)
+        scale = 1.0 / (self.assemble("area") * float(self.h.value))
+        out = []
+        for a in (0, 1):
+            e = assemble_vector(fem.form(u_n * self._x[a] * self.dx))
+            e.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+            e.scale(scale)
+            self.zero_constrained(e)
+            out.append(e)
+        return out
+
     def set_everted_guess(self) -> None:
         """Set the state to the open shell mirrored through its rim plane (an isometry).
 

@@ -351,6 +351,7 @@ def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], 
     kappa_stop = cfg.kappa_stop
     st, crit = _settings(cfg, kappa_stop)
     control = None
+    phase: list[Any] = []
     try:
         bifs = []
         cp = None if resume is None else resume[0]
@@ -402,6 +403,10 @@ def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], 
         dimple = (cfg.shape.closed and getattr(cfg.shape, "of_revolution", True)
                   and getattr(cfg.shape, "has_pole", True) and cfg.mesh_file is None)
         control = run.model.pole_functional() if dimple else None
+        # the surface model's dimple could slide over the sphere (neutral; a near-null pair of
+        # either sign on the mesh): its centre held at the pole (measured: at h/R = 0.05 the
+        # pair's eigenvalue crossed 0 at 17.5 h deep and the steps in depth stalled there)
+        phase = (run.model.pole_moments() if dimple and cfg.model == "surface" else [])
         sst = ContinuationSettings(ds=cfg.amplitude, ds_max=(4 * cfg.amplitude if dimple else
                                                              max(4 * cfg.amplitude,
                                                                  0.01 * lam_c)),
@@ -463,7 +468,7 @@ def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], 
                         resume=None if cont is None else cont.switch, track=track,
                         control=control,
                         cluster=max(CLUSTER, cp.multiplicity or 1) if dimple else 1,
-                        response=dimple and cfg.model == "surface")
+                        response=dimple and cfg.model == "surface", phase=phase)
                     for p in points:
                         if first is None:
                             first = p.kappa
@@ -506,8 +511,9 @@ def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], 
             yield {"side_end": {"side": int(side), **sides[int(side)]}}
         yield {"summary": {"sides": sides, "dofs": run.model.num_dofs()}}
     finally:
-        if control is not None:
-            control.destroy()
+        for v in [control, *phase]:
+            if v is not None:
+                v.destroy()
         run.destroy()
 
 

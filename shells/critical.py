@@ -1280,7 +1280,7 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
         k = 1 if control is not None else max(1, cp.multiplicity if pinned is None else pinned)
         dirs, vals = _critical_directions(problem, ar, cp.mode,
                                           max(k, cluster) if control is not None else k)
-        pins = dirs[1:k] if control is None or not phase else list(phase)
+        pins = list(phase) if control is not None else dirs[1:k]  # (k = 1 with a control)
         defl_stab = Stability(problem) if deflate else None
         defl = _Deflation(problem, defl_stab, deflate, keep=dirs[0]) if deflate else None
         log.info("switch: critical state at kappa L = %.6g, eigenvalues %s", lam_c,

@@ -615,8 +615,7 @@ class ShellModel(FormProblem):
         from dolfinx.fem.petsc import assemble_vector
         from petsc4py import PETSc
 
-        v = ufl.TestFunction(self.W)
-        u_n = ufl.dot(ufl.as_vector([v[0], v[1], v[2]]), self.n0)
+        u_n = ufl.dot(self.split(ufl.TestFunction(self.W))[0], self.n0)
         scale = 1.0 / (self.assemble("area") * float(self.h.value))
         out = []
         for a in (0, 1):

@@ -270,7 +270,7 @@ class _Run:
         if orbit and self.cfg.shape.closed and counts.get(1, 0) > 0:
             # on a closed sphere a rotation about its centre slides a dimple at the pole over
             # it: neutral, an m = 1 pair of either sign on the meridian's mesh (measured at
-            # h/R = 0.05: 1e-7 to 4e-6 against 0.005 to 0.4 for the block's next mode,
+            # h/R = 0.05: 5e-8 to 4e-6 against 0.0075 to 0.44 for the block's next mode,
             # negative at some points from 9.8 h deep)
             slide = 2 * self.stab.negative_count_modulo_orbit(1, count=counts[1])[1]
         return {"stable": total - slide == 0, "negative_count": total,

@@ -68,6 +68,37 @@ def test_chain_test_decides_as_the_scaled_lowest_eigenvalue(seed):
         assert chain.definite(E[None], ONE, [-1], [constrained], 1.25 * low) == [False]
 
 
+def test_blocks_in_one_call_decide_each_as_its_dense_eigenvalue():
+    """Seven blocks in one call (the C loop takes four at a time, one per SIMD lane), each
+    with its own constrained DOFs and a shift on either side of definiteness: each answers as
+    the lowest eigenvalue of its own scaled, constrained matrix says, the lanes do not mix."""
+    dofs, E0, H0 = _chain(30, 21, shift=0.02)
+    chain = ChainCholesky(dofs, (VERTEX_A, VERTEX_B), INTERIOR)
+    rng = np.random.default_rng(21)
+    shifts = [0.0, -0.03, 0.01, -0.002, 0.05, -0.06, 0.004]
+    E = np.stack([E0 + s * np.eye(7) for s in shifts])
+    cons = [np.sort(rng.choice(dofs[:, VERTEX_A].ravel(), k, replace=False)) for k in
+            (0, 2, 1, 3, 0, 2, 1)]
+    Hs = [H0 + s * np.where(np.eye(len(H0)) > 0, _multiplicity(dofs, len(H0)), 0.0)
+          for s in shifts]
+    lows = [_scaled_lowest(H, c) for H, c in zip(Hs, cons, strict=True)]
+    got = chain.definite(E, np.ones((7, 1)), list(range(7)), cons, 0.0)
+    assert got == [low > 0 for low in lows], (got, lows)
+    assert True in got and False in got
+    pos = sorted(low for low in lows if low > 0)
+    margin = 0.5 * (pos[1] + pos[2])  # between two of them: both answers among the definite
+    got = chain.definite(E, np.ones((7, 1)), list(range(7)), cons, margin)
+    assert got == [low > margin for low in lows], (got, lows)
+    assert got.count(True) == len(pos) - 2
+
+
+def _multiplicity(dofs: np.ndarray, n: int) -> np.ndarray:
+    """How many cells hold each DOF (a shift of every element's diagonal adds that many)."""
+    out = np.zeros(n)
+    np.add.at(out, dofs.ravel(), 1.0)
+    return out
+
+
 def test_chain_refuses_what_it_cannot_test():
     """Cells that do not form one chain (a vertex shared by three cells), a constrained
     interior DOF, a NaN: refused (ValueError), or answered False."""

@@ -329,7 +329,7 @@ class ModeForms:
         stale, inputs = self._stale(self._E_inputs)
         if stale:
             self._E_inputs = None  # not valid while being tabulated
-            self._E = setup[0].tabulate()
+            self._E = setup[0].tabulate(out=self._E)
             self._E_inputs = [a.copy() for a in inputs]
         return self._E
 

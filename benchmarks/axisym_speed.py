@@ -14,7 +14,11 @@ The baseline's ``shells`` package is the one in ``--baseline-dir`` (or, where gi
 fresh process per version, alternating, and the best of ``--repeat`` is kept: the process's wall
 time, its imports, the run itself, and within the run the time in the per-point checks of every
 block (``Stability.negative_counts``) and in the inertias (``Stability.inertia``, the locator's
-as well). The located points of both versions are compared (largest relative difference of κ).
+as well). The imports are those of the libraries (dolfinx with PETSc, SLEPc: 0.35 s, which
+either version's run would otherwise pay on its first use) and of ``shells``; the run's CPU time
+is reported beside its wall time (this machine's wall times vary by up to 30 % between runs of
+the same code). The located points of both versions are compared (largest relative difference
+of κ).
 """
 
 from __future__ import annotations
@@ -36,6 +40,9 @@ def worker() -> None:
     """One run of the case in this process; prints one JSON line."""
     t0 = time.perf_counter()
     import math
+
+    import dolfinx.fem.petsc  # noqa: F401 - the libraries' imports are not the run's
+    import slepc4py.SLEPc  # noqa: F401
 
     from shells import axisym, stability
     from shells.geometry import SphericalCap
@@ -61,10 +68,10 @@ def worker() -> None:
     S.inertia = timed("inertia", S.inertia)
     if hasattr(S, "_exact_inertia"):  # the exact counts on condensed blocks (84037b8 on)
         S._exact_inertia = timed("inertia", S._exact_inertia)
-    t1 = time.perf_counter()
+    t1, c1 = time.perf_counter(), time.process_time()
     r = axisym.critical(SphericalCap(1.0, math.radians(46.2)), 0.01, 0.5, direction="up")
-    t_run = time.perf_counter() - t1
-    print(json.dumps({"import_s": t_import, "run_s": t_run, **timers,
+    t_run, c_run = time.perf_counter() - t1, time.process_time() - c1
+    print(json.dumps({"import_s": t_import, "run_s": t_run, "run_cpu_s": c_run, **timers,
                       "critical": [(c["kind"], float(c["kappa_R"]), c["mode_m"])
                                    for c in r["critical_points"]]}))
 
@@ -104,7 +111,7 @@ def main() -> None:
         for _ in range(a.repeat):
             runs["before"].append(run_once(base))
             runs["after"].append(run_once(REPO))
-    keys = ("process_s", "import_s", "run_s", "negative_counts", "inertia")
+    keys = ("process_s", "import_s", "run_s", "run_cpu_s", "negative_counts", "inertia")
     best = {v: {k: min(r[k] for r in rs) for k in keys} for v, rs in runs.items()}
     for v, rs in runs.items():
         best[v]["points"] = rs[0]["points"]
@@ -123,6 +130,7 @@ def main() -> None:
           f"working tree; load average {out['load_average'][0]:.1f}")
     print(f"{'':28s}{'before':>9s}{'after':>9s}{'ratio':>8s}")
     names = {"process_s": "process (wall)", "import_s": "imports", "run_s": "axisym.critical",
+             "run_cpu_s": "  its CPU time (all threads)",
              "negative_counts": "  per-point checks", "inertia": "  inertias (all)"}
     for k, label in names.items():
         b, f = best["before"][k], best["after"][k]

@@ -287,6 +287,11 @@ class _Locator:
         self.w0 = problem.state.duplicate()
         self.z = problem.state.duplicate()
         self.fold = False  # the step being located contains a fold
+        # what the step's trials computed (``start``): the crossings of several blocks in one
+        # step are located one after another from the same points, and their secant steps
+        # often take the same first trials (a deep cap's m = 4 and 5 in one step: three)
+        self._memo: dict[tuple, Any] = {}
+        self._memo_step: tuple[float, bool, np.ndarray] | None = None
 
     def destroy(self) -> None:
         self.ns.destroy()
@@ -298,6 +303,12 @@ class _Locator:
         ``fold``: the step contains a fold (no deflation there: the branch turns into the
         near-null direction)."""
         self.fold = fold
+        n_own = self.w0.getLocalSize()
+        step = self._memo_step
+        if step is None or step[0] != lam0 or step[1] != fold \
+                or not np.array_equal(step[2], w0[:n_own]):
+            self._memo.clear()  # another step: nothing computed for this one yet
+            self._memo_step = (lam0, fold, np.array(w0[:n_own]))
         set_state(self.problem, w0)
         self.problem.state.copy(self.w0)
         self.lam0 = lam0
@@ -328,8 +339,14 @@ class _Locator:
                 ) -> dict[Hashable, tuple[float, ...]]:
         """The ``nev`` eigenvalues nearest 0 (ascending) of each of ``blocks`` at an evaluated
         (converged) point."""
-        self._load(e.state, e.lam)
-        return {b: tuple(sorted(self.stab.eigenpairs(nev, block=b)[0])) for b in blocks}
+        out = {}
+        for b in blocks:
+            key = ("eigs", e.sigma, e.lam, b, nev)
+            if key not in self._memo:
+                self._load(e.state, e.lam)
+                self._memo[key] = tuple(sorted(self.stab.eigenpairs(nev, block=b)[0]))
+            out[b] = self._memo[key]
+        return out
 
     def eigenvalue_roundoff(self, e: _Eval, block: Hashable) -> float:
         """The round-off of block's eigenvalue nearest 0 at an evaluated point, measured:
@@ -378,8 +395,26 @@ class _Locator:
 
     def counts_at(self, e: _Eval, blocks: tuple[Hashable, ...]) -> dict[Hashable, int]:
         """The negative counts of ``blocks`` at an evaluated (converged) point."""
-        self._load(e.state, e.lam)
-        return self.stab.negative_counts(blocks)
+        missing = tuple(b for b in blocks if ("count", e.sigma, e.lam, b) not in self._memo)
+        if missing:
+            self._load(e.state, e.lam)
+            for b, c in self.stab.negative_counts(missing).items():
+                self._memo[("count", e.sigma, e.lam, b)] = c
+        return {b: self._memo[("count", e.sigma, e.lam, b)] for b in blocks}
+
+    def _memo_counts(self, e: _Eval, blocks: tuple[Hashable, ...],
+                     base: dict[Hashable, int] | None) -> dict[Hashable, int] | None:
+        """``negative_counts(blocks, base)`` at ``e`` from what this step computed already;
+        None if some count it would report is not known."""
+        out = {}
+        for b in blocks:
+            c = self._memo.get(("count", e.sigma, e.lam, b))
+            if c is None:
+                return None
+            out[b] = c
+            if base is not None and c != base[b]:
+                break
+        return out
 
     def modes_at(self, e: _Eval, nev: int, block: Hashable = None
                  ) -> tuple[_Eval, list[Any], list[float]]:
@@ -417,18 +452,34 @@ class _Locator:
         ar.sync()
         st = self.st_locate
         t0 = time.perf_counter()
-        deflate = (_Deflation(self.problem, self.stab, self.crit.deflate)
-                   if self.crit.deflate and not self.fold else None)
-        ok, its, lam, _ = _bordered_newton(ar, st, self.lam0 + sigma * ar.tl, lam_start=lam_p,
-                                           singular_ok=True, deflate=deflate)
-        log.debug("locate: sigma = %.6g  kappa L = %.8g  converged %s in %d its (%.1f s)",
-                  sigma, lam, ok, its, time.perf_counter() - t0)
-        if not ok:
-            raise RuntimeError(f"corrector failed at sigma = {sigma:.3e}")
-        e = _Eval(sigma, lam, self._signed_tl(), get_state(self.problem))
+        key = ("solve", sigma, None if near is None or near.state is None else near.sigma)
+        if key in self._memo:  # this step's same trial: the same (deterministic) solution
+            known = self._memo[key]
+            if known is None:
+                raise RuntimeError(f"corrector failed at sigma = {sigma:.3e}")
+            e = _Eval(sigma, known[0], known[1], known[2].copy())
+            self._load(e.state, e.lam)
+        else:
+            deflate = (_Deflation(self.problem, self.stab, self.crit.deflate)
+                       if self.crit.deflate and not self.fold else None)
+            ok, its, lam, _ = _bordered_newton(ar, st, self.lam0 + sigma * ar.tl,
+                                               lam_start=lam_p, singular_ok=True,
+                                               deflate=deflate)
+            log.debug("locate: sigma = %.6g  kappa L = %.8g  converged %s in %d its (%.1f s)",
+                      sigma, lam, ok, its, time.perf_counter() - t0)
+            if not ok:
+                self._memo[key] = None
+                raise RuntimeError(f"corrector failed at sigma = {sigma:.3e}")
+            e = _Eval(sigma, lam, self._signed_tl(), get_state(self.problem))
+            self._memo[key] = (e.lam, e.tl, e.state.copy())
         if blocks:
-            # one call: a problem that tests all blocks' definiteness at once does so here too
-            e.counts.update(self.stab.negative_counts(blocks, base=base))
+            counts = self._memo_counts(e, blocks, base)
+            if counts is None:
+                # one call: a problem that tests all blocks' definiteness at once does so here
+                counts = self.stab.negative_counts(blocks, base=base)
+                for b, c in counts.items():
+                    self._memo[("count", e.sigma, e.lam, b)] = c
+            e.counts.update(counts)
             e.complete = len(e.counts) == len(blocks)
         log.debug("locate:   negative %d %s, dkappa/ds %.3e (%.1f s)", _total(e.counts),
                   {b: c for b, c in e.counts.items() if c}, e.tl, time.perf_counter() - t0)

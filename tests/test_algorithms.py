@@ -168,6 +168,61 @@ def test_a_bifurcation_and_a_fold_in_one_step_on_two_blocks():
     assert [c.kind for c in whole] == ["bifurcation", "fold"]
 
 
+class _ThreeBlocks(PitchforkProblem):
+    """``PitchforkProblem`` with x, z_1 and z_2 as blocks 0, 1, 2: on the branch x = z = 0,
+    y = κ they decouple, crossing at κ = 1, c_1 and c_2."""
+
+    block_unknowns = {0: (1,), 1: (2,), 2: (3,)}
+
+
+def test_crossings_of_several_blocks_in_one_step_share_the_steps_trials(monkeypatch):
+    """Three blocks cross in one step, in the reverse order of their keys (κ = 0.96, 0.98, 1):
+    each is located to 1e-8 and named by its block. The first search follows block 0's
+    eigenvalue (the first block that moved) and closes on block 1's crossing; the search for
+    block 0's own crossing then takes the same first trials, which the step computed already:
+    fewer corrector solves and eigensolves than with each crossing located afresh, the same
+    points to the last digit."""
+    import shells.critical as critical
+
+    P = _ThreeBlocks(c=(0.96, 0.98))
+    st = ContinuationSettings(ds=0.3, ds_max=0.3)
+    calls = {"solves": 0, "eigs": 0}
+    newton, eigs = critical._bordered_newton, Stability.eigenpairs
+
+    def counted_newton(*args, **kwargs):
+        calls["solves"] += 1
+        return newton(*args, **kwargs)
+
+    def counted_eigs(self, *args, **kwargs):
+        calls["eigs"] += 1
+        return eigs(self, *args, **kwargs)
+
+    monkeypatch.setattr(critical, "_bordered_newton", counted_newton)
+    monkeypatch.setattr(Stability, "eigenpairs", counted_eigs)
+
+    def run() -> tuple[list, dict]:
+        calls.update(solves=0, eigs=0)
+        steps = [cps for _, _, cps in follow(P, st, 1.3, CriticalSettings(rel_tol=1e-8),
+                                             blocks=(0, 1, 2)) if cps]
+        return steps, dict(calls)
+
+    steps, shared = run()
+    assert len(steps) == 1  # one step holds the three crossings
+    assert [c.kappa for c in steps[0]] == pytest.approx([0.96, 0.98, 1.0], rel=1e-8)
+    assert [c.block for c in steps[0]] == [1, 2, 0]
+    start = critical._Locator.start
+
+    def forgetful_start(self, *args, **kwargs):  # every crossing located afresh
+        start(self, *args, **kwargs)
+        self._memo.clear()
+
+    monkeypatch.setattr(critical._Locator, "start", forgetful_start)
+    alone, afresh = run()
+    assert [c.kappa for c in alone[0]] == [c.kappa for c in steps[0]]
+    assert shared["solves"] < afresh["solves"] and shared["eigs"] < afresh["eigs"], \
+        (shared, afresh)
+
+
 def test_folds_only_after_the_first_bifurcation():
     """Pitchforks at κ = 1 (x) and 2 (z_1) and no fold: with
     ``folds_only_after_first`` the second is not searched for."""

@@ -17,13 +17,14 @@ matrices:
 2. ``ChainCholesky``: the nine interior DOFs of a cell (its P3 and P2 interior nodes) couple to
    nothing outside it, so they are eliminated cell by cell (a 9 x 9 Cholesky factor in a second
    C loop, which also forms each block's element matrix Σ m^k C_k on the fly: cells outer,
-   blocks inner), and what remains is the Schur complement on the vertex DOFs, a block
+   blocks inner, four blocks in lockstep, one per SIMD lane, each lane with the arithmetic of
+   its block alone), and what remains is the Schur complement on the vertex DOFs, a block
    tridiagonal matrix of 6 x 6 blocks (half-bandwidth 11, 1200 rows), factored by a banded
-   Cholesky in C (as ``dpbtrf``). The definiteness test runs four blocks in lockstep, one per
-   SIMD lane, each lane with the arithmetic of its block alone (``definite_chain``): 1.4 ms
-   for m = 0..12 all told, against 2.8 ms one block after another. Boundary conditions (on vertex
-   DOFs only) are applied to that complement: a constrained DOF's row and column are zeroed and
-   its diagonal is one, which is what the complement of the constrained matrix is.
+   Cholesky in C (as ``dpbtrf``, the four lanes' bands interleaved: ``definite_chain``):
+   1.4 ms for m = 0..12 all told, against 2.8 ms one block after another. Boundary
+   conditions (on vertex DOFs only) are applied to that complement: a constrained DOF's row and
+   column are zeroed and its diagonal is one, which is what the complement of the constrained
+   matrix is.
 3. The exact count of a block that is not definite, from that complement without the margin:
    its inertia is the block's but for one positive eigenvalue per eliminated DOF
    (Haynsworth), at 1200 rows instead of 3000. ``ChainCholesky.inertia`` counts it by an LDLᵀ
@@ -64,10 +65,10 @@ _C_DECL = """
 void tabulate_cells(int nforms, const uintptr_t* kernels, int ncells, int n, double* out,
                     const double* const* coeffs, const int* ncoeff,
                     const double* const* consts, const double* coords, int ncoord);
-void condense_chain(int nb, int ncells, int n, int nk, const double* E, const double* powers,
-                    const int* own, const int* order, int ni, const int* irow, int nv,
-                    const int* vrow, double scale, double* band, int size, int* failed,
-                    double* keep_l, double* keep_y);
+void condense_chain(int nb, int ncells, int n, int nf, const double* E, const double* weights,
+                    const int* order, int ni, const int* irow, int nv, const int* vrow,
+                    double scale, double* band, int size, int* failed, double* keep_l,
+                    double* keep_y);
 int band_ldlt(double* ab, int n, int kd, double growth, int* counts);
 void definite_chain(int nb, int ncells, int n, int nf, const double* E, const double* weights,
                     const int* order, int ni, const int* irow, int nv, const int* vrow,
@@ -102,118 +103,139 @@ void tabulate_cells(int nforms, const uintptr_t* kernels, int ncells, int n, dou
   }
 }
 
-/* For each block b, the matrix assembled from the element matrices
-     A_b[c] = own[b] >= 0 ? E[own[b], c] : sum_k powers[b, k] E[k, c]   (k < nk)
-   (E: forms x cells x n x n, row-major), cells taken in chain order (cell order[p] between
-   chain vertices p and p + 1), diagonal scaled by `scale`: the ni interior rows irow[p]
-   eliminated by Cholesky, the Schur complement on the nv vertex rows vrow[p] (lower vertex
-   first) added into LAPACK's lower band storage of block b (kd = nv - 1, column-major
-   (kd + 1) x size, entry (i, j) at (i - j) + j (kd + 1)). failed[b] = 1 if an interior pivot
-   is not positive (or not finite). Cells outer, blocks inner: a cell's element matrices stay
-   in cache while every block reads them. With nb = 1, keep_l and keep_y (if not NULL) receive
-   each chain cell's interior factor L (ni x ni, lower) and L^-1 A_iv (ni x nv), for solves
-   (chain_forward, chain_backward). */
+/* The blocks' matrices are assembled from the element matrices E (nf forms x cells x n x n,
+   row-major) as sum_f weights[b, f] E[f, c], cells taken in chain order (cell order[p] between
+   chain vertices p and p + 1), diagonals scaled by `scale`; the ni interior rows irow[p] of a
+   cell are eliminated by Cholesky, and the Schur complement on its nv vertex rows vrow[p]
+   (lower vertex first) is added into LAPACK's lower band storage (kd = nv - 1, column-major
+   (kd + 1) x size, entry (i, j) at (i - j) + j (kd + 1)). NL blocks go through a cell in
+   lockstep, one per lane of GCC's vector type (SIMD where the CPU has it): every lane reads
+   the same element entry and its own weight; each lane's arithmetic is that of its block
+   alone, in the same order (no fused multiply-adds: -ffp-contract=off), so the values do not
+   depend on which blocks share a call. A lane whose interior pivot is not positive (or not
+   finite) goes on with a unit pivot, its block already marked failed. */
 #define NI_MAX 32
 #define NV_MAX 32
 #define NK_MAX 8
-void condense_chain(int nb, int ncells, int n, int nk, const double* E, const double* powers,
-                    const int* own, const int* order, int ni, const int* irow, int nv,
-                    const int* vrow, double scale, double* band, int size, int* failed,
-                    double* keep_l, double* keep_y)
+#define NL 4
+typedef double v4 __attribute__((vector_size(NL * sizeof(double))));
+/* the same in memory the caller allocated: no alignment beyond a double's assumed */
+typedef double v4u __attribute__((vector_size(NL * sizeof(double)), aligned(sizeof(double))));
+
+/* One cell p for the NL lanes of weights w: the interior factor L (a, lower) and L^-1 A_iv
+   (y) kept, the Schur complement's lower triangle in s. Returns the failed lanes (bit l). */
+static int condense_cell(int nf, const double* E, int ncells, int n, const int* order, int p,
+                         const v4* w, int ni, const int* irow, int nv, const int* vrow,
+                         double scale, v4 a[NI_MAX][NI_MAX], v4 y[NI_MAX][NV_MAX],
+                         v4 s[NV_MAX][NV_MAX])
 {
-  const int kd1 = nv;  /* kd + 1 */
-  const int half = nv / 2;
   const long nn = (long)n * n;
-  double a[NI_MAX][NI_MAX], y[NI_MAX][NV_MAX], sv[NV_MAX][NV_MAX];
-  double w[NK_MAX];
-  const double* Ek[NK_MAX];
-  if (ni > NI_MAX || nv > NV_MAX || nk > NK_MAX)
+  const int* ir = irow + (long)p * ni;
+  const int* vr = vrow + (long)p * nv;
+  const v4 zero4 = {0.0, 0.0, 0.0, 0.0};
+  const double* Ec[NK_MAX];
+  int bad = 0;
+  for (int f = 0; f < nf; ++f) Ec[f] = E + ((long)f * ncells + order[p]) * nn;
+#define ENTRY(r, c, out) { const long o_ = (long)(r) * n + (c); v4 t_ = zero4; \
+    for (int f_ = 0; f_ < nf; ++f_) { t_ += w[f_] * Ec[f_][o_]; } out = t_; }
+  for (int i = 0; i < ni; ++i)
   {
-    for (int b = 0; b < nb; ++b) failed[b] = 1;
-    return;
+    for (int j = 0; j <= i; ++j) ENTRY(ir[i], ir[j], a[i][j]);
+    a[i][i] *= scale;
+    for (int j = 0; j < nv; ++j) ENTRY(ir[i], vr[j], y[i][j]);
   }
-  for (int b = 0; b < nb; ++b) failed[b] = 0;
-  for (long i = 0; i < (long)nb * kd1 * size; ++i) band[i] = 0.0;
-  for (int p = 0; p < ncells; ++p)
+  for (int i = 0; i < nv; ++i)
   {
-    const int* ir = irow + (long)p * ni;
-    const int* vr = vrow + (long)p * nv;
-    for (int b = 0; b < nb; ++b)
-    {
-      if (failed[b]) continue;
-      int terms;
-      if (own[b] >= 0)
-      {
-        terms = 1;
-        w[0] = 1.0;
-        Ek[0] = E + ((long)own[b] * ncells + order[p]) * nn;
-      }
-      else
-      {
-        terms = nk;
-        for (int k = 0; k < nk; ++k)
-        {
-          w[k] = powers[(long)b * nk + k];
-          Ek[k] = E + ((long)k * ncells + order[p]) * nn;
-        }
-      }
-#define ENTRY(r, c, out) { double t_ = 0.0; const long o_ = (long)(r) * n + (c); \
-        for (int k_ = 0; k_ < terms; ++k_) { t_ += w[k_] * Ek[k_][o_]; } out = t_; }
-      for (int i = 0; i < ni; ++i)
-      {
-        for (int j = 0; j <= i; ++j) ENTRY(ir[i], ir[j], a[i][j]);
-        a[i][i] *= scale;
-        for (int j = 0; j < nv; ++j) ENTRY(ir[i], vr[j], y[i][j]);
-      }
-      for (int i = 0; i < nv; ++i)
-      {
-        for (int j = 0; j <= i; ++j) ENTRY(vr[i], vr[j], sv[i][j]);
-        sv[i][i] *= scale;
-      }
+    for (int j = 0; j <= i; ++j) ENTRY(vr[i], vr[j], s[i][j]);
+    s[i][i] *= scale;
+  }
 #undef ENTRY
-      /* Cholesky a = L L^T (lower, in place), y <- L^-1 y, column by column */
-      for (int k = 0; k < ni && !failed[b]; ++k)
-      {
-        double d = a[k][k];
-        for (int j = 0; j < k; ++j) d -= a[k][j] * a[k][j];
-        if (!(d > 0.0)) { failed[b] = 1; break; }
-        d = sqrt(d);
-        a[k][k] = d;
-        for (int i = k + 1; i < ni; ++i)
-        {
-          double t = a[i][k];
-          for (int j = 0; j < k; ++j) t -= a[i][j] * a[k][j];
-          a[i][k] = t / d;
-        }
-        for (int j = 0; j < nv; ++j)
-        {
-          double t = y[k][j];
-          for (int l = 0; l < k; ++l) t -= a[k][l] * y[l][j];
-          y[k][j] = t / d;
-        }
-      }
-      if (failed[b]) continue;
+  /* Cholesky a = L L^T (lower, in place), y <- L^-1 y, column by column */
+  for (int k = 0; k < ni; ++k)
+  {
+    v4 d = a[k][k];
+    for (int j = 0; j < k; ++j) d -= a[k][j] * a[k][j];
+    for (int l = 0; l < NL; ++l)
+    {
+      if (!(d[l] > 0.0)) { bad |= 1 << l; d[l] = 1.0; }
+      d[l] = sqrt(d[l]);
+    }
+    a[k][k] = d;
+    for (int i = k + 1; i < ni; ++i)
+    {
+      v4 t = a[i][k];
+      for (int j = 0; j < k; ++j) t -= a[i][j] * a[k][j];
+      a[i][k] = t / d;
+    }
+    for (int j = 0; j < nv; ++j)
+    {
+      v4 t = y[k][j];
+      for (int q = 0; q < k; ++q) t -= a[k][q] * y[q][j];
+      y[k][j] = t / d;
+    }
+  }
+  for (int i = 0; i < nv; ++i)
+    for (int j = 0; j <= i; ++j)
+    {
+      v4 t = s[i][j];
+      for (int k = 0; k < ni; ++k) t -= y[k][i] * y[k][j];
+      s[i][j] = t;
+    }
+  return bad;
+}
+
+/* The lanes' weights for blocks g .. g + NL - 1 (lanes past the last block repeat it: their
+   results are not stored). */
+static void lane_weights(int nb, int nf, const double* weights, int g, v4* w)
+{
+  for (int l = 0; l < NL; ++l)
+  {
+    const int b = g + l < nb ? g + l : nb - 1;
+    for (int f = 0; f < nf; ++f) w[f][l] = weights[(long)b * nf + f];
+  }
+}
+
+/* Each block's Schur complement into its own band (band + b (kd + 1) size); failed[b] = 1 if
+   an interior pivot of block b is not positive. With nb = 1, keep_l and keep_y (if not NULL)
+   receive each chain cell's interior factor L (ni x ni, lower) and L^-1 A_iv (ni x nv), for
+   solves (chain_solve). */
+void condense_chain(int nb, int ncells, int n, int nf, const double* E, const double* weights,
+                    const int* order, int ni, const int* irow, int nv, const int* vrow,
+                    double scale, double* band, int size, int* failed, double* keep_l,
+                    double* keep_y)
+{
+  const int kd1 = nv, half = nv / 2;
+  v4 a[NI_MAX][NI_MAX], y[NI_MAX][NV_MAX], sv[NV_MAX][NV_MAX], w[NK_MAX];
+  for (int b = 0; b < nb; ++b) failed[b] = 1;
+  if (ni > NI_MAX || nv > NV_MAX || nf > NK_MAX) return;
+  for (long i = 0; i < (long)nb * kd1 * size; ++i) band[i] = 0.0;
+  for (int g = 0; g < nb; g += NL)
+  {
+    const int lanes = nb - g < NL ? nb - g : NL;
+    int bad = 0;
+    lane_weights(nb, nf, weights, g, w);
+    for (int p = 0; p < ncells; ++p)
+    {
+      bad |= condense_cell(nf, E, ncells, n, order, p, w, ni, irow, nv, vrow, scale, a, y, sv);
       if (nb == 1 && keep_l && keep_y)
       {
         double* kl = keep_l + (long)p * ni * ni;
         double* ky = keep_y + (long)p * ni * nv;
         for (int i = 0; i < ni; ++i)
         {
-          for (int j = 0; j < ni; ++j) kl[i * ni + j] = j <= i ? a[i][j] : 0.0;
-          for (int j = 0; j < nv; ++j) ky[i * nv + j] = y[i][j];
+          for (int j = 0; j < ni; ++j) kl[i * ni + j] = j <= i ? a[i][j][0] : 0.0;
+          for (int j = 0; j < nv; ++j) ky[i * nv + j] = y[i][j][0];
         }
       }
-      /* the Schur complement's lower triangle, added at rows/cols p half .. p half + nv */
-      double* ab = band + (long)b * kd1 * size;
       const long base = (long)p * half;
-      for (int i = 0; i < nv; ++i)
-        for (int j = 0; j <= i; ++j)
-        {
-          double t = sv[i][j];
-          for (int k = 0; k < ni; ++k) t -= y[k][i] * y[k][j];
-          ab[(i - j) + (base + j) * kd1] += t;
-        }
+      for (int l = 0; l < lanes; ++l)
+      {
+        double* ab = band + (long)(g + l) * kd1 * size;
+        for (int i = 0; i < nv; ++i)
+          for (int j = 0; j <= i; ++j) ab[(i - j) + (base + j) * kd1] += sv[i][j][l];
+      }
     }
+    for (int l = 0; l < lanes; ++l) failed[g + l] = bad >> l & 1;
   }
 }
 
@@ -264,36 +286,22 @@ int band_ldlt(double* ab, int n, int kd, double growth, int* counts)
   return 0;
 }
 
-/* Definiteness tests of nb blocks, the matrix of block b assembled from the element matrices
-   sum_f weights[b, f] E[f, c] (E: nf forms x cells x n x n), its diagonal scaled by `scale`:
-   condense_chain's elimination of the interior rows, then the rows and columns
-   zero[zero_start[b] ..] of its band (lower band storage) set to 0 and the entries
-   diag[diag_start[b] ..] to `scale`, then ok[b] = 1 if every interior pivot, every band
-   entry and diagonal is finite and positive as condense_chain and a left-looking banded
-   Cholesky (LAPACK's dpbtrf) require, else 0. NL blocks in lockstep, one per lane of the
-   innermost loops (the compiler's SIMD lanes): every lane reads the same element entry
-   and its own weight, and a failed lane goes on with a unit pivot, its answer already 0.
-   Each lane's arithmetic is condense_chain's and the Cholesky's for that block alone, in
-   the same order (compiled without contraction into fused multiply-adds): the same values.
-   band: work space of (nv x size x NL) doubles, lanes innermost. */
-#define NL 4
-typedef double v4 __attribute__((vector_size(NL * sizeof(double))));
-/* the same in memory the caller allocated: no alignment beyond a double's assumed */
-typedef double v4u __attribute__((vector_size(NL * sizeof(double)), aligned(sizeof(double))));
+/* Definiteness tests of nb blocks (condensed as condense_chain's, diagonals scaled by
+   `scale`): the rows and columns zero[zero_start[b] ..] of block b's band set to 0 and the
+   entries diag[diag_start[b] ..] to `scale`, then ok[b] = 1 if every interior pivot, every band
+   entry and diagonal is finite and positive as a left-looking banded Cholesky (LAPACK's
+   dpbtrf) requires, else 0. NL blocks in lockstep as in condense_chain, their bands
+   interleaved (lanes innermost) in the work space band ((kd + 1) x size x NL doubles). */
 void definite_chain(int nb, int ncells, int n, int nf, const double* E, const double* weights,
                     const int* order, int ni, const int* irow, int nv, const int* vrow,
                     double scale, int size, double* band_, const long* zero,
                     const long* zero_start, const long* diag, const long* diag_start, int* ok)
 {
-  const int kd1 = nv, kd = nv - 1;  /* kd + 1 */
-  const int half = nv / 2;
-  const long nn = (long)n * n;
-  v4 a[NI_MAX][NI_MAX], y[NI_MAX][NV_MAX], sv[NV_MAX][NV_MAX];
-  v4 w[NK_MAX];
+  const int kd1 = nv, kd = nv - 1, half = nv / 2;
+  v4 a[NI_MAX][NI_MAX], y[NI_MAX][NV_MAX], sv[NV_MAX][NV_MAX], w[NK_MAX];
   const v4 zero4 = {0.0, 0.0, 0.0, 0.0};
   v4u* band = (v4u*)band_;  /* lanes innermost: band[i][l] */
   int good[NL];
-  const double* Ec[NK_MAX];
   if (ni > NI_MAX || nv > NV_MAX || nf > NK_MAX)
   {
     for (int b = 0; b < nb; ++b) ok[b] = 0;
@@ -301,64 +309,15 @@ void definite_chain(int nb, int ncells, int n, int nf, const double* E, const do
   }
   for (int g = 0; g < nb; g += NL)
   {
-    /* lanes past the last block repeat it (their answers are not stored) */
     int bad = 0;  /* bit l: lane l failed */
-    for (int l = 0; l < NL; ++l)
-    {
-      const int b = g + l < nb ? g + l : nb - 1;
-      for (int f = 0; f < nf; ++f) w[f][l] = weights[(long)b * nf + f];
-    }
+    lane_weights(nb, nf, weights, g, w);
     for (long i = 0; i < (long)kd1 * size; ++i) band[i] = zero4;
     for (int p = 0; p < ncells; ++p)
     {
-      const int* ir = irow + (long)p * ni;
-      const int* vr = vrow + (long)p * nv;
-      for (int f = 0; f < nf; ++f) Ec[f] = E + ((long)f * ncells + order[p]) * nn;
-#define ENTRY(r, c, out) { const long o_ = (long)(r) * n + (c); v4 t_ = zero4; \
-        for (int f_ = 0; f_ < nf; ++f_) { t_ += w[f_] * Ec[f_][o_]; } out = t_; }
-      for (int i = 0; i < ni; ++i)
-      {
-        for (int j = 0; j <= i; ++j) ENTRY(ir[i], ir[j], a[i][j]);
-        a[i][i] *= scale;
-        for (int j = 0; j < nv; ++j) ENTRY(ir[i], vr[j], y[i][j]);
-      }
-      for (int i = 0; i < nv; ++i)
-      {
-        for (int j = 0; j <= i; ++j) ENTRY(vr[i], vr[j], sv[i][j]);
-        sv[i][i] *= scale;
-      }
-#undef ENTRY
-      for (int k = 0; k < ni; ++k)
-      {
-        v4 d = a[k][k];
-        for (int j = 0; j < k; ++j) d -= a[k][j] * a[k][j];
-        for (int l = 0; l < NL; ++l)
-        {
-          if (!(d[l] > 0.0)) { bad |= 1 << l; d[l] = 1.0; }
-          d[l] = sqrt(d[l]);
-        }
-        a[k][k] = d;
-        for (int i = k + 1; i < ni; ++i)
-        {
-          v4 t = a[i][k];
-          for (int j = 0; j < k; ++j) t -= a[i][j] * a[k][j];
-          a[i][k] = t / d;
-        }
-        for (int j = 0; j < nv; ++j)
-        {
-          v4 t = y[k][j];
-          for (int q = 0; q < k; ++q) t -= a[k][q] * y[q][j];
-          y[k][j] = t / d;
-        }
-      }
+      bad |= condense_cell(nf, E, ncells, n, order, p, w, ni, irow, nv, vrow, scale, a, y, sv);
       const long base = (long)p * half;
       for (int i = 0; i < nv; ++i)
-        for (int j = 0; j <= i; ++j)
-        {
-          v4 t = sv[i][j];
-          for (int k = 0; k < ni; ++k) t -= y[k][i] * y[k][j];
-          band[(i - j) + (base + j) * kd1] += t;
-        }
+        for (int j = 0; j <= i; ++j) band[(i - j) + (base + j) * kd1] += sv[i][j];
     }
     for (int l = 0; l < NL; ++l) good[l] = !(bad >> l & 1);
     /* each block's conditions, then the checks and the Cholesky, all lanes at once */
@@ -382,7 +341,7 @@ void definite_chain(int nb, int ncells, int n, int nf, const double* E, const do
         const v4 lk = band[(j - k) + (long)k * kd1];
         d -= lk * lk;
       }
-        for (int l = 0; l < NL; ++l)
+      for (int l = 0; l < NL; ++l)
       {
         if (!(d[l] > 0.0)) { bad |= 1 << l; d[l] = 1.0; }
         d[l] = sqrt(d[l]);
@@ -671,6 +630,22 @@ class ElementAssembler:
         return A
 
 
+def _weights(E: np.ndarray, powers: np.ndarray, own: list[int]) -> np.ndarray:
+    """(blocks, forms): block b's matrix is Σ_f weights[b, f] E[f]: E[own[b]] where
+    own[b] ≥ 0, else Σ_k powers[b, k] E[k]."""
+    powers = np.atleast_2d(np.asarray(powers, dtype=np.float64))
+    nf, nk = len(E), powers.shape[1]
+    if len(powers) != len(own) or nk > nf or any(o >= nf for o in own):
+        raise ValueError("inconsistent blocks")
+    weights = np.zeros((len(own), nf))
+    for b, o in enumerate(own):
+        if o >= 0:
+            weights[b, o] = 1.0
+        else:
+            weights[b, :nk] = powers[b]
+    return weights
+
+
 class ChainCholesky:
     """Positive definiteness by a margin of symmetric matrices assembled from element matrices
     on a chain of cells (module docstring): ``definite(E, powers, own, constrained, margin)``,
@@ -781,16 +756,8 @@ class ChainCholesky:
             return []
         nb = len(own)
         E = np.ascontiguousarray(E, dtype=np.float64)
-        powers = np.atleast_2d(np.asarray(powers, dtype=np.float64))
-        nf, nk = len(E), powers.shape[1]
-        if nk > nf or any(o >= nf for o in own):
-            raise ValueError("inconsistent blocks")
-        weights = np.zeros((nb, nf))  # block b = Σ_f weights[b, f] E[f]
-        for b, o in enumerate(own):
-            if o >= 0:
-                weights[b, o] = 1.0
-            else:
-                weights[b, :nk] = powers[b]
+        weights = _weights(E, powers, own)
+        nf = len(E)
         lib = _library()
         ffi = lib.ffi
         ptr = lambda a, t: ffi.cast(t, ffi.from_buffer(a))  # noqa: E731
@@ -827,19 +794,17 @@ class ChainCholesky:
         ffi = lib.ffi
         E = np.ascontiguousarray(E, dtype=np.float64)
         ncells, n = E.shape[1], E.shape[2]
-        powers = np.ascontiguousarray(np.atleast_2d(powers), dtype=np.float64)
-        nb, nk = powers.shape
-        own_arr = np.ascontiguousarray(own, dtype=np.intc)
-        if nb != len(own_arr) or np.any(own_arr >= len(E)) or nk > len(E) \
-                or (keep is not None and nb != 1):
+        weights = _weights(E, powers, own)
+        nb = len(weights)
+        if keep is not None and nb != 1:
             raise ValueError("inconsistent blocks")
         ab = np.empty((nb, (self.kd + 1) * self.size))
         failed = np.zeros(nb, dtype=np.intc)
         ptr = lambda a, t: ffi.cast(t, ffi.from_buffer(a))  # noqa: E731
         kl, ky = ((ptr(keep[0], "double*"), ptr(keep[1], "double*")) if keep is not None
                   else (ffi.NULL, ffi.NULL))
-        lib.lib.condense_chain(nb, ncells, n, nk, ptr(E, "double*"), ptr(powers, "double*"),
-                               ptr(own_arr, "int*"), ptr(self._order, "int*"),
+        lib.lib.condense_chain(nb, ncells, n, len(E), ptr(E, "double*"),
+                               ptr(weights, "double*"), ptr(self._order, "int*"),
                                self._irow.shape[1], ptr(self._irow, "int*"),
                                self._vrow.shape[1], ptr(self._vrow, "int*"), scale,
                                ptr(ab, "double*"), self.size, ptr(failed, "int*"), kl, ky)

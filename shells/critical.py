@@ -315,8 +315,9 @@ class _Locator:
         self.ar.set_lambda(lam0)
         self.ar.start_tangent(None, 1.0 if tl0 >= 0 else -1.0)
 
-    def _signed_tl(self) -> float:
-        """κ-component of the unit tangent at the current point, oriented like the step's."""
+    def state_tangent(self) -> Any:
+        """z = -J⁻¹ ∂R/∂λ at the current point (``self.z``): the tangent's state part, with
+        λ-part 1 (unnormalised; along the Jacobian's null vector next to a fold)."""
         ar, ns = self.ar, self.ns
         if not ns.factor(attempts=2):  # one retry: the failed factor was reset
             raise RuntimeError(f"the Jacobian at kappa L = {ar.get_lambda():.6g} could not be "
@@ -324,6 +325,12 @@ class _Locator:
         ar.dres_dlambda()
         ar.Fl.scale(-1.0)
         ns.lin_solve(ar.Fl, self.z)
+        return self.z
+
+    def _signed_tl(self) -> float:
+        """κ-component of the unit tangent at the current point, oriented like the step's."""
+        ar = self.ar
+        self.state_tangent()
         norm = math.sqrt(ar.cw * self.z.dot(self.z) + 1.0)
         s = ar.cw * self.z.dot(ar.tw) / norm + ar.tl / norm
         return (1.0 if s >= 0 else -1.0) / norm
@@ -899,6 +906,21 @@ def _critical_point(loc: _Locator, kind: str, lam_star: float, bracket: tuple[fl
     θ̄ = 5 cap next to its snap: μ = 5.8e-5 with 72 % of its power in m = 1 and 1.0e-4 with
     100 % in m = 2, crossing together (m = 1 crosses only past the fold, in the 1D model)."""
     e, vecs, vals = loc.modes_at(near, max(loc.crit.nev, 1), block)
+    if kind == "fold" and len(vecs) > 1:
+        # a fold's mode is the Jacobian's null vector, the branch's own direction there
+        # (J τ_w = 0 where τ_λ = 0): of the eigenvectors nearest 0, the one along the state
+        # tangent, whatever other soft mode lies nearer 0 at the trial (measured: a coarse
+        # 30° surface cap's m = 1 pair at 1.1e-3, within 10 times the fold's 2.5e-4 and
+        # 0.03 % purer, named the fold m = 1)
+        z = loc.state_tangent()  # at e's state, which modes_at loaded
+        M = loc.stab.mass(block)
+        along = [abs(_m_inner(M, v, z)) / math.sqrt(max(_m_dot(M, v), 1e-300))
+                 for v in vecs]
+        best = int(np.argmax(along))
+        order = [best] + [i for i in range(len(vecs)) if i != best]
+        vecs, vals = [vecs[i] for i in order], [vals[i] for i in order]
+        e = replace(e, eig=vals[0])
+        vecs, vals = vecs[:1], vals[:1]  # named by that one alone
     info = None
     for v, mu in zip(vecs, vals, strict=True):
         if info is not None and abs(mu) > 10 * abs(vals[0]):

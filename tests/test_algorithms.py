@@ -223,6 +223,27 @@ def test_crossings_of_several_blocks_in_one_step_share_the_steps_trials(monkeypa
         (shared, afresh)
 
 
+class _NamedFoldPitchfork(FoldPitchforkProblem):
+    """``FoldPitchforkProblem`` whose modes are named: x is m = 1, z is m = 2."""
+
+    mode_unknowns = (0, 1)
+
+
+def test_a_fold_is_named_by_its_own_mode_not_the_softest():
+    """The fold of x (κ = 1) with z's eigenvalue c - κ = 1e-7 there, nearer 0 than the fold's
+    own at any trial the locator takes: the fold's mode is the Jacobian's null vector, the
+    branch's own direction (x, m = 1), not the eigenvector nearest 0 (z, m = 2)."""
+    P = _NamedFoldPitchfork(c=1.0 + 1e-7)
+    st = ContinuationSettings(ds=0.05, ds_max=0.2)
+    found = [c for _, _, cps in follow(P, st, 2.0, CriticalSettings(rel_tol=1e-6),
+                                       blocks=(0, 1)) for c in cps]
+    assert [c.kind for c in found] == ["fold"]
+    assert found[0].kappa == pytest.approx(1.0, rel=1e-6)
+    assert found[0].mode_m == 1
+    # the trial it was named at: z's eigenvalue is the one nearest 0 there
+    assert abs(found[0].eigenvalue) > 2e-7, found[0]
+
+
 def test_folds_only_after_the_first_bifurcation():
     """Pitchforks at κ = 1 (x) and 2 (z_1) and no fold: with
     ``folds_only_after_first`` the second is not searched for."""

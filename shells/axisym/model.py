@@ -259,6 +259,7 @@ class AxisymModel(FormProblem):
         self.bcs = self._axis_conditions()
         self._degree_forms: dict[Any, tuple] = {}
         self._jacobian_fast: Any = None  # ``_jacobian_elements``
+        self._uz_dofs: tuple[np.ndarray, np.ndarray] | None = None  # ``uz_at``'s
 
     # -- kinematics ------------------------------------------------------------------------------
     def base_jet(self, w: Any) -> Jet:
@@ -461,14 +462,15 @@ class AxisymModel(FormProblem):
                                              "curvature_potential", "penalty")}
         out["energy"] = out.pop("total")
         area = self.assemble("area")
+        uz_integral = self.assemble("uz_integral")
         psi3 = (self.assemble("psi3_integral") / area
-                - self.assemble("uz_integral") * self.assemble("nz_integral") / area**2)
+                - uz_integral * self.assemble("nz_integral") / area**2)
         h = float(self.h.value)
         out["psi3_over_h"] = psi3 / h
         uz = self.uz_at(np.array([0.0, self.shape.t_max]))
         disp = 0.5 * (uz[0] - uz[1]) if self.shape.closed else uz[0] - uz[1]
         out["apex_uz_over_h"] = float(disp) / h
-        out["psi3_pole_over_h"] = float(uz[0] - self.assemble("uz_integral") / area) / h
+        out["psi3_pole_over_h"] = float(uz[0] - uz_integral / area) / h
         return out
 
     def pole_functional(self) -> Any:
@@ -536,8 +538,10 @@ class AxisymModel(FormProblem):
 
     def uz_at(self, t: np.ndarray) -> np.ndarray:
         """u_z at mesh nodes t (values of the P3 field at vertices)."""
-        Vz, dofs = self.W.sub(0).sub(1).collapse()
-        x = Vz.tabulate_dof_coordinates()[:, 0]
+        if self._uz_dofs is None:  # the space's, not the state's: once
+            Vz, dofs = self.W.sub(0).sub(1).collapse()
+            self._uz_dofs = (Vz.tabulate_dof_coordinates()[:, 0], np.asarray(dofs))
+        x, dofs = self._uz_dofs
         vals = self.w.x.array[dofs]
         return np.array([vals[np.argmin(np.abs(x - ti))] for ti in np.atleast_1d(t)])
 

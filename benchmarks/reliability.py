@@ -88,9 +88,13 @@ def clean_env(**extra: str) -> dict[str, str]:
 #: other number 5.8e-12. On one rank every run is the same to the last bit. A bifurcation's
 #: accuracy also holds a measured round-off (``shells.critical.EIGEN_ROUNDOFF``: the change of
 #: its eigenvalue under 1-ulp perturbations of the state), itself a difference of round-offs:
-#: compared as an order of magnitude there (0.9: within a factor 10).
+#: compared as an order of magnitude there (0.9: within a factor 10). The fold's mode is
+#: axisymmetric (m = 0, named by the state tangent): its m² quotient is the leakage into
+#: m ≥ 1, 2.1e-4, a ratio of small numbers whose round-off is 1.7e-13 absolute, 8e-10 of it
+#: (two resumed 2-rank runs against the uninterrupted one).
 PARALLEL_RTOL: dict[str, float] = {"dkappa_ds": 1e-8, "eigenvalue": 1e-5, "accuracy": 0.9,
-                                   "mode_rayleigh.orbit": 1e-5, "mode_rayleigh.x": 1e-8}
+                                   "mode_rayleigh.orbit": 1e-5, "mode_rayleigh.x": 1e-8,
+                                   "mode_rayleigh.m2": 1e-8}
 
 
 @dataclass

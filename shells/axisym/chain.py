@@ -80,6 +80,10 @@ void chain_solve(int ncells, int ni, int nv, const double* keep_l, const double*
                  double* x);
 """
 
+#: blocks condensed in lockstep (the C code's NL: the lanes of its vector type, four doubles =
+#: AVX2's register; ``definite_chain``'s work space holds that many bands)
+_LANES = 4
+
 _C_SOURCE = r"""
 #include <math.h>
 #include <stdint.h>
@@ -117,7 +121,7 @@ void tabulate_cells(int nforms, const uintptr_t* kernels, int ncells, int n, dou
 #define NI_MAX 32
 #define NV_MAX 32
 #define NK_MAX 8
-#define NL 4
+#define NL SHELLS_LANES
 typedef double v4 __attribute__((vector_size(NL * sizeof(double))));
 /* the same in memory the caller allocated: no alignment beyond a double's assumed */
 typedef double v4u __attribute__((vector_size(NL * sizeof(double)), aligned(sizeof(double))));
@@ -440,7 +444,6 @@ void chain_solve(int ncells, int ni, int nv, const double* keep_l, const double*
 """
 
 _LIBRARY: Any = None
-_LANES = 4  # definite_chain's NL
 
 
 def _cpu_flags() -> set[str]:
@@ -475,7 +478,8 @@ def _library() -> Any:
         return _LIBRARY
     import cffi
 
-    tag = hashlib.sha1((_C_DECL + _C_SOURCE + " ".join(_CFLAGS) + cffi.__version__).encode()
+    tag = hashlib.sha1((_C_DECL + _C_SOURCE + " ".join(_CFLAGS) + str(_LANES)
+                        + cffi.__version__).encode()
                        ).hexdigest()[:12]
     name = f"_shells_cells_{tag}"
     folder = _cache_dir()
@@ -484,7 +488,8 @@ def _library() -> Any:
         folder.mkdir(parents=True, exist_ok=True)
         ffi = cffi.FFI()
         ffi.cdef(_C_DECL)
-        ffi.set_source(name, _C_SOURCE, extra_compile_args=_CFLAGS)
+        ffi.set_source(name, _C_SOURCE, extra_compile_args=_CFLAGS,
+                       define_macros=[("SHELLS_LANES", str(_LANES))])
         with tempfile.TemporaryDirectory(dir=folder) as tmp:
             built = Path(ffi.compile(tmpdir=tmp))
             os.replace(built, folder / built.name)  # atomic: a reader sees all or nothing

@@ -303,10 +303,13 @@ class _Locator:
         ``fold``: the step contains a fold (no deflation there: the branch turns into the
         near-null direction)."""
         self.fold = fold
+        from mpi4py import MPI
+
         n_own = self.w0.getLocalSize()
         step = self._memo_step
-        if step is None or step[0] != lam0 or step[1] != fold \
-                or not np.array_equal(step[2], w0[:n_own]):
+        same = step is not None and step[0] == lam0 and step[1] == fold \
+            and np.array_equal(step[2], w0[:n_own])
+        if not self.problem.comm.allreduce(same, op=MPI.LAND):  # every rank decides alike
             self._memo.clear()  # another step: nothing computed for this one yet
             self._memo_step = (lam0, fold, np.array(w0[:n_own]))
         set_state(self.problem, w0)

@@ -289,9 +289,10 @@ class _Locator:
         self.fold = False  # the step being located contains a fold
         # what the step's trials computed (``start``): the crossings of several blocks in one
         # step are located one after another from the same points, and their secant steps
-        # often take the same first trials (a deep cap's m = 4 and 5 in one step: three)
+        # often take the same first trials (a deep cap's m = 4 and 5 in one step: three). The
+        # step it belongs to is the one ``start`` holds in w0, lam0 and fold (none yet)
         self._memo: dict[tuple, Any] = {}
-        self._memo_step: tuple[float, bool, np.ndarray] | None = None
+        self.lam0 = math.nan
 
     def destroy(self) -> None:
         self.ns.destroy()
@@ -302,16 +303,14 @@ class _Locator:
         """Set the step's first point and its tangent (oriented like the branch there);
         ``fold``: the step contains a fold (no deflation there: the branch turns into the
         near-null direction)."""
-        self.fold = fold
         from mpi4py import MPI
 
         n_own = self.w0.getLocalSize()
-        step = self._memo_step
-        same = step is not None and step[0] == lam0 and step[1] == fold \
-            and np.array_equal(step[2], w0[:n_own])
+        same = self.lam0 == lam0 and self.fold == fold \
+            and np.array_equal(self.w0.array_r[:n_own], w0[:n_own])
         if not self.problem.comm.allreduce(same, op=MPI.LAND):  # every rank decides alike
             self._memo.clear()  # another step: nothing computed for this one yet
-            self._memo_step = (lam0, fold, np.array(w0[:n_own]))
+        self.fold = fold
         set_state(self.problem, w0)
         self.problem.state.copy(self.w0)
         self.lam0 = lam0

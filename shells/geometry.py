@@ -24,7 +24,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy import integrate
 
 from shells.errors import InputError
 
@@ -98,6 +97,8 @@ class Shape:
 
     def area(self) -> float:
         """Exact area: 2 pi int r(t) |x'(t)| dt (closed form where one exists)."""
+        from scipy import integrate  # here: importing it costs 0.3-0.5 s, paid by every CLI run
+
         def integrand(t: float) -> float:
             r, _ = self.meridian(np.array(t))
             dr, dz = self.meridian_derivative(np.array(t))

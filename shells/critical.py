@@ -897,10 +897,17 @@ def _trial(loc: _Locator, s: float, lo: _Eval, hi: _Eval,
     return None
 
 
+#: a fold's mode is the eigenvector nearest 0 whose cosine (mass inner product) with the state
+#: tangent is largest, if at least this; else the tangent itself (``_critical_point``)
+FOLD_ALONG = 0.5
+
+
 def _critical_point(loc: _Locator, kind: str, lam_star: float, bracket: tuple[float, float],
                     accuracy: float, near: _Eval, block: Hashable, c0: int, c1: int,
                     evals: int, p0: Point, t0: float) -> CriticalPoint:
-    """The located point, with the mode (eigenvector nearest 0 of ``block``) at ``near``.
+    """The located point, with its mode at ``near``: the eigenvector nearest 0 of ``block``; a
+    fold's, the Jacobian's null vector (the eigenvector along the state tangent, else that
+    tangent: ``FOLD_ALONG``).
 
     Its name (m, n) is that of the cleanest of the eigenvectors whose eigenvalues lie within a
     factor 10 of the nearest one (largest ``m_power``, where the problem reports it): the two
@@ -908,7 +915,7 @@ def _critical_point(loc: _Locator, kind: str, lam_star: float, bracket: tuple[fl
     θ̄ = 5 cap next to its snap: μ = 5.8e-5 with 72 % of its power in m = 1 and 1.0e-4 with
     100 % in m = 2, crossing together (m = 1 crosses only past the fold, in the 1D model)."""
     e, vecs, vals = loc.modes_at(near, max(loc.crit.nev, 1), block)
-    if kind == "fold" and len(vecs) > 1:
+    if kind == "fold" and vecs:
         # a fold's mode is the Jacobian's null vector, the branch's own direction there
         # (J τ_w = 0 where τ_λ = 0): of the eigenvectors nearest 0, the one along the state
         # tangent, whatever other soft mode lies nearer 0 at the trial (measured: a coarse
@@ -916,13 +923,25 @@ def _critical_point(loc: _Locator, kind: str, lam_star: float, bracket: tuple[fl
         # 0.03 % purer, named the fold m = 1)
         z = loc.state_tangent()  # at e's state, which modes_at loaded
         M = loc.stab.mass(block)
-        along = [abs(_m_inner(M, v, z)) / math.sqrt(max(_m_dot(M, v), 1e-300))
+        zz = max(_m_dot(M, z), 1e-300)
+        along = [abs(_m_inner(M, v, z)) / math.sqrt(max(_m_dot(M, v), 1e-300) * zz)
                  for v in vecs]
         best = int(np.argmax(along))
-        order = [best] + [i for i in range(len(vecs)) if i != best]
-        vecs, vals = [vecs[i] for i in order], [vals[i] for i in order]
-        e = replace(e, eig=vals[0])
-        vecs, vals = vecs[:1], vals[:1]  # named by that one alone
+        if along[best] >= FOLD_ALONG:
+            e = replace(e, eig=vals[best])
+            vecs, vals = [vecs[best]], [vals[best]]  # named by that one alone
+        else:
+            # none of them is: the fold's eigenvalue at the trial lies beyond the nev modes
+            # that crossed before it (measured: the h/R = 0.04 ellipsoid's fold, P3 surface
+            # model, past its m = 3, 4, 2 bifurcations: its four nearest 0 were the m = 2 and
+            # m = 3 pairs at -3.4e-3 to -3.9e-3, each at cosine < 1e-4 with the tangent, which
+            # is m = 0 to 5e-7 of its power; the fold was named m = 2). The tangent itself
+            # then, M-normalised, with its Rayleigh quotient as the eigenvalue
+            v = z.copy()
+            v.scale(1.0 / math.sqrt(zz))
+            mu = _m_dot(loc.stab.assemble(block), v)
+            e = replace(e, eig=mu)
+            vecs, vals = [v], [mu]
     info = None
     for v, mu in zip(vecs, vals, strict=True):
         if info is not None and abs(mu) > 10 * abs(vals[0]):

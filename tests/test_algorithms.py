@@ -244,6 +244,31 @@ def test_a_fold_is_named_by_its_own_mode_not_the_softest():
     assert abs(found[0].eigenvalue) > 2e-7, found[0]
 
 
+def test_a_fold_whose_mode_is_not_among_the_eigenpairs_computed_is_named_by_its_tangent():
+    """As above with one eigenpair per trial (``nev`` = 1): it is z's, nearly orthogonal to the
+    tangent (cosine below ``FOLD_ALONG``), as a surface fold's four nearest 0 are the pairs that
+    crossed before it; the fold is named by the state tangent itself (x, m = 1), its eigenvalue
+    the tangent's Rayleigh quotient, which vanishes at the fold as the distance to it."""
+    P = _NamedFoldPitchfork(c=1.0 + 1e-7)
+    st = ContinuationSettings(ds=0.05, ds_max=0.2)
+    found = [c for _, _, cps in follow(P, st, 2.0, CriticalSettings(rel_tol=1e-6, nev=1),
+                                       blocks=(0, 1)) for c in cps]
+    assert [c.kind for c in found] == ["fold"]
+    cp = found[0]
+    assert cp.kappa == pytest.approx(1.0, rel=1e-6)
+    assert cp.mode_m == 1
+    mode = np.asarray(cp.mode)
+    # the mode is x's direction (the branch's own at the fold), not z's
+    n_own = len(mode)
+    lo, _ = P.state.getOwnershipRange()
+    comps = {i: (mode[i - lo] if lo <= i < lo + n_own else 0.0) for i in (0, 1)}
+    comps = {i: P.comm.allreduce(v) for i, v in comps.items()}
+    assert abs(comps[0]) == pytest.approx(1.0, rel=1e-3)
+    assert abs(comps[1]) < 1e-3
+    # μ of x's direction at the trial: the Jacobian's eigenvalue there, small as κ - 1 is
+    assert 0 < abs(cp.eigenvalue) < 1e-2
+
+
 def test_folds_only_after_the_first_bifurcation():
     """Pitchforks at κ = 1 (x) and 2 (z_1) and no fold: with
     ``folds_only_after_first`` the second is not searched for."""

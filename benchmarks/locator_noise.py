@@ -16,7 +16,11 @@ locates it. Three measurements:
    the 1-ulp perturbations w (1 ± ε) of that state move μ (the round-off of the assembled
    Hessian, whose Frobenius norm is also reported), and how far the state solved again at
    κ (1 ± 1e-10 .. 1e-9) moves it (a new sequence of round-off in the state itself, which the
-   locator's reported accuracy measures: ``shells.critical.eigenvalue_roundoff``).
+   locator's reported accuracy measures: ``shells.critical.eigenvalue_roundoff``);
+4. where that round-off is: the same state's μ by the two factorisations the eigensolve can
+   use (the 1D model's chain LU, ``ChainLU``, and MUMPS), and the spread of μ over 13 states
+   solved again at κ (1 + k 1e-10), k = -6..6 (each state moves by ~1e-10 relative, which
+   changes μ physically by ~1e-13), against ε ||H_2||_F and ε |v|ᵀ|H_2||v| / vᵀMv.
 """
 
 from __future__ import annotations
@@ -121,13 +125,50 @@ def fixed_kappa() -> dict:
                 resolved.append(st.eigenpairs(2, block=2)[0][0])
             set_state(m, w0)
             m.set_kappa(float(KAPPA_FIXED))
+            factorisations = _two_factorisations(m, st)
+            spread = []
+            for k in range(-6, 7):
+                set_state(m, w0)
+                m.set_kappa(float(KAPPA_FIXED * (1.0 + k * 1e-10)))
+                ok, _ = br.ns.solve()
+                if not ok:
+                    raise RuntimeError("Newton failed at a shifted kappa")
+                spread.append(st.eigenpairs(1, block=2)[0][0])
+            set_state(m, w0)
+            m.set_kappa(float(KAPPA_FIXED))
         st.destroy()
         br.destroy()
     diff = max(float(np.linalg.norm(s - states[0]) / np.linalg.norm(states[0]))
                for s in states[1:])
     return {"kappa_R": KAPPA_FIXED, "runs": runs, "state_relative_difference": diff,
             "mu_2_one_ulp_perturbations": perturbed, "mu_2_resolved_shifted": resolved,
-            "hessian_2_frobenius": hnorm}
+            "hessian_2_frobenius": hnorm, "factorisations": factorisations,
+            "mu_2_resolved_13": spread, "mu_2_resolved_13_std": float(np.std(spread))}
+
+
+def _two_factorisations(m, st) -> dict:  # noqa: ANN001 - the model and its Stability
+    """μ of block 2 at the model's state by the chain LU and by MUMPS; ε ||H||_F and
+    ε |v|ᵀ|H||v| / vᵀMv (v its eigenvector)."""
+    from shells.stability import Stability
+
+    vals, vecs = st.eigenpairs(2, block=2, modes=True)
+    mumps = Stability(m)
+    mumps.banded_test = False  # no problem factorisation: MUMPS' shift-invert
+    try:
+        mu_mumps = mumps.eigenpairs(2, block=2)[0][0]
+    finally:
+        mumps.destroy()
+    H, M = st.assemble(2), st.mass(2)
+    ai, aj, av = H.getValuesCSR()
+    x = np.abs(vecs[0].array_r)
+    absq = float(sum(x[i] * np.dot(np.abs(av[ai[i]:ai[i + 1]]), x[aj[ai[i]:ai[i + 1]]])
+                     for i in range(len(x))))
+    Mv = M.createVecLeft()
+    M.mult(vecs[0], Mv)
+    eps = float(np.finfo(float).eps)
+    return {"mu_2_chain": vals[0], "mu_2_mumps": mu_mumps,
+            "eps_frobenius": eps * float(H.norm()),
+            "eps_abs_rayleigh": eps * absq / float(vecs[0].dot(Mv))}
 
 
 def main() -> None:
@@ -170,6 +211,11 @@ def main() -> None:
           f"{fixed['state_relative_difference']:.1e}; 1-ulp perturbations move mu_2 by up to "
           f"{max(ulp) - min(ulp):.1e}; solved again at kappa (1 +- 1e-10 .. 1e-9) by up to "
           f"{max(res) - min(res):.1e}; ||H_2||_F = {fixed['hessian_2_frobenius']:.2e}")
+    fac = fixed["factorisations"]
+    print(f"the same state's mu_2: chain LU {fac['mu_2_chain']:.3e}, MUMPS "
+          f"{fac['mu_2_mumps']:.3e}; over 13 states solved again at kappa (1 + k 1e-10): std "
+          f"{fixed['mu_2_resolved_13_std']:.1e}; eps ||H_2||_F = {fac['eps_frobenius']:.1e}, "
+          f"eps |v|'|H_2||v| / v'Mv = {fac['eps_abs_rayleigh']:.1e}")
     assert math.isfinite(spread)
 
 

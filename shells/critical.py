@@ -363,10 +363,12 @@ class _Locator:
         κL (1 ± ``ROUNDOFF_SHIFT``) (the corrector from the point's state; where it fails,
         a 1-ulp perturbation w (1 ± ε) of the state, random signs, a fixed seed, instead).
         The shift is far too small to change the physics (dμ/dκ times it is ~1e-13 on the 1D
-        model's caps), but the state solved again carries a new sequence of round-off, which
-        the Jacobian's condition amplifies: on a thin cap that moves μ by up to 1e-7, far more
-        than 1-ulp perturbations of the state do once the eigensolve itself is reproducible
-        (the 1D model's own factorisation, ``block_factor``). 0 where it cannot be measured
+        model's caps), but it changes every entry of the block's matrix, and so redraws the
+        round-off of its factorisation, which bounds an eigenvalue that small: on the h/R =
+        0.01, θ̄ = 15.11 cap's m = 2 block (‖H‖_F = 4.6e9) μ moves by a std of 7.4e-8 over
+        13 such shifts, and the same state gives μ = 1.3e-7 by the chain LU and -3.6e-8 by
+        MUMPS, while 1-ulp perturbations of the state move it by 1.5e-11 only
+        (``benchmarks/locator_noise.py``). 0 where it cannot be measured
         (an eigensolve that fails: the shift-invert factorisation of an exactly singular
         block, as at an algebraic problem's exact root)."""
         from petsc4py import PETSc

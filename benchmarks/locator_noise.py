@@ -115,27 +115,9 @@ def fixed_kappa() -> dict:
             hnorm = float(H.norm())
             # the same state solved again at κ (1 ± η), η ~ 1e-10 (the locator's round-off
             # measure, ``shells.critical.ROUNDOFF_SHIFT``): a new sequence of round-off
-            resolved = []
-            for eta in (1e-10, -1e-10, 2e-10, -2e-10, 1e-9):
-                set_state(m, w0)
-                m.set_kappa(float(KAPPA_FIXED * (1.0 + eta)))
-                ok, _ = br.ns.solve()
-                if not ok:
-                    raise RuntimeError("Newton failed at a shifted kappa")
-                resolved.append(st.eigenpairs(2, block=2)[0][0])
-            set_state(m, w0)
-            m.set_kappa(float(KAPPA_FIXED))
+            resolved = _resolved(br, st, w0, (1e-10, -1e-10, 2e-10, -2e-10, 1e-9), nev=2)
             factorisations = _two_factorisations(m, st)
-            spread = []
-            for k in range(-6, 7):
-                set_state(m, w0)
-                m.set_kappa(float(KAPPA_FIXED * (1.0 + k * 1e-10)))
-                ok, _ = br.ns.solve()
-                if not ok:
-                    raise RuntimeError("Newton failed at a shifted kappa")
-                spread.append(st.eigenpairs(1, block=2)[0][0])
-            set_state(m, w0)
-            m.set_kappa(float(KAPPA_FIXED))
+            spread = _resolved(br, st, w0, [k * 1e-10 for k in range(-6, 7)], nev=1)
         st.destroy()
         br.destroy()
     diff = max(float(np.linalg.norm(s - states[0]) / np.linalg.norm(states[0]))
@@ -144,6 +126,24 @@ def fixed_kappa() -> dict:
             "mu_2_one_ulp_perturbations": perturbed, "mu_2_resolved_shifted": resolved,
             "hessian_2_frobenius": hnorm, "factorisations": factorisations,
             "mu_2_resolved_13": spread, "mu_2_resolved_13_std": float(np.std(spread))}
+
+
+def _resolved(br, st, w0: np.ndarray, etas, nev: int) -> list[float]:  # noqa: ANN001
+    """μ_2 (the first of ``nev`` nearest 0) of the state solved again from ``w0`` at
+    κ (1 + η) for each η; the model left at w0 and κ."""
+    from shells.problem import set_state
+
+    m, out = br.model, []
+    for eta in etas:
+        set_state(m, w0)
+        m.set_kappa(float(KAPPA_FIXED * (1.0 + eta)))
+        ok, _ = br.ns.solve()
+        if not ok:
+            raise RuntimeError("Newton failed at a shifted kappa")
+        out.append(st.eigenpairs(nev, block=2)[0][0])
+    set_state(m, w0)
+    m.set_kappa(float(KAPPA_FIXED))
+    return out
 
 
 def _two_factorisations(m, st) -> dict:  # noqa: ANN001 - the model and its Stability

@@ -20,7 +20,9 @@ locates it. Three measurements:
 4. where that round-off is: the same state's μ by the two factorisations the eigensolve can
    use (the 1D model's chain LU, ``ChainLU``, and MUMPS), and the spread of μ over 13 states
    solved again at κ (1 + k 1e-10), k = -6..6 (each state moves by ~1e-10 relative, which
-   changes μ physically by ~1e-13), against ε ||H_2||_F and ε |v|ᵀ|H_2||v| / vᵀMv.
+   changes μ physically by ~1e-13), against ε ||H_2||_F and ε |v|ᵀ|H_2||v| / vᵀMv;
+5. the negative count and μ of block 2 at 41 κ across the crossing (κR from -0.4226 to -0.4236,
+   natural Newton steps): where the count changes, and how often.
 """
 
 from __future__ import annotations
@@ -128,6 +130,33 @@ def fixed_kappa() -> dict:
             "mu_2_resolved_13": spread, "mu_2_resolved_13_std": float(np.std(spread))}
 
 
+def scan() -> dict:
+    """Block 2's negative count and μ at 41 κ across the crossing, one natural Newton step each
+    from the last."""
+    from shells.phase_diagram.tracing import _Branch
+    from shells.stability import Stability
+
+    cfg, task = _task(1e-5)
+    br = _Branch(task.theta, task.h_over_r, cfg.nu, cfg)
+    m = br.model
+    st = Stability(m)
+    rows = []
+    try:
+        for k in list(np.linspace(0.0, -0.42, 15)[1:]) + list(np.linspace(-0.4226, -0.4236, 41)):
+            m.set_kappa(float(k))
+            ok, _ = br.ns.solve()
+            if not ok:
+                raise RuntimeError(f"Newton failed at kappa R = {k}")
+            if k <= -0.4226 + 1e-12:
+                rows.append((float(k), st.negative_counts([2])[2],
+                             st.eigenpairs(1, block=2)[0][0]))
+    finally:
+        st.destroy()
+        br.destroy()
+    changes = [rows[i][0] for i in range(1, len(rows)) if rows[i][1] != rows[i - 1][1]]
+    return {"points": rows, "count_changes": len(changes), "changes_between": changes}
+
+
 def _resolved(br, st, w0: np.ndarray, etas, nev: int) -> list[float]:  # noqa: ANN001
     """μ_2 (the first of ``nev`` nearest 0) of the state solved again from ``w0`` at
     κ (1 + η) for each η; the model left at w0 and κ."""
@@ -178,6 +207,7 @@ def main() -> None:
     t0 = time.perf_counter()
     runs = [located(s, 1e-5) for s in (1.0, 1.0 + 1e-6, 1.0 - 1e-6, 1.001)]
     fixed = fixed_kappa()
+    across = scan()
     ks = [r["kappa_R"] for r in runs]
     spread = (max(ks) - min(ks)) / abs(float(np.mean(ks)))
     # μ at the trial nearest the crossing, run against run (the locator's own samples)
@@ -191,6 +221,7 @@ def main() -> None:
            "runs": runs, "located_spread_relative": spread,
            "largest_reported_accuracy": max(r["reported_accuracy"] for r in runs),
            "nearest_samples": nearest, "dmu_dkappaR": slope, "fixed_kappa": fixed,
+           "scan": across,
            "wall_time": time.perf_counter() - t0}
     Path(args.o).write_text(json.dumps(out, indent=1))
     print(f"{'first step x':>14} {'kappa R':>13} {'reported acc.':>14}")
@@ -216,6 +247,9 @@ def main() -> None:
           f"{fac['mu_2_mumps']:.3e}; over 13 states solved again at kappa (1 + k 1e-10): std "
           f"{fixed['mu_2_resolved_13_std']:.1e}; eps ||H_2||_F = {fac['eps_frobenius']:.1e}, "
           f"eps |v|'|H_2||v| / v'Mv = {fac['eps_abs_rayleigh']:.1e}")
+    print(f"block 2's count across the crossing (41 kappa R in [-0.4236, -0.4226]): "
+          f"{across['count_changes']} changes, at kappa R "
+          + ", ".join(f"{k:.6f}" for k in across["changes_between"]))
     assert math.isfinite(spread)
 
 

@@ -96,10 +96,7 @@ def fixed_kappa() -> dict:
         br = _Branch(task.theta, task.h_over_r, cfg.nu, cfg)
         m = br.model
         for k in np.linspace(0.0, KAPPA_FIXED, n)[1:]:
-            m.set_kappa(float(k))
-            ok, _ = br.ns.solve()
-            if not ok:
-                raise RuntimeError(f"Newton failed at kappa R = {k}")
+            _solve_at(br, k)
         st = Stability(m)
         runs.append({"natural_steps": n - 1, "mu_2": st.eigenpairs(2, block=2)[0][0],
                      "residual": br.ns.residual_norm()})
@@ -130,6 +127,14 @@ def fixed_kappa() -> dict:
             "mu_2_resolved_13": spread, "mu_2_resolved_13_std": float(np.std(spread))}
 
 
+def _solve_at(br, kappa: float) -> None:  # noqa: ANN001 - a phase-diagram branch
+    """Newton (SNES) at κR = ``kappa`` from the model's current state; raises if it fails."""
+    br.model.set_kappa(float(kappa))
+    ok, _ = br.ns.solve()
+    if not ok:
+        raise RuntimeError(f"Newton failed at kappa R = {kappa}")
+
+
 def scan() -> dict:
     """Block 2's negative count and μ at 41 κ across the crossing, one natural Newton step each
     from the last."""
@@ -143,10 +148,7 @@ def scan() -> dict:
     rows = []
     try:
         for k in list(np.linspace(0.0, -0.42, 15)[1:]) + list(np.linspace(-0.4226, -0.4236, 41)):
-            m.set_kappa(float(k))
-            ok, _ = br.ns.solve()
-            if not ok:
-                raise RuntimeError(f"Newton failed at kappa R = {k}")
+            _solve_at(br, k)
             if k <= -0.4226 + 1e-12:
                 rows.append((float(k), st.negative_counts([2])[2],
                              st.eigenpairs(1, block=2)[0][0]))
@@ -165,10 +167,7 @@ def _resolved(br, st, w0: np.ndarray, etas, nev: int) -> list[float]:  # noqa: A
     m, out = br.model, []
     for eta in etas:
         set_state(m, w0)
-        m.set_kappa(float(KAPPA_FIXED * (1.0 + eta)))
-        ok, _ = br.ns.solve()
-        if not ok:
-            raise RuntimeError("Newton failed at a shifted kappa")
+        _solve_at(br, KAPPA_FIXED * (1.0 + eta))
         out.append(st.eigenpairs(nev, block=2)[0][0])
     set_state(m, w0)
     m.set_kappa(float(KAPPA_FIXED))

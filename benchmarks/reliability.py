@@ -87,7 +87,8 @@ def clean_env(**extra: str) -> dict[str, str]:
 #: (benchmarks/results/reliability.json): 6.0e-10, 3.4e-8, 6.3e-8, 9.4e-8, 1.6e-10, and every
 #: other number 5.8e-12. On one rank every run is the same to the last bit. A bifurcation's
 #: accuracy also holds a measured round-off (``shells.critical.EIGEN_ROUNDOFF``: the change of
-#: its eigenvalue under 1-ulp perturbations of the state), itself a difference of round-offs:
+#: its eigenvalue when the point is solved again at κ (1 ± 1e-10)), itself a difference of
+#: round-offs:
 #: compared as an order of magnitude there (0.9: within a factor 10). The fold's mode is
 #: axisymmetric (m = 0, named by the state tangent): its m² quotient is the leakage into
 #: m ≥ 1, 2.1e-4, a ratio of small numbers whose round-off is 1.7e-13 absolute, 8e-10 of it

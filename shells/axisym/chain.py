@@ -950,7 +950,7 @@ class ChainLU:
         lf, y = keep
         self._z = np.empty(lf.shape[0] * lf.shape[1])
         self._bv = np.empty(size)
-        ffi = _library().ffi
+        ffi = lib.ffi
         ptr = lambda a, t: ffi.cast(t, ffi.from_buffer(a))  # noqa: E731
         idof, vdof = chain._solve_maps
         self._keep = (lf, y, fixed, idof, vdof)  # alive as long as the pointers below

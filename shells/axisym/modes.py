@@ -47,14 +47,17 @@ path 0.034 s (benchmarks/axisym_mode_assembly.py, docs/model.md).
 
 from __future__ import annotations
 
+import hashlib
 import logging
 import math
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from shells.axisym.model import JIT_OPTIONS, AxisymModel, Jet, _dirichlet
 from shells.errors import InputError
+from shells.formcache import compiled_derived
 
 __all__ = ["ModeForms"]
 
@@ -67,6 +70,9 @@ _PHASES: dict[int, dict[str, float]] = {
 }
 #: H_m of m ≥ 1 is a polynomial of this degree in m
 DEGREE = 4
+#: names the derivation of the mode forms from the Hessian's UFL (this file) in the form cache
+#: (``shells.formcache``): any change of this module derives them again
+_DERIVATION = hashlib.sha256(Path(__file__).read_bytes()).hexdigest()[:16]
 
 
 # ------------------------------------------------------------------------------------------------
@@ -177,30 +183,32 @@ class ModeForms:
         evaluates the density at two general phases: 3.6 ms against 0.9 ms per assembly on
         the θ̄ = 8 cap's 200 cells), so the stability check's one direct assembly per state
         no longer costs as much as the five coefficient matrices together."""
-        from dolfinx import fem
 
         if self._axisymmetric_form is None:
-            ufl_form = self._fixed_mode_ufl(0)[0]
-            self._axisymmetric_form = fem.form(ufl_form, jit_options=JIT_OPTIONS)
-            self._register_reads([ufl_form])
+            forms, reads = compiled_derived(self.hessian_ufl, f"{_DERIVATION} H_0",
+                                            lambda: [self._fixed_mode_ufl(0)[0]], JIT_OPTIONS)
+            self._axisymmetric_form = forms[0]
+            self._register_reads(reads)
         return self._axisymmetric_form
 
     @property
     def coefficient_forms(self) -> list[Any]:
-        """The compiled forms of C_0..C_4 (``coefficient_ufl``), one kernel each."""
-        from dolfinx import fem
-
+        """The compiled forms of C_0..C_4 (``coefficient_ufl``), one kernel each; after the
+        first run on a machine without their UFL work (``shells.formcache``: 0.1 s a model)."""
         if self._coefficient_forms is None:
-            ufl_forms = self.coefficient_ufl()
-            self._coefficient_forms = [fem.form(f, jit_options=JIT_OPTIONS) for f in ufl_forms]
-            self._register_reads(ufl_forms)
+            forms, reads = compiled_derived(self.hessian_ufl, f"{_DERIVATION} C_k",
+                                            self.coefficient_ufl, JIT_OPTIONS)
+            self._coefficient_forms = forms
+            self._register_reads(reads)
         return self._coefficient_forms
 
-    def _register_reads(self, ufl_forms: list[Any]) -> None:
+    def _register_reads(self, reads: list[tuple[list, list]]) -> None:
+        """Remember the coefficients and Constants that forms read: ((coefficients,
+        constants) of each form)."""
         coefficients, constants = self._read
-        for f in ufl_forms:
-            coefficients.update({id(w): w for w in f.coefficients()})
-            constants.update({id(k): k for k in f.constants()})
+        for ws, ks in reads:
+            coefficients.update({id(w): w for w in ws})
+            constants.update({id(k): k for k in ks})
 
     def _inputs(self) -> list[np.ndarray]:
         """Everything the coefficient forms and H_0's form read (views, not copies): each

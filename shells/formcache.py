@@ -1,0 +1,173 @@
+"""Compiled forms derived from a source form by symbolic work in Python, remembered on disk
+(problem layer utility).
+
+Some forms are not written by hand but derived from another: the 1D model's mode forms C_0..C_4
+are the mode Hessian differentiated k times in m by ``ufl.derivative``, its derivatives expanded
+and m replaced by 0 (``shells.axisym.modes``). FFCx finds a compiled form in its cache by the
+form's signature, but only after that UFL work is done: 0.10-0.15 s of a 1.6 s run on the
+θ̄ = 8 cap, and again in each of the phase diagram's 128 runs, for kernels that were compiled
+long ago. ``compiled_derived`` remembers, under a key made of the source form's signature and
+a tag naming the derivation, which compiled modules the derived forms were, and where their
+coefficients and constants sit among the source form's: a later call with the same key loads
+those modules and binds the source's own coefficients, with no UFL work at all.
+
+The forms are the same compiled kernels bound to the same objects, so everything computed
+with them is identical to the last bit (tests/test_formcache.py). The key holds everything
+that decides the kernels: the source's UFL signature (its whole expression: elements,
+quadrature degree, every number written into it), the caller's tag (the derivation's own
+source code), the versions of UFL, FFCx, basix and dolfinx, and the compiler options. A record
+whose modules cannot be loaded is ignored and written again. ``SHELLS_FORM_CACHE=0`` turns the
+cache off (the forms are then derived every time).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+import json
+import logging
+import os
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+__all__ = ["compiled_derived", "cache_folder"]
+
+log = logging.getLogger("shells")
+
+_MODULES: dict[str, Any] = {}  # the compiled modules loaded in this process, by file
+
+
+def cache_folder() -> Path:
+    """Where the records go: ``$XDG_CACHE_HOME/shells/derived`` (default ``~/.cache``)."""
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "shells" / "derived"
+
+
+def _enabled() -> bool:
+    return os.environ.get("SHELLS_FORM_CACHE", "1") != "0"
+
+
+def _key(source: Any, tag: str, jit_options: dict[str, Any] | None) -> str:
+    import basix
+    import dolfinx
+    import ffcx
+    import ufl
+
+    parts = [source.signature(), tag, ufl.__version__, ffcx.__version__, basix.__version__,
+             dolfinx.__version__, repr(sorted((jit_options or {}).items())),
+             repr(dolfinx.default_scalar_type)]
+    return hashlib.sha256("\n".join(parts).encode()).hexdigest()[:24]
+
+
+def _positions(items: list[Any], pool: list[Any]) -> list[int] | None:
+    """Where each of ``items`` sits in ``pool`` (by identity); None if one is not there."""
+    out = []
+    for x in items:
+        found = [i for i, y in enumerate(pool) if y is x]
+        if not found:
+            return None
+        out.append(found[0])
+    return out
+
+
+def _record(forms: list[Any], ufl_forms: list[Any], source: Any) -> list[dict] | None:
+    """What a later call needs to rebuild ``forms``; None where they cannot be rebuilt from
+    the source's coefficients alone (a coefficient of their own, an integral other than one
+    cell integral over the whole mesh)."""
+    from dolfinx.fem import IntegralType
+
+    coefficients, constants = source.coefficients(), source.constants()
+    out = []
+    for f, u in zip(forms, ufl_forms, strict=True):
+        if set(f.integral_types) != {IntegralType.cell} or any(
+                i.subdomain_data() is not None or i.subdomain_id() != "everywhere"
+                for i in u.integrals()):
+            return None
+        cpos, kpos = _positions(u.coefficients(), coefficients), \
+            _positions(u.constants(), constants)
+        module = getattr(f.module, "__file__", None)
+        names = [n for n in dir(f.module.lib) if n.startswith("form_")]
+        if cpos is None or kpos is None or module is None or len(names) != 1:
+            return None
+        out.append({"module": module, "name": f.module.__name__, "form": names[0],
+                    "coefficients": cpos, "constants": kpos})
+    return out
+
+
+def _load(entry: dict) -> Any:
+    path = entry["module"]
+    if path not in _MODULES:
+        spec = importlib.util.spec_from_file_location(entry["name"], path)
+        if spec is None or spec.loader is None:
+            raise ImportError(path)
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        _MODULES[path] = module
+    return _MODULES[path]
+
+
+def _rebuild(records: list[dict], source: Any) -> tuple[list[Any], list[tuple[list, list]]]:
+    """The forms of ``records``, bound to the source's coefficients and constants, as
+    ``dolfinx.fem.form`` binds them; with each form's (coefficients, constants)."""
+    import dolfinx
+    from dolfinx.fem import IntegralType
+    from dolfinx.fem.forms import Form, form_cpp_class
+
+    coefficients, constants = source.coefficients(), source.constants()
+    spaces = [a.ufl_function_space()._cpp_object for a in source.arguments()]
+    mesh = source.ufl_domain().ufl_cargo()
+    ftype = form_cpp_class(dolfinx.default_scalar_type)
+    forms, reads = [], []
+    for entry in records:
+        module = _load(entry)
+        ufcx_form = getattr(module.lib, entry["form"])
+        own = [coefficients[i] for i in entry["coefficients"]]
+        consts = [constants[i] for i in entry["constants"]]
+        if ufcx_form.num_coefficients > len(own) or ufcx_form.num_constants != len(consts) \
+                or ufcx_form.rank != len(spaces):
+            raise ValueError("a record that does not match its module")
+        bound = [own[ufcx_form.original_coefficient_positions[i]]._cpp_object
+                 for i in range(ufcx_form.num_coefficients)]
+        f = ftype(module.ffi.cast("uintptr_t", module.ffi.addressof(ufcx_form)), spaces,
+                  bound, [k._cpp_object for k in consts], {IntegralType.cell: []}, {}, mesh)
+        forms.append(Form(f, ufcx_form, None, module))
+        reads.append((own, consts))
+    return forms, reads
+
+
+def compiled_derived(source: Any, tag: str, derive: Callable[[], list[Any]],
+                     jit_options: dict[str, Any] | None = None
+                     ) -> tuple[list[Any], list[tuple[list, list]]]:
+    """The compiled forms of ``derive()`` (UFL forms derived from the UFL form ``source``, on
+    its arguments and with coefficients and constants among its own), and each one's
+    (coefficients, constants): from the record of an earlier call with the same source and
+    ``tag`` where there is one, else derived and compiled (``dolfinx.fem.form``) and recorded.
+
+    ``tag`` must change whenever the derivation does (the caller's source code, say): the
+    record is found by the source's signature and the tag alone.
+    """
+    from dolfinx import fem
+
+    path = cache_folder() / f"{_key(source, tag, jit_options)}.json" if _enabled() else None
+    if path is not None and path.is_file():
+        try:
+            return _rebuild(json.loads(path.read_text()), source)
+        except (OSError, ValueError, KeyError, TypeError, AttributeError, ImportError) as e:
+            log.debug("form cache record %s not usable (%s): derived again", path, e)
+    ufl_forms = derive()
+    forms = [fem.form(u, jit_options=jit_options) for u in ufl_forms]
+    reads = [(list(u.coefficients()), list(u.constants())) for u in ufl_forms]
+    if path is not None and source.ufl_domain().ufl_cargo().comm.rank == 0:
+        records = _record(forms, ufl_forms, source)
+        if records is not None:
+            try:
+                path.parent.mkdir(parents=True, exist_ok=True)
+                with tempfile.NamedTemporaryFile("w", dir=path.parent, delete=False,
+                                                 suffix=".tmp") as tmp:
+                    json.dump(records, tmp)
+                os.replace(tmp.name, path)  # atomic: a reader sees all of it or nothing
+            except OSError as e:
+                log.debug("form cache record %s not written: %s", path, e)
+    return forms, reads

@@ -1,0 +1,103 @@
+"""The form cache (shells.formcache): the 1D model's mode forms loaded from a record are the
+forms derived anew, bound to the new model's own data (its element matrices identical to the
+last bit, at another state and other parameters than the record's); a different derivation or
+a broken record derives them again.
+
+The 1D problem runs on MPI.COMM_SELF on every rank; each test uses a cache folder of its own
+per rank, and the outcome is reduced over MPI.COMM_WORLD before asserting.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+from shells import formcache
+from shells.axisym import SNES_OPTIONS, AxisymModel, AxisymParameters
+from shells.geometry import SphericalCap
+from shells.solvers import NewtonSolver
+
+
+def everywhere(flag: bool) -> bool:
+    return MPI.COMM_WORLD.allreduce(bool(flag), op=MPI.LAND)
+
+
+@pytest.fixture
+def folder(tmp_path, monkeypatch):
+    path = tmp_path / f"derived{MPI.COMM_WORLD.rank}"
+    monkeypatch.setattr(formcache, "cache_folder", lambda: path)
+    monkeypatch.delenv("SHELLS_FORM_CACHE", raising=False)
+    return path
+
+
+def loaded(h: float, nu: float, kappa: float) -> AxisymModel:
+    model = AxisymModel(SphericalCap(1.0, math.radians(30.0)),
+                        AxisymParameters(h=h, nu=nu, cells=24))
+    ns = NewtonSolver(model, options=SNES_OPTIONS)
+    model.set_kappa(kappa)
+    ok, _ = ns.solve()
+    ns.destroy()
+    assert everywhere(ok)
+    return model
+
+
+def element_matrices(model: AxisymModel) -> np.ndarray:
+    mf = model.mode_forms
+    E = mf.element_matrices()
+    assert E is not None  # the 1D model runs on one process: the element-matrix path
+    return E.copy()
+
+
+def test_mode_forms_from_the_record_are_the_derived_ones_bound_to_the_new_data(folder):
+    first = loaded(0.01, 0.5, 3.0)
+    derived = element_matrices(first)  # derived and compiled; the record written
+    assert len(list(folder.glob("*.json"))) == 2  # C_0..C_4, H_0
+
+    # another model: other Poisson ratio and state (the same mesh), the same kernels
+    second = loaded(0.01, 0.3, -2.0)
+    calls = []
+    original = second.mode_forms.coefficient_ufl
+    second.mode_forms.coefficient_ufl = lambda: calls.append(1) or original()
+    from_record = element_matrices(second)
+    assert not calls  # no UFL work: the record served
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("SHELLS_FORM_CACHE", "0")
+        third = loaded(0.01, 0.3, -2.0)
+        fresh = element_matrices(third)
+    same = np.array_equal(from_record, fresh)
+    # and not a stale copy of the first model's values
+    differs = not np.allclose(from_record, derived)
+    assert everywhere(same and differs)
+
+
+def test_a_changed_derivation_or_a_broken_record_derives_again(folder):
+    model = loaded(0.01, 0.5, 1.0)
+    mf = model.mode_forms
+    tag, calls = "a test derivation", []
+
+    def derive():
+        calls.append(1)
+        return mf.coefficient_ufl()[:2]
+
+    forms, _ = formcache.compiled_derived(mf.hessian_ufl, tag, derive)
+    formcache.compiled_derived(mf.hessian_ufl, tag, derive)
+    formcache.compiled_derived(mf.hessian_ufl, tag + " changed", derive)
+    counts_ok = len(calls) == 2
+    # a record naming a module that is gone: derived again, and the record repaired
+    for path in folder.glob("*.json"):
+        path.write_text(path.read_text().replace(".so", ".gone.so"))
+    again, reads = formcache.compiled_derived(mf.hessian_ufl, tag, derive)
+    formcache.compiled_derived(mf.hessian_ufl, tag, derive)  # the repaired record serves
+    repaired_ok = len(calls) == 3
+    from dolfinx.fem.petsc import assemble_matrix
+
+    A, B = assemble_matrix(forms[1]), assemble_matrix(again[1])
+    A.assemble()
+    B.assemble()
+    B.axpy(-1.0, A)
+    same = B.norm() == 0.0 and A.norm() > 0
+    assert everywhere(counts_ok and repaired_ok and same and len(reads) == 2)

@@ -79,6 +79,7 @@ void chain_solve(int ncells, int ni, int nv, const double* keep_l, const double*
                  const int* idof, const int* vdof, const char* fixed, int size,
                  const double* lu, const int* piv, const double* b, double* z, double* bv,
                  double* x);
+void scatter_add(long n, const long* pos, const double* w, long nout, double* out);
 """
 
 #: blocks condensed in lockstep (the C code's NL: the lanes of its vector type, four doubles =
@@ -457,6 +458,14 @@ void chain_solve(int ncells, int ni, int nv, const double* keep_l, const double*
     }
   }
 }
+
+/* out = the sum of w[i] at pos[i], added in the order of i: np.bincount(pos, w)'s values, bit
+   for bit (the same additions in the same order), without its new array */
+void scatter_add(long n, const long* pos, const double* w, long nout, double* out)
+{
+  for (long j = 0; j < nout; ++j) out[j] = 0.0;
+  for (long i = 0; i < n; ++i) out[pos[i]] += w[i];
+}
 """
 
 _LIBRARY: Any = None
@@ -609,7 +618,9 @@ class ElementAssembler:
         if not np.array_equal(keys[np.minimum(pos, len(keys) - 1)], ekeys):
             raise ValueError("an element entry outside the form's pattern")
         self._indptr, self._indices = indptr.astype(np.int32), indices.astype(np.int32)
-        self._pos, self._rows = pos, rows
+        self._pos, self._rows = np.ascontiguousarray(pos, dtype=np.int64), rows
+        lib = _library()
+        self._lib, self._ffi = lib.lib, lib.ffi
         self._masks: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
 
     def set(self, A: Any, elements: np.ndarray, constrained: np.ndarray,
@@ -617,8 +628,17 @@ class ElementAssembler:
         """A's values from ``elements`` (cells x n x n, rows in the dofmap's order), the
         ``constrained`` DOFs' rows and columns zero and their diagonal ``diagonal``;
         assembled."""
-        values = np.bincount(self._pos, weights=elements.ravel(),
-                             minlength=len(self._indices))
+        own = A.getAttr(_VALUES)
+        if own is None or own.shape != (len(self._indices),):
+            own = None
+        values = np.empty(len(self._indices)) if own is None else own
+        w = np.ascontiguousarray(elements, dtype=np.float64).reshape(-1)
+        if w.size != self._pos.size:
+            raise ValueError("element matrices of another shape than the form's")
+        ffi = self._ffi
+        self._lib.scatter_add(w.size, ffi.cast("const long*", ffi.from_buffer(self._pos)),
+                              ffi.cast("const double*", ffi.from_buffer(w)), values.size,
+                              ffi.cast("double*", ffi.from_buffer(values)))
         key = np.asarray(constrained).tobytes()
         if key not in self._masks:
             cons = np.asarray(constrained)
@@ -628,10 +648,7 @@ class ElementAssembler:
         zero, diag = self._masks[key]
         values[zero] = 0.0
         values[diag] = diagonal
-        own = A.getAttr(_VALUES)
-        if own is not None and own.shape == values.shape:
-            own[:] = values  # the matrix's own value array (``create_matrix``)
-        else:
+        if own is None:  # written in place where the matrix's own value array is at hand
             A.setValuesCSR(self._indptr, self._indices, values)
         A.assemble()  # also marks the values changed, for a factorisation's reuse test
 

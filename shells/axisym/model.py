@@ -629,9 +629,7 @@ class AxisymModel(FormProblem):
     def create_hessian(self, block: Any) -> Any:
         if block is None:
             return self.create_jacobian()
-        from dolfinx.fem.petsc import create_matrix
-
-        return create_matrix(self.mode_forms.form)
+        return self.mode_forms.create_matrix()
 
     def assemble_hessian(self, block: Any, H: Any) -> None:
         if block is None:

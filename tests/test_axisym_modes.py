@@ -226,17 +226,3 @@ def test_jacobian_from_element_matrices_is_dolfinx_assembly():
         assert B.norm() > 0
         for X in (A, B, C):
             X.destroy()
-
-
-def test_element_matrices_do_not_depend_on_the_number_of_threads(monkeypatch):
-    """The C loop shares the (form, cell) pairs among threads: the same matrices, bit for bit,
-    with 1, 2 and 3 threads."""
-    model = loaded(SphericalCap(1.0, math.radians(30.0)), 0.01, (2.0,), cells=40)
-    setup = model.mode_forms._chain_setup()
-    assert setup is not None
-    out = []
-    for n in ("1", "2", "3"):
-        monkeypatch.setenv("SHELLS_NUM_THREADS", n)
-        out.append(setup[0].tabulate().copy())
-    same = all(np.array_equal(out[0], E) for E in out[1:]) and np.abs(out[0]).max() > 0
-    assert everywhere(same)

@@ -92,33 +92,6 @@ def test_blocks_in_one_call_decide_each_as_its_dense_eigenvalue():
     assert got.count(True) == len(pos) - 2
 
 
-@pytest.mark.parametrize("threads", ["1", "2", "3"])
-def test_answers_do_not_depend_on_the_number_of_threads(threads, monkeypatch):
-    """The groups of four blocks shared among threads (each with its own work space): the
-    answers of 1, 2 and 3 threads are those of the dense eigenvalues, whatever the split."""
-    dofs, E0, H0 = _chain(30, 5, shift=0.02)
-    chain = ChainCholesky(dofs, (VERTEX_A, VERTEX_B), INTERIOR)
-    shifts = np.linspace(-0.05, 0.05, 11)  # 11 blocks: three groups, the last one short
-    E = np.stack([E0, np.broadcast_to(np.eye(7), E0.shape)])  # block b: E0 + shift_b I
-    lows = [_scaled_lowest(H0 + s * np.where(np.eye(len(H0)) > 0,
-                                             _multiplicity(dofs, len(H0)), 0.0), [])
-            for s in shifts]
-    monkeypatch.setenv("SHELLS_NUM_THREADS", threads)
-    none = [np.zeros(0, dtype=np.int64)] * 11
-    got = chain.definite(E, np.array([[1.0, s] for s in shifts]), [-1] * 11, none, 0.0)
-    assert got == [low > 0 for low in lows], (got, lows)
-    assert True in got and False in got
-
-
-def test_a_bad_thread_count_is_an_input_error(monkeypatch):
-    from shells.axisym.chain import threads
-    from shells.errors import InputError
-
-    monkeypatch.setenv("SHELLS_NUM_THREADS", "two")
-    with pytest.raises(InputError, match="SHELLS_NUM_THREADS"):
-        threads()
-
-
 def _multiplicity(dofs: np.ndarray, n: int) -> np.ndarray:
     """How many cells hold each DOF (a shift of every element's diagonal adds that many)."""
     out = np.zeros(n)

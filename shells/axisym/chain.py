@@ -40,16 +40,6 @@ both factorisations are backward stable, so they can differ only for a block wit
 of the margin τ (``shells.stability.DEFINITE_MARGIN``), where either answer is a correct one.
 A block that fails gets its exact count (3.).
 
-Threads (``threads``: the CPUs of the process, shared among MPI ranks; ``SHELLS_NUM_THREADS``):
-the tabulation shares its (form, cell) pairs among them and the definiteness test its groups of
-four blocks, each with its own work space (Python threads: the C calls release the GIL, and an
-idle worker sleeps instead of spinning). Each element matrix and each answer is still one
-thread's arithmetic alone, so every result is the same, bit for bit, whatever their number
-(tests/test_chain.py, tests/test_axisym_modes.py). This 2-core machine's cores scale poorly
-(2 threads: the six forms' tabulation 2.3-2.6 against 3.0-3.7 ms, the test of 13 blocks 1.6-1.9
-against 1.9-2.4 ms): the θ̄ = 8 run's median 1.65 against 1.72 s over six runs each. OpenMP
-gained 13 % but its idle workers spin: the run's CPU time was 1.8 times its wall time.
-
 One process only (the caller asks only then); a mesh whose cells do not form one chain, or a
 constrained interior DOF, makes ``ChainCholesky`` refuse at construction (``ValueError``) and
 the caller keeps the assembled path.
@@ -62,13 +52,10 @@ import importlib.util
 import logging
 import os
 import tempfile
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-
-from shells.errors import InputError
 
 __all__ = ["CellTabulator", "ChainCholesky", "ChainLU", "ElementAssembler"]
 
@@ -77,8 +64,7 @@ log = logging.getLogger("shells")
 _C_DECL = """
 void tabulate_cells(int nforms, const uintptr_t* kernels, int ncells, int n, double* out,
                     const double* const* coeffs, const int* ncoeff,
-                    const double* const* consts, const double* coords, int ncoord,
-                    long first, long last);
+                    const double* const* consts, const double* coords, int ncoord);
 void condense_chain(int nb, int ncells, int n, int nf, const double* E, const double* weights,
                     const int* order, int ni, const int* irow, int nv, const int* vrow,
                     double scale, double* band, int size, int* failed, double* keep_l,
@@ -88,8 +74,7 @@ int band_lu(double* ab, int n, int kd, int* piv);
 void definite_chain(int nb, int ncells, int n, int nf, const double* E, const double* weights,
                     const int* order, int ni, const int* irow, int nv, const int* vrow,
                     double scale, int size, double* band, const long* zero,
-                    const long* zero_start, const long* diag, const long* diag_start, int* ok,
-                    int first, int last);
+                    const long* zero_start, const long* diag, const long* diag_start, int* ok);
 void chain_solve(int ncells, int ni, int nv, const double* keep_l, const double* keep_y,
                  const int* idof, const int* vdof, const char* fixed, int size,
                  const double* lu, const int* piv, const double* b, double* z, double* bv,
@@ -107,23 +92,20 @@ _C_SOURCE = r"""
 #include <string.h>
 typedef void (*kernel_t)(double*, const double*, const double*, const double*, const int*,
                          const uint8_t*);
-/* out[f, c] = the element matrix (n x n) of form f on cell c, by its FFCx kernel, for the
-   (form, cell) pairs fc = f ncells + c in [first, last) (the caller's threads take a range
-   each: every matrix is one kernel call's alone, the same values however they are split) */
+/* out[f, c] = the element matrix (n x n) of form f on cell c, by its FFCx kernel */
 void tabulate_cells(int nforms, const uintptr_t* kernels, int ncells, int n, double* out,
                     const double* const* coeffs, const int* ncoeff,
-                    const double* const* consts, const double* coords, int ncoord,
-                    long first, long last)
+                    const double* const* consts, const double* coords, int ncoord)
 {
   const long size = (long)n * n;
-  (void)nforms;
-  for (long fc = first; fc < last; ++fc)
+  for (int f = 0; f < nforms; ++f)
   {
-    const int f = (int)(fc / ncells), c = (int)(fc % ncells);
-    double* A = out + fc * size;
-    memset(A, 0, sizeof(double) * size);
-    ((kernel_t)kernels[f])(A, coeffs[f] + (long)c * ncoeff[f], consts[f],
-                           coords + (long)c * ncoord * 3, 0, 0);
+    kernel_t kernel = (kernel_t)kernels[f];
+    double* A = out + (long)f * ncells * size;
+    memset(A, 0, sizeof(double) * size * ncells);
+    for (int c = 0; c < ncells; ++c)
+      kernel(A + c * size, coeffs[f] + (long)c * ncoeff[f], consts[f],
+             coords + (long)c * ncoord * 3, 0, 0);
   }
 }
 
@@ -334,24 +316,20 @@ int band_ldlt(double* ab, int n, int kd, double growth, int* counts)
 void definite_chain(int nb, int ncells, int n, int nf, const double* E, const double* weights,
                     const int* order, int ni, const int* irow, int nv, const int* vrow,
                     double scale, int size, double* band_, const long* zero,
-                    const long* zero_start, const long* diag, const long* diag_start, int* ok,
-                    int first, int last)
+                    const long* zero_start, const long* diag, const long* diag_start, int* ok)
 {
   const int kd1 = nv, kd = nv - 1, half = nv / 2;
+  v4 a[NI_MAX][NI_MAX], y[NI_MAX][NV_MAX], sv[NV_MAX][NV_MAX], w[NK_MAX];
   const v4 zero4 = {0.0, 0.0, 0.0, 0.0};
+  v4u* band = (v4u*)band_;  /* lanes innermost: band[i][l] */
+  int good[NL];
   if (ni > NI_MAX || nv > NV_MAX || nf > NK_MAX)
   {
     for (int b = 0; b < nb; ++b) ok[b] = 0;
     return;
   }
-  /* the groups of NL blocks starting in [first, last), with the work space band_ (the
-     caller's threads take a range of groups each, and a work space each: a group's answers
-     are its own arithmetic's alone, however they are split) */
-  v4u* band = (v4u*)band_;  /* lanes innermost: band[i][l] */
-  for (int g = first; g < last && g < nb; g += NL)
+  for (int g = 0; g < nb; g += NL)
   {
-    v4 a[NI_MAX][NI_MAX], y[NI_MAX][NV_MAX], sv[NV_MAX][NV_MAX], w[NK_MAX];
-    int good[NL];
     int bad = 0;  /* bit l: lane l failed */
     lane_weights(nb, nf, weights, g, w);
     for (long i = 0; i < (long)kd1 * size; ++i) band[i] = zero4;
@@ -511,63 +489,6 @@ def _cpu_flags() -> set[str]:
 _CFLAGS = ["-O3", "-ffp-contract=off"] + (["-mavx2"] if "avx2" in _cpu_flags() else [])
 # LAPACK by its run-time name (no -dev link needed): the library PETSc has loaded already
 _LDFLAGS = ["-l:liblapack.so.3"]
-#: the most threads the C loops use (``threads``)
-MAX_THREADS = 4
-
-
-def threads() -> int:
-    """Threads of the C loops that tabulate element matrices and test blocks for
-    definiteness: ``SHELLS_NUM_THREADS`` if set; else the CPUs this process may run on (its
-    affinity: one under ``mpirun``'s binding), shared among the ranks of MPI.COMM_WORLD (the
-    phase diagram runs one 1D model per rank), at most ``MAX_THREADS``. Each matrix and each
-    answer is one thread's work alone: the results do not depend on the number."""
-    env = os.environ.get("SHELLS_NUM_THREADS")
-    if env:
-        try:
-            return max(1, int(env))
-        except ValueError:
-            raise InputError(f"SHELLS_NUM_THREADS must be a positive integer, got {env!r}"
-                             ) from None
-    try:
-        cpus = len(os.sched_getaffinity(0))
-    except (AttributeError, OSError):
-        cpus = os.cpu_count() or 1
-    from mpi4py import MPI
-
-    return max(1, min(MAX_THREADS, cpus // max(1, MPI.COMM_WORLD.size)))
-
-
-_POOL: Any = None  # the worker threads of ``_in_threads``
-
-
-def _in_threads(parts: list[Callable[[], None]]) -> None:
-    """Run ``parts`` at once: the first in this thread, the others in a pool of worker threads
-    (C calls of the cffi module release the GIL; idle workers wait on a condition, they do not
-    spin)."""
-    global _POOL
-    if len(parts) == 1:
-        parts[0]()
-        return
-    from concurrent.futures import ThreadPoolExecutor
-
-    if _POOL is None or _POOL._max_workers < len(parts) - 1:
-        if _POOL is not None:
-            _POOL.shutdown(wait=False)
-        _POOL = ThreadPoolExecutor(max_workers=len(parts) - 1,
-                                   thread_name_prefix="shells-chain")
-    futures = [_POOL.submit(p) for p in parts[1:]]
-    try:
-        parts[0]()
-    finally:
-        for f in futures:
-            f.result()
-
-
-def _split(total: int, parts: int) -> list[tuple[int, int]]:
-    """[0, total) in ``parts`` contiguous ranges of nearly equal length (none empty)."""
-    parts = max(1, min(parts, total))
-    edges = [total * i // parts for i in range(parts + 1)]
-    return list(zip(edges[:-1], edges[1:], strict=True))
 
 
 def _cache_dir() -> Path:
@@ -653,15 +574,13 @@ class CellTabulator:
                 or not out.flags.c_contiguous:
             out = np.empty(shape)
         ptr = lambda a: ffi.cast("const double*", ffi.from_buffer(a))  # noqa: E731
-        args = (len(self.forms), self._kernels, self.ncells, self.n,
-                ffi.cast("double*", ffi.from_buffer(out)),
-                ffi.new("const double*[]", [ptr(a) for a in coeffs]),
-                ffi.new("int[]", [a.shape[1] for a in coeffs]),
-                ffi.new("const double*[]", [ptr(a) for a in consts]),
-                ptr(self._coords), self._coords.shape[1])
-        tabulate = self._lib.tabulate_cells
-        _in_threads([lambda r=r: tabulate(*args, *r)
-                     for r in _split(len(self.forms) * self.ncells, threads())])
+        self._lib.tabulate_cells(
+            len(self.forms), self._kernels, self.ncells, self.n,
+            ffi.cast("double*", ffi.from_buffer(out)),
+            ffi.new("const double*[]", [ptr(a) for a in coeffs]),
+            ffi.new("int[]", [a.shape[1] for a in coeffs]),
+            ffi.new("const double*[]", [ptr(a) for a in consts]),
+            ptr(self._coords), self._coords.shape[1])
         return out
 
 
@@ -892,20 +811,16 @@ class ChainCholesky:
         diag = np.ascontiguousarray(np.concatenate(ds), dtype=np.int64)
         zero_start = np.ascontiguousarray(np.cumsum([0] + [len(z) for z in zs]), dtype=np.int64)
         diag_start = np.ascontiguousarray(np.cumsum([0] + [len(d) for d in ds]), dtype=np.int64)
-        ranges = _split(-(-nb // _LANES), threads())  # groups of _LANES blocks per thread
-        space = (self.kd + 1) * self.size * _LANES  # a thread's work space
-        if self._lanes is None or self._lanes.size < len(ranges) * space:
-            self._lanes = np.empty(len(ranges) * space)
+        if self._lanes is None:
+            self._lanes = np.empty((self.kd + 1) * self.size * _LANES)
         ok = np.zeros(nb, dtype=np.intc)
-        args = (nb, E.shape[1], E.shape[2], nf, ptr(E, "double*"), ptr(weights, "double*"),
-                ptr(self._order, "int*"), self._irow.shape[1], ptr(self._irow, "int*"),
-                self._vrow.shape[1], ptr(self._vrow, "int*"), 1.0 - margin, self.size)
-        tail = (ptr(zero, "long*"), ptr(zero_start, "long*"), ptr(diag, "long*"),
-                ptr(diag_start, "long*"), ptr(ok, "int*"))
-        definite = lib.lib.definite_chain
-        _in_threads([lambda i=i, g0=g0, g1=g1: definite(
-            *args, ptr(self._lanes[i * space:(i + 1) * space], "double*"), *tail,
-            g0 * _LANES, g1 * _LANES) for i, (g0, g1) in enumerate(ranges)])
+        lib.lib.definite_chain(nb, E.shape[1], E.shape[2], nf, ptr(E, "double*"),
+                               ptr(weights, "double*"), ptr(self._order, "int*"),
+                               self._irow.shape[1], ptr(self._irow, "int*"),
+                               self._vrow.shape[1], ptr(self._vrow, "int*"), 1.0 - margin,
+                               self.size, ptr(self._lanes, "double*"), ptr(zero, "long*"),
+                               ptr(zero_start, "long*"), ptr(diag, "long*"),
+                               ptr(diag_start, "long*"), ptr(ok, "int*"))
         return [bool(v) for v in ok]
 
     def _condense(self, E: np.ndarray, powers: np.ndarray, own: list[int], scale: float,

@@ -58,7 +58,7 @@ from shells.stability import Stability, StabilityResult
 log = logging.getLogger("shells")
 
 __all__ = ["CriticalSettings", "CriticalPoint", "FollowResume", "SwitchResume", "follow",
-           "locate", "switch_branch"]
+           "locate", "locate_between", "switch_branch"]
 
 
 #: the eigenvalues near 0 of a stability block are reproducible only to about this multiple
@@ -587,6 +587,44 @@ def locate(loc: _Locator, p0: Point, w0: np.ndarray, counts0: dict[Hashable, int
         if changed:
             found = _locate_crossings(loc, p0, w0, lo, end, counts0, counts_end, changed, limit)
     return found + ([fold_cp] if fold_cp is not None else [])
+
+
+def locate_between(problem: Any, settings: ContinuationSettings, p0: Point, w0: np.ndarray,
+                   counts0: dict[Hashable, int], p1: Point, w1: np.ndarray,
+                   counts1: dict[Hashable, int], crit: CriticalSettings | None = None,
+                   stab: Stability | None = None) -> list[CriticalPoint]:
+    """The critical points between two converged points of any branch, however it was
+    followed (the pseudo-arclength of ``follow``, a switched branch's steps in a control such as
+    a dimple's depth): ``locate`` on the step from ``p0`` re-taken by pseudo-arclength along the
+    tangent there (J z = -∂R/∂λ, oriented by ``p0.dkappa_ds``), ``p1`` at its arclength
+    coordinate on that tangent (the projection of p1 - p0: p1 lies on the trial hyperplane of
+    that σ). Blocks compared: those of ``counts0`` (give only the blocks to search: a neutral
+    orbit mode's count is of either sign). The problem is left at ``p1``'s state and κ.
+    ``settings``: the corrector's (its state weight, Newton iterations, residual bounds)."""
+    stab_own = stab is None
+    stab = Stability(problem) if stab is None else stab
+    loc = _Locator(problem, settings, crit or CriticalSettings(), stab)
+    L = problem.length_scale()
+    try:
+        loc.start(w0, p0.kappa_L, p0.dkappa_ds)
+        ar = loc.ar
+        d = ar.w.duplicate()
+        try:
+            d.array_w[:] = (np.asarray(w1) - np.asarray(w0))[: d.getLocalSize()]
+            sigma1 = ar.cw * ar.tw.dot(d) + ar.tl * (p1.kappa_L - p0.kappa_L)
+        finally:
+            d.destroy()
+        if not sigma1 > 0:
+            raise RuntimeError(f"the point at kappa L = {p1.kappa_L:.6g} does not lie ahead of "
+                               f"the tangent at kappa L = {p0.kappa_L:.6g}: nothing to locate")
+        return locate(loc, p0, w0, counts0, replace(p1, step=sigma1),
+                      {b: counts1[b] for b in counts0}, w1)
+    finally:
+        loc.destroy()
+        if stab_own:
+            stab.destroy()
+        set_state(problem, w1)
+        problem.set_kappa(p1.kappa_L / L)
 
 
 def _locate_crossings(loc: _Locator, p0: Point, w0: np.ndarray, lo: _Eval, end: _Eval,

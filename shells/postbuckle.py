@@ -291,6 +291,82 @@ class _Run:
         self.ns.destroy()
 
 
+class _Secondary:
+    """The critical points of a bifurcated branch of the 1D model, located between two of its
+    points (``shells.critical.locate_between``: the generic locator, on the step re-taken by
+    pseudo-arclength) where the negative count of a Fourier block rises from one point to the
+    next (a secondary bifurcation: the closed sphere's deep dimple turning polygonal), or
+    dκ/ds changes sign (a fold of the branch), from the side's third point on (next to the
+    bifurcation the neighbouring degrees of a sphere's cluster cross as the dimple forms, and
+    the branch turns sharply: the tangent at its first point need not point to the second).
+    Block m = 1 of a closed shell is left out: its lowest mode there is the dimple sliding over
+    the sphere, neutral and of either sign. A count that falls is not located. The surface
+    model's one block mixes such orbit modes into its count: nothing is located there. The
+    model is back at the later point's state afterwards."""
+
+    def __init__(self, run: _Run, settings: Any, closed: bool) -> None:
+        self.run, self.settings = run, settings
+        self.on = run.cfg.model == "axisym"
+        self.skip = {1} if closed else set()
+        self.prev: tuple[Any, np.ndarray, dict[int, int]] | None = None
+        self.points = 0  # the side's points so far
+        self.found: list[dict[str, Any]] = []
+
+    def _counts(self, rec: dict[str, Any]) -> dict[int, int]:
+        return {m: c for m, c in enumerate(rec.get("negative_counts") or [])
+                if m not in self.skip}
+
+    def resume(self, rec: dict[str, Any], state: np.ndarray) -> None:
+        """Start from a resumed side's last point (its record and state)."""
+        from shells.continuation import Point
+
+        if self.on:
+            p = Point(index=rec["index"], kappa=rec["kappa"], kappa_L=rec["kappa_L"],
+                      newton_its=rec["newton_its"], step=rec["step"],
+                      dkappa_ds=rec["dkappa_ds"], wall_time=rec["wall_time"])
+            self.prev = (p, np.asarray(state).copy(), self._counts(rec))
+            self.points = int(rec["index"]) + 1
+
+    def step(self, p: Any, state: np.ndarray, rec: dict[str, Any], kappa_c: float
+             ) -> list[dict[str, Any]]:
+        """The critical points between the last point and ``p`` (records), if any."""
+        from shells.critical import locate_between
+
+        if not self.on:
+            return []
+        counts = self._counts(rec)
+        prev, self.prev = self.prev, (p, state.copy(), counts)
+        self.points += 1
+        if prev is None or self.points < 3:
+            return []
+        p0, w0, c0 = prev
+        rises = any(counts.get(m, 0) > c for m, c in c0.items())
+        fold = (p0.dkappa_ds >= 0) != (p.dkappa_ds >= 0)
+        if not (rises or fold):
+            return []
+        # blocks whose count fell are left as they were at the later point: not searched
+        base = {m: (c if counts.get(m, 0) > c else counts.get(m, 0)) for m, c in c0.items()}
+        cfg = self.run.cfg
+        try:
+            found = locate_between(self.run.model, self.settings, p0, w0, base, p, state,
+                                   counts, stab=self.run.stab)
+        except RuntimeError as e:
+            log.warning("postbuckle: the critical point between kappa R = %.6g and %.6g was "
+                        "not located: %s", p0.kappa * cfg.R, p.kappa * cfg.R, e)
+            return []
+        out = [{"kind": c.kind, "kappa": c.kappa, "kappa_R": c.kappa * cfg.R,
+                "kappa_h": c.kappa * cfg.h, "kappa_over_kappa_c": c.kappa / kappa_c,
+                "mode_m": c.mode_m, "block": c.block, "accuracy": float(c.accuracy),
+                "kappa_R_bracket": [float(c.kappa_lo * cfg.R), float(c.kappa_hi * cfg.R)],
+                "negative_before": c.negative_before, "negative_after": c.negative_after}
+               for c in found]
+        for c in out:
+            log.info("postbuckle: %s of the bifurcated branch at kappa R = %.6f (%.4f kappa_c),"
+                     " m = %s", c["kind"], c["kappa_R"], c["kappa_over_kappa_c"], c["mode_m"])
+        self.found.extend(out)
+        return out
+
+
 @dataclass
 class SideResume:
     """A side interrupted after some points: its ``side``, the ``records`` of its points
@@ -346,6 +422,7 @@ def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], 
     """
     from shells.continuation import ContinuationSettings
     from shells.critical import follow, switch_branch
+    from shells.problem import get_state
 
     run = _Run(cfg)
     kappa_stop = cfg.kappa_stop
@@ -453,6 +530,11 @@ def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], 
                 held: list[dict[str, Any]] = []
                 n, first, ended = 0, None, "stalled (step below ds_min)"
                 last, ended_before = None, None
+                # the last point's (point, state, counts of the blocks searched) for locating
+                # the critical points of the bifurcated branch (``_Secondary``)
+                secondary = _Secondary(run, sst, closed=cfg.shape.closed)
+                if cont is not None:
+                    secondary.resume(cont.records[-1], cont.switch.state)
                 if cont is not None:
                     n, first, last = (len(cont.records), cont.records[0]["kappa"],
                                       cont.records[-1]["kappa"])
@@ -476,6 +558,9 @@ def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], 
                         start = "down" if abs(first) < abs(cp.kappa) else "up"
                         rec = run.record(p, "bifurcated", side=int(side), start=start,
                                          subcritical=start == "down", first_amplitude=amp)
+                        found = secondary.step(p, get_state(run.model), rec, cp.kappa)
+                        if found:
+                            rec["critical"] = found
                         n += 1
                         if on_point is not None:
                             on_point(run.model, rec)
@@ -503,7 +588,10 @@ def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], 
                 log.info("postbuckle: side %+d returned after %d points at amplitude %.3g: "
                          "retried", side, n, amp)
             yield from held
+            located = [c for r in (cont.records if cont is not None else [])
+                       for c in r.get("critical", [])] + secondary.found
             sides[int(side)] = {"points": n, "ended": ended, "first_amplitude": amp,
+                                "critical": located,
                                 "parameter": "psi3_pole_over_h" if dimple else "arclength",
                                 "start": None if first is None else (
                                     "down" if abs(first) < abs(cp.kappa) else "up")}

@@ -386,3 +386,38 @@ def test_an_interrupted_side_resumes_after_its_last_point(thick_run, shared_tmp,
     assert "side +1: its checkpoint is missing, incomplete, unreadable" in caplog.text
     assert computed == [(s, i) for s in (1, -1) for i in range(6)]
     compare(resumed)
+
+
+def test_the_deep_dimple_turns_polygonal_at_located_secondary_bifurcations(monkeypatch):
+    """The h/R = 0.05 sphere's dimple, followed 20 thicknesses deep: the generic locator, on
+    the steps between its points, finds where the blocks m = 3 and then m = 4 first go
+    negative (measured: κ/κ_c = 0.51559 at 19.0 h deep, 0.50557 at 19.8 h), each inside the
+    two points whose counts it changed, its mode that block's, the rest of the branch as
+    without locating (the same points to the last bit), nothing located in the blocks m = 1
+    (the dimple sliding over the sphere) and none where a count only falls."""
+    from shells import postbuckle as pb
+
+    def run():
+        return [r for r in postbuckle(PostbuckleConfig(Sphere(1.0), 0.05, sides=(-1,),
+                                                       max_points=46))]
+
+    recs = run()
+    down = [r for r in recs if r.get("branch") == "bifurcated"]
+    assert -down[-1]["psi3_pole_over_h"] > 19.9
+    located = [(i, c) for i, r in enumerate(down) for c in r.get("critical", [])]
+    assert [c["mode_m"] for _, c in located][:2] == [3, 4]
+    for i, c in located:
+        before, after = down[i - 1], down[i]
+        m = c["block"]
+        assert c["kind"] == "bifurcation" and c["mode_m"] == m and m >= 2
+        assert after["negative_counts"][m] > before["negative_counts"][m]
+        lo, hi = sorted((before["kappa"], after["kappa"]))
+        assert lo <= c["kappa"] <= hi and c["accuracy"] < 1e-4
+    assert located[0][1]["kappa_over_kappa_c"] == pytest.approx(0.51559, abs=2e-4)
+    summary = next(r["side_end"] for r in recs if "side_end" in r)
+    assert [c["mode_m"] for c in summary["critical"]] == [c["mode_m"] for _, c in located]
+
+    monkeypatch.setattr(pb._Secondary, "step", lambda self, *args: [])
+    plain = [r for r in run() if r.get("branch") == "bifurcated"]
+    assert [(r["kappa"], r["psi3_pole_over_h"]) for r in plain] == \
+        [(r["kappa"], r["psi3_pole_over_h"]) for r in down]

@@ -120,6 +120,10 @@ def _cmd_postbuckle(args: argparse.Namespace) -> int:
         for side, s in (sides or {}).items():
             print(f"side {int(side):+d}: {s['points']} points, starts {s['start']}, "
                   f"ended: {s['ended']}")
+            for c in s.get("critical", []):
+                print(f"  {c['kind']} of the branch at kappa R = {c['kappa_R']:.6f} "
+                      f"(kappa/kc = {c['kappa_over_kappa_c']:.5f}), m = {c['mode_m']}, "
+                      f"accuracy {c['accuracy']:.1e}")
 
     emit(result, args, human)
     return 0

@@ -64,6 +64,8 @@ def run_one(h: float, max_points: int) -> dict:
             else None,
             "kappa_over_kappa_b_at_depth": _at_depths(down, cp["kappa"]),
             "secondary": _secondary(down, cp["kappa"]),
+            # the critical points the postbuckle run located on the inward side (its summary)
+            "located_on_inward_side": _located(recs, down),
             "summary": recs[-1]["summary"],
             "points": [{k: r.get(k) for k in keys} for r in fund + bif],
             "profiles": {str(k): {kk: (vv.tolist() if isinstance(vv, np.ndarray) else vv)
@@ -88,6 +90,17 @@ def _secondary(down: list[dict], kc: float) -> dict | None:
                     "orientation_modes": r["orientation_modes"], "blocks": blocks,
                     "negative_counts": counts}
     return None
+
+
+def _located(recs: list[dict], down: list[dict]) -> list[dict]:
+    """The inward side's located critical points, each with the depths of the two points
+    that bracket it."""
+    out = []
+    for i, r in enumerate(down):
+        for c in r.get("critical", []):
+            out.append({**c, "depth_between": [-down[i - 1]["psi3_pole_over_h"],
+                                               -r["psi3_pole_over_h"]]})
+    return out
 
 
 def _at_depths(down: list[dict], kc: float) -> dict[str, float | None]:
@@ -213,6 +226,10 @@ def main(outdir: str = "benchmarks/results", *flags: str) -> None:
             f"a negative eigenvalue besides the dimple's own and its sliding from "
             f"{sec['depth']:.1f} h deep (kappa/kappa_b = {sec['kappa_over_kappa_b']:.3f}): "
             f"blocks m = {sec['blocks']}, counts by m {sec['negative_counts']}"))
+        for c in r.get("located_on_inward_side", []):
+            print(f"  located: {c['kind']} m = {c['mode_m']} at kappa/kappa_b = "
+                  f"{c['kappa_over_kappa_c']:.5f} (accuracy {c['accuracy']:.1e}), between "
+                  f"{c['depth_between'][0]:.2f} and {c['depth_between'][1]:.2f} h deep")
     print("files:", ", ".join(files))
 
 

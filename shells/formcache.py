@@ -146,20 +146,32 @@ def compiled_derived(source: Any, tag: str, derive: Callable[[], list[Any]],
     ``tag`` where there is one, else derived and compiled (``dolfinx.fem.form``) and recorded.
 
     ``tag`` must change whenever the derivation does (the caller's source code, say): the
-    record is found by the source's signature and the tag alone.
+    record is found by the source's signature and the tag alone. Collective on the mesh's
+    communicator: the forms come from the records only where every rank has them.
     """
     from dolfinx import fem
 
+    comm = source.ufl_domain().ufl_cargo().comm
     path = cache_folder() / f"{_key(source, tag, jit_options)}.json" if _enabled() else None
+    found = None
     if path is not None and path.is_file():
         try:
-            return _rebuild(json.loads(path.read_text()), source)
+            found = _rebuild(json.loads(path.read_text()), source)
         except (OSError, ValueError, KeyError, TypeError, AttributeError, ImportError) as e:
             log.debug("form cache record %s not usable (%s): derived again", path, e)
+    if comm.size > 1:
+        from mpi4py import MPI
+
+        # every rank alike: compiling a form is collective (dolfinx's JIT waits for rank 0),
+        # and one rank may find a record that another does not (yet)
+        if not comm.allreduce(found is not None, op=MPI.LAND):
+            found = None
+    if found is not None:
+        return found
     ufl_forms = derive()
     forms = [fem.form(u, jit_options=jit_options) for u in ufl_forms]
     reads = [(list(u.coefficients()), list(u.constants())) for u in ufl_forms]
-    if path is not None and source.ufl_domain().ufl_cargo().comm.rank == 0:
+    if path is not None and comm.rank == 0:
         records = _record(forms, ufl_forms, source)
         if records is not None:
             try:

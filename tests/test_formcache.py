@@ -1,7 +1,8 @@
-"""The form cache (shells.formcache): the 1D model's mode forms loaded from a record are the
-forms derived anew, bound to the new model's own data (its element matrices identical to the
-last bit, at another state and other parameters than the record's); a different derivation or
-a broken record derives them again.
+"""The form cache (shells.formcache): the 1D model's mode forms and dR/dκ loaded from a record
+are the forms derived anew, bound to the new model's own data (its element matrices and dR/dκ
+identical to the last bit, at another state and other parameters than the record's); a
+different derivation or a broken record derives them again; ranks that disagree about a
+record all derive.
 
 The 1D problem runs on MPI.COMM_SELF on every rank; each test uses a cache folder of its own
 per rank, and the outcome is reduced over MPI.COMM_WORLD before asserting.
@@ -54,7 +55,7 @@ def element_matrices(model: AxisymModel) -> np.ndarray:
 def test_mode_forms_from_the_record_are_the_derived_ones_bound_to_the_new_data(folder):
     first = loaded(0.01, 0.5, 3.0)
     derived = element_matrices(first)  # derived and compiled; the record written
-    assert len(list(folder.glob("*.json"))) == 2  # C_0..C_4, H_0
+    assert len(list(folder.glob("*.json"))) == 3  # C_0..C_4, H_0; the model's dR/dκ
 
     # another model: other Poisson ratio and state (the same mesh), the same kernels
     second = loaded(0.01, 0.3, -2.0)
@@ -69,6 +70,10 @@ def test_mode_forms_from_the_record_are_the_derived_ones_bound_to_the_new_data(f
         third = loaded(0.01, 0.3, -2.0)
         fresh = element_matrices(third)
     same = np.array_equal(from_record, fresh)
+    b2, b3 = second.create_vector(), third.create_vector()
+    second.assemble_dkappa(b2)
+    third.assemble_dkappa(b3)
+    same = same and np.array_equal(b2.array, b3.array) and b2.norm() > 0
     # and not a stale copy of the first model's values
     differs = not np.allclose(from_record, derived)
     assert everywhere(same and differs)
@@ -101,3 +106,41 @@ def test_a_changed_derivation_or_a_broken_record_derives_again(folder):
     B.axpy(-1.0, A)
     same = B.norm() == 0.0 and A.norm() > 0
     assert everywhere(counts_ok and repaired_ok and same and len(reads) == 2)
+
+
+def test_ranks_that_disagree_about_a_record_all_derive(tmp_path, monkeypatch):
+    """On a mesh of every rank, a record only rank 0 has (each rank its own folder here; the
+    shared folder of a cluster can be seen at different times): compiling is collective, so
+    every rank derives (no rank waits forever for another), and the forms are the same."""
+    import ufl
+    from dolfinx import fem, mesh
+    from dolfinx.fem.petsc import assemble_matrix
+
+    folder = tmp_path / f"derived-{MPI.COMM_WORLD.rank}"
+    monkeypatch.setattr(formcache, "cache_folder", lambda: folder)
+    domain = mesh.create_unit_interval(MPI.COMM_WORLD, 8)
+    V = fem.functionspace(domain, ("Lagrange", 2))
+    f, c = fem.Function(V), fem.Constant(domain, 3.0)
+    f.interpolate(lambda x: 1.0 + x[0] ** 2)
+    u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
+    source = f * c * u * v * ufl.dx
+    calls = []
+
+    def derive():
+        calls.append(1)
+        return [ufl.replace(source, {c: ufl.as_ufl(2.0)})]
+
+    first, _ = formcache.compiled_derived(source, "a test", derive)
+    written = len(list(folder.glob("*.json")))
+    second, _ = formcache.compiled_derived(source, "a test", derive)
+    A, B = assemble_matrix(first[0]), assemble_matrix(second[0])
+    A.assemble()
+    B.assemble()
+    norm = A.norm()
+    B.axpy(-1.0, A)
+    ok = B.norm() == 0.0 and norm > 0
+    if MPI.COMM_WORLD.size > 1:
+        ok = ok and len(calls) == 2 and written == (1 if MPI.COMM_WORLD.rank == 0 else 0)
+    else:
+        ok = ok and len(calls) == 1 and written == 1
+    assert everywhere(ok)

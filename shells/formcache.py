@@ -3,13 +3,14 @@
 
 Some forms are not written by hand but derived from another: the 1D model's mode forms C_0..C_4
 are the mode Hessian differentiated k times in m by ``ufl.derivative``, its derivatives expanded
-and m replaced by 0 (``shells.axisym.modes``). FFCx finds a compiled form in its cache by the
-form's signature, but only after that UFL work is done: 0.10-0.15 s of a 1.6 s run on the
-θ̄ = 8 cap, and again in each of the phase diagram's 128 runs, for kernels that were compiled
-long ago. ``compiled_derived`` remembers, under a key made of the source form's signature and
-a tag naming the derivation, which compiled modules the derived forms were, and where their
-coefficients and constants sit among the source form's: a later call with the same key loads
-those modules and binds the source's own coefficients, with no UFL work at all.
+and m replaced by 0 (``shells.axisym.modes``); both models' dR/dκ is R(κ=1) - R(κ=0), whose
+``ufl.replace`` expands R's derivatives (``shells.formproblem``). FFCx finds a compiled form in
+its cache by the form's signature, but only after that UFL work is done: 0.10-0.15 s of a 1.6 s
+run on the θ̄ = 8 cap, and again in each of the phase diagram's 128 runs, for kernels that were
+compiled long ago. ``compiled_derived`` remembers, under a key made of the source form's
+signature and a tag naming the derivation, which compiled modules the derived forms were, and
+where their coefficients and constants sit among the source form's: a later call with the same
+key loads those modules and binds the source's own coefficients, with no UFL work at all.
 
 The forms are the same compiled kernels bound to the same objects, so everything computed
 with them is identical to the last bit (tests/test_formcache.py). The key holds everything
@@ -17,7 +18,8 @@ that decides the kernels: the source's UFL signature (its whole expression: elem
 quadrature degree, every number written into it), the caller's tag (the derivation's own
 source code), the versions of UFL, FFCx, basix and dolfinx, and the compiler options. A record
 whose modules cannot be loaded is ignored and written again. ``SHELLS_FORM_CACHE=0`` turns the
-cache off (the forms are then derived every time).
+cache off (the forms are then derived every time). In parallel the forms come from the
+records only where every rank of the mesh's communicator has them (compiling is collective).
 """
 
 from __future__ import annotations

@@ -79,6 +79,28 @@ def test_mode_forms_from_the_record_are_the_derived_ones_bound_to_the_new_data(f
     assert everywhere(same and differs)
 
 
+def test_the_key_changes_with_anything_that_changes_the_kernels():
+    """The record is found by the source's whole UFL: another quadrature degree, another number
+    written into the expression or another element give another key (no compilation needed
+    to tell); the same form built again, on another mesh of the same kind, the same key."""
+    import ufl
+    from dolfinx import fem, mesh
+
+    def source(degree=4, number=2.0, p=2, cells=8):
+        domain = mesh.create_unit_interval(MPI.COMM_SELF, cells)
+        V = fem.functionspace(domain, ("Lagrange", p))
+        f, c = fem.Function(V), fem.Constant(domain, 3.0)
+        u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
+        dx = ufl.Measure("dx", domain=domain, metadata={"quadrature_degree": degree})
+        return (number * f + c) * u.dx(0) * v.dx(0) * dx
+
+    key = lambda form: formcache._key(form, "a test", None)  # noqa: E731
+    base = key(source())
+    assert key(source(cells=12)) == base
+    assert len({base, key(source(degree=6)), key(source(number=2.5)), key(source(p=3))}) == 4
+    assert formcache._key(source(), "another derivation", None) != base
+
+
 def test_a_changed_derivation_or_a_broken_record_derives_again(folder):
     model = loaded(0.01, 0.5, 1.0)
     mf = model.mode_forms

@@ -29,22 +29,35 @@ import importlib.util
 import json
 import logging
 import os
-import tempfile
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-__all__ = ["compiled_derived", "cache_folder"]
+from shells.store import write_atomic
+
+__all__ = ["compiled_derived", "cache_folder", "cache_root", "file_tag"]
 
 log = logging.getLogger("shells")
 
 _MODULES: dict[str, Any] = {}  # the compiled modules loaded in this process, by file
 
 
-def cache_folder() -> Path:
-    """Where the records go: ``$XDG_CACHE_HOME/shells/derived`` (default ``~/.cache``)."""
+def cache_root() -> Path:
+    """The package's cache folder, ``$XDG_CACHE_HOME/shells`` (default ``~/.cache``): the
+    compiled C loop and the 1D model's FFCx modules live there too."""
     base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(base) / "shells" / "derived"
+    return Path(base) / "shells"
+
+
+def cache_folder() -> Path:
+    """Where the records go: ``cache_root() / "derived"``."""
+    return cache_root() / "derived"
+
+
+def file_tag(path: str | os.PathLike) -> str:
+    """A tag naming a derivation by the source file that holds it (``compiled_derived``'s
+    ``tag``): any change of the file derives the forms again."""
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()[:16]
 
 
 def _enabled() -> bool:
@@ -178,10 +191,7 @@ def compiled_derived(source: Any, tag: str, derive: Callable[[], list[Any]],
         if records is not None:
             try:
                 path.parent.mkdir(parents=True, exist_ok=True)
-                with tempfile.NamedTemporaryFile("w", dir=path.parent, delete=False,
-                                                 suffix=".tmp") as tmp:
-                    json.dump(records, tmp)
-                os.replace(tmp.name, path)  # atomic: a reader sees all of it or nothing
+                write_atomic(path, json.dumps(records))  # a reader sees all of it or nothing
             except OSError as e:
                 log.debug("form cache record %s not written: %s", path, e)
     return forms, reads

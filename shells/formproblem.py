@@ -15,16 +15,14 @@ blocks, scalars and mode classification stay with each model.
 
 from __future__ import annotations
 
-import hashlib
-from pathlib import Path
 from typing import Any
 
-from shells.formcache import compiled_derived
+from shells.formcache import compiled_derived, file_tag
 
 __all__ = ["FormProblem"]
 
 #: names ``_derive_forms``' derivation of dR/dκ (this file) in the form cache
-_DERIVATION = hashlib.sha256(Path(__file__).read_bytes()).hexdigest()[:16]
+_DERIVATION = file_tag(__file__)
 
 
 class FormProblem:

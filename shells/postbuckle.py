@@ -535,7 +535,6 @@ def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], 
                 secondary = _Secondary(run, sst, closed=cfg.shape.closed)
                 if cont is not None:
                     secondary.resume(cont.records[-1], cont.switch.state)
-                if cont is not None:
                     n, first, last = (len(cont.records), cont.records[0]["kappa"],
                                       cont.records[-1]["kappa"])
                     ended_before = stop(last, n) or ("range" if landed(last) else None)

@@ -492,8 +492,11 @@ _LDFLAGS = ["-l:liblapack.so.3"]
 
 
 def _cache_dir() -> Path:
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(base) / "shells"
+    """The package's cache folder (``shells.formcache.cache_root``), where the C loop is
+    built."""
+    from shells.formcache import cache_root
+
+    return cache_root()
 
 
 def _library() -> Any:

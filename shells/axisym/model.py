@@ -31,9 +31,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from shells.axisym.chain import _cache_dir
 from shells.axisym.mesh import MeridianMesh, _supported, make_meridian_nodes
 from shells.errors import InputError
+from shells.formcache import cache_root
 from shells.formproblem import FormProblem
 from shells.geometry import (
     Disk,
@@ -58,7 +58,7 @@ LOADS = ("curvature", "pressure", "equivalent", "equivalent_normal", "local_pres
 #: two phases); the 1D model's forms go to a cache folder of their own (``~/.cache/shells/ffcx``):
 #: FFCx lists its cache folder at every lookup of a compiled form (2.4 ms a form in a shared
 #: folder of 3900 files, 0.1 ms in one of 84: the 21 forms of a run, 50 ms of its set-up)
-JIT_OPTIONS: dict[str, Any] = {"timeout": 300, "cache_dir": str(_cache_dir() / "ffcx")}
+JIT_OPTIONS: dict[str, Any] = {"timeout": 300, "cache_dir": str(cache_root() / "ffcx")}
 
 
 # ------------------------------------------------------------------------------------------------

@@ -47,17 +47,15 @@ path 0.034 s (benchmarks/axisym_mode_assembly.py, docs/model.md).
 
 from __future__ import annotations
 
-import hashlib
 import logging
 import math
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from shells.axisym.model import JIT_OPTIONS, AxisymModel, Jet, _dirichlet
 from shells.errors import InputError
-from shells.formcache import compiled_derived
+from shells.formcache import compiled_derived, file_tag
 
 __all__ = ["ModeForms"]
 
@@ -72,7 +70,7 @@ _PHASES: dict[int, dict[str, float]] = {
 DEGREE = 4
 #: names the derivation of the mode forms from the Hessian's UFL (this file) in the form cache
 #: (``shells.formcache``): any change of this module derives them again
-_DERIVATION = hashlib.sha256(Path(__file__).read_bytes()).hexdigest()[:16]
+_DERIVATION = file_tag(__file__)
 
 
 # ------------------------------------------------------------------------------------------------

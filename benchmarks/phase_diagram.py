@@ -661,43 +661,37 @@ def explanations(pts: list[dict[str, Any]], fit: dict[str, Any],
         ulp = fx["mu_2_one_ulp_perturbations"]
         res = fx.get("mu_2_resolved_shifted") or ulp
         ks = [r["kappa_R"] for r in nz["runs"]]
-        t.append("**How reproducible a located point is.** A location tolerance is not the "
-                 "whole error: the shallowest crossings are limited by round-off. The "
-                 "down-branch bifurcation of θ̄ = 15.11 at h/R = 0.01 (m = 2), located four "
-                 "times with the continuation's first step scaled by 1, 1 ± 1e-6 and 1.001, "
-                 f"lands at κR = {min(ks):.5f} to {max(ks):.5f} ("
-                 f"{nz['located_spread_relative']:.1e} relative), where the interpolation of "
-                 "its eigenvalue samples alone claimed at most 1.6e-6; the reported accuracy "
-                 "now includes the measured round-off of the crossing eigenvalue "
-                 "(`shells.critical.EIGEN_ROUNDOFF`) and is "
+        fac = fx.get("factorisations", {})
+        t.append("**How reproducible a located point is.** The crossing eigenvalues the "
+                 "locator interpolates are Rayleigh quotients vᵀHv / vᵀMv of the "
+                 "eigenvectors, vᵀHv the quadrature of the energy's second variation d²E(v, v) "
+                 "(`shells.stability.Stability.eigenpairs`), not the shift-invert's "
+                 "eigenvalues, which carry the round-off of the assembled block and of its "
+                 "factorisation, of order ε ||H|| = "
+                 f"{2.2e-16 * fx['hessian_2_frobenius']:.0e} on the Fourier blocks (Frobenius "
+                 f"norm {fx['hessian_2_frobenius']:.1e}: the penalty tying the slope fields, "
+                 "1e4 / g² on cells of size 1e-2 R). That decides the slow crossings: the "
+                 "down-branch bifurcation of θ̄ = 15.11 at h/R = 0.01 (m = 2), whose crossing "
+                 f"eigenvalue changes by only {nz['dmu_dkappaR']:.1e} per unit κR, located "
+                 "four times with the continuation's first step scaled by 1, 1 ± 1e-6 and "
+                 f"1.001, lands at κR = {min(ks):.9f} to {max(ks):.9f} "
+                 f"({nz['located_spread_relative']:.1e} relative; reported accuracy "
                  f"{min(r['reported_accuracy'] for r in nz['runs']):.1e} to "
-                 f"{nz['largest_reported_accuracy']:.1e}. Its crossing "
-                 f"eigenvalue changes by only {nz['dmu_dkappaR']:.1e} per unit κR, and the "
-                 f"Fourier block's Hessian has a Frobenius norm of {fx['hessian_2_frobenius']:.1e}"
-                 " (the penalty tying the slope fields, 1e4 / g² on cells of size 1e-2 R): "
-                 "eigenvalues near 0 carry a round-off of order ε ||H|| = "
-                 f"{2.2e-16 * fx['hessian_2_frobenius']:.0e}. Measured: solving one state "
-                 "again at κ (1 ± 1e-10), a new sequence of round-off in the state, moves it "
-                 f"by up to {max(res) - min(res):.0e} (1-ulp perturbations of the state by "
-                 f"{max(ulp) - min(ulp):.0e}), and the locator's "
-                 "trial states next to the crossing give it " + ", ".join(
-                     f"{mu:.1e}" for _, mu in nz["nearest_samples"]) + " run against run, "
-                 f"enough to move the root by ~{nz['located_spread_relative']:.0e}. Where the "
-                 "eigenvalue crosses this slowly (the κ < 0 losses of symmetry of deep caps at "
-                 "h/R = 0.01) a located point is therefore reproducible to about 4e-4, whatever "
-                 "the tolerance; the folds, the κ > 0 bifurcations and the fits far better. "
-                 "Reruns at rel_tol 1e-5 before and after the 1D solver changes of issue 14 "
-                 "(its per-point checks by banded Cholesky, then from element matrices "
-                 "condensed on the chain of cells, `shells.axisym.chain`, then exact counts "
-                 "and eigensolves with the model's own factorisations of the condensed blocks) "
-                 "moved the fits by at most 5.5e-6, 4.0e-6 and 1.7e-5 (b and c, fitted to the "
-                 "κ < 0 points; α, β and θ̄_s unchanged; θ̄_c 1.9e-6), every κ > 0 point by "
-                 "at most 1.1e-5, 5.9e-6 and 3.5e-6, and the κ < 0 points by up to 4.1e-4, "
-                 "2.8e-4 and 3.1e-4, the spread above (`benchmarks/locator_noise.py`). The "
-                 "plate limit at h/r = 0.01 is such a slow crossing too: it moved by 3.3e-5, "
-                 "3.6e-4 and 1.6e-4 (4.6027, 4.6033 with other steps, 4.6044, 4.6036), inside "
-                 "its reported accuracy (2e-2 relative: round-off dominates the disk's m = 2 "
-                 "eigenvalue at κ r = 0.046).\n")
+                 f"{nz['largest_reported_accuracy']:.1e}); one state solved again at "
+                 f"κ (1 ± 1e-10 .. 1e-9) moves its μ_2 by {max(res) - min(res):.0e} (1-ulp "
+                 f"perturbations of the state by {max(ulp) - min(ulp):.0e}), and the model's "
+                 "chain LU and MUMPS give the same state's μ_2 as "
+                 f"{fac.get('mu_2_chain', math.nan):.4e} and "
+                 f"{fac.get('mu_2_mumps', math.nan):.4e} (`benchmarks/locator_noise.py`). "
+                 "Before the quotients (issue 14), the same four runs spread by 3.1e-4 "
+                 "relative, the trial states' μ_2 scattered by ~2e-7 run against run, and the "
+                 "κ < 0 losses of symmetry of deep caps at h/R = 0.01 were reproducible to "
+                 "about 4e-4 only, whatever the tolerance; the rerun with them moved those "
+                 "points by up to 2.9e-4 (to reproducible values), the plate limit at "
+                 "h/r = 0.01 by 1.0e-4 (4.6036 to 4.6032; earlier runs had spread over "
+                 "4.6027 to 4.6044, its m = 2 crossing as slow), every κ > 0 point by at most "
+                 "3.8e-6, the fits b and c by 1.0e-5 and 8.4e-6 (θ̄_c by 2e-7; α, β and θ̄_s "
+                 "unchanged).\n")
     if below:
         t.append(f"**α, β (snap line).** Our folds lie {-100 * max(below):.1f} % to "
                  f"{-100 * min(below):.1f} % (mean {-100 * float(sum(below) / len(below)):.1f} %)"
@@ -847,9 +841,8 @@ def main() -> None:
     ap.add_argument("--layer-elements", type=float, default=3.0,
                     help="surface check: elements across sqrt(R h)")
     ap.add_argument("--rel-tol", type=float, default=1e-5,
-                    help="location accuracy of every critical point, relative in κ (1e-5, "
-                    "below the round-off floor of the shallowest crossings: "
-                    "benchmarks/locator_noise.py; the CLI's default is 1e-3)")
+                    help="location accuracy of every critical point, relative in κ (1e-5; "
+                    "the CLI's default is 1e-3)")
     ap.add_argument("--checks-only", action="store_true",
                     help="keep the stored diagram, recompute the checks")
     args = ap.parse_args()

@@ -64,14 +64,13 @@ __all__ = ["CriticalSettings", "CriticalPoint", "FollowResume", "SwitchResume", 
 #: the eigenvalues near 0 of a stability block are reproducible only to about this multiple
 #: of their change when the point is solved again at a κ shifted by round-off
 #: (``_Locator.eigenvalue_roundoff``), so a crossing only to that over |dμ/dκ|, which the
-#: reported accuracy includes. Measured (benchmarks/locator_noise.py) on the 1D model's m = 2
-#: block of the θ̄ = 15.11 cap going down (h/R = 0.01; ||H||_F = 4.6e9 from the slope penalty,
-#: dμ/dκR = 2.3e-3): solving the state again at κ (1 ± 1e-10) moves the crossing eigenvalue by
-#: up to 1.9e-7 (1-ulp perturbations of the state alone by 1.5e-11 with the model's own
-#: factorisation, by 1e-7 with MUMPS), the locator's trial states next to the crossing scatter
-#: it by 3.5e-7 run against run (first step scaled by 1 ± 1e-6, 1.001) and the located κ by
-#: 3.1e-4 relative, where the interpolation alone claimed at most 1.6e-6 (with this factor the
-#: four runs report 1.5e-4 to 7.0e-4)
+#: reported accuracy includes. Set when the eigenvalues were the shift-invert's (measured,
+#: benchmarks/locator_noise.py, on the 1D model's m = 2 block of the θ̄ = 15.11 cap going down,
+#: h/R = 0.01, ||H||_F = 4.6e9, dμ/dκR = 2.3e-3: the state solved again at κ (1 ± 1e-10) moved
+#: the crossing eigenvalue by up to 1.9e-7, the trial states scattered it by 3.5e-7 run against
+#: run and the located κ by 3.1e-4 relative; with this factor the runs reported 1.5e-4 to
+#: 7.0e-4). Where the problem gives Rayleigh quotients (``Stability.eigenpairs``) the change
+#: is 1e-12 there, the located κ spread 3e-11 and the reported accuracy 2e-9
 EIGEN_ROUNDOFF = 6.0
 #: the relative shift of κ at which ``_Locator.eigenvalue_roundoff`` solves a point again
 ROUNDOFF_SHIFT = 1.0e-10
@@ -364,11 +363,13 @@ class _Locator:
         a 1-ulp perturbation w (1 ± ε) of the state, random signs, a fixed seed, instead).
         The shift is far too small to change the physics (dμ/dκ times it is ~1e-13 on the 1D
         model's caps), but it changes every entry of the block's matrix, and so redraws the
-        round-off of its factorisation, which bounds an eigenvalue that small: on the h/R =
-        0.01, θ̄ = 15.11 cap's m = 2 block (‖H‖_F = 4.6e9) μ moves by a std of 7.4e-8 over
-        13 such shifts, and the same state gives μ = 1.3e-7 by the chain LU and -3.6e-8 by
-        MUMPS, while 1-ulp perturbations of the state move it by 1.5e-11 only
-        (``benchmarks/locator_noise.py``). 0 where it cannot be measured
+        round-off of its assembly and factorisation, which bounds a shift-invert eigenvalue
+        that small: on the h/R = 0.01, θ̄ = 15.11 cap's m = 2 block (‖H‖_F = 4.6e9) μ moved
+        by a std of 7.4e-8 over 13 such shifts, and the same state gave μ = 1.3e-7 by the
+        chain LU and -3.6e-8 by MUMPS, while 1-ulp perturbations of the state moved it by
+        1.5e-11 only; its Rayleigh quotient (``Stability.eigenpairs``, where the problem has
+        ``hessian_quadratic``) moves by a std of 3.5e-13 (``benchmarks/locator_noise.py``),
+        which this measures then. 0 where it cannot be measured
         (an eigensolve that fails: the shift-invert factorisation of an exactly singular
         block, as at an algebraic problem's exact root)."""
         from petsc4py import PETSc
@@ -764,8 +765,37 @@ def _locate_crossing(loc: _Locator, p0: Point, w0: np.ndarray, lo: _Eval, hi: _E
             out = min(pos) if pos else math.nan
         else:
             neg = sorted((v for v in vals if v < 0), reverse=True)
-            out = neg[k - 1] if len(neg) >= k else math.nan  # unknown: not computed
+            pos = [v for v in vals if v >= 0]
+            if len(neg) >= k:
+                out = neg[k - 1]
+            elif len(neg) == k - 1 and pos:
+                # one negative fewer than the inertia counts: the crossing eigenvalue's
+                # Rayleigh quotient (``Stability.eigenpairs``) is still positive, the
+                # factorisation's sign being round-off this close to 0
+                out = min(pos)
+            else:
+                out = math.nan  # unknown: not computed
         return out if rising else -out
+
+    def settle(e: _Eval) -> None:
+        """The side of ``e`` for the followed block, where its count changes by one across
+        the step, decided by the sign of its crossing eigenvalue where that is known and
+        disagrees with the inertia: the eigenvalue is a Rayleigh quotient, accurate to far
+        below the factorisation's round-off (``Stability.eigenpairs``), which decides the
+        inertia's sign within ~1e-7 of 0 on the 1D model's stiff blocks (a bracket decided
+        by it would exclude the root that its eigenvalue samples give)."""
+        b = moved_at(hi)[0]
+        if abs(c1[b] - c0[b]) != 1 or b not in e.counts:
+            return
+        f = crossing(e, b)
+        if not math.isfinite(f):
+            return
+        rising = c1[b] > c0[b]
+        crossed = (f < 0) == rising
+        if crossed != (e.counts[b] != c0[b]):
+            log.debug("locate: the crossing eigenvalue %.3e of block %s decides the side, "
+                      "not the inertia (count %d)", f, b, e.counts[b])
+            e.counts[b] = c1[b] if crossed else c0[b]
 
     def is_low(e: _Eval) -> bool:
         return all(e.counts[b] == c0[b] for b in e.counts)
@@ -864,6 +894,7 @@ def _locate_crossing(loc: _Locator, p0: Point, w0: np.ndarray, lo: _Eval, hi: _E
             break
         evals += 1
         samples.append(e)
+        settle(e)
         sides.append(is_low(e))
         if sides[-1]:
             lo = e
@@ -1432,6 +1463,13 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
         # converges, its increments stay near 1e-3 R); the deflation, which removes the
         # cluster's components from every increment, bent the branch onto others
         strict = dict(corrector, singular_ok=False, deflate=None)
+        # the first point, a small amplitude along the mode, lies next to κ_c: a corrector
+        # that went farther than a quarter of κ_c (plus 1 % of the range) converged onto
+        # another branch (measured: the h/R = 0.05 sphere's outward side, amplitude 0.125,
+        # from κL = 29.65 to an equilibrium at κL = -0.009); it is refused like a failure and
+        # the next amplitude is tried
+        first_corrector = dict(corrector, max_dlam=min(max_dlam,
+                                                       0.25 * abs(lam_c) + ar.lam_ref))
         sgn = 1.0 if sign >= 0 else -1.0
 
         # the amplitude is measured along φ_0 made orthogonal (in the continuation norm's
@@ -1527,7 +1565,7 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
                 wp.copy(ar.w)
                 ar.sync()
                 c = _bordered_newton(ar, st_first, lam_c, plane=(plane_dir, 0.0, wp),
-                                     **corrector)
+                                     **first_corrector)
                 if c.ok and control is not None:  # converged to newton_tol from there
                     ar.w.copy(wp)
                     c = _bordered_newton(ar, st_first, c.lam, plane=(plane_dir, 0.0, wp),

@@ -64,7 +64,8 @@ def _enabled() -> bool:
     return os.environ.get("SHELLS_FORM_CACHE", "1") != "0"
 
 
-def _key(source: Any, tag: str, jit_options: dict[str, Any] | None) -> str:
+def _key(source: Any, tag: str, jit_options: dict[str, Any] | None,
+         extra: tuple[Any, ...] = ()) -> str:
     import basix
     import dolfinx
     import ffcx
@@ -73,6 +74,7 @@ def _key(source: Any, tag: str, jit_options: dict[str, Any] | None) -> str:
     parts = [source.signature(), tag, ufl.__version__, ffcx.__version__, basix.__version__,
              dolfinx.__version__, repr(sorted((jit_options or {}).items())),
              repr(dolfinx.default_scalar_type)]
+    parts += [repr(c.ufl_element()) for c in extra]  # the extra coefficients' elements
     return hashlib.sha256("\n".join(parts).encode()).hexdigest()[:24]
 
 
@@ -87,18 +89,24 @@ def _positions(items: list[Any], pool: list[Any]) -> list[int] | None:
     return out
 
 
-def _record(forms: list[Any], ufl_forms: list[Any], source: Any) -> list[dict] | None:
+def _record(forms: list[Any], ufl_forms: list[Any], source: Any,
+            extra: tuple[Any, ...] = ()) -> list[dict] | None:
     """What a later call needs to rebuild ``forms``; None where they cannot be rebuilt from
-    the source's coefficients alone (a coefficient of their own, an integral other than one
-    cell integral over the whole mesh)."""
+    the source's coefficients and ``extra`` alone (a coefficient of their own, an integral
+    other than one cell integral over the whole mesh, arguments other than the source's
+    first ones)."""
     from dolfinx.fem import IntegralType
 
-    coefficients, constants = source.coefficients(), source.constants()
+    coefficients, constants = [*source.coefficients(), *extra], source.constants()
+    sources = source.arguments()
     out = []
     for f, u in zip(forms, ufl_forms, strict=True):
         if set(f.integral_types) != {IntegralType.cell} or any(
                 i.subdomain_data() is not None or i.subdomain_id() != "everywhere"
                 for i in u.integrals()):
+            return None
+        args = u.arguments()
+        if tuple(args) != tuple(sources[: len(args)]):
             return None
         cpos, kpos = _positions(u.coefficients(), coefficients), \
             _positions(u.constants(), constants)
@@ -107,7 +115,7 @@ def _record(forms: list[Any], ufl_forms: list[Any], source: Any) -> list[dict] |
         if cpos is None or kpos is None or module is None or len(names) != 1:
             return None
         out.append({"module": module, "name": f.module.__name__, "form": names[0],
-                    "coefficients": cpos, "constants": kpos})
+                    "coefficients": cpos, "constants": kpos, "rank": len(args)})
     return out
 
 
@@ -123,14 +131,16 @@ def _load(entry: dict) -> Any:
     return _MODULES[path]
 
 
-def _rebuild(records: list[dict], source: Any) -> tuple[list[Any], list[tuple[list, list]]]:
-    """The forms of ``records``, bound to the source's coefficients and constants, as
-    ``dolfinx.fem.form`` binds them; with each form's (coefficients, constants)."""
+def _rebuild(records: list[dict], source: Any, extra: tuple[Any, ...] = ()
+             ) -> tuple[list[Any], list[tuple[list, list]]]:
+    """The forms of ``records``, bound to the source's coefficients (and ``extra``) and
+    constants, as ``dolfinx.fem.form`` binds them; with each form's (coefficients,
+    constants)."""
     import dolfinx
     from dolfinx.fem import IntegralType
     from dolfinx.fem.forms import Form, form_cpp_class
 
-    coefficients, constants = source.coefficients(), source.constants()
+    coefficients, constants = [*source.coefficients(), *extra], source.constants()
     spaces = [a.ufl_function_space()._cpp_object for a in source.arguments()]
     mesh = source.ufl_domain().ufl_cargo()
     ftype = form_cpp_class(dolfinx.default_scalar_type)
@@ -140,12 +150,13 @@ def _rebuild(records: list[dict], source: Any) -> tuple[list[Any], list[tuple[li
         ufcx_form = getattr(module.lib, entry["form"])
         own = [coefficients[i] for i in entry["coefficients"]]
         consts = [constants[i] for i in entry["constants"]]
+        rank = int(entry.get("rank", len(spaces)))
         if ufcx_form.num_coefficients > len(own) or ufcx_form.num_constants != len(consts) \
-                or ufcx_form.rank != len(spaces):
+                or ufcx_form.rank != rank or rank > len(spaces):
             raise ValueError("a record that does not match its module")
         bound = [own[ufcx_form.original_coefficient_positions[i]]._cpp_object
                  for i in range(ufcx_form.num_coefficients)]
-        f = ftype(module.ffi.cast("uintptr_t", module.ffi.addressof(ufcx_form)), spaces,
+        f = ftype(module.ffi.cast("uintptr_t", module.ffi.addressof(ufcx_form)), spaces[:rank],
                   bound, [k._cpp_object for k in consts], {IntegralType.cell: []}, {}, mesh)
         forms.append(Form(f, ufcx_form, None, module))
         reads.append((own, consts))
@@ -153,12 +164,15 @@ def _rebuild(records: list[dict], source: Any) -> tuple[list[Any], list[tuple[li
 
 
 def compiled_derived(source: Any, tag: str, derive: Callable[[], list[Any]],
-                     jit_options: dict[str, Any] | None = None
+                     jit_options: dict[str, Any] | None = None,
+                     extra: tuple[Any, ...] = ()
                      ) -> tuple[list[Any], list[tuple[list, list]]]:
     """The compiled forms of ``derive()`` (UFL forms derived from the UFL form ``source``, on
-    its arguments and with coefficients and constants among its own), and each one's
-    (coefficients, constants): from the record of an earlier call with the same source and
-    ``tag`` where there is one, else derived and compiled (``dolfinx.fem.form``) and recorded.
+    its first arguments (all, or fewer: a functional ``action(action(a, f), f)``) and with
+    coefficients among its own and ``extra``, constants among its own), and each one's
+    (coefficients, constants): from the record of an earlier call with the same source,
+    ``tag`` and elements of ``extra`` where there is one, else derived and compiled
+    (``dolfinx.fem.form``) and recorded.
 
     ``tag`` must change whenever the derivation does (the caller's source code, say): the
     record is found by the source's signature and the tag alone. Collective on the mesh's
@@ -167,11 +181,13 @@ def compiled_derived(source: Any, tag: str, derive: Callable[[], list[Any]],
     from dolfinx import fem
 
     comm = source.ufl_domain().ufl_cargo().comm
-    path = cache_folder() / f"{_key(source, tag, jit_options)}.json" if _enabled() else None
+    extra = tuple(extra)
+    path = (cache_folder() / f"{_key(source, tag, jit_options, extra)}.json" if _enabled()
+            else None)
     found = None
     if path is not None and path.is_file():
         try:
-            found = _rebuild(json.loads(path.read_text()), source)
+            found = _rebuild(json.loads(path.read_text()), source, extra)
         except (OSError, ValueError, KeyError, TypeError, AttributeError, ImportError) as e:
             log.debug("form cache record %s not usable (%s): derived again", path, e)
     if comm.size > 1:
@@ -187,7 +203,7 @@ def compiled_derived(source: Any, tag: str, derive: Callable[[], list[Any]],
     forms = [fem.form(u, jit_options=jit_options) for u in ufl_forms]
     reads = [(list(u.coefficients()), list(u.constants())) for u in ufl_forms]
     if path is not None and comm.rank == 0:
-        records = _record(forms, ufl_forms, source)
+        records = _record(forms, ufl_forms, source, extra)
         if records is not None:
             try:
                 path.parent.mkdir(parents=True, exist_ok=True)

@@ -132,6 +132,37 @@ class FormProblem:
         set_bc(v, self.bcs, alpha=0.0)
 
     # -- helpers for the models' stability blocks -------------------------------------------------
+    def _quadratic(self, key: Any, bilinear: Any, bcs: list[Any], v: Any,
+                   jit_options: dict[str, Any] | None = None) -> float:
+        """vᵀ A v for the bilinear form A (UFL, symmetric) by quadrature of A(v, v) as a
+        functional, the DOFs of ``bcs`` of v taken as zero (a block's ``hessian_quadratic``).
+        Each quadrature point's value comes from v's own values and derivatives there, so its
+        round-off is ε times the terms of A(v, v) itself, where that of a product with the
+        assembled matrix is ε |v|ᵀ|A||v|: on the 1D model's stiff blocks ~1e-6 against an
+        eigenvalue of 1e-7 next to a crossing (``benchmarks/locator_noise.py``). The functional
+        is compiled on first use for each ``key`` (the form's variable data, Constants and
+        coefficients, are read at each call)."""
+        import ufl
+        from dolfinx import fem
+        from dolfinx.fem.petsc import set_bc
+        from mpi4py import MPI
+
+        cache = self.__dict__.setdefault("_quadratics", {})
+        if key not in cache:
+            f = fem.Function(bilinear.arguments()[0].ufl_function_space())
+            # through the form cache: the action's UFL work and signature cost 0.3 s a model
+            # on the 1D model's mode Hessian, for a kernel compiled long ago
+            forms, _ = compiled_derived(
+                bilinear, f"{_DERIVATION} quadratic",
+                lambda: [ufl.action(ufl.action(bilinear, f), f)], jit_options, extra=(f,))
+            cache[key] = (f, forms[0])
+        f, q = cache[key]
+        x = f.x.petsc_vec
+        x.array_w[:] = v.array_r
+        set_bc(x, bcs, alpha=0.0)
+        f.x.scatter_forward()
+        return float(self.comm.allreduce(fem.assemble_scalar(q), op=MPI.SUM))
+
     @staticmethod
     def _assemble_symmetric(H: Any, form: Any, bcs: list[Any]) -> None:
         from dolfinx.fem.petsc import assemble_matrix

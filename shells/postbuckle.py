@@ -579,13 +579,21 @@ def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], 
                         elif n and landed(last):
                             ended = "range"
                 except RuntimeError as e:
-                    if "back on the fundamental branch" not in str(e):
+                    if "back on the fundamental branch" in str(e):
+                        ended = "returned to the fundamental branch"
+                    elif n == 0 and "did not converge off the fundamental branch" in str(e):
+                        # no first point at any of switch_branch's amplitudes: the next
+                        # factor, and past the last the side is reported as failed, not the
+                        # run (measured: the h/R = 0.05 sphere's outward side, whose first
+                        # corrector diverges next to the cluster of bifurcations)
+                        ended = f"switching failed: {e}"
+                    else:
                         raise
-                    ended = "returned to the fundamental branch"
-                if ended != "returned to the fundamental branch" or n >= 3 or i == len(amps) - 1:
+                if not ended.startswith(("returned", "switching failed")) or n >= 3 \
+                        or i == len(amps) - 1:
                     break
-                log.info("postbuckle: side %+d returned after %d points at amplitude %.3g: "
-                         "retried", side, n, amp)
+                log.info("postbuckle: side %+d %s after %d points at amplitude %.3g: "
+                         "retried", side, "failed" if n == 0 else "returned", n, amp)
             yield from held
             located = [c for r in (cont.records if cont is not None else [])
                        for c in r.get("critical", [])] + secondary.found
@@ -594,7 +602,8 @@ def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], 
                                 "parameter": "psi3_pole_over_h" if dimple else "arclength",
                                 "start": None if first is None else (
                                     "down" if abs(first) < abs(cp.kappa) else "up")}
-            log.info("postbuckle: side %+d: %d points, %s", side, n, ended)
+            (log.warning if ended.startswith("switching failed") else log.info)(
+                "postbuckle: side %+d: %d points, %s", side, n, ended)
             yield {"side_end": {"side": int(side), **sides[int(side)]}}
         yield {"summary": {"sides": sides, "dofs": run.model.num_dofs()}}
     finally:

@@ -226,8 +226,10 @@ def test_postbuckle_cli_refuses_what_the_1d_model_cannot_follow(capsys):
 
 @pytest.fixture(scope="module")
 def thick_run(tmp_path_factory):
-    """An uninterrupted run of the h/R = 0.05 sphere (both sides, 6 points each) in its own
-    folder: (config, folder, records)."""
+    """An uninterrupted run of the h/R = 0.05 sphere in its own folder: (config, folder,
+    records). Side -1 (the dimple): 6 points; side +1, outward, next to the cluster of
+    bifurcations: what the switch finds (its first corrector diverges at the first amplitude;
+    at the second, one point before the steps stall)."""
     from mpi4py import MPI
 
     from shells.postbuckle import run_postbuckle
@@ -304,18 +306,55 @@ def test_an_interrupted_run_resumes_from_its_critical_point(thick_run, shared_tm
         pb.run_postbuckle(other, cut_dir)
 
 
+def test_a_side_that_cannot_switch_is_reported_and_the_run_goes_on(thick_run, shared_tmp,
+                                                                   monkeypatch):
+    """A side whose switch finds no first point at any amplitude ends as "switching failed"
+    with no points, in its summary and a warning; the other side is computed as it would be
+    (the run from the critical point's checkpoint, side +1's switch made to fail)."""
+    from mpi4py import MPI
+
+    import shells.critical
+    from shells import postbuckle as pb
+
+    cfg, full_dir, full = thick_run
+    cut_dir = shared_tmp / "pb_cut_fail"
+    _cut_at_the_critical_point(full_dir, cut_dir)
+    switch = shells.critical.switch_branch
+    tried = []
+
+    def failing(*args, sign=1.0, **kwargs):
+        if sign > 0:
+            tried.append(kwargs["ds"])
+            raise RuntimeError("branch switching: the corrector did not converge off the "
+                               "fundamental branch at amplitudes (a test)")
+        return switch(*args, sign=sign, **kwargs)
+
+    monkeypatch.setattr(shells.critical, "switch_branch", failing)
+    recs = pb.run_postbuckle(cfg, cut_dir)
+    MPI.COMM_WORLD.barrier()
+    sides = recs[-1]["summary"]["sides"]
+    assert sides[1]["points"] == 0 and sides[1]["ended"].startswith("switching failed")
+    assert len(tried) == 4  # each of the side's amplitudes
+    down = [r for r in recs if r.get("branch") == "bifurcated"]
+    ref = [r for r in full if r.get("branch") == "bifurcated" and r["side"] == -1]
+    assert [r["side"] for r in down] == [-1] * 6 and sides[-1]["points"] == 6
+    for a, b in zip(ref, down, strict=True):
+        assert b["kappa"] == pytest.approx(a["kappa"], rel=1e-10, abs=1e-12)
+
+
 class _KilledError(Exception):
     pass
 
 
 def test_an_interrupted_side_resumes_after_its_last_point(thick_run, shared_tmp, monkeypatch,
                                                           caplog):
-    """A run killed inside side +1 (at its point 4, after 4 points were written and the side
-    checkpoint saved; the file then given point 4 as well, as a kill between its write and its
-    checkpoint leaves it): the rerun keeps the points 0-3 as written, computes side +1 from
-    point 4 on (not from the bifurcation) and then side -1, and its points are the
-    uninterrupted run's (kappa to 1e-10, same Newton iterations and steps). A corrupt side
-    checkpoint: the side restarts from the bifurcation, with a log line, the same points."""
+    """A run killed inside side -1, the dimple (at its point 4, after 4 points were written
+    and the side checkpoint saved; the file then given point 4 as well, as a kill between its
+    write and its checkpoint leaves it): the rerun keeps side +1 and the points 0-3 of side -1
+    as written, computes side -1 from point 4 on (not from the bifurcation), and its points
+    are the uninterrupted run's (kappa to 1e-10, same Newton iterations and steps). A corrupt
+    side checkpoint: the side restarts from the bifurcation, with a log line, the same
+    points."""
     import json
     import logging
 
@@ -330,16 +369,16 @@ def test_an_interrupted_side_resumes_after_its_last_point(thick_run, shared_tmp,
     monkeypatch.setattr(shells.critical, "follow", lambda *a, **k: pytest.fail("followed"))
 
     def kill(model, rec):
-        if rec.get("side") == 1 and rec["index"] == 4:
+        if rec.get("side") == -1 and rec["index"] == 4:
             raise _KilledError
 
     with pytest.raises(_KilledError):
         pb.run_postbuckle(cfg, cut_dir, on_point=kill)
     MPI.COMM_WORLD.barrier()
     cut = (cut_dir / "postbuckle.jsonl").read_text().splitlines()
-    side1 = [x for x in cut if '"branch": "bifurcated"' in x]
-    assert len(side1) == 4  # points 0-3 of side +1 written
-    nxt = next(x for x in lines if '"side": 1,' in x and '"index": 4,' in x)
+    side1 = [x for x in cut if '"branch": "bifurcated"' in x and '"side": -1,' in x]
+    assert len(side1) == 4  # points 0-3 of side -1 written
+    nxt = next(x for x in lines if '"side": -1,' in x and '"index": 4,' in x)
     MPI.COMM_WORLD.barrier()  # every rank has read the file before rank 0 changes it
     if MPI.COMM_WORLD.rank == 0:
         with open(cut_dir / "postbuckle.jsonl", "a") as f:
@@ -365,10 +404,10 @@ def test_an_interrupted_side_resumes_after_its_last_point(thick_run, shared_tmp,
     resumed = pb.run_postbuckle(cfg, cut_dir,
                                 on_point=lambda m, r: computed.append((r["side"], r["index"])))
     MPI.COMM_WORLD.barrier()
-    assert computed == [(1, 4), (1, 5)] + [(-1, i) for i in range(6)]
+    assert computed == [(-1, 4), (-1, 5)]
     compare(resumed)
     again = (cut_dir / "postbuckle.jsonl").read_text().splitlines()
-    assert [x for x in again if '"side": 1,' in x][:4] == side1  # kept as written
+    assert [x for x in again if '"side": -1,' in x][:4] == side1  # kept as written
 
     # a corrupt side checkpoint (a state file cut short): the side restarts whole
     MPI.COMM_WORLD.barrier()
@@ -383,8 +422,8 @@ def test_an_interrupted_side_resumes_after_its_last_point(thick_run, shared_tmp,
         resumed = pb.run_postbuckle(
             cfg, cut_dir, on_point=lambda m, r: computed.append((r["side"], r["index"])))
     MPI.COMM_WORLD.barrier()
-    assert "side +1: its checkpoint is missing, incomplete, unreadable" in caplog.text
-    assert computed == [(s, i) for s in (1, -1) for i in range(6)]
+    assert "side -1: its checkpoint is missing, incomplete, unreadable" in caplog.text
+    assert computed == [(-1, i) for i in range(6)]
     compare(resumed)
 
 

@@ -649,6 +649,17 @@ class AxisymModel(FormProblem):
         in parallel, or where that factorisation cannot vouch for the count."""
         return None if block is None else self.mode_forms.inertia(block, growth)
 
+    def hessian_quadratic(self, block: Any, v: Any) -> float:
+        """vᵀ H v of block None (the Jacobian) or H_m at the current state, by quadrature of
+        the second variation d²E(v, v) (``FormProblem._quadratic``: H_m's from the direct form
+        of mode m), the block's constrained DOFs of v taken as zero; for
+        ``shells.stability``'s Rayleigh quotients."""
+        if block is None:
+            return self._quadratic(None, self.hessian_ufl, self.bcs, v, JIT_OPTIONS)
+        mf = self.mode_forms
+        bcs = mf.set_mode(int(block))
+        return self._quadratic("mode", mf.hessian_ufl, bcs, v, JIT_OPTIONS)
+
     def block_factor(self, block: Any) -> Any:
         """H_m factored on the chain of cells (``ModeForms.factor``), for ``shells.stability``'s
         shift-invert eigensolves; None for block None, in parallel, or where it fails."""

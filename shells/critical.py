@@ -913,8 +913,13 @@ def _locate_crossing(loc: _Locator, p0: Point, w0: np.ndarray, lo: _Eval, hi: _E
     # the mode at the trial point nearest the critical point (on the near side)
     near = lo if lo.sigma > lo0.sigma else hi
     fl, fh = crossing(lo, block), crossing(hi, block)
-    if math.isfinite(fl) and math.isfinite(fh) and fl != fh and hi.lam != lo.lam:
-        # no better than the round-off of the crossing eigenvalue allows
+    if math.isfinite(fl) and math.isfinite(fh) and fl != fh and hi.lam != lo.lam \
+            and not hasattr(loc.problem, "hessian_quadratic"):
+        # no better than the round-off of the crossing eigenvalue allows. Not measured where
+        # the eigenvalues are Rayleigh quotients by quadrature (``Stability.eigenpairs``),
+        # whose measured round-off (1e-10 to 1.5e-10 in μ on the θ̄ = 8 cap's five crossings,
+        # 2 solves and 2 eigensolves each) left every reported accuracy as the interpolation
+        # alone gives it, there and at the θ̄ = 15.11 cap's slow crossing (2e-9)
         accuracy = max(accuracy, loc.eigenvalue_roundoff(near, block)
                        * abs(hi.lam - lo.lam) / abs(fh - fl))
     if interpolated is not None and hi.lam != lo.lam:

@@ -14,7 +14,9 @@ inside that step (``locate``):
   is stationary, so this is cheap. The step is then searched for crossings up to the fold's
   near side (a loss of symmetry just before a snap);
 * **bifurcation**: the first σ where the negative count of one of the changed blocks leaves its
-  value at the start of the step is bracketed by inertia (exact, decides the side) and refined
+  value at the start of the step is bracketed by inertia (exact, decides the side; where the
+  problem's eigenvalues are Rayleigh quotients by quadrature, ``Stability.eigenpairs``, the
+  crossing eigenvalue's sign decides it within the factorisation's round-off of 0) and refined
   with secant steps on the crossing eigenvalue (SLEPc) until |κ_hi - κ_lo| < ``rel_tol`` |κ|
   or until its root, interpolated through the trials nearest it, is that accurate. All changed
   blocks are bracketed together, so the first crossing of any is found: a closed sphere's
@@ -732,6 +734,9 @@ def _locate_crossing(loc: _Locator, p0: Point, w0: np.ndarray, lo: _Eval, hi: _E
     # counts are all known. Trials check these only, and stop at the first that moved (a high
     # side trial then costs one factorisation, not one per block)
     suspects = moved_at(hi)
+    # the eigenvalues are Rayleigh quotients by quadrature (``Stability.eigenpairs``): their
+    # sign may overrule the inertia's next to 0 (``crossing``, ``settle``)
+    refined = hasattr(loc.problem, "hessian_quadratic")
 
     def complete(e: _Eval) -> None:
         """The counts of every suspect at ``e``."""
@@ -768,7 +773,7 @@ def _locate_crossing(loc: _Locator, p0: Point, w0: np.ndarray, lo: _Eval, hi: _E
             pos = [v for v in vals if v >= 0]
             if len(neg) >= k:
                 out = neg[k - 1]
-            elif len(neg) == k - 1 and pos:
+            elif refined and len(neg) == k - 1 and pos:
                 # one negative fewer than the inertia counts: the crossing eigenvalue's
                 # Rayleigh quotient (``Stability.eigenpairs``) is still positive, the
                 # factorisation's sign being round-off this close to 0
@@ -785,7 +790,7 @@ def _locate_crossing(loc: _Locator, p0: Point, w0: np.ndarray, lo: _Eval, hi: _E
         inertia's sign within ~1e-7 of 0 on the 1D model's stiff blocks (a bracket decided
         by it would exclude the root that its eigenvalue samples give)."""
         b = moved_at(hi)[0]
-        if abs(c1[b] - c0[b]) != 1 or b not in e.counts:
+        if not refined or abs(c1[b] - c0[b]) != 1 or b not in e.counts:
             return
         f = crossing(e, b)
         if not math.isfinite(f):
@@ -914,7 +919,7 @@ def _locate_crossing(loc: _Locator, p0: Point, w0: np.ndarray, lo: _Eval, hi: _E
     near = lo if lo.sigma > lo0.sigma else hi
     fl, fh = crossing(lo, block), crossing(hi, block)
     if math.isfinite(fl) and math.isfinite(fh) and fl != fh and hi.lam != lo.lam \
-            and not hasattr(loc.problem, "hessian_quadratic"):
+            and not refined:
         # no better than the round-off of the crossing eigenvalue allows. Not measured where
         # the eigenvalues are Rayleigh quotients by quadrature (``Stability.eigenpairs``),
         # whose measured round-off (1e-10 to 1.5e-10 in μ on the θ̄ = 8 cap's five crossings,

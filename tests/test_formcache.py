@@ -2,7 +2,8 @@
 are the forms derived anew, bound to the new model's own data (its element matrices and dR/dκ
 identical to the last bit, at another state and other parameters than the record's); a
 different derivation or a broken record derives them again; ranks that disagree about a
-record all derive.
+record all derive. The Hessian functional of the Rayleigh quotients (a derived form of rank 0
+with a coefficient of its own) comes from its record as well.
 
 The 1D problem runs on MPI.COMM_SELF on every rank; each test uses a cache folder of its own
 per rank, and the outcome is reduced over MPI.COMM_WORLD before asserting.
@@ -166,3 +167,42 @@ def test_ranks_that_disagree_about_a_record_all_derive(tmp_path, monkeypatch):
     else:
         ok = ok and len(calls) == 1 and written == 1
     assert everywhere(ok)
+
+
+def test_the_hessian_functional_from_the_record_is_the_derived_one(folder, monkeypatch):
+    """``hessian_quadratic`` (vᵀ H_m v by quadrature of d²E(v, v): the functional
+    action(action(H, f), f), a derived form of rank 0 with a coefficient f of its own, through
+    ``compiled_derived``'s ``extra``): a second model loads it from the record with no UFL
+    work, and gets the value a fresh derivation gives, to the last bit; that value is vᵀ H_m v
+    of the assembled block to round-off (the block's constrained DOFs of v taken as zero)."""
+    from dolfinx.fem.petsc import set_bc
+
+    def quadratic(model):
+        H = model.create_hessian(2)
+        model.assemble_hessian(2, H)
+        v = H.createVecRight()
+        v.array_w[:] = np.sin(np.arange(v.getLocalSize()) * 0.37)
+        q = model.hessian_quadratic(2, v)
+        set_bc(v, model.mode_forms.conditions(2), alpha=0.0)
+        Hv = H.createVecLeft()
+        H.mult(v, Hv)
+        return q, v.dot(Hv), H.norm() * v.dot(v)
+
+    quadratic(loaded(0.01, 0.5, 3.0))  # derived and recorded
+    assert any(folder.glob("*.json"))
+    import shells.formproblem
+
+    derived = []
+    original = shells.formproblem.compiled_derived
+
+    def counted(source, tag, derive, *args, **kwargs):
+        return original(source, tag, lambda: derived.append(tag) or derive(), *args, **kwargs)
+
+    monkeypatch.setattr(shells.formproblem, "compiled_derived", counted)
+    q_record, qm, scale = quadratic(loaded(0.01, 0.3, -2.0))
+    from_record = not [t for t in derived if t.endswith("quadratic")]
+    monkeypatch.setenv("SHELLS_FORM_CACHE", "0")
+    q_fresh, _, _ = quadratic(loaded(0.01, 0.3, -2.0))
+    from_record = from_record and any(t.endswith("quadratic") for t in derived)  # (counted)
+    assert everywhere(from_record and q_record == q_fresh and abs(q_record) > 0
+                      and abs(q_record - qm) < 1e-12 * scale)

@@ -77,9 +77,11 @@ class ContinuationSettings:
             as Newton's there. 0 (the default): factor at every iteration and for the tangent.
             The surface model's ``critical`` uses 1e-5 (``REUSE_SURFACE`` in shells.drivers):
             3 factorisations per step instead of 5, its critical points unchanged to 3e-11
-            (benchmarks/lu_per_step.py). Not the default elsewhere: on the 1D model it saves 4 %
-            and moves the thin spheres' closely spaced bifurcations by up to 2e-5 (h/R 0.002),
-            the iterates differing within ``newton_tol``, which is 1e-8 there.
+            (benchmarks/lu_per_step.py); the 1D model's ``critical`` too, with its default
+            settings (``REUSE_CRITICAL`` in shells.axisym.run: 7 % faster on the θ̄ = 8 cap,
+            its points unchanged to 2e-9; before its eigenvalues were Rayleigh quotients the
+            thin spheres' closely spaced bifurcations moved by up to 2e-5 with it, round-off).
+            Not the default elsewhere: a branch's points are its result there.
     """
 
     method: str = "arclength"

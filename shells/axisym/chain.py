@@ -893,17 +893,37 @@ class ChainCholesky:
         count (a zero pivot, or a diagonal of |L||D||Lᵀ| above ``growth`` times the matrix's:
         then its backward error may exceed (kd + 1) ε ``growth`` of the diagonally scaled
         matrix), or an interior block is not positive definite: the caller then asks MUMPS."""
-        ab = self._condensed(E, powers, own, constrained)
-        if ab is None:
-            return None
+        return self.inertias(E, powers, [own], [constrained], growth)[0]
+
+    def inertias(self, E: np.ndarray, powers: np.ndarray, own: list[int],
+                 constrained: list[np.ndarray], growth: float
+                 ) -> list[tuple[int, int, int] | None]:
+        """``inertia`` of several blocks (``powers`` one row per block), their condensations in
+        one C call, four blocks in lockstep with the arithmetic each has alone (the same
+        counts as one at a time, at less than half the cost for four)."""
+        if len(powers) != len(own) or len(own) != len(constrained):
+            raise ValueError("inconsistent blocks")
+        if not own:
+            return []
+        ab, failed = self._condense(E, powers, list(own), 1.0)
         lib = _library()
         ffi = lib.ffi
-        counts = np.zeros(2, dtype=np.intc)
-        status = lib.lib.band_ldlt(ffi.cast("double*", ffi.from_buffer(ab)), self.size, self.kd,
-                                   float(growth), ffi.cast("int*", ffi.from_buffer(counts)))
-        if status != 0:
-            return None
-        return int(counts[0]), 0, int(counts[1]) + self.eliminated()
+        out: list[tuple[int, int, int] | None] = []
+        for b in range(len(own)):
+            band = ab[b]
+            if failed[b] or not np.isfinite(band).all():
+                out.append(None)
+                continue
+            zero, diagonal = self._constraint_indices(np.asarray(constrained[b]))
+            band[zero] = 0.0
+            band[diagonal] = 1.0
+            counts = np.zeros(2, dtype=np.intc)
+            status = lib.lib.band_ldlt(ffi.cast("double*", ffi.from_buffer(band)), self.size,
+                                       self.kd, float(growth),
+                                       ffi.cast("int*", ffi.from_buffer(counts)))
+            out.append(None if status != 0 else
+                       (int(counts[0]), 0, int(counts[1]) + self.eliminated()))
+        return out
 
     def factor(self, E: np.ndarray, powers: np.ndarray, own: int, constrained: np.ndarray
                ) -> ChainLU | None:

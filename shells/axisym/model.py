@@ -649,6 +649,16 @@ class AxisymModel(FormProblem):
         in parallel, or where that factorisation cannot vouch for the count."""
         return None if block is None else self.mode_forms.inertia(block, growth)
 
+    def block_inertias(self, blocks: list[Any], growth: float
+                       ) -> dict[Any, tuple[int, int, int] | None] | None:
+        """``block_inertia`` of several blocks at once (``ModeForms.inertias``: their
+        condensations in one C call); None in parallel."""
+        ms = [b for b in blocks if b is not None]
+        out = self.mode_forms.inertias(ms, growth) if ms else {}
+        if out is None:
+            return None
+        return {b: (None if b is None else out[int(b)]) for b in blocks}
+
     def hessian_quadratic(self, block: Any, v: Any) -> float:
         """vᵀ H v of block None (the Jacobian) or H_m at the current state, by quadrature of
         the second variation d²E(v, v) (``FormProblem._quadratic``: H_m's from the direct form

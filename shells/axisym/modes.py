@@ -408,8 +408,21 @@ class ModeForms:
         """H_m's inertia from its element matrices condensed on the chain of cells, by an LDLᵀ
         without pivoting that vouches for its count (``ChainCholesky.inertia``, ``growth``);
         None in parallel or where it cannot vouch (the caller then asks MUMPS)."""
-        block = self._chain_block(m)
-        return None if block is None else self._chain[1].inertia(*block, growth)
+        out = self.inertias([m], growth)
+        return None if out is None else out[int(m)]
+
+    def inertias(self, ms: list[int], growth: float
+                 ) -> dict[int, tuple[int, int, int] | None] | None:
+        """``inertia`` of each H_m, m in ``ms``, condensed together
+        (``ChainCholesky.inertias``: four blocks in lockstep); None in parallel."""
+        E = self.element_matrices()
+        if E is None:
+            return None
+        ms = [int(m) for m in ms]
+        counts = self._chain[1].inertias(
+            E, self._powers(ms), [DEGREE + 1 if m == 0 else -1 for m in ms],
+            [np.asarray(self._constrained_rows(m).getIndices()) for m in ms], growth)
+        return dict(zip(ms, counts, strict=True))
 
     def factor(self, m: int) -> Any:
         """H_m factored from its element matrices on the chain of cells (``ChainLU``: solves

@@ -172,6 +172,8 @@ class Problem(Protocol):
     # ``assemble_hessian`` assembles it) factored by the problem, ``solver.solve(b, x)``
     # writing H^-1 b into x (arrays of the local DOFs): the operator of the shift-invert
     # eigensolves instead of MUMPS (the 1D model on one process); None: MUMPS.
+    # ``block_inertias(blocks, growth) -> {block: counts | None} | None``: ``block_inertia``
+    # of several blocks at once (the 1D model: their condensations in one C call).
     # ``condensed_hessian(block) -> (matrix, k) | None``: a smaller matrix with the block's
     # inertia but for k fewer positive eigenvalues (a Schur complement after eliminating k
     # DOFs on which the block is positive definite), factored instead of the block for the

@@ -269,3 +269,32 @@ def test_eigenvalues_are_rayleigh_quotients_free_of_the_factorisations_round_off
         assert abs(a - b) > 1e-10
     for s in (stab, mumps, ns):
         s.destroy()
+
+
+def test_counts_together_and_with_the_last_count_as_hint_are_the_counts_alone():
+    """``Stability.negative_counts`` skips the definiteness test of the blocks negative at its
+    last count and condenses the exact counts of the failing blocks together
+    (``block_inertias``); the counts are those of a ``Stability`` that tests and counts each
+    block alone (a fresh one at each state), along the sphere past its bifurcation, where
+    blocks turn negative one after the other."""
+    kb = sphere_kappa_b_h(0.5) / 0.01
+    model = loaded(Sphere(1.0), 0.01, (0.5 * kb,))
+    ns = NewtonSolver(model, options=SNES_OPTIONS)
+    hinted = Stability(model)
+    blocks = tuple(range(0, 24, 2))
+    agree, negative = True, 0
+    for f in (0.9, 1.0, 1.05, 1.1, 1.0, 0.9):
+        model.set_kappa(f * kb)
+        ok, _ = ns.solve()
+        assert everywhere(ok)
+        alone = Stability(model)
+        ref = {b: alone.negative_count(b) for b in blocks}
+        agree = agree and hinted.negative_counts(blocks) == ref
+        negative = max(negative, sum(c > 0 for c in ref.values()))
+        alone.destroy()
+    if MPI.COMM_WORLD.size == 1:
+        assert model.mode_forms.inertias([2, 4, 6], 100.0) == {
+            m: model.mode_forms.inertia(m, 100.0) for m in (2, 4, 6)}
+    assert everywhere(agree) and negative >= 2
+    hinted.destroy()
+    ns.destroy()

@@ -252,8 +252,8 @@ def continuation(problem: Any, settings: ContinuationSettings, *, kappa_start: f
                  initial_tangent: tuple[np.ndarray, float] | None = None,
                  skip_first: bool = False, initial_ds: float | None = None,
                  tangent: tuple[np.ndarray, float] | None = None,
-                 on_tangent: Callable[[np.ndarray, float], None] | None = None
-                 ) -> Iterator[Point]:
+                 on_tangent: Callable[[np.ndarray, float], None] | None = None,
+                 scalars: bool = True) -> Iterator[Point]:
     """Follow the branch from the problem's current state at ``kappa_start`` to ``kappa_end``.
 
     The first point is the (re-converged) start; the run ends on the point at ``kappa_end``
@@ -268,6 +268,8 @@ def continuation(problem: Any, settings: ContinuationSettings, *, kappa_start: f
     ``initial_tangent``: a resumed run then predicts its first step exactly as the interrupted
     one did (a tangent solved again at the restored state is the same only if the interrupted
     run solved it with that state's own factorisation, not, e.g., a corrector iterate's).
+    ``scalars=False``: the points' ``scalars`` are left empty (``problem.scalars()`` is not
+    called: a caller that wants critical points only).
     """
     ns = solver or NewtonSolver(problem)
     L = problem.length_scale()
@@ -287,7 +289,7 @@ def continuation(problem: Any, settings: ContinuationSettings, *, kappa_start: f
         kappa = problem.get_kappa()
         p = Point(index=index, kappa=kappa, kappa_L=kappa * L, newton_its=its, step=step,
                   dkappa_ds=tl, wall_time=time.perf_counter() - t_start,
-                  scalars=problem.scalars())
+                  scalars=problem.scalars() if scalars else {})
         index += 1
         return p
 

@@ -1051,7 +1051,7 @@ def follow(problem: Any, settings: ContinuationSettings, kappa_end: float,
            locate_when: Callable[[Point, dict[Hashable, int], dict[Hashable, int]], bool]
            | None = None, locate_points: bool = True, kappa_start: float = 0.0,
            resume: FollowResume | None = None,
-           track: Callable[[FollowResume], None] | None = None
+           track: Callable[[FollowResume], None] | None = None, scalars: bool = True
            ) -> Iterator[tuple[Point, StabilityResult, list[CriticalPoint]]]:
     """Follow the branch from κ = ``kappa_start`` (default 0; the problem's state must then be
     near the branch's state there) to ``kappa_end`` with stability at every point.
@@ -1072,7 +1072,8 @@ def follow(problem: Any, settings: ContinuationSettings, kappa_end: float,
     oriented by r's secant, r's next step in r's arclength units, the points from index
     r.index + 1, and the first step searched for a change of r's counts (and a fold) as any
     other. The points are the uninterrupted run's to the corrector's round-off (the start is
-    re-converged by Newton). Nothing is yielded when r ended the run.
+    re-converged by Newton). Nothing is yielded when r ended the run. ``scalars=False``: the
+    points carry no ``scalars`` (``continuation``'s).
     """
     crit = crit or CriticalSettings()
     if settings.method != "arclength":
@@ -1115,7 +1116,7 @@ def follow(problem: Any, settings: ContinuationSettings, kappa_end: float,
 
     try:
         for p in continuation(problem, st, kappa_end=kappa_end, solver=ns, **start,
-                              on_tangent=None if track is None else hold):
+                              on_tangent=None if track is None else hold, scalars=scalars):
             if folds_only:
                 counts = dict(prev[2]) if prev is not None else {}
                 res = StabilityResult(stable=False, negative_count=_total(counts), zero_count=0,

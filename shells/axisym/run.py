@@ -175,12 +175,13 @@ class _Run:
         # round-off floor of the penalty-stiff Jacobian): no model-specific tolerance here
         self.settings = self.cfg.settings or default_settings(self.cfg.shape, self.cfg.h_over_r)
 
-    def follow(self, crit: Any = None, locate_points: bool = True) -> Iterator[tuple]:
+    def follow(self, crit: Any = None, locate_points: bool = True,
+               scalars: bool = True) -> Iterator[tuple]:
         """``critical.follow`` over the run's range with the inertia of every H_m."""
         from shells.critical import follow
 
         return follow(self.model, self.settings, self.cfg.kappa_end, crit, solver=self.ns,
-                      blocks=self.model.modes, locate_points=locate_points)
+                      blocks=self.model.modes, locate_points=locate_points, scalars=scalars)
 
     def record(self, p: Any, counts: dict[int, int]) -> dict[str, Any]:
         d = p.as_dict()
@@ -299,7 +300,7 @@ def critical(shape: Shape, h_over_r: float, nu: float = 0.5, direction: str = "u
     found: list[Any] = []
     last = None
     try:
-        for p, _, cps in run.follow(crit):
+        for p, _, cps in run.follow(crit, scalars=False):  # its points' scalars unused
             last = p
             found.extend(cps)
         stop = bool(found) and (found[-1].kind == "fold" or (

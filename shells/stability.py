@@ -399,8 +399,11 @@ class Stability:
         Cholesky's; the 1D model on one process) has that answer used first: a block definite
         by the margin is not assembled at all (its matrix is then not the block's: call
         ``inertia`` before ``eigenpairs(assemble=False)``), one that is not goes straight to
-        MUMPS. ``base``: stop after the first block (in the given order) whose count differs
-        from ``base[block]``: the counts up to it."""
+        MUMPS (or to the problem's own exact count, ``block_inertia``; several at once with
+        ``block_inertias``). A block negative at the last count of all (``base`` None) skips
+        the test. The counts do not depend on either shortcut. ``base``: stop after the first
+        block (in the given order) whose count differs from ``base[block]``: the counts up to
+        it."""
         blocks = self.blocks() if blocks is None else tuple(blocks)
         test = self.banded_test and hasattr(self.problem, "definite_blocks")
         # a block that had a negative eigenvalue at the last count is not tested for

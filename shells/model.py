@@ -681,6 +681,13 @@ class ShellModel(FormProblem):
     def assemble_mass(self, block: Any) -> Any:
         return self._assemble_mass(self.mass, self.bcs)
 
+    def hessian_quadratic(self, block: Any, v: Any) -> float:
+        """vᵀ H v at the current state by quadrature of the second variation d²E(v, v)
+        (``FormProblem._quadratic``; the gauge's DOFs of v taken as zero), for
+        ``shells.stability``'s Rayleigh quotients. Its functional compiles in 0.6 s (the
+        60° cap, P2), the bilinear Hessian in 13 s."""
+        return self._quadratic(None, self.hessian_ufl, self.bcs, v)
+
     def mode_rayleigh(self, vec: Any) -> dict[str, float]:
         """Rayleigh quotients of the normal component w = u·n° of a mode: ``m2`` =
         ∫(∂_φ w)²/∫w² about the z axis (m² on a surface of revolution) and, on spherical

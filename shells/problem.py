@@ -182,7 +182,7 @@ class Problem(Protocol):
     # state by quadrature of the energy's second variation d²E(v, v) (the block's constrained
     # DOFs of v taken as zero), not by a product with the assembled matrix: its round-off is
     # that of the mode's own energy, not ε ‖H‖; ``shells.stability`` turns every eigenvalue
-    # into its eigenvector's Rayleigh quotient with it (the 1D model).
+    # into its eigenvector's Rayleigh quotient with it (both finite-element models).
     # ``pole_functional() -> vector``: e with e·w = the top pole's depth Ψ3(pole)/h (a
     # state-shaped vector; both models, shapes of revolution with a pole): the parameter a
     # closed sphere's dimple branch is followed with (``switch_branch``'s ``control``, chosen by

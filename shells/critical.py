@@ -736,7 +736,7 @@ def _locate_crossing(loc: _Locator, p0: Point, w0: np.ndarray, lo: _Eval, hi: _E
     suspects = moved_at(hi)
     # the eigenvalues are Rayleigh quotients by quadrature (``Stability.eigenpairs``): their
     # sign may overrule the inertia's next to 0 (``crossing``, ``settle``)
-    refined = hasattr(loc.problem, "hessian_quadratic")
+    refined = loc.stab.rayleigh_quotients
 
     def complete(e: _Eval) -> None:
         """The counts of every suspect at ``e``."""

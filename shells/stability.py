@@ -335,6 +335,12 @@ class Stability:
     def blocks(self) -> tuple[Hashable, ...]:
         return tuple(self.problem.stability_blocks())
 
+    @property
+    def rayleigh_quotients(self) -> bool:
+        """Whether ``eigenpairs`` (``refine`` True) gives Rayleigh quotients by quadrature: the
+        problem has ``hessian_quadratic``."""
+        return hasattr(self.problem, "hessian_quadratic")
+
     def _block(self, block: Hashable) -> _Block:
         key = self.problem.block_layout(block)
         if key not in self._blocks:
@@ -409,13 +415,13 @@ class Stability:
         # a block that had a negative eigenvalue at the last count is not tested for
         # definiteness (it fails; on the 1D model its lane in the test costs 0.15 ms): its
         # exact count straight away, which is 0 if it has become definite
-        negative = [b for b in blocks if b in self._negative] if test else []
-        rest = [b for b in blocks if b not in negative]
-        decided = (self.problem.definite_blocks(rest, DEFINITE_MARGIN) if test and rest
-                   else ({} if test else None))
-        if decided is not None and (decided or not rest):  # the test applies (one process)
-            decided = {**decided, **dict.fromkeys(negative, False)}
-        decided = decided or {}
+        decided: dict[Hashable, bool] = {}
+        if test:
+            negative = [b for b in blocks if b in self._negative]
+            rest = [b for b in blocks if b not in negative]
+            tested = self.problem.definite_blocks(rest, DEFINITE_MARGIN) if rest else {}
+            if tested or (tested is not None and not rest):  # the test applies (one process)
+                decided = {**tested, **dict.fromkeys(negative, False)}
         exact: dict[Hashable, int] = {}
         failing = [b for b in blocks if b in decided and not decided[b]]
         if base is None and len(failing) > 1 and hasattr(self.problem, "block_inertias"):
@@ -502,7 +508,8 @@ class Stability:
             log.warning("SLEPc: %d of the %d eigenpairs nearest 0 converged (reason %d, %d "
                         "iterations)", eps.getConverged(), nev, int(eps.getConvergedReason()),
                         eps.getIterationNumber())
-        quadratic = getattr(self.problem, "hessian_quadratic", None) if refine else None
+        quadratic = (self.problem.hessian_quadratic if refine and self.rayleigh_quotients
+                     else None)
         M = self.mass(block) if quadratic is not None else None
         vals, vecs = [], []
         for i in range(eps.getConverged()):

@@ -859,14 +859,25 @@ class ChainCholesky:
         """One block's Schur complement on the vertex DOFs (no margin), with its conditions, in
         lower band storage; None if an interior block is not positive definite. ``keep``:
         arrays (cells x ni x ni, cells x ni x nv) that receive the cells' interior factors."""
-        ab, failed = self._condense(E, powers, [own], 1.0, keep)
-        ab = ab[0]
-        if failed[0] or not np.isfinite(ab).all():
-            return None
-        zero, diagonal = self._constraint_indices(np.asarray(constrained))
-        ab[zero] = 0.0
-        ab[diagonal] = 1.0
-        return ab
+        return self._condensed_blocks(E, powers, [own], [constrained], keep)[0]
+
+    def _condensed_blocks(self, E: np.ndarray, powers: np.ndarray, own: list[int],
+                          constrained: list[np.ndarray],
+                          keep: tuple[np.ndarray, np.ndarray] | None = None
+                          ) -> list[np.ndarray | None]:
+        """``_condensed`` of several blocks (``powers`` one row per block; ``keep``: one block
+        only), condensed in one C call."""
+        ab, failed = self._condense(E, powers, list(own), 1.0, keep)
+        out: list[np.ndarray | None] = []
+        for b, band in enumerate(ab):
+            if failed[b] or not np.isfinite(band).all():
+                out.append(None)
+                continue
+            zero, diagonal = self._constraint_indices(np.asarray(constrained[b]))
+            band[zero] = 0.0
+            band[diagonal] = 1.0
+            out.append(band)
+        return out
 
     def eliminated(self) -> int:
         """How many interior DOFs the condensation eliminates."""
@@ -905,18 +916,13 @@ class ChainCholesky:
             raise ValueError("inconsistent blocks")
         if not own:
             return []
-        ab, failed = self._condense(E, powers, list(own), 1.0)
         lib = _library()
         ffi = lib.ffi
         out: list[tuple[int, int, int] | None] = []
-        for b in range(len(own)):
-            band = ab[b]
-            if failed[b] or not np.isfinite(band).all():
+        for band in self._condensed_blocks(E, powers, own, constrained):
+            if band is None:
                 out.append(None)
                 continue
-            zero, diagonal = self._constraint_indices(np.asarray(constrained[b]))
-            band[zero] = 0.0
-            band[diagonal] = 1.0
             counts = np.zeros(2, dtype=np.intc)
             status = lib.lib.band_ldlt(ffi.cast("double*", ffi.from_buffer(band)), self.size,
                                        self.kd, float(growth),

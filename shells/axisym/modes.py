@@ -419,9 +419,9 @@ class ModeForms:
         if E is None:
             return None
         ms = [int(m) for m in ms]
-        counts = self._chain[1].inertias(
-            E, self._powers(ms), [DEGREE + 1 if m == 0 else -1 for m in ms],
-            [np.asarray(self._constrained_rows(m).getIndices()) for m in ms], growth)
+        blocks = [self._chain_block(m) for m in ms]  # (E, powers, own, constrained) each
+        counts = self._chain[1].inertias(E, self._powers(ms), [b[2] for b in blocks],
+                                         [b[3] for b in blocks], growth)
         return dict(zip(ms, counts, strict=True))
 
     def factor(self, m: int) -> Any:

@@ -15,6 +15,7 @@ blocks, scalars and mode classification stay with each model.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 from shells.formcache import compiled_derived, file_tag
@@ -133,7 +134,8 @@ class FormProblem:
 
     # -- helpers for the models' stability blocks -------------------------------------------------
     def _quadratic(self, key: Any, bilinear: Any, bcs: list[Any], v: Any,
-                   jit_options: dict[str, Any] | None = None) -> float:
+                   jit_options: dict[str, Any] | None = None,
+                   derived: tuple[str, Callable[[], Any]] | None = None) -> float:
         """vᵀ A v for the bilinear form A (UFL, symmetric) by quadrature of A(v, v) as a
         functional, the DOFs of ``bcs`` of v taken as zero (a block's ``hessian_quadratic``).
         Each quadrature point's value comes from v's own values and derivatives there, so its
@@ -141,7 +143,11 @@ class FormProblem:
         assembled matrix is ε |v|ᵀ|A||v|: on the 1D model's stiff blocks ~1e-6 against an
         eigenvalue of 1e-7 next to a crossing (``benchmarks/locator_noise.py``). The functional
         is compiled on first use for each ``key`` (the form's variable data, Constants and
-        coefficients, are read at each call)."""
+        coefficients, are read at each call). ``derived`` = (tag, derive): the functional of
+        the bilinear form ``derive()`` instead, a form derived from ``bilinear`` (its first
+        argument's space), recorded in the form cache under ``bilinear``'s signature and
+        ``tag``, which must change whenever the derivation does: no UFL work, nor the
+        signature of a derived expression, where the record is found."""
         import ufl
         from dolfinx import fem
         from dolfinx.fem.petsc import set_bc
@@ -152,9 +158,10 @@ class FormProblem:
             f = fem.Function(bilinear.arguments()[0].ufl_function_space())
             # through the form cache: the action's UFL work and signature cost 0.3 s a model
             # on the 1D model's mode Hessian, for a kernel compiled long ago
+            tag, derive = derived if derived is not None else ("", lambda: bilinear)
             forms, _ = compiled_derived(
-                bilinear, f"{_DERIVATION} quadratic",
-                lambda: [ufl.action(ufl.action(bilinear, f), f)], jit_options, extra=(f,))
+                bilinear, f"{_DERIVATION}{' ' + tag if tag else ''} quadratic",
+                lambda: [ufl.action(ufl.action(derive(), f), f)], jit_options, extra=(f,))
             cache[key] = (f, forms[0])
         f, q = cache[key]
         x = f.x.petsc_vec

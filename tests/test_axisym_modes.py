@@ -73,9 +73,10 @@ def differences(model: AxisymModel, m: int, H=None) -> dict[str, float]:
     (SphericalCap(1.0, math.radians(60)), 0.02, (1.0, 2.0)),
 ], ids=["sphere", "cap"])
 def test_polynomial_mode_hessians_equal_direct_assembly(shape, h, kappas):
-    """m = 0 (its own form, the phases put in as numbers), 1, 2, 3, 5, 20, 60: relative
-    Frobenius (and max-row-sum) difference ≤ 1e-10 (measured ≤ 7e-16; m = 0: 0), the
-    constrained rows (zero, 1 on the diagonal) identical, both flagged symmetric."""
+    """m = 0 (on one process from C_0's element matrices by a change of unknowns, in parallel
+    its own form with the phases put in as numbers), 1, 2, 3, 5, 20, 60: relative Frobenius
+    (and max-row-sum) difference ≤ 1e-10 (measured ≤ 7e-16), the constrained rows (zero, 1
+    on the diagonal) identical, both flagged symmetric."""
     model = loaded(shape, h, kappas)
     H = model.create_hessian(1)  # one matrix for every m, as Stability's
     for m in MODES:
@@ -186,7 +187,8 @@ def test_eigenpairs_with_the_chain_factorisation_are_those_with_mumps(shape, h, 
     ``shells.axisym.chain.ChainLU``) find the 4 eigenvalues nearest 0 of blocks m = 0, 1, 2,
     3, 5, 20 that MUMPS' find (the reference mode, ``banded_test`` False), to 1e-7: their
     round-off, as between any two direct solvers of these stiff blocks (measured at most
-    2.4e-8, eigenvalues from -0.06 to 4, three negative ones per block on the sphere)."""
+    2.4e-8, eigenvalues from -0.03 to 4; on the sphere, of its 14 (m = 20: 9) negative ones
+    per block, the three nearest 0 among the 4 of blocks m ≤ 5 and two of block 20's)."""
     model = loaded(shape, h, kappas)
     fast, ref = Stability(model), Stability(model)
     ref.banded_test = False
@@ -199,7 +201,7 @@ def test_eigenpairs_with_the_chain_factorisation_are_those_with_mumps(shape, h, 
         negative += sum(mu < 0 for mu in b)
         # the fast path ran on one process (the model's COMM_SELF), the reference never
         assert fast._block(m).shell_eps is not None and ref._block(m).shell_eps is None
-    assert negative >= (18 if shape.closed else 0)
+    assert negative >= (17 if shape.closed else 0)
     for s in (fast, ref):
         s.destroy()
 

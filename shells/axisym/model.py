@@ -668,7 +668,10 @@ class AxisymModel(FormProblem):
             return self._quadratic(None, self.hessian_ufl, self.bcs, v, JIT_OPTIONS)
         mf = self.mode_forms
         bcs = mf.set_mode(int(block))
-        return self._quadratic("mode", mf.hessian_ufl, bcs, v, JIT_OPTIONS)
+        cls = min(int(block), 1)  # one functional for m = 0, one for every m ≥ 1
+        return self._quadratic(("mode", cls), mf.hessian_ufl, bcs, v, JIT_OPTIONS,
+                               derived=(f"{mf.derivation} phases {cls}",
+                                        lambda: mf.fixed_phase_ufl(cls)))
 
     def block_factor(self, block: Any) -> Any:
         """H_m factored on the chain of cells (``ModeForms.factor``), for ``shells.stability``'s

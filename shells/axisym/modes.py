@@ -25,7 +25,9 @@ tabulated once per state by a C loop over the FFCx kernels, every H_m's definite
 count come from them, ``shells.axisym.chain``, and a PETSc H_m is summed from them where a
 solver needs one). m = 0 from that form with its own phases and m = 0 put in as numbers
 (``axisymmetric_form``: the direct form's values, bit for bit on the θ̄ = 8 cap and the
-sphere, at a quarter of its cost). For m ≥ 1 the phases
+sphere, at a quarter of its cost); on one process its element matrices come from C_0's
+instead, by a change of unknowns (``_axisymmetric_elements``: to 5e-16 of the direct
+assembly, no kernel). For m ≥ 1 the phases
 are fixed and m enters the perturbation's jet linearly (φ-derivatives ∝ m, ∂_φφ ∝ m²) while
 the second variation is quadratic in the jet, so H_m = Σ_{k=0..4} m^k C_k before the boundary
 conditions. The C_k are exact forms: the Hessian's UFL with the m ≥ 1 phases put in as numbers,
@@ -140,6 +142,8 @@ class ModeForms:
         self._E_inputs: list[np.ndarray] | None = None  # what they were tabulated from
         self._csr: Any = None  # ``_set_from_elements``'s ``ElementAssembler``
         self._schur: Any = None  # ``condensed_hessian``'s matrix
+        #: names the derivations of forms from ``hessian_ufl`` in this module (form cache)
+        self.derivation = _DERIVATION
 
     # -- H_m = Σ m^k C_k for m ≥ 1 --------------------------------------------------------
     def coefficient_ufl(self) -> list[Any]:
@@ -157,6 +161,22 @@ class ModeForms:
             if k < DEGREE:
                 h = expand_derivatives(ufl.derivative(h, m, ufl.as_ufl(1.0)))
         return out
+
+    def fixed_phase_ufl(self, m: int) -> Any:
+        """The Hessian's UFL for mode m's class (m = 0, or every m ≥ 1 with m the Constant
+        ``set_mode`` sets) with its phases put in as numbers and the zero perturbation as 0:
+        the direct form's values at a fraction of its cost (``hessian_quadratic``)."""
+        import ufl
+        from ufl.algorithms import expand_derivatives
+
+        c = self.c
+        rep: dict[Any, Any] = {c[k]: ufl.as_ufl(v) for k, v in _PHASES[min(m, 1)].items()}
+        if m == 0:
+            rep[c["m"]] = ufl.as_ufl(0.0)
+        rep[self.pert] = ufl.zero(*self.pert.ufl_shape)
+        if self._expanded is None:
+            self._expanded = expand_derivatives(self.hessian_ufl)
+        return ufl.replace(self._expanded, rep)
 
     def _fixed_mode_ufl(self, m: int) -> tuple[Any, Any]:
         """The Hessian's UFL with mode m's phases put in as numbers and the zero perturbation
@@ -311,7 +331,8 @@ class ModeForms:
                 from shells.axisym.chain import CellTabulator, ChainCholesky
 
                 layout = self.V.dofmap.dof_layout
-                tab = CellTabulator([*self.coefficient_forms, self.axisymmetric_form])
+                tab = CellTabulator(self.coefficient_forms)
+                pairs = self._sum_difference_pairs()
                 chain = ChainCholesky(self.V.dofmap.list,
                                       (list(layout.entity_dofs(0, 0)),
                                        list(layout.entity_dofs(0, 1))),
@@ -322,8 +343,41 @@ class ModeForms:
                 log.debug("element matrices of the mode forms not available: %s", e)
                 self._chain = False
                 return None
-            self._chain = (tab, chain)
+            self._chain = (tab, chain, pairs)
         return self._chain
+
+    def _sum_difference_pairs(self) -> np.ndarray:
+        """The element-local positions (2, k) of the S and D DOFs of each node (values and
+        slope fields), the same in every cell (``ValueError`` otherwise): the rows and columns
+        that ``_axisymmetric_elements`` mixes."""
+        cells = np.asarray(self.V.dofmap.list)
+        first, second = [], []
+        for field in (0, 1):  # the displacement and the slope field
+            for comp, out in ((0, first), (1, second)):
+                sub = np.asarray(self.V.sub(field).sub(comp).dofmap.list)
+                # the position of each of the subspace's cell DOFs in the cell's DOF list
+                where = np.argmax(cells[:, None, :] == sub[:, :, None], axis=2)
+                if not (np.all(where == where[:1])
+                        and np.array_equal(np.take_along_axis(cells, where, 1), sub)):
+                    raise ValueError("the S and D DOFs lie at other places in some cells")
+                out.extend(where[0].tolist())
+        return np.array([first, second], dtype=np.intp)
+
+    @staticmethod
+    def _axisymmetric_elements(C0: np.ndarray, pairs: np.ndarray, out: np.ndarray) -> None:
+        """H_0's element matrices from C_0's: H_0 = 2 Tᵀ C_0 T, T the change of unknowns
+        S' = (S + D)/2, D' = (S - D)/2 at every node. C_0 (H_m at m = 0 with the m ≥ 1 phases)
+        is π [q_UW(S + D, W) + q_V(S - D)]: the quadratic forms of the meridional and of the
+        azimuthal displacement, which do not couple at m = 0 about an axisymmetric state
+        (the base state has no azimuthal component); H_0 is 2π [q_UW(S, W) + q_V(D)]. Equal
+        to the second derivative of its own form to round-off (1e-14 of each entry, 6e-16 of
+        the largest, measured on the θ̄ = 8 cap), at no kernel's cost (0.4 ms a state there)."""
+        s, d = pairs
+        np.multiply(C0, 2.0, out=out)  # scalings by powers of 2: exact
+        cs, cd = out[:, :, s], out[:, :, d]  # copies (advanced indexing)
+        out[:, :, s], out[:, :, d] = 0.5 * (cs + cd), 0.5 * (cs - cd)
+        rs, rd = out[:, s, :], out[:, d, :]
+        out[:, s, :], out[:, d, :] = 0.5 * (rs + rd), 0.5 * (rs - rd)
 
     def element_matrices(self) -> np.ndarray | None:
         """The element matrices of C_0..C_4 and of H_0 on every cell (6, cells, 21, 21) at
@@ -335,7 +389,11 @@ class ModeForms:
         stale, inputs = self._stale(self._E_inputs)
         if stale:
             self._E_inputs = None  # not valid while being tabulated
-            self._E = setup[0].tabulate(out=self._E)
+            tab, _, pairs = setup
+            if self._E is None:
+                self._E = np.empty((DEGREE + 2, tab.ncells, tab.n, tab.n))
+            tab.tabulate(out=self._E[:DEGREE + 1])
+            self._axisymmetric_elements(self._E[0], pairs, self._E[DEGREE + 1])
             self._E_inputs = [a.copy() for a in inputs]
         return self._E
 

@@ -65,7 +65,7 @@ def _enabled() -> bool:
 
 
 def _key(source: Any, tag: str, jit_options: dict[str, Any] | None,
-         extra: tuple[Any, ...] = ()) -> str:
+         extra: tuple[Any, ...] = (), spaces: tuple[Any, ...] | None = None) -> str:
     import basix
     import dolfinx
     import ffcx
@@ -75,6 +75,8 @@ def _key(source: Any, tag: str, jit_options: dict[str, Any] | None,
              dolfinx.__version__, repr(sorted((jit_options or {}).items())),
              repr(dolfinx.default_scalar_type)]
     parts += [repr(c.ufl_element()) for c in extra]  # the extra coefficients' elements
+    if spaces is not None:  # the derived forms' own argument spaces
+        parts += ["spaces"] + [repr(V.ufl_element()) for V in spaces]
     return hashlib.sha256("\n".join(parts).encode()).hexdigest()[:24]
 
 
@@ -90,11 +92,12 @@ def _positions(items: list[Any], pool: list[Any]) -> list[int] | None:
 
 
 def _record(forms: list[Any], ufl_forms: list[Any], source: Any,
-            extra: tuple[Any, ...] = ()) -> list[dict] | None:
+            extra: tuple[Any, ...] = (), spaces: tuple[Any, ...] | None = None
+            ) -> list[dict] | None:
     """What a later call needs to rebuild ``forms``; None where they cannot be rebuilt from
     the source's coefficients and ``extra`` alone (a coefficient of their own, an integral
     other than one cell integral over the whole mesh, arguments other than the source's
-    first ones)."""
+    first ones, or than arguments in ``spaces`` where given)."""
     from dolfinx.fem import IntegralType
 
     coefficients, constants = [*source.coefficients(), *extra], source.constants()
@@ -106,7 +109,11 @@ def _record(forms: list[Any], ufl_forms: list[Any], source: Any,
                 for i in u.integrals()):
             return None
         args = u.arguments()
-        if tuple(args) != tuple(sources[: len(args)]):
+        if spaces is None and tuple(args) != tuple(sources[: len(args)]):
+            return None
+        if spaces is not None and (len(args) > len(spaces) or any(
+                a.number() != i or a.ufl_function_space() is not spaces[i]
+                for i, a in enumerate(args))):
             return None
         cpos, kpos = _positions(u.coefficients(), coefficients), \
             _positions(u.constants(), constants)
@@ -131,17 +138,19 @@ def _load(entry: dict) -> Any:
     return _MODULES[path]
 
 
-def _rebuild(records: list[dict], source: Any, extra: tuple[Any, ...] = ()
+def _rebuild(records: list[dict], source: Any, extra: tuple[Any, ...] = (),
+             spaces: tuple[Any, ...] | None = None
              ) -> tuple[list[Any], list[tuple[list, list]]]:
     """The forms of ``records``, bound to the source's coefficients (and ``extra``) and
-    constants, as ``dolfinx.fem.form`` binds them; with each form's (coefficients,
-    constants)."""
+    constants, as ``dolfinx.fem.form`` binds them, on the source's argument spaces (or
+    ``spaces``); with each form's (coefficients, constants)."""
     import dolfinx
     from dolfinx.fem import IntegralType
     from dolfinx.fem.forms import Form, form_cpp_class
 
     coefficients, constants = [*source.coefficients(), *extra], source.constants()
-    spaces = [a.ufl_function_space()._cpp_object for a in source.arguments()]
+    spaces = [V._cpp_object for V in (spaces if spaces is not None else
+                                      [a.ufl_function_space() for a in source.arguments()])]
     mesh = source.ufl_domain().ufl_cargo()
     ftype = form_cpp_class(dolfinx.default_scalar_type)
     forms, reads = [], []
@@ -165,11 +174,13 @@ def _rebuild(records: list[dict], source: Any, extra: tuple[Any, ...] = ()
 
 def compiled_derived(source: Any, tag: str, derive: Callable[[], list[Any]],
                      jit_options: dict[str, Any] | None = None,
-                     extra: tuple[Any, ...] = ()
+                     extra: tuple[Any, ...] = (), spaces: tuple[Any, ...] | None = None
                      ) -> tuple[list[Any], list[tuple[list, list]]]:
     """The compiled forms of ``derive()`` (UFL forms derived from the UFL form ``source``, on
-    its first arguments (all, or fewer: a functional ``action(action(a, f), f)``) and with
-    coefficients among its own and ``extra``, constants among its own), and each one's
+    its first arguments (all, or fewer: a functional ``action(action(a, f), f)``), or on
+    arguments in the function spaces ``spaces`` (of the same mesh: a form on a product of the
+    source's spaces, say), and with coefficients among its own and ``extra``, constants among
+    its own), and each one's
     (coefficients, constants): from the record of an earlier call with the same source,
     ``tag`` and elements of ``extra`` where there is one, else derived and compiled
     (``dolfinx.fem.form``) and recorded.
@@ -182,12 +193,13 @@ def compiled_derived(source: Any, tag: str, derive: Callable[[], list[Any]],
 
     comm = source.ufl_domain().ufl_cargo().comm
     extra = tuple(extra)
-    path = (cache_folder() / f"{_key(source, tag, jit_options, extra)}.json" if _enabled()
-            else None)
+    spaces = tuple(spaces) if spaces is not None else None
+    path = (cache_folder() / f"{_key(source, tag, jit_options, extra, spaces)}.json"
+            if _enabled() else None)
     found = None
     if path is not None and path.is_file():
         try:
-            found = _rebuild(json.loads(path.read_text()), source, extra)
+            found = _rebuild(json.loads(path.read_text()), source, extra, spaces)
         except (OSError, ValueError, KeyError, TypeError, AttributeError, ImportError) as e:
             log.debug("form cache record %s not usable (%s): derived again", path, e)
     if comm.size > 1:
@@ -203,7 +215,7 @@ def compiled_derived(source: Any, tag: str, derive: Callable[[], list[Any]],
     forms = [fem.form(u, jit_options=jit_options) for u in ufl_forms]
     reads = [(list(u.coefficients()), list(u.constants())) for u in ufl_forms]
     if path is not None and comm.rank == 0:
-        records = _record(forms, ufl_forms, source, extra)
+        records = _record(forms, ufl_forms, source, extra, spaces)
         if records is not None:
             try:
                 path.parent.mkdir(parents=True, exist_ok=True)

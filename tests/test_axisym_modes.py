@@ -206,6 +206,33 @@ def test_eigenpairs_with_the_chain_factorisation_are_those_with_mumps(shape, h, 
         s.destroy()
 
 
+def test_residual_and_dkappa_in_one_pass_are_the_separate_assemblies():
+    """On one process R and dR/dκ come from one kernel on W x W (``AxisymModel._paired``):
+    both equal the separate assemblies of their own forms to the last bit, dR/dκ served from
+    the last residual's pass only at the same state (after a change of κ or of the state it
+    is assembled again: the same values as its own form's)."""
+    from shells.formproblem import FormProblem
+
+    model = loaded(SphericalCap(1.0, math.radians(60)), 0.02, (1.0, 2.0))
+    a, b = model.create_vector(), model.create_vector()
+
+    def same(x, y):
+        return everywhere(np.array_equal(x.array, y.array) and x.norm() > 0)
+
+    model.assemble_residual(a)
+    FormProblem.assemble_residual(model, b)
+    assert same(a, b)
+    model.assemble_dkappa(a)
+    FormProblem.assemble_dkappa(model, b)
+    assert same(a, b)
+    assert model.comm.size > 1 or model._dkappa_kept is not None  # the pass's dR/dκ
+    model.state.scale(1.01)  # another state: the kept dR/dκ is not that of this state
+    model.sync()
+    model.assemble_dkappa(a)
+    FormProblem.assemble_dkappa(model, b)
+    assert same(a, b)
+
+
 def test_jacobian_from_element_matrices_is_dolfinx_assembly():
     """The Jacobian assembled from its element matrices into a matrix whose values are written
     in place (one process) is dolfinx's assembly of the same form to the last bit, on a

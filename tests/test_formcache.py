@@ -56,8 +56,9 @@ def element_matrices(model: AxisymModel) -> np.ndarray:
 def test_mode_forms_from_the_record_are_the_derived_ones_bound_to_the_new_data(folder):
     first = loaded(0.01, 0.5, 3.0)
     derived = element_matrices(first)  # derived and compiled; the record written
-    # C_0..C_4 (H_0's element matrices come from C_0's); the model's dR/dκ
-    assert len(list(folder.glob("*.json"))) == 2
+    # C_0..C_4 (H_0's element matrices come from C_0's); the model's dR/dκ, and R with dR/dκ
+    # on W x W (``AxisymModel._paired``)
+    assert len(list(folder.glob("*.json"))) == 3
 
     # another model: other Poisson ratio and state (the same mesh), the same kernels
     second = loaded(0.01, 0.3, -2.0)

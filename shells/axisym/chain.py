@@ -51,13 +51,14 @@ import hashlib
 import importlib.util
 import logging
 import os
+import re
 import tempfile
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-__all__ = ["CellTabulator", "ChainCholesky", "ChainLU", "ElementAssembler"]
+__all__ = ["CellTabulator", "ChainCholesky", "ChainLU", "ElementAssembler", "sum_difference"]
 
 log = logging.getLogger("shells")
 
@@ -65,28 +66,30 @@ _C_DECL = """
 void tabulate_cells(int nforms, const uintptr_t* kernels, int ncells, int n, double* out,
                     const double* const* coeffs, const int* ncoeff,
                     const double* const* consts, const double* coords, int ncoord);
-void condense_chain(int nb, int ncells, int n, int nf, const double* E, const double* weights,
-                    const int* order, int ni, const int* irow, int nv, const int* vrow,
-                    double scale, double* band, int size, int* failed, double* keep_l,
-                    double* keep_y);
 int band_ldlt(double* ab, int n, int kd, double growth, int* counts);
 int band_lu(double* ab, int n, int kd, int* piv);
-void definite_chain(int nb, int ncells, int n, int nf, const double* E, const double* weights,
-                    const int* order, int ni, const int* irow, int nv, const int* vrow,
-                    double scale, int size, double* band, const long* zero,
-                    const long* zero_start, const long* diag, const long* diag_start, int* ok);
 void chain_solve(int ncells, int ni, int nv, const double* keep_l, const double* keep_y,
                  const int* idof, const int* vdof, const char* fixed, int size,
                  const double* lu, const int* piv, const double* b, double* z, double* bv,
                  double* x);
 void scatter_add(long n, const long* pos, const double* w, long nout, double* out);
+void sum_difference(int ncells, int n, int npairs, const int* s, const int* d,
+                    const double* C, double* out);
 """
 
-#: blocks condensed in lockstep (the C code's NL: the lanes of its vector type, four doubles =
-#: AVX2's register; ``definite_chain``'s work space holds that many bands)
-_LANES = 4
+#: the declarations of ``_C_LANES``'s functions (their names end in _l@LANES@)
+_C_LANES_DECL = """
+void condense_chain_l@LANES@(int nb, int ncells, int n, int nf, const double* E,
+                    const double* weights, const int* order, int ni, const int* irow, int nv,
+                    const int* vrow, double scale, double* band, int size, int* failed,
+                    double* keep_l, double* keep_y);
+void definite_chain_l@LANES@(int nb, int ncells, int n, int nf, const double* E,
+                    const double* weights, const int* order, int ni, const int* irow, int nv,
+                    const int* vrow, double scale, int size, double* band, const long* zero,
+                    const long* zero_start, const long* diag, const long* diag_start, int* ok);
+"""
 
-_C_SOURCE = r"""
+_C_COMMON = r"""
 #include <math.h>
 #include <stdint.h>
 #include <string.h>
@@ -123,11 +126,6 @@ void tabulate_cells(int nforms, const uintptr_t* kernels, int ncells, int n, dou
 #define NI_MAX 32
 #define NV_MAX 32
 #define NK_MAX 8
-#define NL SHELLS_LANES
-typedef double v4 __attribute__((vector_size(NL * sizeof(double))));
-/* the same in memory the caller allocated: no alignment beyond a double's assumed */
-typedef double v4u __attribute__((vector_size(NL * sizeof(double)), aligned(sizeof(double))));
-
 /* LAPACK's banded LU with partial pivoting (the process's own liblapack: PETSc's, scipy's) */
 void dgbtrf_(const int* m, const int* n, const int* kl, const int* ku, double* ab,
              const int* ldab, int* ipiv, int* info);
@@ -142,6 +140,173 @@ int band_lu(double* ab, int n, int kd, int* piv)
   dgbtrf_(&n, &n, &kd, &kd, ab, &ldab, piv, &info);
   return info;
 }
+
+/* LDL^T without pivoting of a symmetric band matrix (LAPACK's lower band storage, as
+   condense_chain's, kd <= NV_MAX), in place; counts[0] / counts[1] = the negative / positive
+   pivots. Returns 0, or 1 where the factorisation cannot vouch for the inertia: a zero or
+   non-finite diagonal entry or pivot, or growth: a diagonal entry of |L| |D| |L^T| (its
+   off-diagonal entries are bounded by the diagonal's geometric means) above `growth` times
+   |a_jj|. Within that growth, the factors are those of A + dA with |dA_ij| <= (kd + 1) eps
+   growth sqrt(|a_ii a_jj|) (to first order): the inertia of the diagonally scaled matrix up
+   to a perturbation of that size (the error analysis of Cholesky, Higham, Accuracy
+   and Stability of Numerical Algorithms, ch. 10, applies to LDL^T without pivoting). */
+int band_ldlt(double* ab, int n, int kd, double growth, int* counts)
+{
+  const int kd1 = kd + 1;
+  double v[NV_MAX + 1];
+  counts[0] = counts[1] = 0;
+  if (kd > NV_MAX) return 1;
+  for (int j = 0; j < n; ++j)
+  {
+    const int k0 = j - kd > 0 ? j - kd : 0;
+    const double ajj = ab[j * kd1];
+    if (!(fabs(ajj) > 0.0) || !isfinite(ajj)) return 1;
+    /* v_k = L_jk d_k for k < j; d_j = a_jj - sum L_jk v_k; g = sum L_jk^2 |d_k| + |d_j| */
+    double d = ajj, g = 0.0;
+    for (int k = k0; k < j; ++k)
+    {
+      const double ljk = ab[(j - k) + k * kd1];
+      const double dk = ab[k * kd1];
+      v[k - k0] = ljk * dk;
+      d -= ljk * v[k - k0];
+      g += ljk * ljk * fabs(dk);
+    }
+    g += fabs(d);
+    if (!(fabs(d) > 0.0) || !isfinite(d) || !(g <= growth * fabs(ajj))) return 1;
+    ab[j * kd1] = d;
+    counts[d < 0.0 ? 0 : 1] += 1;
+    const int iend = j + kd < n - 1 ? j + kd : n - 1;
+    for (int i = j + 1; i <= iend; ++i)
+    {
+      /* L_ij = (a_ij - sum_{k >= i - kd} L_ik v_k) / d_j */
+      double t = ab[(i - j) + j * kd1];
+      const int ks = i - kd > k0 ? i - kd : k0;
+      for (int k = ks; k < j; ++k) t -= ab[(i - k) + k * kd1] * v[k - k0];
+      ab[(i - j) + j * kd1] = t / d;
+    }
+  }
+  return 0;
+}
+
+/* out[c] = 2 T^T C[c] T for each cell's n x n matrix, T the change of unknowns that maps the
+   pairs (s[k], d[k]) to their half sum and half difference (x'_s = (x_s + x_d) / 2,
+   x'_d = (x_s - x_d) / 2), the identity elsewhere: columns, then rows. */
+void sum_difference(int ncells, int n, int npairs, const int* s, const int* d,
+                    const double* C, double* out)
+{
+  const long nn = (long)n * n;
+  for (long i = 0; i < (long)ncells * nn; ++i) out[i] = 2.0 * C[i];
+  for (int c = 0; c < ncells; ++c)
+  {
+    double* A = out + c * nn;
+    for (int r = 0; r < n; ++r)
+      for (int k = 0; k < npairs; ++k)
+      {
+        const double a = A[r * n + s[k]], b = A[r * n + d[k]];
+        A[r * n + s[k]] = 0.5 * (a + b);
+        A[r * n + d[k]] = 0.5 * (a - b);
+      }
+    for (int k = 0; k < npairs; ++k)
+      for (int j = 0; j < n; ++j)
+      {
+        const double a = A[s[k] * n + j], b = A[d[k] * n + j];
+        A[s[k] * n + j] = 0.5 * (a + b);
+        A[d[k] * n + j] = 0.5 * (a - b);
+      }
+  }
+}
+
+/* Solves with a matrix condensed by condense_chain (nb = 1, its factors kept) and its vertex
+   Schur complement factored by LAPACK's dgbtrf (lu: (2 kd + kd + 1) x size, column-major,
+   kl = ku = kd; piv: its 1-based row interchanges): H x = b is L z = b_I per cell, then
+   S x_V = b_V - sum Y^T z (dgbtrs' algorithm: the row interchanges and L, then U), then
+   L^T x_I = z - Y x_V. idof[p * ni + i]: the global DOF of chain cell p's interior row i;
+   vdof[q]: the global DOF of the condensed vertex index q; fixed[q]: q is constrained (its
+   coupling to the interior is dropped: the constrained matrix's column is zero). z (cells x
+   ni) and bv (size) are work arrays. */
+void chain_solve(int ncells, int ni, int nv, const double* keep_l, const double* keep_y,
+                 const int* idof, const int* vdof, const char* fixed, int size,
+                 const double* lu, const int* piv, const double* b, double* z, double* bv,
+                 double* x)
+{
+  const int half = nv / 2, kd = nv - 1, ldab = 3 * kd + 1;
+  double xl[NV_MAX];
+  for (int q = 0; q < size; ++q) bv[q] = b[vdof[q]];
+  for (int p = 0; p < ncells; ++p)
+  {
+    const double* l = keep_l + (long)p * ni * ni;
+    const double* y = keep_y + (long)p * ni * nv;
+    double* zp = z + (long)p * ni;
+    for (int i = 0; i < ni; ++i)
+    {
+      double t = b[idof[p * ni + i]];
+      for (int j = 0; j < i; ++j) t -= l[i * ni + j] * zp[j];
+      zp[i] = t / l[i * ni + i];
+    }
+    const long base = (long)p * half;
+    for (int j = 0; j < nv; ++j) xl[j] = 0.0;
+    for (int i = 0; i < ni; ++i)
+      for (int j = 0; j < nv; ++j) xl[j] += y[i * nv + j] * zp[i];
+    for (int j = 0; j < nv; ++j)
+      if (!fixed[base + j]) bv[base + j] -= xl[j];
+  }
+  /* L: the interchanges and unit lower factor, column by column (entries at row 2 kd + i - j) */
+  for (int j = 0; j < size - 1; ++j)
+  {
+    const int lm = kd < size - 1 - j ? kd : size - 1 - j;
+    const int jp = piv[j] - 1;
+    if (jp != j) { double t = bv[jp]; bv[jp] = bv[j]; bv[j] = t; }
+    const double* col = lu + (long)j * ldab + 2 * kd;
+    for (int i = 1; i <= lm; ++i) bv[j + i] -= col[i] * bv[j];
+  }
+  /* U: upper with 2 kd superdiagonals, U[i, j] at row 2 kd + i - j of column j */
+  for (int j = size - 1; j >= 0; --j)
+  {
+    const double* col = lu + (long)j * ldab;
+    bv[j] /= col[2 * kd];
+    const double t = bv[j];
+    const int i0 = j - 2 * kd > 0 ? j - 2 * kd : 0;
+    for (int i = i0; i < j; ++i) bv[i] -= col[2 * kd + i - j] * t;
+  }
+  for (int q = 0; q < size; ++q) x[vdof[q]] = bv[q];
+  for (int p = 0; p < ncells; ++p)
+  {
+    const double* l = keep_l + (long)p * ni * ni;
+    const double* y = keep_y + (long)p * ni * nv;
+    double* zp = z + (long)p * ni;
+    const long base = (long)p * half;
+    for (int j = 0; j < nv; ++j) xl[j] = fixed[base + j] ? 0.0 : bv[base + j];
+    for (int i = 0; i < ni; ++i)
+    {
+      double t = zp[i];
+      for (int j = 0; j < nv; ++j) t -= y[i * nv + j] * xl[j];
+      zp[i] = t;
+    }
+    for (int i = ni - 1; i >= 0; --i)
+    {
+      double t = zp[i];
+      for (int j = i + 1; j < ni; ++j) t -= l[j * ni + i] * zp[j];
+      zp[i] = t / l[i * ni + i];
+      x[idof[p * ni + i]] = zp[i];
+    }
+  }
+}
+
+/* out = the sum of w[i] at pos[i], added in the order of i: np.bincount(pos, w)'s values, bit
+   for bit (the same additions in the same order), without its new array */
+void scatter_add(long n, const long* pos, const double* w, long nout, double* out)
+{
+  for (long j = 0; j < nout; ++j) out[j] = 0.0;
+  for (long i = 0; i < n; ++i) out[pos[i]] += w[i];
+}
+"""
+
+#: the lane-dependent part: typedefs and functions for NL = @LANES@ lanes, instantiated for
+#: each width in ``_WIDTHS`` (``_lanes_source``)
+_C_LANES = r"""#define NL @LANES@
+typedef double v4 __attribute__((vector_size(NL * sizeof(double))));
+/* the same in memory the caller allocated: no alignment beyond a double's assumed */
+typedef double v4u __attribute__((vector_size(NL * sizeof(double)), aligned(sizeof(double))));
 
 /* One cell p for the NL lanes of weights w: the interior factor L (a, lower) and L^-1 A_iv
    (y) kept, the Schur complement's lower triangle in s. Returns the failed lanes (bit l). */
@@ -260,53 +425,6 @@ void condense_chain(int nb, int ncells, int n, int nf, const double* E, const do
   }
 }
 
-/* LDL^T without pivoting of a symmetric band matrix (LAPACK's lower band storage, as
-   condense_chain's, kd <= NV_MAX), in place; counts[0] / counts[1] = the negative / positive
-   pivots. Returns 0, or 1 where the factorisation cannot vouch for the inertia: a zero or
-   non-finite diagonal entry or pivot, or growth: a diagonal entry of |L| |D| |L^T| (its
-   off-diagonal entries are bounded by the diagonal's geometric means) above `growth` times
-   |a_jj|. Within that growth, the factors are those of A + dA with |dA_ij| <= (kd + 1) eps
-   growth sqrt(|a_ii a_jj|) (to first order): the inertia of the diagonally scaled matrix up
-   to a perturbation of that size (the error analysis of Cholesky, Higham, Accuracy
-   and Stability of Numerical Algorithms, ch. 10, applies to LDL^T without pivoting). */
-int band_ldlt(double* ab, int n, int kd, double growth, int* counts)
-{
-  const int kd1 = kd + 1;
-  double v[NV_MAX + 1];
-  counts[0] = counts[1] = 0;
-  if (kd > NV_MAX) return 1;
-  for (int j = 0; j < n; ++j)
-  {
-    const int k0 = j - kd > 0 ? j - kd : 0;
-    const double ajj = ab[j * kd1];
-    if (!(fabs(ajj) > 0.0) || !isfinite(ajj)) return 1;
-    /* v_k = L_jk d_k for k < j; d_j = a_jj - sum L_jk v_k; g = sum L_jk^2 |d_k| + |d_j| */
-    double d = ajj, g = 0.0;
-    for (int k = k0; k < j; ++k)
-    {
-      const double ljk = ab[(j - k) + k * kd1];
-      const double dk = ab[k * kd1];
-      v[k - k0] = ljk * dk;
-      d -= ljk * v[k - k0];
-      g += ljk * ljk * fabs(dk);
-    }
-    g += fabs(d);
-    if (!(fabs(d) > 0.0) || !isfinite(d) || !(g <= growth * fabs(ajj))) return 1;
-    ab[j * kd1] = d;
-    counts[d < 0.0 ? 0 : 1] += 1;
-    const int iend = j + kd < n - 1 ? j + kd : n - 1;
-    for (int i = j + 1; i <= iend; ++i)
-    {
-      /* L_ij = (a_ij - sum_{k >= i - kd} L_ik v_k) / d_j */
-      double t = ab[(i - j) + j * kd1];
-      const int ks = i - kd > k0 ? i - kd : k0;
-      for (int k = ks; k < j; ++k) t -= ab[(i - k) + k * kd1] * v[k - k0];
-      ab[(i - j) + j * kd1] = t / d;
-    }
-  }
-  return 0;
-}
-
 /* Definiteness tests of nb blocks (condensed as condense_chain's, diagonals scaled by
    `scale`): the rows and columns zero[zero_start[b] ..] of block b's band set to 0 and the
    entries diag[diag_start[b] ..] to `scale`, then ok[b] = 1 if every interior pivot, every band
@@ -383,89 +501,7 @@ void definite_chain(int nb, int ncells, int n, int nf, const double* E, const do
   }
 }
 
-/* Solves with a matrix condensed by condense_chain (nb = 1, its factors kept) and its vertex
-   Schur complement factored by LAPACK's dgbtrf (lu: (2 kd + kd + 1) x size, column-major,
-   kl = ku = kd; piv: its 1-based row interchanges): H x = b is L z = b_I per cell, then
-   S x_V = b_V - sum Y^T z (dgbtrs' algorithm: the row interchanges and L, then U), then
-   L^T x_I = z - Y x_V. idof[p * ni + i]: the global DOF of chain cell p's interior row i;
-   vdof[q]: the global DOF of the condensed vertex index q; fixed[q]: q is constrained (its
-   coupling to the interior is dropped: the constrained matrix's column is zero). z (cells x
-   ni) and bv (size) are work arrays. */
-void chain_solve(int ncells, int ni, int nv, const double* keep_l, const double* keep_y,
-                 const int* idof, const int* vdof, const char* fixed, int size,
-                 const double* lu, const int* piv, const double* b, double* z, double* bv,
-                 double* x)
-{
-  const int half = nv / 2, kd = nv - 1, ldab = 3 * kd + 1;
-  double xl[NV_MAX];
-  for (int q = 0; q < size; ++q) bv[q] = b[vdof[q]];
-  for (int p = 0; p < ncells; ++p)
-  {
-    const double* l = keep_l + (long)p * ni * ni;
-    const double* y = keep_y + (long)p * ni * nv;
-    double* zp = z + (long)p * ni;
-    for (int i = 0; i < ni; ++i)
-    {
-      double t = b[idof[p * ni + i]];
-      for (int j = 0; j < i; ++j) t -= l[i * ni + j] * zp[j];
-      zp[i] = t / l[i * ni + i];
-    }
-    const long base = (long)p * half;
-    for (int j = 0; j < nv; ++j) xl[j] = 0.0;
-    for (int i = 0; i < ni; ++i)
-      for (int j = 0; j < nv; ++j) xl[j] += y[i * nv + j] * zp[i];
-    for (int j = 0; j < nv; ++j)
-      if (!fixed[base + j]) bv[base + j] -= xl[j];
-  }
-  /* L: the interchanges and unit lower factor, column by column (entries at row 2 kd + i - j) */
-  for (int j = 0; j < size - 1; ++j)
-  {
-    const int lm = kd < size - 1 - j ? kd : size - 1 - j;
-    const int jp = piv[j] - 1;
-    if (jp != j) { double t = bv[jp]; bv[jp] = bv[j]; bv[j] = t; }
-    const double* col = lu + (long)j * ldab + 2 * kd;
-    for (int i = 1; i <= lm; ++i) bv[j + i] -= col[i] * bv[j];
-  }
-  /* U: upper with 2 kd superdiagonals, U[i, j] at row 2 kd + i - j of column j */
-  for (int j = size - 1; j >= 0; --j)
-  {
-    const double* col = lu + (long)j * ldab;
-    bv[j] /= col[2 * kd];
-    const double t = bv[j];
-    const int i0 = j - 2 * kd > 0 ? j - 2 * kd : 0;
-    for (int i = i0; i < j; ++i) bv[i] -= col[2 * kd + i - j] * t;
-  }
-  for (int q = 0; q < size; ++q) x[vdof[q]] = bv[q];
-  for (int p = 0; p < ncells; ++p)
-  {
-    const double* l = keep_l + (long)p * ni * ni;
-    const double* y = keep_y + (long)p * ni * nv;
-    double* zp = z + (long)p * ni;
-    const long base = (long)p * half;
-    for (int j = 0; j < nv; ++j) xl[j] = fixed[base + j] ? 0.0 : bv[base + j];
-    for (int i = 0; i < ni; ++i)
-    {
-      double t = zp[i];
-      for (int j = 0; j < nv; ++j) t -= y[i * nv + j] * xl[j];
-      zp[i] = t;
-    }
-    for (int i = ni - 1; i >= 0; --i)
-    {
-      double t = zp[i];
-      for (int j = i + 1; j < ni; ++j) t -= l[j * ni + i] * zp[j];
-      zp[i] = t / l[i * ni + i];
-      x[idof[p * ni + i]] = zp[i];
-    }
-  }
-}
-
-/* out = the sum of w[i] at pos[i], added in the order of i: np.bincount(pos, w)'s values, bit
-   for bit (the same additions in the same order), without its new array */
-void scatter_add(long n, const long* pos, const double* w, long nout, double* out)
-{
-  for (long j = 0; j < nout; ++j) out[j] = 0.0;
-  for (long i = 0; i < n; ++i) out[pos[i]] += w[i];
-}
+#undef NL
 """
 
 _LIBRARY: Any = None
@@ -487,6 +523,34 @@ def _cpu_flags() -> set[str]:
 # it (its four double lanes are definite_chain's), named in the module's hash: no -march=native,
 # as the cache folder may serve another machine
 _CFLAGS = ["-O3", "-ffp-contract=off"] + (["-mavx2"] if "avx2" in _cpu_flags() else [])
+#: the lane widths built: 8 too where the CPU has AVX-512 (a pass of eight blocks costs 1.4 times
+#: one of four on this machine's AMD EPYC, whose AVX-512 units are 256 bits wide: the 13 blocks
+#: of a cap's check 1.6 instead of 2.2 ms), and ``_lanes_for`` picks one per call. Each lane's
+#: arithmetic is its block's alone, in the same order (no fused multiply-adds): the values do
+#: not depend on the width
+_WIDTHS = (4, 8) if "avx512f" in _cpu_flags() else (4,)
+if 8 in _WIDTHS:
+    _CFLAGS.append("-mavx512f")
+
+
+def _lanes_source(template: str, lanes: int) -> str:
+    """``template`` (``_C_LANES``, ``_C_LANES_DECL``) for ``lanes`` lanes: its vector types and
+    functions renamed with the suffix _l<lanes> (one instance per width in a module)."""
+    out = template.replace("@LANES@", str(lanes))
+    for name in ("v4u", "v4", "condense_cell", "lane_weights", "condense_chain",
+                 "definite_chain"):
+        out = re.sub(rf"\b{name}\b", f"{name}_l{lanes}", out)
+    return out
+
+
+def _lanes_for(blocks: int) -> int:
+    """The lane width for a call on ``blocks`` blocks: eight where built and more than four
+    blocks (fewer passes), else four (a pass of four costs less)."""
+    return 8 if blocks > 4 and 8 in _WIDTHS else 4
+
+
+_C_SOURCE = _C_COMMON + "".join(_lanes_source(_C_LANES, n) for n in _WIDTHS)
+_C_DECLARATIONS = _C_DECL + "".join(_lanes_source(_C_LANES_DECL, n) for n in _WIDTHS)
 # LAPACK by its run-time name (no -dev link needed): the library PETSc has loaded already
 _LDFLAGS = ["-l:liblapack.so.3"]
 
@@ -508,7 +572,7 @@ def _library() -> Any:
         return _LIBRARY
     import cffi
 
-    tag = hashlib.sha1((_C_DECL + _C_SOURCE + " ".join(_CFLAGS + _LDFLAGS) + str(_LANES)
+    tag = hashlib.sha1((_C_DECLARATIONS + _C_SOURCE + " ".join(_CFLAGS + _LDFLAGS)
                         + cffi.__version__).encode()
                        ).hexdigest()[:12]
     name = f"_shells_cells_{tag}"
@@ -517,10 +581,9 @@ def _library() -> Any:
     if not found:
         folder.mkdir(parents=True, exist_ok=True)
         ffi = cffi.FFI()
-        ffi.cdef(_C_DECL)
+        ffi.cdef(_C_DECLARATIONS)
         ffi.set_source(name, _C_SOURCE, extra_compile_args=_CFLAGS,
-                       extra_link_args=_LDFLAGS,
-                       define_macros=[("SHELLS_LANES", str(_LANES))])
+                       extra_link_args=_LDFLAGS)
         with tempfile.TemporaryDirectory(dir=folder) as tmp:
             built = Path(ffi.compile(tmpdir=tmp))
             os.replace(built, folder / built.name)  # atomic: a reader sees all or nothing
@@ -530,6 +593,24 @@ def _library() -> Any:
     spec.loader.exec_module(module)
     _LIBRARY = module
     return module
+
+
+def sum_difference(C: np.ndarray, s: np.ndarray, d: np.ndarray, out: np.ndarray) -> None:
+    """out[c] = 2 Tᵀ C[c] T for each of the matrices C (cells x n x n, C-contiguous, as
+    ``out``), T the change of unknowns x'_s = (x_s + x_d)/2, x'_d = (x_s - x_d)/2 of the index
+    pairs (s[k], d[k]) (the identity elsewhere); the arithmetic of numpy's
+    ``0.5 * (a + b)``, ``0.5 * (a - b)`` on columns, then rows."""
+    if C.shape != out.shape or C.ndim != 3 or not (C.flags.c_contiguous
+                                                   and out.flags.c_contiguous):
+        raise ValueError("C and out: C-contiguous arrays of one shape (cells, n, n)")
+    lib = _library()
+    ffi = lib.ffi
+    s = np.ascontiguousarray(s, dtype=np.intc)
+    d = np.ascontiguousarray(d, dtype=np.intc)
+    lib.lib.sum_difference(C.shape[0], C.shape[1], len(s), ffi.cast("int*", ffi.from_buffer(s)),
+                           ffi.cast("int*", ffi.from_buffer(d)),
+                           ffi.cast("double*", ffi.from_buffer(C)),
+                           ffi.cast("double*", ffi.from_buffer(out)))
 
 
 class CellTabulator:
@@ -815,15 +896,16 @@ class ChainCholesky:
         zero_start = np.ascontiguousarray(np.cumsum([0] + [len(z) for z in zs]), dtype=np.int64)
         diag_start = np.ascontiguousarray(np.cumsum([0] + [len(d) for d in ds]), dtype=np.int64)
         if self._lanes is None:
-            self._lanes = np.empty((self.kd + 1) * self.size * _LANES)
+            self._lanes = np.empty((self.kd + 1) * self.size * max(_WIDTHS))
         ok = np.zeros(nb, dtype=np.intc)
-        lib.lib.definite_chain(nb, E.shape[1], E.shape[2], nf, ptr(E, "double*"),
-                               ptr(weights, "double*"), ptr(self._order, "int*"),
-                               self._irow.shape[1], ptr(self._irow, "int*"),
-                               self._vrow.shape[1], ptr(self._vrow, "int*"), 1.0 - margin,
-                               self.size, ptr(self._lanes, "double*"), ptr(zero, "long*"),
-                               ptr(zero_start, "long*"), ptr(diag, "long*"),
-                               ptr(diag_start, "long*"), ptr(ok, "int*"))
+        test = getattr(lib.lib, f"definite_chain_l{_lanes_for(nb)}")
+        test(nb, E.shape[1], E.shape[2], nf, ptr(E, "double*"),
+             ptr(weights, "double*"), ptr(self._order, "int*"),
+             self._irow.shape[1], ptr(self._irow, "int*"),
+             self._vrow.shape[1], ptr(self._vrow, "int*"), 1.0 - margin,
+             self.size, ptr(self._lanes, "double*"), ptr(zero, "long*"),
+             ptr(zero_start, "long*"), ptr(diag, "long*"),
+             ptr(diag_start, "long*"), ptr(ok, "int*"))
         return [bool(v) for v in ok]
 
     def _condense(self, E: np.ndarray, powers: np.ndarray, own: list[int], scale: float,
@@ -847,11 +929,12 @@ class ChainCholesky:
         ptr = lambda a, t: ffi.cast(t, ffi.from_buffer(a))  # noqa: E731
         kl, ky = ((ptr(keep[0], "double*"), ptr(keep[1], "double*")) if keep is not None
                   else (ffi.NULL, ffi.NULL))
-        lib.lib.condense_chain(nb, ncells, n, len(E), ptr(E, "double*"),
-                               ptr(weights, "double*"), ptr(self._order, "int*"),
-                               self._irow.shape[1], ptr(self._irow, "int*"),
-                               self._vrow.shape[1], ptr(self._vrow, "int*"), scale,
-                               ptr(ab, "double*"), self.size, ptr(failed, "int*"), kl, ky)
+        condense = getattr(lib.lib, f"condense_chain_l{_lanes_for(nb)}")
+        condense(nb, ncells, n, len(E), ptr(E, "double*"),
+                 ptr(weights, "double*"), ptr(self._order, "int*"),
+                 self._irow.shape[1], ptr(self._irow, "int*"),
+                 self._vrow.shape[1], ptr(self._vrow, "int*"), scale,
+                 ptr(ab, "double*"), self.size, ptr(failed, "int*"), kl, ky)
         return ab, failed
 
     def _condensed(self, E: np.ndarray, powers: np.ndarray, own: int, constrained: np.ndarray,

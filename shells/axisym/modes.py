@@ -346,8 +346,8 @@ class ModeForms:
             self._chain = (tab, chain, pairs)
         return self._chain
 
-    def _sum_difference_pairs(self) -> np.ndarray:
-        """The element-local positions (2, k) of the S and D DOFs of each node (values and
+    def _sum_difference_pairs(self) -> tuple[np.ndarray, np.ndarray]:
+        """The element-local positions of the S and of the D DOFs of each node (values and
         slope fields), the same in every cell (``ValueError`` otherwise): the rows and columns
         that ``_axisymmetric_elements`` mixes."""
         cells = np.asarray(self.V.dofmap.list)
@@ -361,23 +361,22 @@ class ModeForms:
                         and np.array_equal(np.take_along_axis(cells, where, 1), sub)):
                     raise ValueError("the S and D DOFs lie at other places in some cells")
                 out.extend(where[0].tolist())
-        return np.array([first, second], dtype=np.intp)
+        return np.array(first, dtype=np.intc), np.array(second, dtype=np.intc)
 
     @staticmethod
-    def _axisymmetric_elements(C0: np.ndarray, pairs: np.ndarray, out: np.ndarray) -> None:
+    def _axisymmetric_elements(C0: np.ndarray, pairs: tuple[np.ndarray, np.ndarray],
+                               out: np.ndarray) -> None:
         """H_0's element matrices from C_0's: H_0 = 2 Tᵀ C_0 T, T the change of unknowns
-        S' = (S + D)/2, D' = (S - D)/2 at every node. C_0 (H_m at m = 0 with the m ≥ 1 phases)
-        is π [q_UW(S + D, W) + q_V(S - D)]: the quadratic forms of the meridional and of the
-        azimuthal displacement, which do not couple at m = 0 about an axisymmetric state
-        (the base state has no azimuthal component); H_0 is 2π [q_UW(S, W) + q_V(D)]. Equal
-        to the second derivative of its own form to round-off (1e-14 of each entry, 6e-16 of
-        the largest, measured on the θ̄ = 8 cap), at no kernel's cost (0.4 ms a state there)."""
-        s, d = pairs
-        np.multiply(C0, 2.0, out=out)  # scalings by powers of 2: exact
-        cs, cd = out[:, :, s], out[:, :, d]  # copies (advanced indexing)
-        out[:, :, s], out[:, :, d] = 0.5 * (cs + cd), 0.5 * (cs - cd)
-        rs, rd = out[:, s, :], out[:, d, :]
-        out[:, s, :], out[:, d, :] = 0.5 * (rs + rd), 0.5 * (rs - rd)
+        S' = (S + D)/2, D' = (S - D)/2 at every node (``chain.sum_difference``). C_0 (H_m at
+        m = 0 with the m ≥ 1 phases) is π [q_UW(S + D, W) + q_V(S - D)]: the quadratic forms
+        of the meridional and of the azimuthal displacement, which do not couple at m = 0
+        about an axisymmetric state (the base state has no azimuthal component); H_0 is
+        2π [q_UW(S, W) + q_V(D)]. Equal to the second derivative of its own form to round-off
+        (1e-14 of each entry, 6e-16 of the largest, measured on the θ̄ = 8 cap), at no
+        kernel's cost (0.02 against 0.4 ms a state there)."""
+        from shells.axisym.chain import sum_difference
+
+        sum_difference(C0, pairs[0], pairs[1], out)
 
     def element_matrices(self) -> np.ndarray | None:
         """The element matrices of C_0..C_4 and of H_0 on every cell (6, cells, 21, 21) at

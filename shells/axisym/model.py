@@ -426,7 +426,10 @@ class AxisymModel(FormProblem):
         self._uz_integral = sf["uz_integral"]  # its derivative: ``pole_functional``
         sf["nz_integral"] = n0z * ad * self.dx
         sf["area"] = ad * self.dx
-        self._scalar_forms = {k: fem.form(v, jit_options=JIT_OPTIONS) for k, v in sf.items()}
+        # compiled on first use (``assemble``): a run that only locates critical points asks
+        # for none of them, and each form costs its signature and a cache lookup (~2 ms)
+        self._scalar_ufl = sf
+        self._scalar_forms: dict[str, Any] = {}
 
     def _axis_conditions(self) -> list[Any]:
         """u_r = 0 and p_z = 0 on the axis (each pole); u_z = 0 at the top pole (gauge)."""
@@ -456,6 +459,8 @@ class AxisymModel(FormProblem):
     def assemble(self, name: str) -> float:
         from dolfinx import fem
 
+        if name not in self._scalar_forms:
+            self._scalar_forms[name] = fem.form(self._scalar_ufl[name], jit_options=JIT_OPTIONS)
         return float(fem.assemble_scalar(self._scalar_forms[name]))
 
     def scalars(self) -> dict[str, float]:

@@ -1039,15 +1039,15 @@ class ChainCholesky:
         position in the lower band storage."""
         if self._schur_pattern is None:
             kd, kd1, size = self.kd, self.kd + 1, self.size
-            indptr, indices, source = [0], [], []
-            for i in range(size):
-                for j in range(max(0, i - kd), min(size, i + kd + 1)):
-                    indices.append(j)
-                    source.append((i - j) + j * kd1 if i >= j else (j - i) + i * kd1)
-                indptr.append(len(indices))
-            self._schur_pattern = (np.asarray(indptr, dtype=np.int32),
-                                   np.asarray(indices, dtype=np.int32),
-                                   np.asarray(source, dtype=np.int64))
+            rows = np.arange(size)
+            first = np.maximum(0, rows - kd)  # row i holds columns first[i] .. last[i] - 1
+            counts = np.minimum(size, rows + kd + 1) - first
+            indptr = np.concatenate([[0], np.cumsum(counts)])
+            i = np.repeat(rows, counts)
+            j = np.arange(indptr[-1]) - np.repeat(indptr[:-1] - first, counts)
+            source = np.where(i >= j, (i - j) + j * kd1, (j - i) + i * kd1)
+            self._schur_pattern = (indptr.astype(np.int32), j.astype(np.int32),
+                                   source.astype(np.int64))
         return self._schur_pattern
 
 

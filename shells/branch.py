@@ -184,9 +184,9 @@ def _save_checkpoint(outdir: Path, model: Any, rec: dict[str, Any],
 
 
 def _load_checkpoint(outdir: Path, model: Any
-                     ) -> tuple[float, int, np.ndarray, float, Any] | None:
+                     ) -> tuple[float, int, np.ndarray, float, Any, np.ndarray, float] | None:
     """Read the checkpoint into ``model.w``: (κ, index, w - w_prev, κ - κ_prev, the tangent
-    (owned values, λ part) or None), or None.
+    (owned values, λ part) or None, w_prev (owned values), κ_prev), or None.
 
     Nodes are matched by their coordinates (``shells.store.load_state_checkpoint``), so the
     checkpoint may come from another partition or rank count; None when it is missing,
@@ -205,7 +205,7 @@ def _load_checkpoint(outdir: Path, model: Any
     dw[w.size:] = 0.0
     tangent = (None if "tangent" not in states or "tangent_kappa" not in scalars
                else (states["tangent"], float(scalars["tangent_kappa"])))
-    return kappa, int(meta["index"]), dw, kappa - kappa_prev, tangent
+    return kappa, int(meta["index"]), dw, kappa - kappa_prev, tangent, w_prev, kappa_prev
 
 
 def run_branch(cfg: BranchConfig, outdir: str | os.PathLike, *, comm: Any = None,
@@ -283,12 +283,14 @@ def run_branch(cfg: BranchConfig, outdir: str | os.PathLike, *, comm: Any = None
     # a resumed run takes the step the interrupted one would have taken next (its points are
     # then the uninterrupted run's); not for steps given in kappa, converted at the start
     st = cfg.continuation
-    ds0 = None
+    ds0 = previous = None
     last_rec = done[-1] if start is not None and done else {}
-    if (start is not None and last_rec.get("index") == start[1] > 0
-            and last_rec.get("step", 0) > 0
-            and (st.method == "natural" or st.ds_unit == "arclength")):
-        ds0 = next_step(st, last_rec["step"], last_rec["newton_its"])
+    if start is not None and last_rec.get("index") == start[1] > 0 \
+            and last_rec.get("step", 0) > 0:
+        if st.method == "natural" or st.ds_unit == "arclength":
+            ds0 = next_step(st, last_rec["step"], last_rec["newton_its"])
+        # the point before and the (arclength) step from it, for a quadratic predictor
+        previous = (start[5], start[6], last_rec["step"])
     held: list[Any] = []  # the unit tangent the next step follows (arclength)
 
     def hold(tw: np.ndarray, tl: float) -> None:
@@ -297,7 +299,8 @@ def run_branch(cfg: BranchConfig, outdir: str | os.PathLike, *, comm: Any = None
     it = continuation(model, cfg.continuation, kappa_start=kappa0, kappa_end=cfg.kappa_end,
                       solver=ns, start_index=index0, skip_first=start is not None,
                       initial_tangent=tangent, initial_ds=ds0,
-                      tangent=None if start is None else start[4], on_tangent=hold)
+                      tangent=None if start is None else start[4], on_tangent=hold,
+                      previous=previous)
     last = None
     # the previous point of the next checkpoint: on resume, the checkpoint's point
     prev = None if start is None else (model.w.x.array.copy(), kappa0)

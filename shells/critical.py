@@ -1101,7 +1101,9 @@ def follow(problem: Any, settings: ContinuationSettings, kappa_end: float,
         moved = problem.comm.allreduce(bool(np.any(secant)), op=MPI.LOR) or dlam != 0
         start = dict(kappa_start=r.kappa, start_index=r.index + 1, skip_first=True,
                      initial_tangent=(secant, dlam) if moved else None, initial_ds=r.ds,
-                     tangent=None if r.tangent is None else (r.tangent, r.dkappa_ds))
+                     tangent=None if r.tangent is None else (r.tangent, r.dkappa_ds),
+                     # the point before, for a quadratic predictor's first step
+                     previous=(r.state_prev, r.kappa_prev, r.step) if r.index > 0 else None)
         prev = (Point(index=r.index, kappa=r.kappa, kappa_L=r.kappa * L,
                       newton_its=r.newton_its, step=r.step, dkappa_ds=r.dkappa_ds,
                       wall_time=0.0), r.state.copy(), dict(r.counts))

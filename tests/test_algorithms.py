@@ -21,6 +21,7 @@ from shells.algebraic import (
 )
 from shells.continuation import ContinuationSettings, continuation
 from shells.critical import CriticalSettings, follow, switch_branch
+from shells.errors import InputError
 from shells.problem import Problem
 from shells.stability import Stability
 
@@ -489,3 +490,30 @@ def test_the_corrector_reuses_its_factorisation_near_the_solution(monkeypatch):
     steps = len(after) - 1
     assert n_before >= 4 * steps
     assert n_after <= 3 * steps + 2  # (+ the start's Newton solve and tangent)
+
+
+def test_the_quadratic_predictor_lands_on_the_same_points_in_fewer_iterations():
+    """``predictor="quadratic"``: Newton starts from the quadratic through the last two points
+    with the last tangent, on the same hyperplane as the tangent predictor's: on the fold
+    problem x² + κ - 1 = 0 at a fixed step, the same points to the Newton tolerance (on the
+    branch, and where the tangent predictor's run put them), never more iterations a step, and
+    one fewer (2 against 3) on every step of the branch's flatter part x > 0.8 after the first
+    (which has no point before it); nearer the fold, where the branch bends faster along its
+    arclength, the O(s³) start still needs 3 at this step."""
+    runs = {}
+    for predictor in ("tangent", "quadratic"):
+        st = ContinuationSettings(ds=0.05, ds_max=0.05, max_steps=30, predictor=predictor)
+        runs[predictor] = [(p.kappa, p.scalars["w0"], p.newton_its)
+                           for p in continuation(FoldProblem(), st, kappa_end=3.0)]
+    tangent, quadratic = runs["tangent"], runs["quadratic"]
+    assert len(quadratic) == len(tangent) == 31
+    assert quadratic[-1][1] < 0  # past the fold
+    for a, b in zip(quadratic, tangent, strict=True):
+        assert abs(a[1] ** 2 + a[0] - 1.0) < 1e-10
+        assert a[0] == pytest.approx(b[0], abs=1e-9) and a[1] == pytest.approx(b[1], abs=1e-9)
+    assert quadratic[1][2] == tangent[1][2]
+    assert all(a[2] <= b[2] for a, b in zip(quadratic, tangent, strict=True))
+    flat = [(a[2], b[2]) for a, b in zip(quadratic[2:], tangent[2:], strict=True) if a[1] > 0.8]
+    assert len(flat) >= 6 and all(a < b for a, b in flat), flat
+    with pytest.raises(InputError):
+        ContinuationSettings(predictor="cubic")

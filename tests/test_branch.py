@@ -97,3 +97,26 @@ def test_resume_on_another_rank_count(shared_tmp):
         msg = str(checks)
     ok, msg = c.bcast((ok, msg), root=0)
     assert ok, msg
+
+
+def test_resume_with_the_quadratic_predictor_takes_the_uninterrupted_runs_points(shared_tmp):
+    """Arclength steps with ``predictor="quadratic"``: the first step after a resume starts
+    from the quadratic through the checkpoint's point and the one before it (both in the
+    checkpoint) as the uninterrupted run's did: the same points to round-off (1e-9; to the
+    last bit on one process, where the checkpoint holds the very values)."""
+    st = ContinuationSettings(ds=0.2, ds_max=0.2, ds_min=1e-4, predictor="quadratic")
+    cfg = BranchConfig(shape=Sphere(1.0), h_over_r=0.05, kappa_end=4.0, size=0.3, degree=2,
+                       continuation=st)
+    full = list(run_branch(cfg, shared_tmp / "full"))
+    gen = run_branch(cfg, shared_tmp / "cut")
+    [next(gen) for _ in range(4)]
+    gen.close()
+    resumed = list(run_branch(cfg, shared_tmp / "cut"))
+    assert [p["index"] for p in resumed] == [p["index"] for p in full]
+    assert len(full) >= 7 and resumed[-1]["kappa_R"] == pytest.approx(4.0, rel=1e-12)
+    keys = ("kappa_R", "psi3_over_h", "newton_its", "step")
+    for a, b in zip(resumed[4:], full[4:], strict=True):
+        for k in keys:
+            assert a[k] == pytest.approx(b[k], rel=1e-9, abs=1e-12), (k, a[k], b[k])
+    if MPI.COMM_WORLD.size == 1:
+        assert [[p[k] for k in keys] for p in resumed] == [[p[k] for k in keys] for p in full]

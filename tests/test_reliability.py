@@ -533,6 +533,29 @@ def test_follow_resumes_exactly_on_the_algebraic_pitchforks():
     assert list(follow(PitchforkProblem(), st, 2.5, crit, resume=tracked[-1])) == []
 
 
+def test_follow_resumes_exactly_with_the_quadratic_predictor():
+    """The quadratic predictor's first step after a resume starts from the point before the
+    resumed one (``FollowResume.state_prev``, ``kappa_prev``, ``step``), as the run's did: on
+    the fold x² + κ - 1 = 0, whose branch bends (the quadratic start is not the tangent
+    predictor's), the resumed runs from every point take the run's points to the last bit,
+    with its iterations, and locate its fold."""
+    from shells.algebraic import FoldProblem
+    from shells.continuation import ContinuationSettings
+    from shells.critical import CriticalSettings, follow
+
+    st = ContinuationSettings(ds=0.05, ds_max=0.05, max_steps=40, predictor="quadratic")
+    crit = CriticalSettings(rel_tol=1e-8, stop_at_fold=False)
+    tracked = []
+    full = list(follow(FoldProblem(), st, 3.0, crit, track=tracked.append))
+    assert [c.kind for _, _, cps in full for c in cps] == ["fold"]
+    for k in range(len(full) - 1):
+        rest = list(follow(FoldProblem(), st, 3.0, crit, resume=tracked[k]))
+        assert [p.as_dict() | {"wall_time": 0} for p, _, _ in rest] == \
+            [p.as_dict() | {"wall_time": 0} for p, _, _ in full[k + 1:]], k
+        assert [[(c.kind, c.kappa) for c in cps] for _, _, cps in rest] == \
+            [[(c.kind, c.kappa) for c in cps] for _, _, cps in full[k + 1:]], k
+
+
 # ------------------------------------------------------------------------------------------
 # injected solver failures (the algebraic problems: exact answers, milliseconds, any rank)
 # ------------------------------------------------------------------------------------------

@@ -13,15 +13,18 @@ matrices:
 
 1. ``CellTabulator``: one C loop (compiled once with cffi, cached like FFCx's own modules)
    calls the forms' FFCx kernels cell by cell into an array of element matrices: no sparse
-   insertion, no copies out of PETSc (1.8 ms for the five C_k and H_0 against 4.7 ms).
+   insertion, no copies out of PETSc (1.8 ms for the five C_k against 4.7 ms; H_0's element
+   matrices follow from C_0's by a change of unknowns, ``sum_difference``).
 2. ``ChainCholesky``: the nine interior DOFs of a cell (its P3 and P2 interior nodes) couple to
    nothing outside it, so they are eliminated cell by cell (a 9 x 9 Cholesky factor in a second
    C loop, which also forms each block's element matrix Σ m^k C_k on the fly: cells outer,
-   blocks inner, four blocks in lockstep, one per SIMD lane, each lane with the arithmetic of
-   its block alone), and what remains is the Schur complement on the vertex DOFs, a block
+   blocks inner, four or eight blocks in lockstep, one per SIMD lane (eight where the CPU has
+   AVX-512: ``_lanes_for``), each lane with the arithmetic of its block alone), and what
+   remains is the Schur complement on the vertex DOFs, a block
    tridiagonal matrix of 6 x 6 blocks (half-bandwidth 11, 1200 rows), factored by a banded
-   Cholesky in C (as ``dpbtrf``, the four lanes' bands interleaved: ``definite_chain``):
-   1.4 ms for m = 0..12 all told, against 2.8 ms one block after another. Boundary
+   Cholesky in C (as ``dpbtrf``, the lanes' bands interleaved: ``definite_chain``):
+   1.2 ms for m = 0..12 all told in two passes of eight lanes (1.45 ms in four of four),
+   against 2.8 ms one block after another. Boundary
    conditions (on vertex DOFs only) are applied to that complement: a constrained DOF's row and
    column are zeroed and its diagonal is one, which is what the complement of the constrained
    matrix is.
@@ -873,8 +876,8 @@ class ChainCholesky:
         diag(H) has a Cholesky factor? (Then H is positive definite; NaN or a non-positive
         pivot: False.) The condensation, the constraints and the banded Cholesky (the
         left-looking algorithm of LAPACK's ``dpbtrf``) of every block in one C call
-        (``definite_chain``: four blocks in lockstep, one per SIMD lane, each with the
-        arithmetic it would have alone)."""
+        (``definite_chain``: four or eight blocks in lockstep, one per SIMD lane, each with
+        the arithmetic it would have alone)."""
         if len(powers) != len(own) or len(own) != len(constrained):
             raise ValueError("inconsistent blocks")
         if len(own) == 0:
@@ -993,8 +996,8 @@ class ChainCholesky:
                  constrained: list[np.ndarray], growth: float
                  ) -> list[tuple[int, int, int] | None]:
         """``inertia`` of several blocks (``powers`` one row per block), their condensations in
-        one C call, four blocks in lockstep with the arithmetic each has alone (the same
-        counts as one at a time, at less than half the cost for four)."""
+        one C call, four or eight blocks in lockstep with the arithmetic each has alone (the
+        same counts as one at a time, at less than half the cost for four)."""
         if len(powers) != len(own) or len(own) != len(constrained):
             raise ValueError("inconsistent blocks")
         if not own:

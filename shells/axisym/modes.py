@@ -471,7 +471,7 @@ class ModeForms:
     def inertias(self, ms: list[int], growth: float
                  ) -> dict[int, tuple[int, int, int] | None] | None:
         """``inertia`` of each H_m, m in ``ms``, condensed together
-        (``ChainCholesky.inertias``: four blocks in lockstep); None in parallel."""
+        (``ChainCholesky.inertias``: four or eight blocks in lockstep); None in parallel."""
         E = self.element_matrices()
         if E is None:
             return None

@@ -29,13 +29,15 @@ SNES_OPTIONS: dict[str, Any] = {"snes_rtol": 1.0e-9, "snes_atol": 1.0e-12, "snes
                                 "snes_max_it": 25}
 
 
-#: ``ContinuationSettings.factor_reuse`` of ``critical`` with its default settings (as the
-#: surface model's, ``shells.drivers.REUSE_SURFACE``): the corrector's chord steps and the
-#: tangent from its factorisation, 230 factorisations instead of 378 on the θ̄ = 8 cap, the run
-#: 7 % faster (median of 15 alternating runs, 1.15 against 1.24 s), its located points
-#: unchanged to 2e-9; the h/R = 0.01 and 0.002 spheres' bifurcations to 3e-9 and 9e-9 (2e-5
-#: with the shift-invert's eigenvalues: round-off)
-REUSE_CRITICAL = 1.0e-5
+#: ``ContinuationSettings.factor_reuse`` of ``critical`` with its default settings: the
+#: corrector's chord steps and the tangent from its factorisation. At 1e-5, 230 factorisations
+#: instead of 378 on the θ̄ = 8 cap (the run 7 % faster, its located points unchanged to 2e-9;
+#: the h/R = 0.01 and 0.002 spheres' bifurcations to 3e-9 and 9e-9). Since the corrector starts
+#: from the branch's quadratic extrapolation (``continuation.arclength_steps``), its first
+#: update is 1e-7 of the state instead of 1e-5, and at 1e-4 its second iterate keeps the
+#: first's factorisation too: 156 factorisations there, the located points within 1e-8 of
+#: those at 1e-5 (the spheres' within 7e-9, the θ̄ = 15 cap's going down the same)
+REUSE_CRITICAL = 1.0e-4
 
 
 def default_cells(shape: Shape, h_over_r: float) -> int:
@@ -285,8 +287,9 @@ def critical(shape: Shape, h_over_r: float, nu: float = 0.5, direction: str = "u
     from shells.critical import CriticalSettings
 
     run = _Run(cfg)
-    if cfg.settings is None:  # only the critical points are wanted: chord steps
-        run.settings = replace(run.settings, factor_reuse=REUSE_CRITICAL)
+    if cfg.settings is None:  # only the critical points are wanted: chord steps, and
+        # Newton from the branch's quadratic extrapolation (``REUSE_CRITICAL``)
+        run.settings = replace(run.settings, factor_reuse=REUSE_CRITICAL, predictor="quadratic")
     L = run.model.shape.characteristic_size()
     # a closed sphere's axisymmetric modes of neighbouring degrees bifurcate within 1e-4 in κ:
     # there the locator's corrector omits dominant components along the Jacobian's four

@@ -77,10 +77,11 @@ class ContinuationSettings:
             as Newton's there. 0 (the default): factor at every iteration and for the tangent.
             The surface model's ``critical`` uses 1e-5 (``REUSE_SURFACE`` in shells.drivers):
             3 factorisations per step instead of 5, its critical points unchanged to 3e-11
-            (benchmarks/lu_per_step.py); the 1D model's ``critical`` too, with its default
-            settings (``REUSE_CRITICAL`` in shells.axisym.run: 7 % faster on the θ̄ = 8 cap,
-            its points unchanged to 2e-9; before its eigenvalues were Rayleigh quotients the
-            thin spheres' closely spaced bifurcations moved by up to 2e-5 with it, round-off).
+            (benchmarks/lu_per_step.py); the 1D model's ``critical`` 1e-4, with its default
+            settings and the quadratic ``predictor`` (``REUSE_CRITICAL`` in
+            shells.axisym.run: 156 factorisations instead of 378 on the θ̄ = 8 cap, its points
+            unchanged to 1e-8; before its eigenvalues were Rayleigh quotients the thin
+            spheres' closely spaced bifurcations moved by up to 2e-5 with 1e-5, round-off).
             Not the default elsewhere: a branch's points are its result there.
         predictor: where the arclength corrector starts (the hyperplane is the tangent
             predictor's either way): "tangent" (default), the predictor itself, or

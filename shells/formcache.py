@@ -37,6 +37,42 @@ from shells.store import write_atomic
 
 __all__ = ["compiled_derived", "cache_folder", "cache_root", "file_tag"]
 
+
+def _cmp_constant(a: Any, b: Any) -> int:
+    """UFL's order of two Constants, as its ``_cmp_terminal_by_repr`` (repr(a) against
+    repr(b)), but with their counts, the reprs' last numbers, compared as numbers. UFL sorts the
+    operands of sums and products canonically, and compares Constants by their reprs as
+    strings, so "..., 100)" sorts before "..., 99)": a form whose Constants' counts straddle a
+    power of ten (they grow through a process) got another operand order, another expression and
+    so another signature than the same form built elsewhere, and its record was not found
+    (measured: the test of tests/test_formcache.py after tests/test_chain.py and
+    tests/test_stability.py, whose models' Constants were counted 93 to 105). Counts of the
+    same number of digits compare as before: only those orders change."""
+    x, y = repr(a), repr(b)
+    if x == y:
+        return 0
+    (px, cx), (py, cy) = x.rsplit(", ", 1), y.rsplit(", ", 1)
+    if px == py and cx[:-1].isdigit() and cy[:-1].isdigit():
+        nx, ny = int(cx[:-1]), int(cy[:-1])
+        return -1 if nx < ny else (0 if nx == ny else 1)
+    return -1 if x < y else 1
+
+
+def _order_constants_by_count() -> None:
+    """Install ``_cmp_constant`` as UFL's comparison of Constants (once, where UFL has none of
+    its own for them)."""
+    try:
+        import ufl.sorting
+        from ufl.constant import Constant
+    except ImportError:  # pragma: no cover - UFL is a dependency
+        return
+    cmps = getattr(ufl.sorting, "_terminal_cmps", None)
+    if isinstance(cmps, dict):
+        cmps.setdefault(Constant._ufl_typecode_, _cmp_constant)
+
+
+_order_constants_by_count()
+
 log = logging.getLogger("shells")
 
 _MODULES: dict[str, Any] = {}  # the compiled modules loaded in this process, by file

@@ -208,3 +208,27 @@ def test_the_hessian_functional_from_the_record_is_the_derived_one(folder, monke
     from_record = from_record and any(t.endswith("quadratic") for t in derived)  # (counted)
     assert everywhere(from_record and q_record == q_fresh and abs(q_record) > 0
                       and abs(q_record - qm) < 1e-12 * scale)
+
+
+def test_a_signature_does_not_depend_on_how_many_constants_came_before():
+    """UFL orders the operands of a sum canonically, and Constants by their reprs, whose last
+    number is a count that grows through the process: as strings, "..., 100)" came before
+    "..., 99)", so the same form got another signature when its Constants' counts straddled a
+    power of ten, and its record was not found. ``shells.formcache`` compares those counts as
+    numbers: the same signature either way."""
+    import ufl
+    from dolfinx import mesh
+
+    domain = mesh.create_unit_interval(MPI.COMM_SELF, 4)
+
+    def form():
+        a, b = ufl.Constant(domain), ufl.Constant(domain)  # consecutive counts
+        return (a + b) * a * ufl.dx(domain), a.count()
+
+    plain, count = form()
+    digits = len(str(count + 2))
+    while len(str(ufl.Constant(domain).count() + 2)) == digits:
+        pass  # up to the counts just below the next power of ten
+    straddling, count = form()
+    assert len(str(count)) < len(str(count + 1))  # 9..9 and 10..0
+    assert straddling.signature() == plain.signature()

@@ -456,9 +456,11 @@ class Stability:
                    ) -> tuple[list[float], list[Any]]:
         """The ``nev`` eigenvalues of H v = μ M v nearest 0 of a block (M: its mass),
         ascending, and with ``modes`` their eigenvectors. ``assemble=False``: the block's
-        matrix as last assembled (by ``inertia``). ``ncv``: the Krylov subspace's size
-        (default max(2 nev + 10, 24); its cost grows with it, a solve converges in one
-        restart at the default).
+        matrix as last assembled (by ``inertia``). Where the shift-invert applies the
+        problem's own factorisation (``block_factor``), which reads no value of the block's
+        matrix, that matrix is not assembled at all (it keeps its last values). ``ncv``: the
+        Krylov subspace's size (default max(2 nev + 10, 24); its cost grows with it, a solve
+        converges in one restart at the default).
 
         Where the problem evaluates vᵀ H v by quadrature (``hessian_quadratic``), each
         eigenvalue is its eigenvector's Rayleigh quotient vᵀ H v / vᵀ M v (``refine``): the

@@ -373,7 +373,7 @@ class ModeForms:
         about an axisymmetric state (the base state has no azimuthal component); H_0 is
         2π [q_UW(S, W) + q_V(D)]. Equal to the second derivative of its own form to round-off
         (1e-14 of each entry, 6e-16 of the largest, measured on the θ̄ = 8 cap), at no
-        kernel's cost (0.02 against 0.4 ms a state there)."""
+        kernel's cost (0.07 against 0.4 ms a state there)."""
         from shells.axisym.chain import sum_difference
 
         sum_difference(C0, pairs[0], pairs[1], out)

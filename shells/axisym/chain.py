@@ -526,9 +526,10 @@ def _cpu_flags() -> set[str]:
 # it (its four double lanes are definite_chain's), named in the module's hash: no -march=native,
 # as the cache folder may serve another machine
 _CFLAGS = ["-O3", "-ffp-contract=off"] + (["-mavx2"] if "avx2" in _cpu_flags() else [])
-#: the lane widths built: 8 too where the CPU has AVX-512 (a pass of eight blocks costs 1.4 times
-#: one of four on this machine's AMD EPYC, whose AVX-512 units are 256 bits wide: the 13 blocks
-#: of a cap's check 1.6 instead of 2.2 ms), and ``_lanes_for`` picks one per call. Each lane's
+#: the lane widths built: 8 too where the CPU has AVX-512 (on this machine's AMD EPYC, whose
+#: AVX-512 units are 256 bits wide, a pass of eight blocks costs less than two of four: the 13
+#: blocks of the θ̄ = 8 cap's check 1.2 instead of 1.45 ms), and ``_lanes_for`` picks one per
+#: call. Each lane's
 #: arithmetic is its block's alone, in the same order (no fused multiply-adds): the values do
 #: not depend on the width
 _WIDTHS = (4, 8) if "avx512f" in _cpu_flags() else (4,)

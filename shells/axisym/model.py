@@ -34,7 +34,7 @@ import numpy as np
 from shells.axisym.mesh import MeridianMesh, _supported, make_meridian_nodes
 from shells.errors import InputError
 from shells.formcache import cache_root, compiled_derived, file_tag
-from shells.formproblem import FormProblem
+from shells.formproblem import FormProblem, dkappa_ufl
 from shells.geometry import (
     Disk,
     EllipsoidalCap,
@@ -593,7 +593,7 @@ class AxisymModel(FormProblem):
         from petsc4py import PETSc
 
         form, first, second, both, reads = pair
-        inputs = [a.copy() for a in self._paired_inputs(reads)]
+        inputs = [a.copy() for a in read_inputs(*reads, self.mesh)]
         both.fill(0.0)
         assemble_vector(both, form)
         b.array_w[:] = both[first]
@@ -606,21 +606,14 @@ class AxisymModel(FormProblem):
         """dR/dκ (``FormProblem``'s), from ``assemble_residual``'s pass where that was at the
         same state (every coefficient, Constant and the geometry compared exactly)."""
         kept, pair = self._dkappa_kept, self._paired()
-        if kept is None or pair is None or not all(
-                np.array_equal(a, c) for a, c in zip(self._paired_inputs(pair[4]), kept[0],
-                                                      strict=True)):
+        if kept is None or pair is None or not same_inputs(kept[0],
+                                                           read_inputs(*pair[4], self.mesh)):
             FormProblem.assemble_dkappa(self, b)
             return
         from dolfinx.fem.petsc import set_bc
 
         b.array_w[:] = kept[1]
         set_bc(b, self.bcs, alpha=0.0)
-
-    def _paired_inputs(self, reads: tuple[list, list]) -> list[np.ndarray]:
-        """What the paired form reads (views): its coefficients' arrays, its Constants'
-        values, the mesh geometry."""
-        return ([w.x.array for w in reads[0]] + [np.atleast_1d(k.value) for k in reads[1]]
-                + [self.mesh.geometry.x])
 
     def _paired(self) -> Any:
         """(form, W's DOFs in it as R's and as dR/dκ's, its work array, its reads): the form
@@ -651,8 +644,7 @@ class AxisymModel(FormProblem):
 
         def derive() -> list[Any]:
             v1, v2 = ufl.split(ufl.TestFunction(W2))
-            D = ufl.replace(R, {kappa: ufl.as_ufl(1.0)}) - ufl.replace(R, {kappa: ufl.as_ufl(0.0)})
-            return [ufl.replace(R, {v: v1}) + ufl.replace(D, {v: v2})]
+            return [ufl.replace(R, {v: v1}) + ufl.replace(dkappa_ufl(R, kappa), {v: v2})]
 
         forms, reads = compiled_derived(R, f"{_DERIVATION} R and dR/dkappa", derive,
                                         JIT_OPTIONS, spaces=(W2,))
@@ -880,6 +872,19 @@ class AxisymModel(FormProblem):
         forms = tuple(fem.form(q * ad * self.dx, jit_options=JIT_OPTIONS)
                       for q in (grad2, wn * wn, uz, 1.0))
         return f, shift, m_c, forms
+
+
+def read_inputs(coefficients: Any, constants: Any, mesh: Any) -> list[np.ndarray]:
+    """Everything compiled forms read (views, not copies): each coefficient's local array
+    (ghosts included), each Constant's value, the mesh geometry."""
+    return ([w.x.array for w in coefficients] + [np.atleast_1d(k.value) for k in constants]
+            + [mesh.geometry.x])
+
+
+def same_inputs(old: list[np.ndarray] | None, new: list[np.ndarray]) -> bool:
+    """Whether ``read_inputs`` are those of ``old`` (a copy of earlier ones), exactly."""
+    return old is not None and len(old) == len(new) and all(
+        np.array_equal(a, b) for a, b in zip(old, new, strict=True))
 
 
 def _dirichlet(V: Any, vertices: np.ndarray) -> list[Any]:

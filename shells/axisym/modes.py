@@ -55,7 +55,14 @@ from typing import Any
 
 import numpy as np
 
-from shells.axisym.model import JIT_OPTIONS, AxisymModel, Jet, _dirichlet
+from shells.axisym.model import (
+    JIT_OPTIONS,
+    AxisymModel,
+    Jet,
+    _dirichlet,
+    read_inputs,
+    same_inputs,
+)
 from shells.errors import InputError
 from shells.formcache import compiled_derived, file_tag
 
@@ -162,10 +169,11 @@ class ModeForms:
                 h = expand_derivatives(ufl.derivative(h, m, ufl.as_ufl(1.0)))
         return out
 
-    def fixed_phase_ufl(self, m: int) -> Any:
-        """The Hessian's UFL for mode m's class (m = 0, or every m ≥ 1 with m the Constant
-        ``set_mode`` sets) with its phases put in as numbers and the zero perturbation as 0:
-        the direct form's values at a fraction of its cost (``hessian_quadratic``)."""
+    def fixed_phase_ufl(self, m: int, m_as: Any = None) -> Any:
+        """The Hessian's UFL for mode m's class with its phases put in as numbers and the zero
+        perturbation as 0: m = 0 the number 0; m ≥ 1 the Constant ``set_mode`` sets (the
+        direct form's values at a fraction of its cost: ``hessian_quadratic``), or ``m_as`` in
+        its place (a coefficient to differentiate in: ``_fixed_mode_ufl``)."""
         import ufl
         from ufl.algorithms import expand_derivatives
 
@@ -173,26 +181,22 @@ class ModeForms:
         rep: dict[Any, Any] = {c[k]: ufl.as_ufl(v) for k, v in _PHASES[min(m, 1)].items()}
         if m == 0:
             rep[c["m"]] = ufl.as_ufl(0.0)
+        elif m_as is not None:
+            rep[c["m"]] = m_as
         rep[self.pert] = ufl.zero(*self.pert.ufl_shape)
-        if self._expanded is None:
+        if self._expanded is None:  # once: every use expands the same Hessian (0.1 s each)
             self._expanded = expand_derivatives(self.hessian_ufl)
         return ufl.replace(self._expanded, rep)
 
     def _fixed_mode_ufl(self, m: int) -> tuple[Any, Any]:
-        """The Hessian's UFL with mode m's phases put in as numbers and the zero perturbation
-        as 0 (m a symbolic coefficient for m ≥ 1; m = 0: the number 0)."""
+        """``fixed_phase_ufl`` with m a symbolic coefficient for m ≥ 1 (m = 0: the number 0),
+        and that m."""
         import ufl
         from dolfinx import fem
-        from ufl.algorithms import expand_derivatives
 
-        c = self.c
-        rep: dict[Any, Any] = {c[k]: ufl.as_ufl(v) for k, v in _PHASES[min(m, 1)].items()}
-        rep[c["m"]] = (ufl.as_ufl(0.0) if m == 0 else
-                       fem.Function(fem.functionspace(self.model.mesh, ("DG", 0))))
-        rep[self.pert] = ufl.zero(*self.pert.ufl_shape)
-        if self._expanded is None:  # once: both uses expand the same Hessian (0.1 s each)
-            self._expanded = expand_derivatives(self.hessian_ufl)
-        return ufl.replace(self._expanded, rep), rep[c["m"]]
+        mm = (ufl.as_ufl(0.0) if m == 0 else
+              fem.Function(fem.functionspace(self.model.mesh, ("DG", 0))))
+        return self.fixed_phase_ufl(m, m_as=mm), mm
 
     @property
     def axisymmetric_form(self) -> Any:
@@ -229,12 +233,9 @@ class ModeForms:
             constants.update({id(k): k for k in ks})
 
     def _inputs(self) -> list[np.ndarray]:
-        """Everything the coefficient forms and H_0's form read (views, not copies): each
-        coefficient's local array (ghosts included), each Constant's value, the geometry."""
+        """Everything the coefficient forms and H_0's form read (``model.read_inputs``)."""
         coefficients, constants = self._read
-        return ([w.x.array for w in coefficients.values()]
-                + [np.atleast_1d(k.value) for k in constants.values()]
-                + [self.model.mesh.geometry.x])
+        return read_inputs(coefficients.values(), constants.values(), self.model.mesh)
 
     def _stale(self, old: list[np.ndarray] | None) -> tuple[bool, list[np.ndarray]]:
         """Whether the inputs differ from ``old`` (compared exactly; collective: a change on
@@ -242,8 +243,7 @@ class ModeForms:
         from mpi4py import MPI
 
         inputs = self._inputs()
-        stale = old is None or len(old) != len(inputs) or not all(
-            a.shape == b.shape and np.array_equal(a, b) for a, b in zip(old, inputs, strict=True))
+        stale = not same_inputs(old, inputs)
         comm = self.model.comm
         if comm.size > 1:
             stale = comm.allreduce(stale, op=MPI.LOR)

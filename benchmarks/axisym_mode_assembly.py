@@ -26,10 +26,12 @@ import time
 from pathlib import Path
 from typing import Any
 
-from shells.axisym import SNES_OPTIONS, AxisymModel, RunConfig, critical, sphere_kappa_b_h
-from shells.geometry import Sphere
-from shells.solvers import NewtonSolver
-from shells.stability import Stability
+from shells.algorithms.newton import NewtonSolver
+from shells.algorithms.stability import Stability
+from shells.analyses.axisym_runs import RunConfig, critical
+from shells.axisym import SNES_OPTIONS, AxisymModel
+from shells.geometry.shapes import Sphere
+from shells.theory import sphere_kappa_b_h
 
 H_OVER_R, NU = 0.002, 0.5
 

@@ -16,9 +16,9 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from shells.drivers import critical_run
-from shells.geometry import SphericalCap
-from shells.stimulus import CurvatureField
+from shells.analyses.drivers import critical_run
+from shells.geometry.shapes import SphericalCap
+from shells.geometry.stimulus import CurvatureField
 
 CAP = SphericalCap(1.0, math.radians(30))
 H_OVER_R = 0.04

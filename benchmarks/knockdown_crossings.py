@@ -40,7 +40,7 @@ class Probe:
     modes look like."""
 
     def __init__(self, model) -> None:
-        from shells.stability import Stability
+        from shells.algorithms.stability import Stability
 
         self.model = model
         self.stab = Stability(model)
@@ -109,9 +109,9 @@ class Probe:
 
 
 def attempts(kind: str, cells: int | None) -> list[dict]:
-    import shells.knockdown as kd
+    import shells.analyses.knockdown as kd
+    from shells.algorithms.newton import NewtonSolver
     from shells.axisym import SNES_OPTIONS
-    from shells.solvers import NewtonSolver
 
     cfg = kd.KnockdownConfig(H, (CASES[kind],), nu=NU, imperfection=kind, load="pressure",
                              cells=cells)
@@ -153,11 +153,12 @@ def attempts(kind: str, cells: int | None) -> list[dict]:
 
 
 def scan(kind: str, cells: int | None, scan_from: float) -> list[dict]:
-    import shells.knockdown as kd
-    from shells.axisym import SNES_OPTIONS, default_settings
-    from shells.continuation import continuation
-    from shells.geometry import Sphere
-    from shells.solvers import NewtonSolver
+    import shells.analyses.knockdown as kd
+    from shells.algorithms.continuation import continuation
+    from shells.algorithms.newton import NewtonSolver
+    from shells.analyses.axisym_runs import default_settings
+    from shells.axisym import SNES_OPTIONS
+    from shells.geometry.shapes import Sphere
 
     cfg = kd.KnockdownConfig(H, (CASES[kind],), nu=NU, imperfection=kind, load="pressure",
                              cells=cells)

@@ -16,7 +16,7 @@ locates it. Three measurements:
    the 1-ulp perturbations w (1 ± ε) of that state move μ (the round-off of the assembled
    Hessian, whose Frobenius norm is also reported), and how far the state solved again at
    κ (1 ± 1e-10 .. 1e-9) moves it (a new sequence of round-off in the state itself, which the
-   locator's reported accuracy measures: ``shells.critical.eigenvalue_roundoff``);
+   locator's reported accuracy measures: ``shells.algorithms.critical.eigenvalue_roundoff``);
 4. where that round-off is: the same state's μ by the two factorisations the eigensolve can
    use (the 1D model's chain LU, ``ChainLU``, and MUMPS), and the spread of μ over 13 states
    solved again at κ (1 + k 1e-10), k = -6..6 (each state moves by ~1e-10 relative, which
@@ -48,8 +48,8 @@ KAPPA_FIXED = -0.4231  # κR near the crossing, for measurement 3
 
 
 def _task(rel_tol: float):  # noqa: ANN202 - (config, task)
-    from shells.phase_diagram import PhaseDiagramConfig
-    from shells.phase_diagram.config import tasks_of
+    from shells.analyses.phase_diagram import PhaseDiagramConfig
+    from shells.analyses.phase_diagram.config import tasks_of
 
     cfg = PhaseDiagramConfig(h_over_r=(0.01, 0.04), thetabar_range=(1.0, 20.0), points=36,
                              refine=3, rel_tol=rel_tol)
@@ -61,9 +61,9 @@ def _task(rel_tol: float):  # noqa: ANN202 - (config, task)
 def located(scale: float, rel_tol: float) -> dict:
     """The task located with the first continuation step scaled by ``scale``; the crossing
     eigenvalue samples of block 2 at the locator's trials."""
-    import shells.critical as critical
-    import shells.phase_diagram.tracing as tracing
-    from shells.phase_diagram import compute_task
+    import shells.algorithms.critical as critical
+    import shells.analyses.phase_diagram.tracing as tracing
+    from shells.analyses.phase_diagram import compute_task
 
     cfg, task = _task(rel_tol)
     samples: list[tuple[float, float]] = []
@@ -93,9 +93,9 @@ def located(scale: float, rel_tol: float) -> dict:
 def fixed_kappa() -> dict:
     """μ of block 2 at κR = KAPPA_FIXED after natural Newton steps, and under 1-ulp
     perturbations of the state."""
-    from shells.phase_diagram.tracing import _Branch
-    from shells.problem import get_state, set_state
-    from shells.stability import Stability
+    from shells.algorithms.stability import Stability
+    from shells.analyses.phase_diagram.tracing import _Branch
+    from shells.problem.interface import get_state, set_state
 
     cfg, task = _task(1e-5)
     runs, states = [], []
@@ -120,7 +120,7 @@ def fixed_kappa() -> dict:
             H = st.assemble(2)
             hnorm = float(H.norm())
             # the same state solved again at κ (1 ± η), η ~ 1e-10 (the locator's round-off
-            # measure, ``shells.critical.ROUNDOFF_SHIFT``): a new sequence of round-off
+            # measure, ``shells.algorithms.critical.ROUNDOFF_SHIFT``): a new sequence of round-off
             resolved = _resolved(br, st, w0, (1e-10, -1e-10, 2e-10, -2e-10, 1e-9), nev=2)
             factorisations = _two_factorisations(m, st)
             spread = _resolved(br, st, w0, [k * 1e-10 for k in range(-6, 7)], nev=1)
@@ -145,8 +145,8 @@ def _solve_at(br, kappa: float) -> None:  # noqa: ANN001 - a phase-diagram branc
 def scan() -> dict:
     """Block 2's negative count and μ at 41 κ across the crossing, one natural Newton step each
     from the last."""
-    from shells.phase_diagram.tracing import _Branch
-    from shells.stability import Stability
+    from shells.algorithms.stability import Stability
+    from shells.analyses.phase_diagram.tracing import _Branch
 
     cfg, task = _task(1e-5)
     br = _Branch(task.theta, task.h_over_r, cfg.nu, cfg)
@@ -169,7 +169,7 @@ def scan() -> dict:
 def _resolved(br, st, w0: np.ndarray, etas, nev: int) -> list[float]:  # noqa: ANN001
     """μ_2 (the first of ``nev`` nearest 0) of the state solved again from ``w0`` at
     κ (1 + η) for each η; the model left at w0 and κ."""
-    from shells.problem import set_state
+    from shells.problem.interface import set_state
 
     m, out = br.model, []
     for eta in etas:
@@ -184,7 +184,7 @@ def _resolved(br, st, w0: np.ndarray, etas, nev: int) -> list[float]:  # noqa: A
 def _two_factorisations(m, st) -> dict:  # noqa: ANN001 - the model and its Stability
     """μ of block 2 at the model's state by the chain LU and by MUMPS; ε ||H||_F and
     ε |v|ᵀ|H||v| / vᵀMv (v its eigenvector)."""
-    from shells.stability import Stability
+    from shells.algorithms.stability import Stability
 
     vals, vecs = st.eigenpairs(2, block=2, modes=True)
     mumps = Stability(m)

@@ -26,9 +26,10 @@ import time
 from collections import Counter
 from pathlib import Path
 
-from shells import continuation, solvers, stability
-from shells.drivers import critical_surface
-from shells.geometry import SphericalCap
+from shells.algorithms import continuation, stability
+from shells.algorithms import newton as solvers
+from shells.analyses.drivers import critical_surface
+from shells.geometry.shapes import SphericalCap
 
 CASES = {"cap30 up": (30.0, 3.0), "thetabar5 up": (math.degrees(1.0), 5.0)}
 
@@ -64,7 +65,7 @@ def count_run(theta_deg: float, kappa_r_end: float, factor_reuse: float | None) 
             per_step.append(count["lu"] - c0)
             yield s
 
-    from shells import critical
+    from shells.algorithms import critical
 
     solvers.setup_factor, solvers.NewtonSolver.solve = lu, solve
     stability.setup_factor, continuation.arclength_steps = setup, steps

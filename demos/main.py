@@ -26,13 +26,14 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from shells import axisym, theory
-from shells.branch import BranchConfig, run_branch
-from shells.continuation import ContinuationSettings
-from shells.drivers import postbuckle_run
-from shells.geometry import Sphere, SphericalCap
-from shells.phase_diagram import PhaseDiagramConfig, run_phase_diagram
-from shells.postbuckle import PostbuckleConfig
+from shells import theory
+from shells.algorithms.continuation import ContinuationSettings
+from shells.analyses import axisym_runs
+from shells.analyses.branch import BranchConfig, run_branch
+from shells.analyses.drivers import postbuckle_run
+from shells.analyses.phase_diagram import PhaseDiagramConfig, run_phase_diagram
+from shells.analyses.postbuckle import PostbuckleConfig
+from shells.geometry.shapes import Sphere, SphericalCap
 
 
 def say(msg: str) -> None:
@@ -47,11 +48,11 @@ def _f(v: float | None) -> str:
 def snapped_shape(cap: SphericalCap, h_over_r: float, kappa_r: float, size: float,
                   layer: float, path: Path) -> dict:
     """The everted (snapped) cap at κR: Newton from the cap mirrored through its rim plane."""
-    from shells.fields import FieldWriter
-    from shells.mesh import MeshSpec, generate
-    from shells.model import ModelParameters, ShellModel
-    from shells.solvers import NewtonSolver
-    from shells.stability import Stability
+    from shells.algorithms.newton import NewtonSolver
+    from shells.algorithms.stability import Stability
+    from shells.surface.fields import FieldWriter
+    from shells.surface.mesh import MeshSpec, generate
+    from shells.surface.model import ModelParameters, ShellModel
 
     h = h_over_r * cap.R
     model = ShellModel(generate(MeshSpec(cap, h=h, size=size, layer_elements=layer),
@@ -79,7 +80,7 @@ def run(outdir: str | Path = "results/demo", quick: bool = False) -> dict:
 
     # 1. closed sphere
     h = 0.01
-    sph = axisym.critical(Sphere(1.0), h, 0.5, direction="up")
+    sph = axisym_runs.critical(Sphere(1.0), h, 0.5, direction="up")
     out["sphere_kappa_b_h"] = sph["kappa_h"]
     say(f"closed sphere, h/R = {h}: buckles at kappa h = {sph['kappa_h']:.4f} into degree "
         f"n = {sph['mode_n']} (paper, thin limit: 4/sqrt(7) = {theory.sphere_kappa_b_h():.4f}; "

@@ -165,7 +165,7 @@ def default_kappa_range(shape: object, h_over_r: float, nu: float, direction: st
     Built from the paper's laws (sphere and any closed shell: κ_b h; caps: the snap line, the
     mirrored Eq. (4) and Eq. (4); disk: the plate limit), widened by 60 %; other shapes 8/R.
     """
-    from shells.geometry import Disk, Sphere, SphericalCap
+    from shells.geometry.shapes import Disk, Sphere, SphericalCap
 
     sign = 1.0 if direction == "up" else -1.0
     L = shape.characteristic_size()  # type: ignore[attr-defined]
@@ -181,6 +181,6 @@ def default_kappa_range(shape: object, h_over_r: float, nu: float, direction: st
             kr = max(snap_kappa_R(tb), mirrored_buckling_kappa_R(tb, h_over_r))
             return (1.6 * max(kr, 1.0) + 0.5) / shape.R
         return (1.6 * min(buckling_kappa_R(tb, h_over_r), -1.0) - 0.5) / shape.R
-    from shells.geometry import kappa_length
+    from shells.geometry.shapes import kappa_length
 
     return sign * 8.0 / kappa_length(shape)  # type: ignore[arg-type]

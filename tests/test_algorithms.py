@@ -1,6 +1,6 @@
 """The algorithm layer (continuation, stability, critical points, branch switching) on the tiny
-algebraic problems of ``shells.algebraic``, whose answers are known exactly: milliseconds per
-test. Each rank solves its own copy (MPI.COMM_SELF), so the tests are valid on any number of
+algebraic problems of ``shells.problem.algebraic``, whose answers are known exactly: milliseconds
+per test. Each rank solves its own copy (MPI.COMM_SELF), so the tests are valid on any number of
 ranks; one test distributes a problem over MPI.COMM_WORLD and checks that the answer is the
 same.
 """
@@ -12,18 +12,18 @@ import math
 import numpy as np
 import pytest
 
-from shells.algebraic import (
+from shells.algorithms.continuation import ContinuationSettings, continuation
+from shells.algorithms.critical import CriticalSettings, follow, switch_branch
+from shells.algorithms.stability import Stability
+from shells.errors import InputError
+from shells.problem.algebraic import (
     AlgebraicProblem,
     FoldPitchforkProblem,
     FoldProblem,
     PitchforkProblem,
     SubcriticalPitchforkProblem,
 )
-from shells.continuation import ContinuationSettings, continuation
-from shells.critical import CriticalSettings, follow, switch_branch
-from shells.errors import InputError
-from shells.problem import Problem
-from shells.stability import Stability
+from shells.problem.interface import Problem
 
 STEPS = ContinuationSettings(ds=0.1, ds_max=0.2)
 
@@ -79,7 +79,7 @@ def test_natural_steps_down_mirror_the_steps_up():
     run up: the same points and Newton iterations (the secant predictor once pointed back
     along a downward run: more iterations, a 30° cap's run down took 28 points instead of
     10)."""
-    from shells.continuation import ContinuationSettings, continuation
+    from shells.algorithms.continuation import ContinuationSettings, continuation
 
     st = ContinuationSettings(method="natural", ds=0.1, ds_max=0.2)
     up = list(continuation(FoldProblem(1.0), st, kappa_end=0.9))
@@ -119,7 +119,7 @@ def test_natural_steps_refuse_a_jump_to_another_solution(monkeypatch):
     converges to the far root x = 1000 (checked: without the jump test, points at κ = 1.2 and
     1.5 with x = 1000). The run must instead stop at the fold on its own branch. (A 30° cap on
     2 ranks once so jumped to Psi3/h = 1.4e4 just short of its snap-through fold.)"""
-    import shells.continuation as cont
+    import shells.algorithms.continuation as cont
 
     st = ContinuationSettings(method="natural", ds=0.3, ds_max=0.3, ds_min=1e-3,
                               max_newton_its=20)
@@ -183,7 +183,7 @@ def test_crossings_of_several_blocks_in_one_step_share_the_steps_trials(monkeypa
     block 0's own crossing then takes the same first trials, which the step computed already:
     fewer corrector solves and eigensolves than with each crossing located afresh, the same
     points to the last digit."""
-    import shells.critical as critical
+    import shells.algorithms.critical as critical
 
     P = _ThreeBlocks(c=(0.96, 0.98))
     st = ContinuationSettings(ds=0.3, ds_max=0.3)
@@ -461,7 +461,7 @@ def test_the_corrector_reuses_its_factorisation_near_the_solution(monkeypatch):
     the corrector's factorisation: the same points as a factorisation per iteration (to far
     below the Newton tolerance), the same iterations, and at most 3 factorisations per
     arclength step where Newton needs 4-5 (issue 14)."""
-    from shells import solvers
+    from shells.algorithms import newton as solvers
 
     real = solvers.setup_factor
     counts = []

@@ -15,10 +15,11 @@ import pytest
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from shells.axisym import SNES_OPTIONS, AxisymModel, AxisymParameters, sphere_kappa_b_h
-from shells.geometry import Sphere, SphericalCap
-from shells.solvers import NewtonSolver
-from shells.stability import Stability
+from shells.algorithms.newton import NewtonSolver
+from shells.algorithms.stability import Stability
+from shells.axisym import SNES_OPTIONS, AxisymModel, AxisymParameters
+from shells.geometry.shapes import Sphere, SphericalCap
+from shells.theory import sphere_kappa_b_h
 
 MODES = (0, 1, 2, 3, 5, 20, 60)
 
@@ -140,12 +141,12 @@ def test_inertia_is_that_of_the_direct_assembly():
 def test_definiteness_from_element_matrices_is_that_of_the_assembled_blocks(shape, h, kappas):
     """``ModeForms.definite`` (element matrices condensed on the chain of cells,
     ``shells.axisym.chain``) answers as the banded Cholesky of the assembled H_m
-    (``shells.stability``) for m = 0, 1, 2, 3, 5, 20, 60, at margins on both sides of each
-    block's own threshold: the largest margin τ* at which the assembled test still says
+    (``shells.algorithms.stability``) for m = 0, 1, 2, 3, 5, 20, 60, at margins on both sides of
+    each block's own threshold: the largest margin τ* at which the assembled test still says
     "definite" (bisection, to a factor 1.02) is found again within a factor 1.1 (both sides
     tested), so both test the same number, the lowest eigenvalue of the diagonally scaled
     block; an indefinite block is refused by both at every margin."""
-    from shells.stability import _Block
+    from shells.algorithms.stability import _Block
 
     model = loaded(shape, h, kappas)
     mf = model.mode_forms
@@ -211,7 +212,7 @@ def test_residual_and_dkappa_in_one_pass_are_the_separate_assemblies():
     both equal the separate assemblies of their own forms to the last bit, dR/dκ served from
     the last residual's pass only at the same state (after a change of κ or of the state it
     is assembled again: the same values as its own form's)."""
-    from shells.formproblem import FormProblem
+    from shells.problem.forms import FormProblem
 
     model = loaded(SphericalCap(1.0, math.radians(60)), 0.02, (1.0, 2.0))
     a, b = model.create_vector(), model.create_vector()
@@ -237,7 +238,7 @@ def test_jacobian_from_element_matrices_is_dolfinx_assembly():
     """The Jacobian assembled from its element matrices into a matrix whose values are written
     in place (one process) is dolfinx's assembly of the same form to the last bit, on a
     loaded cap and a loaded sphere; dolfinx can still assemble into that matrix."""
-    from shells.formproblem import FormProblem
+    from shells.problem.forms import FormProblem
 
     for shape, h, kappas in ((SphericalCap(1.0, math.radians(60)), 0.02, (1.0, 2.0)),
                              (Sphere(1.0), 0.01, (20.0, 60.0))):

@@ -1,5 +1,5 @@
 """The non-axisymmetric imperfection of the surface model (issue 15):
-``shells.geometry.HarmonicImperfectSphere``, the sphere displaced along the radius by
+``shells.geometry.shapes.HarmonicImperfectSphere``, the sphere displaced along the radius by
 w0 = -δ P_n^m(cos θ) cos(mφ) / max|P_n^m|. Its profile is the spherical harmonic (against
 scipy's associated Legendre functions), its area the second-order law of a perturbed sphere,
 its meshes lie on it, its normal is the surface's, its Gauss-Bonnet and mean-curvature
@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from shells.errors import InputError
-from shells.geometry import HarmonicImperfectSphere, ImperfectSphere
+from shells.geometry.shapes import HarmonicImperfectSphere, ImperfectSphere
 
 H = 0.05
 
@@ -70,7 +70,7 @@ def test_profile_is_the_spherical_harmonic_and_the_area_its_law(n, m):
 
 def test_description_round_trip():
     """A mesh's sidecar holds ``describe()``; ``shape_from_description`` rebuilds the shape."""
-    from shells.geometry import shape_from_description
+    from shells.geometry.shapes import shape_from_description
 
     for s in (HarmonicImperfectSphere(1.0, 0.005, 9, 2),
               ImperfectSphere(1.0, math.pi, 0.005, "dimple", 0.2, 3)):
@@ -94,7 +94,7 @@ def test_mesh_normal_and_curvature_integrals():
     from dolfinx import fem
     from mpi4py import MPI
 
-    from shells.mesh import MeshSpec, generate
+    from shells.surface.mesh import MeshSpec, generate
 
     comm = MPI.COMM_WORLD
     n, m, a = 4, 3, 0.002
@@ -136,14 +136,14 @@ def test_order_zero_is_the_mode_imperfection():
     """m = 0 is ``ImperfectSphere``'s "mode" profile P_n(cos β) with the same sign: the same
     radius on every meridian, the same mesh nodes, the same exact normal and b° = -P ∇n P on the
     surface (at the nodes of the second-order mesh, which lie on it: the two normals are
-    extended off the surface differently) to round-off, and ``shells.knockdown``'s two
+    extended off the surface differently) to round-off, and ``shells.analyses.knockdown``'s two
     configurations give these two shapes."""
     import ufl
     from dolfinx import fem
     from mpi4py import MPI
 
-    from shells.knockdown import KnockdownConfig, _shape
-    from shells.mesh import MeshSpec, generate
+    from shells.analyses.knockdown import KnockdownConfig, _shape
+    from shells.surface.mesh import MeshSpec, generate
 
     comm = MPI.COMM_WORLD
     n, delta = 5, 0.1
@@ -210,12 +210,12 @@ def test_response_along_the_imperfection_same_for_every_m_and_in_1d():
     from dolfinx import fem
     from mpi4py import MPI
 
+    from shells.algorithms.newton import NewtonSolver
+    from shells.analyses.knockdown import KnockdownConfig, _model
     from shells.axisym import SNES_OPTIONS
-    from shells.geometry import _harmonic_parts
-    from shells.knockdown import KnockdownConfig, _model
-    from shells.mesh import MeshSpec, generate
-    from shells.model import ModelParameters, ShellModel
-    from shells.solvers import NewtonSolver
+    from shells.geometry.shapes import _harmonic_parts
+    from shells.surface.mesh import MeshSpec, generate
+    from shells.surface.model import ModelParameters, ShellModel
 
     comm = MPI.COMM_WORLD
     n, delta, kh = 4, 0.1, 0.5
@@ -278,8 +278,8 @@ def test_response_along_the_imperfection_same_for_every_m_and_in_1d():
 
 
 def test_knockdown_config_and_cli_refusals(capsys):
+    from shells.analyses.knockdown import KnockdownConfig
     from shells.cli import main
-    from shells.knockdown import KnockdownConfig
 
     cfg = KnockdownConfig(H, (0.1,), imperfection="harmonic", model="surface", degree=9, order=2)
     assert cfg.describe()["order"] == 2 and cfg.describe()["degree"] == 9
@@ -312,7 +312,7 @@ def test_surface_models_figure_and_summary(tmp_path, capsys, monkeypatch):
     CLI's run is stubbed with the record of a measured point (benchmarks/harmonic_knockdown.py)."""
     from mpi4py import MPI
 
-    import shells.knockdown as kd
+    import shells.analyses.knockdown as kd
     from shells.cli import main
 
     cfg = kd.KnockdownConfig(H, (0.03,), imperfection="harmonic", model="surface", degree=9,

@@ -1,9 +1,10 @@
-"""Imperfection sensitivity of the closed sphere (shells.knockdown, 1D model): δ = 0 is the
+"""Imperfection sensitivity of the closed sphere (shells.analyses.knockdown, 1D model): δ = 0 is the
 perfect sphere's bifurcation, an imperfection turns it into a fold below it, and a rerun reads
-the stored points back. Koiter's reduced equation at the bifurcation (shells.asymptotics): for
-an even buckling degree n the bifurcation is asymmetric and the computed knock-down approaches
-its law 1 - κ_max/κ_b = C √δ as δ → 0; for an odd n it is symmetric at that order (c2 ∝ ∫ P_n³
-= 0) and the knock-down grows faster than √δ. Each rank computes its own serial 1D problem."""
+the stored points back. Koiter's reduced equation at the bifurcation
+(shells.algorithms.asymptotics): for an even buckling degree n the bifurcation is asymmetric and the
+computed knock-down approaches its law 1 - κ_max/κ_b = C √δ as δ → 0; for an odd n it is symmetric
+at that order (c2 ∝ ∫ P_n³ = 0) and the knock-down grows faster than √δ. Each rank computes its own
+serial 1D problem."""
 
 from __future__ import annotations
 
@@ -12,9 +13,9 @@ import math
 import numpy as np
 import pytest
 
+from shells.analyses.knockdown import KnockdownConfig, knockdown
 from shells.errors import InputError
-from shells.geometry import ImperfectSphere
-from shells.knockdown import KnockdownConfig, knockdown
+from shells.geometry.shapes import ImperfectSphere
 
 H = 0.05
 
@@ -27,8 +28,8 @@ def curve(tmp_path_factory):
 
 
 def test_perfect_sphere_and_the_fold_below_it(curve):
-    from shells.axisym import critical
-    from shells.geometry import Sphere
+    from shells.analyses.axisym_runs import critical
+    from shells.geometry.shapes import Sphere
 
     _, _, recs = curve
     perfect = recs[0]["perfect"]
@@ -81,7 +82,7 @@ def test_balanced_norm_retry_finds_the_same_fold(monkeypatch):
     ``balanced``): with every attempt in the norm of state weight 1 made to find nothing, the
     retry must find the fold the weight-1 norm finds directly, to 1e-4 in κ, in a norm whose
     state weight is not 1 (the dimpled sphere at h/R = 0.05, δ/h = 0.04: ξ = 264, measured)."""
-    import shells.knockdown as kd
+    import shells.analyses.knockdown as kd
 
     cfg = KnockdownConfig(H, (0.04,), imperfection="dimple", width=1.0)
     direct = kd.fold_kappa(cfg, 0.04, 9)
@@ -117,8 +118,8 @@ def test_a_crossing_just_before_a_fold_is_that_fold(monkeypatch):
     before it kept); a crossing with no fold within the window stays first."""
     from types import SimpleNamespace
 
-    import shells.critical as critical
-    import shells.knockdown as kd
+    import shells.algorithms.critical as critical
+    import shells.analyses.knockdown as kd
 
     def cp(kind, kappa):
         return SimpleNamespace(kind=kind, kappa=kappa)
@@ -152,7 +153,7 @@ def test_a_crossing_just_before_a_fold_is_that_fold(monkeypatch):
 
 
 def test_rerun_reads_the_points_back(curve, monkeypatch):
-    import shells.knockdown as kd
+    import shells.analyses.knockdown as kd
 
     cfg, out, recs = curve
 
@@ -180,7 +181,7 @@ def test_imperfect_meridian_and_bad_input():
     assert np.allclose(dz, (z1 - z0) / (2 * eps), atol=1e-8)
     # the UFL path's cosine series of P_n(cos t) against the recurrence, up to a thin
     # sphere's degree
-    from shells.geometry import legendre_cosine_series
+    from shells.geometry.shapes import legendre_cosine_series
 
     for n in (0, 3, 10, 44):
         s = ImperfectSphere(1.0, math.pi, 0.01, "mode", 0.1, n)
@@ -250,7 +251,7 @@ def test_imperfect_sphere_surface_mesh_and_normal():
     from dolfinx import fem
     from mpi4py import MPI
 
-    from shells.mesh import MeshSpec, generate
+    from shells.surface.mesh import MeshSpec, generate
 
     comm = MPI.COMM_WORLD
     gaps = []

@@ -1,4 +1,4 @@
-"""shells.paths (the I/O-validation layer) and the CLI's use of it: a path outside the folders
+"""shells.cli.paths (the I/O-validation layer) and the CLI's use of it: a path outside the folders
 shared with the host (SHELLS_HOST_PATHS) or an unusable output file or folder is refused before
 any work, as one line on stderr with exit status 2.
 
@@ -23,8 +23,7 @@ import pytest
 from mpi4py import MPI
 from stubs import WorkStartedError, stub_computations
 
-from shells import paths
-from shells.cli import main
+from shells.cli import main, paths
 from shells.errors import InputError
 
 REPO = Path(__file__).resolve().parent.parent
@@ -48,7 +47,7 @@ def _refused(capsys, argv, needle):
 
 
 # ------------------------------------------------------------------------------------------
-# shells.paths
+# shells.cli.paths
 # ------------------------------------------------------------------------------------------
 def test_host_prefixes(tmp_path):
     assert paths.host_prefixes({}) is None

@@ -15,15 +15,15 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from shells.errors import InputError
-from shells.phase_diagram import (
+from shells.analyses.phase_diagram import (
     PhaseDiagramConfig,
     Task,
     compute_task,
     fit_all,
     run_phase_diagram,
 )
-from shells.store import read_records
+from shells.analyses.store import read_records
+from shells.errors import InputError
 
 #: shallow caps at h/R = 0.04 lose symmetry in m = 2 (κ < 0 and the inverted shell) and snap with
 #: m = 0: modes up to 6 cover them, at half the inertia cost of the default 12

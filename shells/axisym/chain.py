@@ -40,8 +40,8 @@ matrices:
 The answer is the same as the banded Cholesky's of the assembled block: H - τ diag(H) is
 positive definite iff its interior blocks are and the Schur complement is (Haynsworth), and
 both factorisations are backward stable, so they can differ only for a block within round-off
-of the margin τ (``shells.stability.DEFINITE_MARGIN``), where either answer is a correct one.
-A block that fails gets its exact count (3.).
+of the margin τ (``shells.algorithms.stability.DEFINITE_MARGIN``), where either answer is a correct
+one. A block that fails gets its exact count (3.).
 
 One process only (the caller asks only then); a mesh whose cells do not form one chain, or a
 constrained interior DOF, makes ``ChainCholesky`` refuse at construction (``ValueError``) and
@@ -560,9 +560,9 @@ _LDFLAGS = ["-l:liblapack.so.3"]
 
 
 def _cache_dir() -> Path:
-    """The package's cache folder (``shells.formcache.cache_root``), where the C loop is
+    """The package's cache folder (``shells.problem.formcache.cache_root``), where the C loop is
     built."""
-    from shells.formcache import cache_root
+    from shells.problem.formcache import cache_root
 
     return cache_root()
 

@@ -1,7 +1,7 @@
 """The meridian mesh of the axisymmetric model (problem layer): a 1D interval mesh of the
 meridian parameter, graded towards a free rim.
 
-Geometry. The reference meridian (r°(t), z°(t)) of a ``shells.geometry`` shape (Sphere,
+Geometry. The reference meridian (r°(t), z°(t)) of a ``shells.geometry.shapes`` shape (Sphere,
 SphericalCap, EllipsoidalCap, Disk) is parametrised by its own parameter t (the colatitude of the
 sphere/cap, the parametric colatitude of the spheroid, the radius of the disk) on a 1D interval
 mesh of [0, t_max]; g(t) = |x°'(t)| converts to arclength, ds = g dt (g = R on a sphere, so the
@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from shells.errors import InputError
-from shells.geometry import (
+from shells.geometry.shapes import (
     Disk,
     EllipsoidalCap,
     MeridianTable,

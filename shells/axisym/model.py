@@ -1,8 +1,9 @@
 """The axisymmetric model's kinematics and energy (problem layer): ``AxisymModel``, a
-``shells.problem.Problem`` whose stability blocks are the Fourier modes m
+``shells.problem.interface.Problem`` whose stability blocks are the Fourier modes m
 (``shells.axisym.modes``).
 
-Energy (same normalisation as ``shells.model``, Young's modulus scaled out, per reference area)::
+Energy (same normalisation as ``shells.surface.model``, Young's modulus scaled out, per reference
+area)::
 
     U = ∫ (1-ν)|a - a°|² + ν tr²(a - a°) + (h²/3) [(1-ν)|b - b̄|² + ν tr²(b - b̄)] dω,
     b̄ = b° + κ a°,   dω = r° g dt dφ,
@@ -33,9 +34,7 @@ import numpy as np
 
 from shells.axisym.mesh import MeridianMesh, _supported, make_meridian_nodes
 from shells.errors import InputError
-from shells.formcache import cache_root, compiled_derived, file_tag
-from shells.formproblem import FormProblem, dkappa_ufl
-from shells.geometry import (
+from shells.geometry.shapes import (
     Disk,
     EllipsoidalCap,
     ImperfectSphere,
@@ -43,8 +42,10 @@ from shells.geometry import (
     Shape,
     SphericalCap,
 )
-from shells.problem import ModeInfo, orbit_cosine
-from shells.stimulus import UNIFORM, CurvatureField, field_radius
+from shells.geometry.stimulus import UNIFORM, CurvatureField, field_radius
+from shells.problem.formcache import cache_root, compiled_derived, file_tag
+from shells.problem.forms import FormProblem, dkappa_ufl
+from shells.problem.interface import ModeInfo, orbit_cosine
 
 if TYPE_CHECKING:
     from shells.axisym.modes import ModeForms
@@ -59,8 +60,14 @@ LOADS = ("curvature", "pressure", "equivalent", "equivalent_normal", "local_pres
 #: FFCx lists its cache folder at every lookup of a compiled form (2.4 ms a form in a shared
 #: folder of 3900 files, 0.1 ms in one of 84: the 21 forms of a run, 50 ms of its set-up)
 JIT_OPTIONS: dict[str, Any] = {"timeout": 300, "cache_dir": str(cache_root() / "ffcx")}
-#: names this module's derivations of forms in the form cache (``shells.formcache``)
+#: names this module's derivations of forms in the form cache (``shells.problem.formcache``)
 _DERIVATION = file_tag(__file__)
+
+
+#: Newton (SNES) options of the 1D model's solves: its residual is assembled to round-off, so
+#: tight relative and absolute tolerances are reachable
+SNES_OPTIONS: dict[str, Any] = {"snes_rtol": 1.0e-9, "snes_atol": 1.0e-12, "snes_stol": 1.0e-10,
+                                "snes_max_it": 25}
 
 
 # ------------------------------------------------------------------------------------------------
@@ -93,8 +100,9 @@ class AxisymParameters:
             and "local_pressure" (closed spheres: Eq. (5)'s pressure with the local stimulus,
             (4/3)(1+ν)(h/R)² κ f Ψ3); the last two with a uniform axial body force that
             balances their resultant (inertia relief).
-        kappa_field: the natural-curvature stimulus K of b̄ = b° + κ K (``shells.stimulus``): an
-            axisymmetric f and factors (f1, f2) on e_s⊗e_s and e_φ⊗e_φ; default K = a°.
+        kappa_field: the natural-curvature stimulus K of b̄ = b° + κ K
+            (``shells.geometry.stimulus``): an axisymmetric f and factors (f1, f2) on e_s⊗e_s and
+            e_φ⊗e_φ; default K = a°.
     """
 
     h: float
@@ -210,7 +218,7 @@ def _cross(a: tuple, b: tuple) -> tuple:
 # the model
 # ------------------------------------------------------------------------------------------------
 class AxisymModel(FormProblem):
-    """Axisymmetric shell model, a ``shells.problem.Problem``.
+    """Axisymmetric shell model, a ``shells.problem.interface.Problem``.
 
     Attributes: ``shape``, ``shell`` (the ``MeridianMesh``; ``shell.comm``), ``W``, ``w`` (state
     (u_r, u_z; p_r, p_z)), ``kappa``, ``h``, ``nu`` (Constants), ``residual``, ``hessian``,
@@ -487,7 +495,7 @@ class AxisymModel(FormProblem):
         ``scalars`` (exactly: it is linear in w), zero on the constrained DOFs: the normal
         displacement of the top pole (t = 0) relative to the centroid's, (u_z(0) - ū_z)/h
         with u_z(0) = 0 (the gauge), i.e. -∂/∂w ∫ u_z dA / (A h). The parameter of a closed
-        sphere's dimple branch (``shells.postbuckle``)."""
+        sphere's dimple branch (``shells.analyses.postbuckle``)."""
         import ufl
         from dolfinx import fem
         from dolfinx.fem.petsc import assemble_vector
@@ -686,18 +694,19 @@ class AxisymModel(FormProblem):
 
     @property
     def factor_options(self) -> dict[str, Any]:
-        """The Jacobian's factorisation (``shells.problem``): on one process PETSc's own LU in
-        reverse Cuthill-McKee order. The meridian's matrices are banded (half-bandwidth about
+        """The Jacobian's factorisation (``shells.problem.interface``): on one process PETSc's own
+        LU in reverse Cuthill-McKee order. The meridian's matrices are banded (half-bandwidth about
         20 after the ordering), where MUMPS' per-factorisation overhead dominates: 0.16 ms
         against 1.1 ms per factorisation of the θ̄ = 8 cap's 2004 unknowns, solves 0.02
         against 0.13 ms (benchmarks/axisym_speed.py). That LU does not pivot: a zero pivot
-        makes ``shells.solvers`` fall back to MUMPS for the rest of the run. In parallel:
+        makes ``shells.algorithms.newton`` fall back to MUMPS for the rest of the run. In parallel:
         MUMPS (the default)."""
         if self.comm.size > 1:
             return {}
         return {"pc_factor_mat_solver_type": "petsc", "pc_factor_mat_ordering_type": "rcm"}
 
-    # -- stability blocks: the Fourier modes m (shells.problem.Problem) ---------------------------
+    # -- stability blocks: the Fourier modes m (shells.problem.interface.Problem)
+    # ---------------------------
     @property
     def mode_forms(self) -> ModeForms:
         from shells.axisym.modes import ModeForms
@@ -729,13 +738,13 @@ class AxisymModel(FormProblem):
     def definite_blocks(self, blocks: Any, margin: float) -> dict[Any, bool] | None:
         """Whether H_m - ``margin`` diag(H_m) has a Cholesky factor, for each m of ``blocks``
         (``ModeForms.definite``, one process; block None is left out), for
-        ``shells.stability``'s test of definiteness."""
+        ``shells.algorithms.stability``'s test of definiteness."""
         return self.mode_forms.definite([b for b in blocks if b is not None], margin)
 
     def block_inertia(self, block: Any, growth: float) -> tuple[int, int, int] | None:
         """H_m's inertia by an LDLᵀ of its condensed form that vouches for it
-        (``ModeForms.inertia``), for ``shells.stability``'s exact counts; None for block None,
-        in parallel, or where that factorisation cannot vouch for the count."""
+        (``ModeForms.inertia``), for ``shells.algorithms.stability``'s exact counts; None for block
+        None, in parallel, or where that factorisation cannot vouch for the count."""
         return None if block is None else self.mode_forms.inertia(block, growth)
 
     def block_inertias(self, blocks: list[Any], growth: float
@@ -752,7 +761,7 @@ class AxisymModel(FormProblem):
         """vᵀ H v of block None (the Jacobian) or H_m at the current state, by quadrature of
         the second variation d²E(v, v) (``FormProblem._quadratic``: H_m's from the direct form
         of mode m), the block's constrained DOFs of v taken as zero; for
-        ``shells.stability``'s Rayleigh quotients."""
+        ``shells.algorithms.stability``'s Rayleigh quotients."""
         if block is None:
             return self._quadratic(None, self.hessian_ufl, self.bcs, v, JIT_OPTIONS)
         mf = self.mode_forms
@@ -763,14 +772,15 @@ class AxisymModel(FormProblem):
                                         lambda: mf.fixed_phase_ufl(cls)))
 
     def block_factor(self, block: Any) -> Any:
-        """H_m factored on the chain of cells (``ModeForms.factor``), for ``shells.stability``'s
-        shift-invert eigensolves; None for block None, in parallel, or where it fails."""
+        """H_m factored on the chain of cells (``ModeForms.factor``), for
+        ``shells.algorithms.stability``'s shift-invert eigensolves; None for block None, in
+        parallel, or where it fails."""
         return None if block is None else self.mode_forms.factor(block)
 
     def condensed_hessian(self, block: Any) -> tuple[Any, int] | None:
         """H_m with its cells' interior DOFs eliminated (``ModeForms.condensed_hessian``): a
         smaller matrix of the same inertia but for the returned number of positive
-        eigenvalues, for ``shells.stability``'s exact counts; None for block None, in
+        eigenvalues, for ``shells.algorithms.stability``'s exact counts; None for block None, in
         parallel, or where it does not apply."""
         return None if block is None else self.mode_forms.condensed_hessian(block)
 

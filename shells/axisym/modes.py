@@ -18,7 +18,7 @@ slope constraint at the pole would do for the tilt in principle, but a point has
 for slopes in 2D: it leaves a spurious near-zero eigenvalue. Inertia per m: a Cholesky test
 where H_m is definite by a margin (on one process from element matrices, ``definite`` and
 ``shells.axisym.chain``; else the banded Cholesky of the assembled H_m), else MUMPS LDLᵀ
-(``shells.stability``).
+(``shells.algorithms.stability``).
 
 Assembly (on one process the C_k and H_0 are not assembled at all: their element matrices are
 tabulated once per state by a C loop over the FFCx kernels, every H_m's definiteness and exact
@@ -64,7 +64,7 @@ from shells.axisym.model import (
     same_inputs,
 )
 from shells.errors import InputError
-from shells.formcache import compiled_derived, file_tag
+from shells.problem.formcache import compiled_derived, file_tag
 
 __all__ = ["ModeForms"]
 
@@ -78,7 +78,7 @@ _PHASES: dict[int, dict[str, float]] = {
 #: H_m of m ≥ 1 is a polynomial of this degree in m
 DEGREE = 4
 #: names the derivation of the mode forms from the Hessian's UFL (this file) in the form cache
-#: (``shells.formcache``): any change of this module derives them again
+#: (``shells.problem.formcache``): any change of this module derives them again
 _DERIVATION = file_tag(__file__)
 
 
@@ -216,7 +216,8 @@ class ModeForms:
     @property
     def coefficient_forms(self) -> list[Any]:
         """The compiled forms of C_0..C_4 (``coefficient_ufl``), one kernel each; after the
-        first run on a machine without their UFL work (``shells.formcache``: 0.1 s a model)."""
+        first run on a machine without their UFL work (``shells.problem.formcache``: 0.1 s a
+        model)."""
         if self._coefficient_forms is None:
             forms, reads = compiled_derived(self.hessian_ufl, f"{_DERIVATION} C_k",
                                             self.coefficient_ufl, JIT_OPTIONS)
@@ -296,7 +297,7 @@ class ModeForms:
         instead of five assemblies of the C_k after each change of state)."""
         from petsc4py import PETSc
 
-        from shells.formproblem import FormProblem
+        from shells.problem.forms import FormProblem
 
         bcs = self.set_mode(m)
         if direct:

@@ -1,5 +1,5 @@
 """``shells branch`` (CLI layer; no library module imports it): follow a shell in kappa from 0,
-either model; the run is ``shells.drivers.branch_surface`` / ``branch_axisym``.
+either model; the run is ``shells.analyses.drivers.branch_surface`` / ``branch_axisym``.
 """
 
 from __future__ import annotations
@@ -61,7 +61,7 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
 
 
 def _cmd_branch(args: argparse.Namespace) -> int:
-    from shells import drivers
+    from shells.analyses import drivers
 
     shape = shape_from_args(args)
     if (args.kappa_h_max is None) == (args.kappa_r_max is None):
@@ -71,7 +71,7 @@ def _cmd_branch(args: argparse.Namespace) -> int:
     k_end = kappa_end(shape, args.h_over_r, args.kappa_h_max, args.kappa_r_max)  # checked
     if args.model == "axisym":
         L = shape.characteristic_size()
-        from shells.geometry import kappa_length
+        from shells.geometry.shapes import kappa_length
 
         R_or_L = kappa_length(shape)
         kr = (args.kappa_h_max * R_or_L / (args.h_over_r * L) if args.kappa_h_max is not None
@@ -86,8 +86,8 @@ def _cmd_branch(args: argparse.Namespace) -> int:
 
         title, with_last = f"{shape.kind} h/L = {args.h_over_r}, nu = {args.nu}, axisym", False
     else:
-        from shells.branch import BranchConfig
-        from shells.continuation import ContinuationSettings
+        from shells.algorithms.continuation import ContinuationSettings
+        from shells.analyses.branch import BranchConfig
 
         cont = ContinuationSettings(method=args.method, ds=args.ds,
                                     ds_max=max(args.ds, args.ds_max))

@@ -13,9 +13,9 @@ import sys
 from collections.abc import Callable
 from typing import Any
 
-from shells import paths
+from shells.analyses.store import json_default
+from shells.cli import paths
 from shells.errors import InputError
-from shells.store import json_default
 
 log = logging.getLogger("shells")
 
@@ -86,9 +86,9 @@ def positive_float(name: str) -> Callable[[str], float]:
 
 #: Accepted --radius (and --r3 up to the upper bound). Every result is dimensionless (kappa R,
 #: kappa h, h/R): the radius only sets the unit. The mesher's test that drops a cap's flat base
-#: (height < 1e-6 R, shells.mesh) fails against OCC's absolute bounding-box slack (~2e-7) below
-#: R = 0.25 (measured: R = 0.2 and 0.1 mesh a closed lens, twice the area, no rim; 0.25 and 0.3
-#: are right), and R = 1e200 fails in OCC ("Could not fix wire"); 1e6 .. 1e20 mesh correctly.
+#: (height < 1e-6 R, shells.surface.mesh) fails against OCC's absolute bounding-box slack (~2e-7)
+#: below R = 0.25 (measured: R = 0.2 and 0.1 mesh a closed lens, twice the area, no rim; 0.25 and
+#: 0.3 are right), and R = 1e200 fails in OCC ("Could not fix wire"); 1e6 .. 1e20 mesh correctly.
 RADIUS_RANGE = (0.5, 1.0e6)
 
 
@@ -123,7 +123,7 @@ def add_shape_args(p: argparse.ArgumentParser, positional: bool,
                    user_mesh: bool = False) -> None:
     """The shape's arguments; ``user_mesh``: also ``--mesh FILE`` (then --shape is optional,
     ``shape_from_args`` checks that exactly one of them is given)."""
-    from shells.geometry import SHAPES
+    from shells.geometry.shapes import SHAPES
 
     if positional:
         p.add_argument("shape", metavar="SHAPE", help=f"one of: {', '.join(SHAPES)}")
@@ -162,14 +162,14 @@ def add_ring_arg(p: argparse.ArgumentParser) -> None:
 def shape_from_args(args: argparse.Namespace):
     """The shape of the arguments; with ``--mesh``, the mesh file's (its mesh is built by the
     run)."""
-    from shells.geometry import MeridianTable, make_shape
+    from shells.geometry.shapes import MeridianTable, make_shape
 
     if getattr(args, "mesh", None) is not None:
         if args.shape is not None or getattr(args, "meridian", None) is not None:
             raise InputError("--mesh gives the shape: drop --shape and --meridian")
         from mpi4py import MPI
 
-        from shells.mesh import read_mesh_shape
+        from shells.surface.mesh import read_mesh_shape
 
         return read_mesh_shape(args.mesh, MPI.COMM_WORLD)
     if args.shape is None:
@@ -229,7 +229,7 @@ def field_from_args(args: argparse.Namespace, shape: Any, model: str) -> Any:
     """The ``CurvatureField`` of --kappa-field/--anisotropy (the uniform one if neither is
     given), checked on ``shape`` (finite, not zero everywhere; axisymmetric for the 1D model)
     before any work."""
-    from shells.stimulus import UNIFORM, CurvatureField, names_table
+    from shells.geometry.stimulus import UNIFORM, CurvatureField, names_table
 
     expr, an = getattr(args, "kappa_field", None), getattr(args, "anisotropy", None)
     if expr is None and an is None:
@@ -258,7 +258,7 @@ def kappa_end(shape: Any, h_over_r: float, kappa_h: float | None, kappa_r: float
     if kappa_h is not None:
         k = kappa_h / (h_over_r * L)
     elif kappa_r is not None:
-        from shells.geometry import kappa_length
+        from shells.geometry.shapes import kappa_length
 
         k = kappa_r / kappa_length(shape)
     else:
@@ -292,7 +292,7 @@ H_OVER_R_MIN = 1e-5
 #: None). Kinds: "in" (a file read), "msh"/"png" (a file written, with that suffix), "dir" (an
 #: output folder), "shared" (only: shared with the host), "field" (--kappa-field: "in" if it
 #: names a table file). Every one is checked by
-#: ``shells.paths`` before the subcommand starts; a subcommand not listed here has its -o
+#: ``shells.cli.paths`` before the subcommand starts; a subcommand not listed here has its -o
 #: (``output``), if any, checked as "shared".
 PATH_ARGS: dict[str, list[tuple[str, str, str, str | None]]] = {
     "mesh": [("spec", "--spec", "in", None), ("output", "-o", "msh", None),
@@ -314,7 +314,7 @@ PATH_ARGS: dict[str, list[tuple[str, str, str, str | None]]] = {
 def check_ranges(args: argparse.Namespace) -> None:
     """Ranges shared by several subcommands (nu, the kappa range, h/R; the phase diagram's
     smallest cap), before any work or any file is written."""
-    from shells.geometry import THETA_MIN_DEG
+    from shells.geometry.shapes import THETA_MIN_DEG
 
     nu = getattr(args, "nu", None)
     if nu is not None and not (math.isfinite(nu) and -1.0 < nu <= 0.5):
@@ -355,7 +355,7 @@ def check_paths(args: argparse.Namespace) -> None:
                 if value is None:
                     continue
                 if kind == "field":  # a table file, or an expression (nothing to check)
-                    from shells.stimulus import names_table
+                    from shells.geometry.stimulus import names_table
 
                     if names_table(value):
                         paths.check_input_file(value.strip(), label)

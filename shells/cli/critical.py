@@ -1,5 +1,5 @@
 """``shells critical`` (CLI layer; no library module imports it): the critical points of the
-fundamental branch; the run is ``shells.drivers.critical_run``.
+fundamental branch; the run is ``shells.analyses.drivers.critical_run``.
 """
 
 from __future__ import annotations
@@ -47,7 +47,7 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
 
 
 def _cmd_critical(args: argparse.Namespace) -> int:
-    from shells.drivers import critical_run
+    from shells.analyses.drivers import critical_run
 
     shape = common.shape_from_args(args)
     fld = common.field_from_args(args, shape, args.model)

@@ -1,6 +1,6 @@
 """``shells knockdown`` (CLI layer; no library module imports it): the knock-down of a closed
 sphere's curvature buckling by an imperfection (axisymmetric, or on the surface model a
-spherical harmonic); the run is ``shells.knockdown.run_knockdown``.
+spherical harmonic); the run is ``shells.analyses.knockdown.run_knockdown``.
 """
 
 from __future__ import annotations
@@ -55,8 +55,8 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
 
 
 def _cmd_knockdown(args: argparse.Namespace) -> int:
+    from shells.analyses.knockdown import KnockdownConfig, run_knockdown
     from shells.errors import InputError
-    from shells.knockdown import KnockdownConfig, run_knockdown
 
     if args.mode_n is not None and args.imperfection == "dimple":
         raise InputError("--mode-n is the degree of the mode or harmonic imperfection, not of "

@@ -68,7 +68,7 @@ def add_render(sub: Any) -> argparse.ArgumentParser:
 def _cmd_mesh(args: argparse.Namespace) -> int:
     from mpi4py import MPI
 
-    from shells.mesh import MeshSpec, check_mesh_size, generate, load_mesh
+    from shells.surface.mesh import MeshSpec, check_mesh_size, generate, load_mesh
 
     if args.spec is not None:
         spec = _load_spec(args.spec)
@@ -89,7 +89,7 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
     summary = sm.summary()
     summary["file"] = args.output
     if args.png:
-        from shells.render import render_mesh
+        from shells.analyses.render import render_mesh
 
         render_mesh(sm, args.png)
         summary["png"] = args.png
@@ -114,7 +114,7 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
 def _load_spec(path: str):
     from pathlib import Path
 
-    from shells.mesh import MeshSpec
+    from shells.surface.mesh import MeshSpec
 
     p = Path(path)
     if not p.is_file():
@@ -142,7 +142,7 @@ def _load_spec(path: str):
 def _cmd_info(args: argparse.Namespace) -> int:
     from mpi4py import MPI
 
-    from shells.mesh import load_mesh
+    from shells.surface.mesh import load_mesh
 
     sm = load_mesh(args.mesh, MPI.COMM_WORLD)
     summary = sm.summary()
@@ -159,8 +159,8 @@ def _cmd_info(args: argparse.Namespace) -> int:
 def _cmd_render(args: argparse.Namespace) -> int:
     from mpi4py import MPI
 
-    from shells.mesh import load_mesh
-    from shells.render import render_mesh
+    from shells.analyses.render import render_mesh
+    from shells.surface.mesh import load_mesh
 
     sm = load_mesh(args.mesh, MPI.COMM_WORLD)
     render_mesh(sm, args.output)

@@ -1,5 +1,5 @@
 """``shells phase-diagram`` (CLI layer; no library module imports it): the phase diagram of open
-caps; the run is ``shells.phase_diagram.run_phase_diagram``.
+caps; the run is ``shells.analyses.phase_diagram.run_phase_diagram``.
 """
 
 from __future__ import annotations
@@ -50,7 +50,7 @@ def add_subcommand(subparsers: Any) -> argparse.ArgumentParser:
 
 
 def _cmd_phase_diagram(args: argparse.Namespace) -> int:
-    from shells import phase_diagram
+    from shells.analyses import phase_diagram
     from shells.theory import PAPER
 
     cfg = phase_diagram.PhaseDiagramConfig(

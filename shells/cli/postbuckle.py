@@ -1,5 +1,5 @@
-"""``shells postbuckle``: the command line of ``shells.postbuckle`` (CLI layer; no library module
-imports it); the run is ``shells.drivers.postbuckle_run``.
+"""``shells postbuckle``: the command line of ``shells.analyses.postbuckle`` (CLI layer; no library
+module imports it); the run is ``shells.analyses.drivers.postbuckle_run``.
 
     shells postbuckle --shape S --h-over-r H [--nu NU] [--theta-deg T] [--direction up|down]
         [--model axisym|surface] [--at K] [--kappa-r-max X | --kappa-h-max X] [-o DIR]
@@ -84,8 +84,8 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
 
 
 def _cmd_postbuckle(args: argparse.Namespace) -> int:
-    from shells.drivers import postbuckle_run
-    from shells.postbuckle import PostbuckleConfig
+    from shells.analyses.drivers import postbuckle_run
+    from shells.analyses.postbuckle import PostbuckleConfig
 
     shape = shape_from_args(args)
     fld = field_from_args(args, shape, args.model)

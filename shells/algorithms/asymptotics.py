@@ -1,5 +1,5 @@
 """Koiter's reduced equation at a simple bifurcation, and the imperfection-sensitivity law that
-follows from it (algorithm layer, on ``shells.problem.Problem``).
+follows from it (algorithm layer, on ``shells.problem.interface.Problem``).
 
 Near a simple bifurcation at κ_c of a perfect problem, with φ the null vector of the Jacobian J
 there and w = w_f(κ) + ξ φ + (terms orthogonal to φ), the equilibria of the problem with an
@@ -22,15 +22,15 @@ On a closed sphere the axisymmetric buckling mode is the Legendre polynomial P_n
 c2 ∝ ∫ P_n³ vanishes for odd n: the curvature buckling of a sphere is asymmetric for even n and
 symmetric (at this order) for odd n.
 
-Everything is computed from the problem interface at a located ``shells.critical.CriticalPoint``
-by finite differences of residuals and Jacobians (no model-specific code): the critical point
-is first refined (κ_c where the Rayleigh quotient of the null vector vanishes, φ by inverse
-iteration), because the locator's bracket (1e-4 in κ) is too coarse for the law's small-δ end.
-The imperfection enters only through a callable that returns ∂R/∂δ at the problem's current
-state and κ (the driver knows the imperfection; ``shells.knockdown`` builds it from two
-imperfect models on the same mesh). The amplitude ξ is measured as the RMS of φ's DOFs in units
-of the problem's ``state_scale()`` (thicknesses), the continuation norm of
-``shells.continuation``; C does not depend on that choice.
+Everything is computed from the problem interface at a located
+``shells.algorithms.critical.CriticalPoint`` by finite differences of residuals and Jacobians (no
+model-specific code): the critical point is first refined (κ_c where the Rayleigh quotient of the
+null vector vanishes, φ by inverse iteration), because the locator's bracket (1e-4 in κ) is too
+coarse for the law's small-δ end. The imperfection enters only through a callable that returns ∂R/∂δ
+at the problem's current state and κ (the driver knows the imperfection;
+``shells.analyses.knockdown`` builds it from two imperfect models on the same mesh). The amplitude ξ
+is measured as the RMS of φ's DOFs in units of the problem's ``state_scale()`` (thicknesses), the
+continuation norm of ``shells.algorithms.continuation``; C does not depend on that choice.
 """
 
 from __future__ import annotations
@@ -96,9 +96,9 @@ def reduced_equation(problem: Any, cp: Any, solver: Any,
                      refine: int = 4, rel_step: float = 2.0e-3,
                      amplitude: float = 0.01) -> ReducedEquation:
     """The reduced equation at the simple bifurcation ``cp`` (carrying its state and mode) of
-    ``problem`` (``solver``: its ``shells.solvers.NewtonSolver``, whose Jacobian matrix and LU
-    are used). ``imperfection()``: ∂R/∂δ (a Vec) at the problem's current state and κ, or None
-    (then c3 is None). ``rel_step``: the κ step (relative) of the fundamental branch's finite
+    ``problem`` (``solver``: its ``shells.algorithms.newton.NewtonSolver``, whose Jacobian matrix
+    and LU are used). ``imperfection()``: ∂R/∂δ (a Vec) at the problem's current state and κ, or
+    None (then c3 is None). ``rel_step``: the κ step (relative) of the fundamental branch's finite
     differences; ``amplitude``: that of ξ (RMS thicknesses). Leaves the problem at the refined
     critical state."""
     from petsc4py import PETSc

@@ -1,5 +1,6 @@
 """Running the phase diagram's tasks (driver layer): dynamic claims over MPI ranks, the resumable
-points file (``shells.store``), the θ̄_s bisection, then fits and figure (``run_phase_diagram``)."""
+points file (``shells.analyses.store``), the θ̄_s bisection, then fits and figure
+(``run_phase_diagram``)."""
 
 from __future__ import annotations
 
@@ -13,16 +14,22 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+from shells.analyses.store import (
+    append_record,
+    drop_torn_tail,
+    json_default,
+    read_records,
+    write_atomic,
+)
 from shells.errors import InputError
-from shells.store import append_record, drop_torn_tail, json_default, read_records, write_atomic
 from shells.theory import PAPER
 
 __all__ = ["RunStats", "run_phase_diagram"]
 
-from shells.phase_diagram.config import PhaseDiagramConfig, Task, tasks_of
-from shells.phase_diagram.figure import make_figure
-from shells.phase_diagram.fits import fit_all, merge_points
-from shells.phase_diagram.tracing import compute_task
+from shells.analyses.phase_diagram.config import PhaseDiagramConfig, Task, tasks_of
+from shells.analyses.phase_diagram.figure import make_figure
+from shells.analyses.phase_diagram.fits import fit_all, merge_points
+from shells.analyses.phase_diagram.tracing import compute_task
 
 log = logging.getLogger("shells")
 

@@ -13,7 +13,7 @@ from shells.theory import PAPER, mirrored_buckling_kappa_R, plate_a
 
 __all__ = ["fit_all", "merge_points"]
 
-from shells.phase_diagram.config import SNAP_FIT_THETA_MAX_DEG
+from shells.analyses.phase_diagram.config import SNAP_FIT_THETA_MAX_DEG
 
 log = logging.getLogger("shells")
 

@@ -26,13 +26,8 @@ from typing import Any
 
 import numpy as np
 
-from shells.continuation import ContinuationSettings, Point, continuation, next_step
-from shells.errors import InputError
-from shells.fields import FieldWriter
-from shells.geometry import RunScales, Shape, shape_from_description
-from shells.mesh import MeshSpec, ShellMesh, generate, load_mesh
-from shells.stimulus import UNIFORM, CurvatureField
-from shells.store import (
+from shells.algorithms.continuation import ContinuationSettings, Point, continuation, next_step
+from shells.analyses.store import (
     append_record,
     load_state_checkpoint,
     read_with_header,
@@ -40,6 +35,11 @@ from shells.store import (
     save_state_checkpoint,
     write_header,
 )
+from shells.errors import InputError
+from shells.geometry.shapes import RunScales, Shape, shape_from_description
+from shells.geometry.stimulus import UNIFORM, CurvatureField
+from shells.surface.fields import FieldWriter
+from shells.surface.mesh import MeshSpec, ShellMesh, generate, load_mesh
 
 __all__ = ["BranchConfig", "run_branch", "read_branch"]
 
@@ -56,14 +56,14 @@ class BranchConfig(RunScales):
         nu: Poisson ratio.
         kappa_end: final natural curvature κ (absolute, 1/length); its sign is the direction.
         size, layer_elements: mesh parameters (see ``MeshSpec``; size None: the default of
-            ``shells.model.default_discretisation``).
+            ``shells.surface.model.default_discretisation``).
         degree: polynomial degree of the surface model (None: ``default_discretisation``'s,
             P3 on closed spheres, deep caps and ellipsoids, where P2 locks).
         shear_penalty: Kirchhoff-Love penalty factor of the surface model.
         continuation: continuation settings.
-        kappa_field: the natural-curvature stimulus (``shells.stimulus``; default: uniform).
-        mesh_file: a user's mesh (``shells.mesh.load_mesh``) of ``shape`` instead of meshing it
-            (``size`` and ``layer_elements`` unused then).
+        kappa_field: the natural-curvature stimulus (``shells.geometry.stimulus``; default:
+        uniform). mesh_file: a user's mesh (``shells.surface.mesh.load_mesh``) of ``shape`` instead
+            of meshing it (``size`` and ``layer_elements`` unused then).
     """
 
     shape: Shape
@@ -79,7 +79,7 @@ class BranchConfig(RunScales):
     mesh_file: str | None = None
 
     def __post_init__(self) -> None:
-        from shells.model import default_discretisation
+        from shells.surface.model import default_discretisation
 
         if not isinstance(self.kappa_field, CurvatureField):
             raise InputError(f"kappa_field must be a CurvatureField, got {self.kappa_field!r}")
@@ -170,8 +170,8 @@ def _save_checkpoint(outdir: Path, model: Any, rec: dict[str, Any],
                      tangent: tuple[np.ndarray, float] | None = None) -> None:
     """State of this point (and of the previous one, whose secant orients a resumed run, and
     the unit tangent the next step follows, when given) in ``checkpoint/``:
-    ``shells.store.save_state_checkpoint`` (each value with its node's coordinates, read back
-    on any partition; a kill at any moment leaves a complete checkpoint, this point's or the
+    ``shells.analyses.store.save_state_checkpoint`` (each value with its node's coordinates, read
+    back on any partition; a kill at any moment leaves a complete checkpoint, this point's or the
     previous one's)."""
     w = model.w.x.array
     w_prev, k_prev = (prev[0], prev[1]) if prev is not None else (w, float(model.kappa.value))
@@ -188,7 +188,7 @@ def _load_checkpoint(outdir: Path, model: Any
     """Read the checkpoint into ``model.w``: (κ, index, w - w_prev, κ - κ_prev, the tangent
     (owned values, λ part) or None, w_prev (owned values), κ_prev), or None.
 
-    Nodes are matched by their coordinates (``shells.store.load_state_checkpoint``), so the
+    Nodes are matched by their coordinates (``shells.analyses.store.load_state_checkpoint``), so the
     checkpoint may come from another partition or rank count; None when it is missing,
     incomplete or from another mesh.
     """
@@ -218,8 +218,8 @@ def run_branch(cfg: BranchConfig, outdir: str | os.PathLike, *, comm: Any = None
     """
     from mpi4py import MPI
 
-    from shells.model import ModelParameters, ShellModel
-    from shells.solvers import NewtonSolver
+    from shells.algorithms.newton import NewtonSolver
+    from shells.surface.model import ModelParameters, ShellModel
 
     if fields not in ("none", "last", "all"):
         raise InputError(f"fields must be none, last or all, got {fields!r}")

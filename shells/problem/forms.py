@@ -9,8 +9,8 @@ the attributes
   ``ufl.derivative``s of the one energy;
 * ``bcs``: the gauge as homogeneous Dirichlet conditions;
 
-and gets the state, parameter and assembly methods of ``shells.problem.Problem``. The stability
-blocks, scalars and mode classification stay with each model.
+and gets the state, parameter and assembly methods of ``shells.problem.interface.Problem``. The
+stability blocks, scalars and mode classification stay with each model.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from shells.formcache import compiled_derived, file_tag
+from shells.problem.formcache import compiled_derived, file_tag
 
 __all__ = ["FormProblem", "dkappa_ufl"]
 
@@ -57,8 +57,8 @@ class FormProblem:
     def _derive_forms(self, energy: Any, jit_options: dict[str, Any] | None = None) -> None:
         """From the energy (a UFL form of ``w`` and ``kappa``): ``energy_ufl``, the residual
         R = ∂E/∂w, the Hessian ∂R/∂w and dR/dκ, as UFL and compiled forms (dR/dκ compiled
-        only: from the form cache, ``shells.formcache``, where it has a record). The energy is
-        quadratic in κ with a state-independent κ² term, so R is affine in κ and
+        only: from the form cache, ``shells.problem.formcache``, where it has a record). The energy
+        is quadratic in κ with a state-independent κ² term, so R is affine in κ and
         R(κ=1) - R(κ=0) is dR/dκ exactly."""
         import ufl
         from dolfinx import fem

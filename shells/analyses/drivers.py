@@ -10,7 +10,7 @@ an argparse namespace, and returns the JSON-serialisable result of the subcomman
   (``DIR/critical.json``); ``critical_surface(shape, ...)`` the surface model's
   (``DIR/branch.jsonl``, a rerun resuming from ``DIR/checkpoint/``, the first critical mode in
   ``DIR/modes.bp``; the 1D model's runs in seconds and computes again);
-* ``postbuckle_run(cfg, outdir, fields)``: ``shells.postbuckle.run_postbuckle`` with the
+* ``postbuckle_run(cfg, outdir, fields)``: ``shells.analyses.postbuckle.run_postbuckle`` with the
   bifurcated states written for ParaView (``ShapeWriter``).
 
 The command line (``shells.cli``) only parses, calls these and prints.
@@ -26,8 +26,8 @@ import time
 from pathlib import Path
 from typing import Any
 
+from shells.analyses.store import append_record, json_default, write_atomic, write_header
 from shells.errors import InputError
-from shells.store import append_record, json_default, write_atomic, write_header
 
 __all__ = ["ShapeWriter", "branch_axisym", "branch_surface", "critical_run", "critical_surface",
            "folds", "postbuckle_run"]
@@ -42,8 +42,8 @@ def _rank() -> int:
 
 
 def _R_or_L(shape: Any) -> float:
-    """The length of κR (``shells.geometry.kappa_length``)."""
-    from shells.geometry import kappa_length
+    """The length of κR (``shells.geometry.shapes.kappa_length``)."""
+    from shells.geometry.shapes import kappa_length
 
     return kappa_length(shape)
 
@@ -60,10 +60,10 @@ def folds(points: list[dict[str, Any]]) -> list[dict[str, Any]]:
 
 def branch_surface(cfg: Any, outdir: str | os.PathLike, *, fields: str = "none",
                    resume: bool = True) -> dict[str, Any]:
-    """The surface model's branch (``shells.branch.run_branch`` on ``cfg``, a ``BranchConfig``),
-    after the mesh-size check (before the run creates its folder)."""
-    from shells import branch
-    from shells.mesh import check_mesh_size
+    """The surface model's branch (``shells.analyses.branch.run_branch`` on ``cfg``, a
+    ``BranchConfig``), after the mesh-size check (before the run creates its folder)."""
+    from shells.analyses import branch
+    from shells.surface.mesh import check_mesh_size
 
     if cfg.mesh_file is None:
         check_mesh_size(cfg.mesh_spec())
@@ -88,8 +88,8 @@ def branch_axisym(shape: Any, h_over_r: float, nu: float, kappa_R_end: float,
     """The shell-of-revolution model's branch up to κR = ``kappa_R_end`` (its sign: the
     direction) under the stimulus ``kappa_field`` (None: uniform), every point appended to
     ``outdir/branch.jsonl`` (rank 0) as computed."""
-    from shells import axisym
-    from shells.stimulus import UNIFORM
+    from shells.analyses import axisym_runs
+    from shells.geometry.stimulus import UNIFORM
 
     kappa_field = UNIFORM if kappa_field is None else kappa_field
 
@@ -102,7 +102,7 @@ def branch_axisym(shape: Any, h_over_r: float, nu: float, kappa_R_end: float,
         write_header(outdir / "branch.jsonl", {
             "model": "axisym", "shape": shape.describe(), "h_over_r": h_over_r,
             "nu": nu, "kappa_R_end": kappa_R_end, **kappa_field.header_entry()})
-    for i, p in enumerate(axisym.branch(shape, h_over_r, nu,
+    for i, p in enumerate(axisym_runs.branch(shape, h_over_r, nu,
                                         direction="up" if kappa_R_end > 0 else "down",
                                         kappa_max=abs(kappa_R_end), kappa_field=kappa_field)):
         rec = {"index": i, **p}
@@ -122,10 +122,10 @@ def critical_run(shape: Any, h_over_r: float, nu: float, *, direction: str = "up
                  **surface: Any) -> dict[str, Any]:
     """The critical points of the fundamental branch from κ = 0 towards ``kappa_end`` (None:
     ``shells.theory.default_kappa_range``; the 1D model then uses its own), with either model,
-    under the stimulus ``kappa_field`` (a ``shells.stimulus.CurvatureField``; None: uniform);
-    ``surface``: the keyword arguments of ``critical_surface``. Writes ``outdir/critical.json``
-    (rank 0)."""
-    from shells.stimulus import UNIFORM
+    under the stimulus ``kappa_field`` (a ``shells.geometry.stimulus.CurvatureField``; None:
+    uniform); ``surface``: the keyword arguments of ``critical_surface``. Writes
+    ``outdir/critical.json`` (rank 0)."""
+    from shells.geometry.stimulus import UNIFORM
 
     kappa_field = UNIFORM if kappa_field is None else kappa_field
     L = shape.characteristic_size()
@@ -143,11 +143,9 @@ def critical_run(shape: Any, h_over_r: float, nu: float, *, direction: str = "up
             "kappa_R_end": kappa_end * R_or_L, "kappa_h_end": kappa_end * h,
             **kappa_field.describe()}
     if model == "axisym":
-        try:
-            from shells import axisym
-        except ImportError as e:
-            raise InputError("--model axisym is not available in this installation") from e
-        result = {**base, **axisym.critical(
+        from shells.analyses import axisym_runs
+
+        result = {**base, **axisym_runs.critical(
             shape, h_over_r, nu, direction=direction,
             kappa_max=abs(kappa_end) * R_or_L if user_range else None,
             kappa_field=kappa_field)}
@@ -181,17 +179,18 @@ def critical_surface(shape: Any, h_over_r: float, nu: float, kappa_end: float, *
                      outdir: str | os.PathLike | None = None,
                      kappa_field: Any = None, mesh_file: str | None = None,
                      resume: bool = True) -> dict[str, Any]:
-    """The surface model's critical points up to ``kappa_end`` (``shells.critical.follow``):
-    meshes ``shape`` (``size``, ``degree`` None: ``shells.model.default_discretisation``), or
-    runs on the mesh in ``mesh_file`` (a user's, of ``shape``; ``size`` then unused),
-    follows the branch in steps ``ds`` .. ``ds_max`` in κL (None: range/16, range/10), writes
-    ``outdir/branch.jsonl`` (rank 0): a header (the run's configuration), every point as it is
-    computed and every critical point as it is located ({"critical_point": {...}, "number":
-    i}), and after each point a checkpoint (``outdir/checkpoint/``: the state there and at the
-    point before, the next step, the negative count, and the first critical point's state and
-    mode once located; ``shells.store.save_state_checkpoint``), and at the end the first
-    critical mode to ``outdir/modes.bp``; returns the first critical point's kind, κ and mode,
-    every critical point, the DOFs, the mesh and the wall time.
+    """The surface model's critical points up to ``kappa_end``
+    (``shells.algorithms.critical.follow``): meshes ``shape`` (``size``, ``degree`` None:
+    ``shells.surface.model.default_discretisation``), or runs on the mesh in ``mesh_file`` (a
+    user's, of ``shape``; ``size`` then unused), follows the branch in steps ``ds`` .. ``ds_max`` in
+    κL (None: range/16, range/10), writes ``outdir/branch.jsonl`` (rank 0): a header (the run's
+    configuration), every point as it is computed and every critical point as it is located
+    ({"critical_point": {...}, "number": i}), and after each point a checkpoint
+    (``outdir/checkpoint/``: the state there and at the point before, the next step, the negative
+    count, and the first critical point's state and mode once located;
+    ``shells.analyses.store.save_state_checkpoint``), and at the end the first critical mode to
+    ``outdir/modes.bp``; returns the first critical point's kind, κ and mode, every critical point,
+    the DOFs, the mesh and the wall time.
 
     A rerun with the same configuration (``resume``) resumes after the last checkpointed point
     (on any rank count): its points and critical points so far are kept as written, the next
@@ -203,12 +202,12 @@ def critical_surface(shape: Any, h_over_r: float, nu: float, kappa_end: float, *
 
     from mpi4py import MPI
 
-    from shells.continuation import ContinuationSettings
-    from shells.critical import CriticalSettings, FollowResume, follow
-    from shells.mesh import MeshSpec, generate, load_mesh
-    from shells.model import ModelParameters, ShellModel, default_discretisation
-    from shells.stimulus import UNIFORM
-    from shells.store import load_state_checkpoint, resumable, save_state_checkpoint
+    from shells.algorithms.continuation import ContinuationSettings
+    from shells.algorithms.critical import CriticalSettings, FollowResume, follow
+    from shells.analyses.store import load_state_checkpoint, resumable, save_state_checkpoint
+    from shells.geometry.stimulus import UNIFORM
+    from shells.surface.mesh import MeshSpec, generate, load_mesh
+    from shells.surface.model import ModelParameters, ShellModel, default_discretisation
 
     kappa_field = UNIFORM if kappa_field is None else kappa_field
     comm = MPI.COMM_WORLD
@@ -331,7 +330,7 @@ def critical_surface(shape: Any, h_over_r: float, nu: float, kappa_end: float, *
                            "points beyond it are not known")
     first = cps[0] if cps else None
     if out is not None and first_arrays is not None and first_arrays[1] is not None:
-        from shells.fields import write_modes
+        from shells.surface.fields import write_modes
 
         write_modes(model, first_arrays[0], [first_arrays[1]], out / "modes.bp")
         log.info("critical mode (ParaView, ADIOS2 VTX Reader): %s", out / "modes.bp")
@@ -369,7 +368,7 @@ class ShapeWriter:
         if self.fields == "all":
             self._write(model, rec)
         else:
-            from shells.problem import get_state
+            from shells.problem.interface import get_state
 
             self.last[rec["side"]] = (model, get_state(model), dict(rec))
 
@@ -380,7 +379,7 @@ class ShapeWriter:
         if self.kind == "axisym":
             if MPI.COMM_WORLD.rank != 0:
                 return
-            from shells.revolve import revolve, write_profile_csv, write_vts
+            from shells.axisym.revolve import revolve, write_profile_csv, write_vts
 
             prof = model.meridian_profile()
             d = self.out / "shapes"
@@ -390,7 +389,7 @@ class ShapeWriter:
             write_profile_csv(prof, str(stem) + ".csv", self.h)
             self.files.append(str(stem) + ".csv")
             return
-        from shells.fields import FieldWriter
+        from shells.surface.fields import FieldWriter
 
         if side not in self.writers:
             path = self.out / f"fields_side{side:+d}.bp"
@@ -399,7 +398,7 @@ class ShapeWriter:
         self.writers[side].write(float(rec["index"]))
 
     def close(self) -> None:
-        from shells.problem import set_state
+        from shells.problem.interface import set_state
 
         for model, state, rec in self.last.values():
             set_state(model, state)
@@ -410,10 +409,10 @@ class ShapeWriter:
 
 def postbuckle_run(cfg: Any, outdir: str | os.PathLike | None = None,
                    fields: str = "none") -> dict[str, Any]:
-    """``shells.postbuckle.run_postbuckle`` on ``cfg`` (a ``PostbuckleConfig``), the bifurcated
-    states written for ParaView (``fields``: none, last, all; needs ``outdir``); returns the
-    critical point, the points, the sides' summaries, the DOFs and the files written."""
-    from shells.postbuckle import run_postbuckle
+    """``shells.analyses.postbuckle.run_postbuckle`` on ``cfg`` (a ``PostbuckleConfig``), the
+    bifurcated states written for ParaView (``fields``: none, last, all; needs ``outdir``); returns
+    the critical point, the points, the sides' summaries, the DOFs and the files written."""
+    from shells.analyses.postbuckle import run_postbuckle
 
     out = Path(outdir) if outdir else None
     shapes = ShapeWriter(out, fields, cfg.model, cfg.h_over_r * cfg.shape.characteristic_size())

@@ -23,17 +23,17 @@ Then rank 0 fits the paper's laws with standard errors (``fit_all``), refines θ
 writes ``DIR/phase_diagram.json`` and the figure ``DIR/phase_diagram.{png,pdf}``.
 
 ``--model surface`` computes the same first critical points with the 2D surface model
-(``shells.critical.follow``) for spot checks (much slower; no everted-branch check).
+(``shells.algorithms.critical.follow``) for spot checks (much slower; no everted-branch check).
 
 Modules: ``config`` (configuration and tasks), ``tracing`` (one branch), ``jobs`` (claims, the
 points file, the run), ``fits`` (merged points and fits), ``figure``.
 """
 
-from shells.phase_diagram.config import Discretisation, PhaseDiagramConfig, Task, tasks_of
-from shells.phase_diagram.figure import make_figure
-from shells.phase_diagram.fits import fit_all, merge_points
-from shells.phase_diagram.jobs import RunStats, run_phase_diagram
-from shells.phase_diagram.tracing import compute_task, everted_check
+from shells.analyses.phase_diagram.config import Discretisation, PhaseDiagramConfig, Task, tasks_of
+from shells.analyses.phase_diagram.figure import make_figure
+from shells.analyses.phase_diagram.fits import fit_all, merge_points
+from shells.analyses.phase_diagram.jobs import RunStats, run_phase_diagram
+from shells.analyses.phase_diagram.tracing import compute_task, everted_check
 
 __all__ = ["Discretisation", "PhaseDiagramConfig", "RunStats", "Task", "compute_task",
            "everted_check", "fit_all", "make_figure", "merge_points", "run_phase_diagram",

@@ -1,6 +1,6 @@
 """Drivers of the axisymmetric model (driver layer): one run's configuration and its numerics
 defaults, ``branch`` (the branch with per-m stability) and ``critical`` (its critical points),
-both on ``shells.critical.follow``."""
+both on ``shells.algorithms.critical.follow``."""
 
 from __future__ import annotations
 
@@ -12,21 +12,19 @@ from typing import Any
 import numpy as np
 
 from shells.axisym.mesh import _supported
-from shells.axisym.model import AxisymModel, AxisymParameters, _is_sphere
+from shells.axisym.model import SNES_OPTIONS, AxisymModel, AxisymParameters, _is_sphere
 from shells.errors import InputError
-from shells.geometry import RunScales, Shape
-from shells.stimulus import UNIFORM, CurvatureField
+from shells.geometry.shapes import RunScales, Shape
+from shells.geometry.stimulus import UNIFORM, CurvatureField
 from shells.theory import sphere_kappa_b_h, sphere_mode_n
 
-__all__ = ["SNES_OPTIONS", "RunConfig", "branch", "critical", "default_cells",
+__all__ = ["RunConfig", "branch", "critical", "default_cells",
            "default_settings"]
 
 
 # ------------------------------------------------------------------------------------------------
 # numerics of a run
 # ------------------------------------------------------------------------------------------------
-SNES_OPTIONS: dict[str, Any] = {"snes_rtol": 1.0e-9, "snes_atol": 1.0e-12, "snes_stol": 1.0e-10,
-                                "snes_max_it": 25}
 
 
 #: ``ContinuationSettings.factor_reuse`` of ``critical`` with its default settings: the
@@ -49,7 +47,7 @@ def default_cells(shape: Shape, h_over_r: float) -> int:
 
 def default_settings(shape: Shape, h_over_r: float, **overrides: Any) -> Any:
     """Continuation settings scaled to the problem: on a closed shell κ scales with 1/h."""
-    from shells.continuation import ContinuationSettings
+    from shells.algorithms.continuation import ContinuationSettings
 
     scale = 1.0 / h_over_r if shape.closed else 1.0  # in λ = κ L
     base = dict(method="arclength", ds=0.5 * scale if shape.closed else 0.05,
@@ -61,7 +59,7 @@ def default_settings(shape: Shape, h_over_r: float, **overrides: Any) -> Any:
 
 def _check_common(shape: Any, h_over_r: Any, nu: Any) -> None:
     if not isinstance(shape, Shape):
-        raise InputError(f"shape must be a shells.geometry shape, got {shape!r}")
+        raise InputError(f"shape must be a shells.geometry.shapes shape, got {shape!r}")
     _supported(shape)
     if not (isinstance(h_over_r, (int, float)) and math.isfinite(h_over_r)
             and 0 < h_over_r < 1):
@@ -89,7 +87,8 @@ class RunConfig(RunScales):
         max_critical: stop after this many critical points (None: up to the first fold or the
             end of range).
         settings: continuation settings (None: ``default_settings``).
-        kappa_field: the natural-curvature stimulus (``shells.stimulus``; default: uniform).
+        kappa_field: the natural-curvature stimulus (``shells.geometry.stimulus``; default:
+        uniform).
     """
 
     shape: Shape
@@ -168,7 +167,7 @@ class _Run:
     model: AxisymModel = field(init=False)
 
     def __post_init__(self) -> None:
-        from shells.solvers import NewtonSolver
+        from shells.algorithms.newton import NewtonSolver
 
         self.model = AxisymModel(self.cfg.shape, self.cfg.params())
         self.model.modes = tuple(self.cfg.modes)
@@ -180,7 +179,7 @@ class _Run:
     def follow(self, crit: Any = None, locate_points: bool = True,
                scalars: bool = True) -> Iterator[tuple]:
         """``critical.follow`` over the run's range with the inertia of every H_m."""
-        from shells.critical import follow
+        from shells.algorithms.critical import follow
 
         return follow(self.model, self.settings, self.cfg.kappa_end, crit, solver=self.ns,
                       blocks=self.model.modes, locate_points=locate_points, scalars=scalars)
@@ -203,7 +202,7 @@ def branch(shape: Shape, h_over_r: float, nu: float = 0.5, direction: str = "up"
     """Follow the axisymmetric branch from κ = 0 and check modes m = 0..m_max at every point.
 
     Args:
-        shape: a ``shells.geometry`` Sphere, SphericalCap, EllipsoidalCap or Disk.
+        shape: a ``shells.geometry.shapes`` Sphere, SphericalCap, EllipsoidalCap or Disk.
         h_over_r: thickness over the shape's length scale (``characteristic_size``).
         nu: Poisson ratio in (-1, 1/2].
         direction: "up" (κ > 0) or "down" (κ < 0).
@@ -257,7 +256,7 @@ def critical(shape: Shape, h_over_r: float, nu: float = 0.5, direction: str = "u
     critical value).
 
     Args:
-        shape: Sphere, SphericalCap, EllipsoidalCap or Disk (``shells.geometry``).
+        shape: Sphere, SphericalCap, EllipsoidalCap or Disk (``shells.geometry.shapes``).
         h_over_r: thickness over the shape's length scale (``characteristic_size``).
         nu: Poisson ratio in (-1, 1/2].
         direction: "up" (κ > 0) or "down" (κ < 0).
@@ -284,7 +283,7 @@ def critical(shape: Shape, h_over_r: float, nu: float = 0.5, direction: str = "u
         numerics.setdefault("max_critical", 1)
     cfg = RunConfig(shape=shape, h_over_r=h_over_r, nu=nu, direction=direction, m_max=m_max,
                     kappa_max=kappa_max, **numerics)
-    from shells.critical import CriticalSettings
+    from shells.algorithms.critical import CriticalSettings
 
     run = _Run(cfg)
     if cfg.settings is None:  # only the critical points are wanted: chord steps, and

@@ -9,7 +9,7 @@ bifurcated branch on both sides (driver layer, on the algorithm layer's ``follow
 2. at the bifurcation, the critical mode: on the 1D model the axisymmetric (m = 0) mode of the
    Jacobian (rotational symmetry enforced: the only branches the 1D model represents), on the
    surface model the critical eigenvector of the Hessian (a split (cos mφ, sin mφ) pair's
-   partner is pinned: a phase condition, see ``shells.critical.switch_branch``);
+   partner is pinned: a phase condition, see ``shells.algorithms.critical.switch_branch``);
 3. the bifurcated branch on both sides of the mode (amplitude +a and -a), by secant
    pseudo-arclength, until κ leaves [``kappa_min_ratio`` κ_c, κ_max], after ``max_points``
    points, or when the branch returns to the fundamental one (``branch`` = "bifurcated").
@@ -42,12 +42,12 @@ Files: every point is appended to ``DIR/postbuckle.jsonl`` as it is computed
 the bifurcation its state and critical mode go to ``DIR/critical_point/`` (one ``.npz`` per
 rank), and after each point of a side that is written, what resuming after it needs to
 ``DIR/side_checkpoint/`` (the state there and at the point before, the switching loop's step
-and tests: ``shells.critical.SwitchResume``; ``shells.store.save_checkpoint``). A rerun with the
-same configuration resumes: a file that ended with its summary record is reused; otherwise,
-when the critical point and its checkpoint are there, the fundamental branch and the sides that
-ended are kept, an interrupted side continues after its last checkpointed point (its points up
-to there kept, the next ones those of the uninterrupted run: same secant, step and tests), and
-the other unfinished sides are followed from the bifurcation. A side whose checkpoint is
+and tests: ``shells.algorithms.critical.SwitchResume``; ``shells.analyses.store.save_checkpoint``).
+A rerun with the same configuration resumes: a file that ended with its summary record is reused;
+otherwise, when the critical point and its checkpoint are there, the fundamental branch and the
+sides that ended are kept, an interrupted side continues after its last checkpointed point (its
+points up to there kept, the next ones those of the uninterrupted run: same secant, step and tests),
+and the other unfinished sides are followed from the bifurcation. A side whose checkpoint is
 missing, corrupt or another run's restarts whole from the bifurcation (its partial points
 dropped, a log line says why); without the critical point the run starts again from κ = 0.
 (On the 1D model a side's first 3 points are held back until no retry at another amplitude can
@@ -67,10 +67,7 @@ from typing import Any
 
 import numpy as np
 
-from shells.errors import InputError
-from shells.geometry import RunScales, Shape
-from shells.stimulus import UNIFORM, CurvatureField
-from shells.store import (
+from shells.analyses.store import (
     CHECKPOINT_ERRORS,
     append_record,
     json_default,
@@ -81,6 +78,9 @@ from shells.store import (
     write_atomic,
     write_header,
 )
+from shells.errors import InputError
+from shells.geometry.shapes import RunScales, Shape
+from shells.geometry.stimulus import UNIFORM, CurvatureField
 
 __all__ = ["PostbuckleConfig", "postbuckle", "read_postbuckle", "run_postbuckle"]
 
@@ -92,7 +92,7 @@ class PostbuckleConfig(RunScales):
     """One post-buckling run.
 
     Attributes:
-        shape: the shell (``shells.geometry``).
+        shape: the shell (``shells.geometry.shapes``).
         h_over_r: thickness over the shape's length scale L.
         nu: Poisson ratio.
         model: "axisym" (1D; axisymmetric branches only) or "surface" (2D).
@@ -108,11 +108,11 @@ class PostbuckleConfig(RunScales):
             and the depth's first step (up to 4 times this).
         cells, size, layer_elements, degree: discretisation of the 1D / surface model (None:
             the model's defaults; the surface model: 3 layer elements, size and degree of
-            ``shells.model.default_discretisation``, P3 where P2 locks).
+            ``shells.surface.model.default_discretisation``, P3 where P2 locks).
         penalty: the 1D model's C1 penalty (None: 1e5 on closed shells, else its default).
-        kappa_field: the natural-curvature stimulus (``shells.stimulus``; default: uniform).
-        mesh_file: the surface model on a user's mesh (``shells.mesh.load_mesh``) of ``shape``
-            instead of meshing it.
+        kappa_field: the natural-curvature stimulus (``shells.geometry.stimulus``; default:
+        uniform). mesh_file: the surface model on a user's mesh (``shells.surface.mesh.load_mesh``)
+            of ``shape`` instead of meshing it.
     """
 
     shape: Shape
@@ -162,7 +162,7 @@ class PostbuckleConfig(RunScales):
             raise InputError("the end of the kappa range must be a nonzero number of the sign "
                              "of --direction")
         if self.model == "surface" and (self.degree is None or self.size is None):
-            from shells.model import default_discretisation
+            from shells.surface.model import default_discretisation
 
             # size 0.2 with 3 layer elements: the 30° cap's m = 2 bifurcation within 3e-4 of
             # the 1D model's (P2), the ellipsoid's within 1e-4 (P3)
@@ -214,12 +214,13 @@ class _Run:
     def __init__(self, cfg: PostbuckleConfig) -> None:
         from mpi4py import MPI
 
-        from shells.solvers import NewtonSolver
-        from shells.stability import Stability
+        from shells.algorithms.newton import NewtonSolver
+        from shells.algorithms.stability import Stability
 
         self.cfg = cfg
         if cfg.model == "axisym":
-            from shells.axisym import SNES_OPTIONS, AxisymModel, RunConfig
+            from shells.analyses.axisym_runs import RunConfig
+            from shells.axisym import SNES_OPTIONS, AxisymModel
 
             # the C1 penalty ties the slopes to the displacement only to O(1/penalty): on a
             # closed sphere that is a pole-localised, mirror-symmetric imperfection (measured:
@@ -237,8 +238,8 @@ class _Run:
             self.model.modes = tuple(rc.modes)
             self.ns = NewtonSolver(self.model, options=SNES_OPTIONS)
         else:
-            from shells.mesh import MeshSpec, generate, load_mesh
-            from shells.model import ModelParameters, ShellModel
+            from shells.surface.mesh import MeshSpec, generate, load_mesh
+            from shells.surface.model import ModelParameters, ShellModel
 
             sm = (load_mesh(cfg.mesh_file, MPI.COMM_WORLD) if cfg.mesh_file else
                   generate(MeshSpec(cfg.shape, h=cfg.h, size=cfg.size,
@@ -293,8 +294,8 @@ class _Run:
 
 class _Secondary:
     """The critical points of a bifurcated branch of the 1D model, located between two of its
-    points (``shells.critical.locate_between``: the generic locator, on the step re-taken by
-    pseudo-arclength) where the negative count of a Fourier block rises from one point to the
+    points (``shells.algorithms.critical.locate_between``: the generic locator, on the step re-taken
+    by pseudo-arclength) where the negative count of a Fourier block rises from one point to the
     next (a secondary bifurcation: the closed sphere's deep dimple turning polygonal), or
     dκ/ds changes sign (a fold of the branch), from the side's third point on (next to the
     bifurcation the neighbouring degrees of a sphere's cluster cross as the dimple forms, and
@@ -318,7 +319,7 @@ class _Secondary:
 
     def resume(self, rec: dict[str, Any], state: np.ndarray) -> None:
         """Start from a resumed side's last point (its record and state)."""
-        from shells.continuation import Point
+        from shells.algorithms.continuation import Point
 
         if self.on:
             p = Point(index=rec["index"], kappa=rec["kappa"], kappa_L=rec["kappa_L"],
@@ -330,7 +331,7 @@ class _Secondary:
     def step(self, p: Any, state: np.ndarray, rec: dict[str, Any], kappa_c: float
              ) -> list[dict[str, Any]]:
         """The critical points between the last point and ``p`` (records), if any."""
-        from shells.critical import locate_between
+        from shells.algorithms.critical import locate_between
 
         if not self.on:
             return []
@@ -371,7 +372,7 @@ class _Secondary:
 class SideResume:
     """A side interrupted after some points: its ``side``, the ``records`` of its points
     (indices 0 to k, as written) and the ``switch`` state after point k (a
-    ``shells.critical.SwitchResume``) that ``switch_branch`` resumes from."""
+    ``shells.algorithms.critical.SwitchResume``) that ``switch_branch`` resumes from."""
 
     side: int
     records: list[dict[str, Any]]
@@ -379,8 +380,8 @@ class SideResume:
 
 
 def _settings(cfg: PostbuckleConfig, kappa_stop: float) -> tuple[Any, Any]:
-    from shells.continuation import ContinuationSettings
-    from shells.critical import CriticalSettings
+    from shells.algorithms.continuation import ContinuationSettings
+    from shells.algorithms.critical import CriticalSettings
 
     lam = abs(kappa_stop) * cfg.L
     closed = cfg.shape.closed
@@ -420,9 +421,9 @@ def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], 
             (a fold before the bifurcation; a non-axisymmetric bifurcation on the 1D model).
         RuntimeError: the continuation stopped short of the range, or switching failed.
     """
-    from shells.continuation import ContinuationSettings
-    from shells.critical import follow, switch_branch
-    from shells.problem import get_state
+    from shells.algorithms.continuation import ContinuationSettings
+    from shells.algorithms.critical import follow, switch_branch
+    from shells.problem.interface import get_state
 
     run = _Run(cfg)
     kappa_stop = cfg.kappa_stop
@@ -688,7 +689,8 @@ def _resumable(recs: list[dict[str, Any]]) -> tuple[list[dict[str, Any]], dict[i
     return kept, done
 
 
-#: the folder of the checkpoint of the side being followed (``shells.store.save_checkpoint``)
+#: the folder of the checkpoint of the side being followed
+#: (``shells.analyses.store.save_checkpoint``)
 SIDE_CHECKPOINT = "side_checkpoint"
 
 
@@ -708,7 +710,7 @@ def _load_side(outdir: Path, comm: Any, header: dict[str, Any], cp: Any,
     resume after its last point that the side checkpoint holds (its later points dropped), or
     None (no such side; or its checkpoint is missing, unreadable, another run's, another
     partition's or not of these points: then the side restarts whole, as a log line says)."""
-    from shells.critical import SwitchResume
+    from shells.algorithms.critical import SwitchResume
 
     side = _unfinished_side(recs, done)
     if side is None:
@@ -775,7 +777,7 @@ def _load_critical(outdir: Path, comm: Any, header: dict[str, Any]) -> Any:
     or None (missing, incomplete, another run's or another partition's)."""
     from mpi4py import MPI
 
-    from shells.critical import CriticalPoint
+    from shells.algorithms.critical import CriticalPoint
 
     d = outdir / "critical_point"
     meta = read_meta(d / "meta.json", comm)

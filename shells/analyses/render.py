@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 if TYPE_CHECKING:
-    from shells.mesh import ShellMesh
+    from shells.surface.mesh import ShellMesh
 
 __all__ = ["ensure_display", "gather_vtk_mesh", "render_mesh", "render_state"]
 
@@ -124,9 +124,9 @@ def render_state(model: Any, png: str | os.PathLike | None, *, vtu: str | os.Pat
                  color_by: str = "bending_energy_density", title: str | None = None,
                  view: str = "xz") -> None:
     """The surface model's current state, deformed, coloured by one of its fields
-    (``shells.fields.FieldWriter``'s arrays) to ``png``; with ``vtu`` also the deformed
+    (``shells.surface.fields.FieldWriter``'s arrays) to ``png``; with ``vtu`` also the deformed
     surface with every field as VTK XML (``.vtu``, ParaView's default reader). Rank 0 writes."""
-    from shells.fields import FieldWriter
+    from shells.surface.fields import FieldWriter
 
     funcs = FieldWriter(model, None).update()
     V = funcs["displacement"].function_space

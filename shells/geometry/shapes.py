@@ -37,7 +37,7 @@ def _positive(name: str, value: float) -> None:
 
 
 #: Smallest half opening angle of a cap (degrees). Below it a cap is degenerate for the mesher:
-#: ``shells.mesh`` tells the cap's surface from the flat base of its OCC ball sector by the
+#: ``shells.surface.mesh`` tells the cap's surface from the flat base of its OCC ball sector by the
 #: height of its bounding box, flat meaning < 1e-6 R, and a cap's height is its sagitta
 #: R (1 - cos theta), which falls below 1e-6 R at theta = 0.081 deg (measured: 0.05 deg fails
 #: with an IndexError in gmsh, 0.09 deg meshes); 0.1 deg (sagitta 1.5e-6 R) keeps a margin.
@@ -299,8 +299,8 @@ class ImperfectSphere(SphericalCap):
     axisymmetric buckling mode). Amplitude > 0 is inward at the pole. The meridian is
     (R + w0(t)) (sin t, cos t); its UFL form is differentiated symbolically, so the reference
     metric and curvature of the imperfect surface enter the energy exactly. The surface model
-    takes it too: ``shells.mesh`` meshes the sphere (refined at a pole dimple) and moves its nodes
-    radially onto ρ(β); ``normal_ufl`` is the exact normal."""
+    takes it too: ``shells.surface.mesh`` meshes the sphere (refined at a pole dimple) and moves its
+    nodes radially onto ρ(β); ``normal_ufl`` is the exact normal."""
 
     radius: float = 1.0
     theta: float = math.pi
@@ -441,7 +441,7 @@ class HarmonicImperfectSphere(Shape):
     P_n^m without the Condon-Shortley phase, so f > 0 next to the pole's meridian φ = 0).
     Amplitude > 0 is inward where f > 0. m = 0 is ``ImperfectSphere``'s "mode" profile
     P_n(cos β) (P_n(1) = 1 = max |P_n|); m > 0 is not a surface of revolution: the surface model
-    only (``shells.mesh`` meshes the sphere and moves its nodes radially onto ρ, as for
+    only (``shells.surface.mesh`` meshes the sphere and moves its nodes radially onto ρ, as for
     ``ImperfectSphere``). The exact normal is the normalised gradient of F(x) = |x| - ρ(x/|x|),
     f a polynomial in u = x/|x| (``_harmonic_parts``): ``normal`` (NumPy) and ``normal_ufl``.
     The surface model interpolates ``normal`` (``has_ufl_normal`` False: Lagrange of one degree
@@ -1033,7 +1033,7 @@ class MeridianTable(Shape):
     @classmethod
     def from_file(cls, path: str) -> MeridianTable:
         """Rows "r z" (spaces or commas; # comments), from the pole to the rim."""
-        from shells.store import read_number_rows
+        from shells.analyses.store import read_number_rows
 
         return cls(read_number_rows(path, "the meridian file", "'r z'"))
 

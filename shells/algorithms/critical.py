@@ -1,5 +1,5 @@
 """Critical points along a branch: detection by Hessian inertia, location, classification, modes
-(algorithm layer, on ``shells.problem.Problem``).
+(algorithm layer, on ``shells.problem.interface.Problem``).
 
 ``follow(problem, ...)`` runs the pseudo-arclength continuation and, at every point, the inertia of
 every stability block it is given (MUMPS LDLᵀ): the Hessian (block ``None``; the surface model's
@@ -42,7 +42,7 @@ from typing import Any
 
 import numpy as np
 
-from shells.continuation import (
+from shells.algorithms.continuation import (
     ContinuationSettings,
     Point,
     _Arclength,
@@ -52,10 +52,10 @@ from shells.continuation import (
     in_arclength,
     next_step,
 )
+from shells.algorithms.newton import NewtonSolver
+from shells.algorithms.stability import Stability, StabilityResult
 from shells.errors import InputError
-from shells.problem import get_state, set_state
-from shells.solvers import NewtonSolver
-from shells.stability import Stability, StabilityResult
+from shells.problem.interface import get_state, set_state
 
 log = logging.getLogger("shells")
 
@@ -1219,7 +1219,7 @@ def _response_direction(problem: Any, control: Any, sigma: float) -> Any:
     the degrees (and the members of their 2n + 1 multiplets) that the eigensolve returned."""
     from petsc4py import PETSc
 
-    from shells.solvers import apply_options, configure_factor, setup_factor
+    from shells.algorithms.newton import apply_options, configure_factor, setup_factor
 
     stab = Stability(problem)
     A = ksp = None

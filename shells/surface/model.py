@@ -1,5 +1,5 @@
 """The non-Euclidean shell energy of the paper on a surface mesh (Eq. 1 / S-energy), in UFL:
-the surface model (model layer; implements ``shells.problem.Problem``).
+the surface model (model layer; implements ``shells.problem.interface.Problem``).
 
 Energy (dimensionless as in the paper: Young's modulus scaled out, per reference area dω)::
 
@@ -48,11 +48,11 @@ from typing import Any
 import numpy as np
 
 from shells.errors import InputError
-from shells.formproblem import FormProblem
-from shells.geometry import Shape
-from shells.mesh import RIM_TAG, ShellMesh
-from shells.problem import ModeInfo
-from shells.stimulus import UNIFORM, CurvatureField, field_radius
+from shells.geometry.shapes import Shape
+from shells.geometry.stimulus import UNIFORM, CurvatureField, field_radius
+from shells.problem.forms import FormProblem
+from shells.problem.interface import ModeInfo
+from shells.surface.mesh import RIM_TAG, ShellMesh
 
 __all__ = ["ModelParameters", "ShellModel", "default_discretisation"]
 
@@ -82,7 +82,7 @@ def default_discretisation(shape: Shape, h_over_r: float | None = None,
     deep caps (P3, size 0.2), or a sphere when closed; a torus and a surface known only by its
     mesh as the deep caps.
     """
-    from shells.geometry import EllipsoidalCap, MeridianTable, SphericalCap, Torus
+    from shells.geometry.shapes import EllipsoidalCap, MeridianTable, SphericalCap, Torus
 
     sphere = shape.closed and shape.kind in ("sphere", "meridian")
     if sphere and degree == 2:
@@ -111,8 +111,8 @@ class ModelParameters:
         quadrature_degree: quadrature degree of the energy (full integration).
         director: ``"free"`` (d = v/|v|, v = A n° + θ: rotations of any size) or ``"tangent"``
             (d = normalize(n° + (I - n°⊗n°) θ): rotations below 90°, the earlier chart).
-        kappa_field: the natural-curvature stimulus K of b̄ = b° + κ K (``shells.stimulus``; the
-            default is the paper's K = a°).
+        kappa_field: the natural-curvature stimulus K of b̄ = b° + κ K
+            (``shells.geometry.stimulus``; the default is the paper's K = a°).
     """
 
     h: float
@@ -142,9 +142,9 @@ class ModelParameters:
 class ShellModel(FormProblem):
     """Surface shell model: spaces, the energy and its derivatives, supports and functionals.
 
-    A ``shells.problem.Problem``: assembly from ``FormProblem``; one stability block (``None``,
-    the Hessian) with the L² mass of (u, θ); modes classified by the Rayleigh quotients of their
-    normal component (``classify_mode``).
+    A ``shells.problem.interface.Problem``: assembly from ``FormProblem``; one stability block
+    (``None``, the Hessian) with the L² mass of (u, θ); modes classified by the Rayleigh quotients
+    of their normal component (``classify_mode``).
     """
 
     shell: ShellMesh
@@ -358,7 +358,7 @@ class ShellModel(FormProblem):
         import ufl
         from dolfinx import fem
 
-        from shells.geometry import SphericalCap
+        from shells.geometry.shapes import SphericalCap
 
         if not isinstance(self.shape, SphericalCap) or not self.params.kappa_field.uniform:
             return {}  # Eqs. (2a, 2b) are the works of a uniform natural curvature
@@ -405,8 +405,8 @@ class ShellModel(FormProblem):
         """
         from mpi4py import MPI
 
-        from shells.geometry import Disk
-        from shells.mesh import gauge_points
+        from shells.geometry.shapes import Disk
+        from shells.surface.mesh import gauge_points
 
         comm = self.shell.comm
         x = self.owned_dof_coordinates()
@@ -664,7 +664,7 @@ class ShellModel(FormProblem):
         return int(im.size_global * self.W.dofmap.index_map_bs)
 
     # ------------------------------------------------------------------------------------------
-    # stability blocks and modes (shells.problem.Problem)
+    # stability blocks and modes (shells.problem.interface.Problem)
     # ------------------------------------------------------------------------------------------
     def stability_blocks(self) -> tuple[None]:
         return (None,)
@@ -684,7 +684,7 @@ class ShellModel(FormProblem):
     def hessian_quadratic(self, block: Any, v: Any) -> float:
         """vᵀ H v at the current state by quadrature of the second variation d²E(v, v)
         (``FormProblem._quadratic``; the gauge's DOFs of v taken as zero), for
-        ``shells.stability``'s Rayleigh quotients. Its functional compiles in 0.6 s (the
+        ``shells.algorithms.stability``'s Rayleigh quotients. Its functional compiles in 0.6 s (the
         60° cap, P2), the bilinear Hessian in 13 s."""
         return self._quadratic(None, self.hessian_ufl, self.bcs, v)
 
@@ -721,8 +721,8 @@ class ShellModel(FormProblem):
     def orbit_overlap(self, vec: Any) -> float:
         """|cos| of the angle (L² of the normal components) between a mode and the tangent
         space of the current state's orbit under the rotations that map the reference surface
-        onto itself (``shells.problem.orbit_cosine``): a rotation by ε about an axis a moves
-        the normal displacement w = u·n° by -ε (a × x)·∇w (n° and the reference surface are
+        onto itself (``shells.problem.interface.orbit_cosine``): a rotation by ε about an axis a
+        moves the normal displacement w = u·n° by -ε (a × x)·∇w (n° and the reference surface are
         invariant). A shell of revolution: a about its axis (turning a pattern). A closed
         sphere: any a through its centre, modulo the rigid motions that the gauge adds (a
         translation, a rotation of the deformed sphere): a dimple at the pole, which has no
@@ -734,8 +734,8 @@ class ShellModel(FormProblem):
         from dolfinx import fem
         from mpi4py import MPI
 
-        from shells.geometry import Sphere
-        from shells.problem import orbit_cosine
+        from shells.geometry.shapes import Sphere
+        from shells.problem.interface import orbit_cosine
 
         if not self.shape.of_revolution:
             return 0.0
@@ -800,7 +800,7 @@ class ShellModel(FormProblem):
 
     def _meridian_coordinate(self, x: np.ndarray) -> np.ndarray:
         """s ∈ [0, 1] from the pole to the rim (the south pole of a closed shape) at points x."""
-        from shells.geometry import Disk, EllipsoidalCap, MeridianTable, Torus
+        from shells.geometry.shapes import Disk, EllipsoidalCap, MeridianTable, Torus
 
         if isinstance(self.shape, Disk):
             return np.hypot(x[:, 0], x[:, 1]) / self.shape.radius
@@ -830,7 +830,7 @@ class ShellModel(FormProblem):
         azimuthal wavenumber of largest power (``azimuthal_spectrum``); ``rayleigh``: the
         Rayleigh quotients (``m2``, ``x``), ``orbit`` (``orbit_overlap``) and the power
         fraction of the chosen m (``m_power``)."""
-        from shells.geometry import Sphere
+        from shells.geometry.shapes import Sphere
 
         q = self.mode_rayleigh(vec)
         q["orbit"] = self.orbit_overlap(vec)

@@ -4,14 +4,14 @@ Every algorithm in ``shells`` (Newton, continuation, stability, critical points,
 switching) is written against ``Problem`` and nothing else: no algorithm reads a model's private
 attributes. Three kinds of problem implement it:
 
-* ``shells.model.ShellModel``: the 2D surface model (one stability block, ``None``);
+* ``shells.surface.model.ShellModel``: the 2D surface model (one stability block, ``None``);
 * ``shells.axisym.AxisymModel``: the 1D axisymmetric model (one stability block per Fourier
   mode m = 0, 1, 2, ...);
-* ``shells.algebraic``: tiny algebraic problems with exact answers (a fold, a pitchfork) that
-  test the algorithms in milliseconds.
+* ``shells.problem.algebraic``: tiny algebraic problems with exact answers (a fold, a pitchfork)
+  that test the algorithms in milliseconds.
 
 The two finite-element models get the assembly half of the interface from
-``shells.formproblem.FormProblem`` (residual, Jacobian and dR/dκ from compiled dolfinx forms, the
+``shells.problem.forms.FormProblem`` (residual, Jacobian and dR/dκ from compiled dolfinx forms, the
 gauge as Dirichlet conditions).
 
 Conventions. The state is a PETSc vector distributed over ``comm`` (ghosted or not): its owned
@@ -158,7 +158,7 @@ class Problem(Protocol):
     def classify_mode(self, vec: Any, block: Hashable) -> ModeInfo:
         """The mode (m, n) of an eigenvector of the block's Hessian."""
 
-    # Optional (``shells.stability`` uses it where a problem has it, ``hasattr``):
+    # Optional (``shells.algorithms.stability`` uses it where a problem has it, ``hasattr``):
     # ``definite_blocks(blocks, margin) -> {block: bool} | None``: whether each block's
     # Hessian H has a Cholesky factor of H - margin diag(H), decided without assembling it (the
     # 1D model on one process: element matrices condensed on its chain of cells); blocks left
@@ -181,14 +181,14 @@ class Problem(Protocol):
     # ``hessian_quadratic(block, v) -> float | None``: vᵀ H v of the block at the current
     # state by quadrature of the energy's second variation d²E(v, v) (the block's constrained
     # DOFs of v taken as zero), not by a product with the assembled matrix: its round-off is
-    # that of the mode's own energy, not ε ‖H‖; ``shells.stability`` turns every eigenvalue
-    # into its eigenvector's Rayleigh quotient with it (both finite-element models).
+    # that of the mode's own energy, not ε ‖H‖; ``shells.algorithms.stability`` turns every
+    # eigenvalue into its eigenvector's Rayleigh quotient with it (both finite-element models).
     # ``pole_functional() -> vector``: e with e·w = the top pole's depth Ψ3(pole)/h (a
     # state-shaped vector; both models, shapes of revolution with a pole): the parameter a
     # closed sphere's dimple branch is followed with (``switch_branch``'s ``control``, chosen by
-    # ``shells.postbuckle``).
+    # ``shells.analyses.postbuckle``).
     # ``factor_options -> dict``: PETSc options (``pc_factor_...``) the problem recommends for
-    # its Jacobian's factorisation; ``shells.solvers.NewtonSolver`` puts them between its
+    # its Jacobian's factorisation; ``shells.algorithms.newton.NewtonSolver`` puts them between its
     # defaults and the caller's options (the 1D model on one process: PETSc's own LU).
 
 

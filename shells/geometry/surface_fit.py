@@ -1,7 +1,7 @@
 """The reference geometry of any surface mesh, recovered from its nodes (geometry layer).
 
-A user's mesh that is neither a surface of revolution about z nor a torus (``shells.mesh``) has
-no analytic shape: ``MeshSurface`` recovers its normal and second fundamental form from the
+A user's mesh that is neither a surface of revolution about z nor a torus (``shells.surface.mesh``)
+has no analytic shape: ``MeshSurface`` recovers its normal and second fundamental form from the
 mesh itself. The triangles are first oriented consistently (across every shared edge; a mesh
 that cannot be, a Möbius strip, or whose edges are shared by more than two triangles, is
 refused), outward on a closed surface (∫ x·n dA > 0), towards +z on an open one. At each node a
@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from shells.errors import InputError
-from shells.geometry import Shape
+from shells.geometry.shapes import Shape
 
 __all__ = ["MeshSurface"]
 

@@ -1,5 +1,5 @@
 """Stability of an equilibrium: inertia (MUMPS LDLᵀ) and eigenpairs nearest 0 (SLEPc) of a
-problem's stability blocks (algorithm layer, on ``shells.problem.Problem``).
+problem's stability blocks (algorithm layer, on ``shells.problem.interface.Problem``).
 
 A block is the Hessian (the surface model: one block, ``None``) or one of its Fourier blocks H_m
 (the axisymmetric model: block m); the problem assembles it at its current state, with unit rows
@@ -12,7 +12,7 @@ Facts used (petsc4py 3.22): ``getInertia`` needs MUMPS ICNTL(24) = 1 (null pivot
 ICNTL(13) = 1 keeps the inertia correct in parallel (no ScaLAPACK root); indefinite matrices want
 ICNTL(14) (workspace) near 200; ``Mat.getInfo`` is collective. Options prefixes:
 ``shells_inertia_`` (the factorisation), ``shells_eigen_`` (the EPS; ``-shells_eigen_eps_view``
-works), see ``shells.solvers``.
+works), see ``shells.algorithms.newton``.
 
 A positive definite block needs no LDLᵀ: on one process, a block whose matrix is banded after a
 band-reducing ordering (``_band_ordering``; the 1D model's Fourier blocks: half-bandwidth 20)
@@ -30,7 +30,7 @@ the test costs about a third of the MUMPS factorisation it replaces (0.5 against
 measured on a loaded machine; benchmarks/axisym_speed.py), and located points are unchanged
 to the last digit (tests/test_stability.py compares the counts with MUMPS' block by block).
 A problem may decide the same test itself without assembling its blocks
-(``definite_blocks``, ``shells.problem``): the 1D model on one process factors its element
+(``definite_blocks``, ``shells.problem.interface``): the 1D model on one process factors its element
 matrices condensed on the meridian's chain of cells (``shells.axisym.chain``), every block
 m = 0..12 of a point in about 6 ms instead of 21. The eigensolves' shift-invert likewise applies
 the problem's own factorisation where it has one (``block_factor``, through a python PC).
@@ -46,7 +46,7 @@ from typing import Any
 
 import numpy as np
 
-from shells.solvers import (
+from shells.algorithms.newton import (
     EIGEN_PREFIX,
     INERTIA_PREFIX,
     apply_options,

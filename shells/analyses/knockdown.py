@@ -1,20 +1,20 @@
 """Imperfection sensitivity of the closed sphere's curvature buckling (driver layer).
 
 The stress-free reference surface carries an axisymmetric imperfection of amplitude δ
-(``shells.geometry.ImperfectSphere``: a pole dimple or the buckling mode's shape), or on the
+(``shells.geometry.shapes.ImperfectSphere``: a pole dimple or the buckling mode's shape), or on the
 surface model a spherical harmonic P_n^m(cos θ) cos(mφ) (``HarmonicImperfectSphere``,
 imperfection "harmonic": not axisymmetric for m > 0); κ is imposed on it as on a perfect
 sphere. With rotational symmetry enforced (the 1D model's axisymmetric
 problem, as in the paper and in the pressure-buckling literature) the perfect sphere's
 bifurcation becomes a limit point: the imperfect branch is followed from κ = 0 with the
-common algorithm layer (``shells.critical.follow``, folds only) up to its fold κ_max, and the
-knock-down is κ_max/κ_b, κ_b the perfect sphere's first axisymmetric bifurcation (same mesh,
+common algorithm layer (``shells.algorithms.critical.follow``, folds only) up to its fold κ_max, and
+the knock-down is κ_max/κ_b, κ_b the perfect sphere's first axisymmetric bifurcation (same mesh,
 same code path, δ = 0). Points are appended to a JSON-lines file as computed; a rerun with the
 same configuration skips the amplitudes already there.
 
 Asymptotics: at the perfect sphere's bifurcation Koiter's reduced equation is computed
-(``shells.asymptotics``; ∂R/∂δ from two imperfect models at ±δ on the same mesh): its kind
-(asymmetric for an even buckling degree n, symmetric at that order for an odd one) and, where
+(``shells.algorithms.asymptotics``; ∂R/∂δ from two imperfect models at ±δ on the same mesh): its
+kind (asymmetric for an even buckling degree n, symmetric at that order for an odd one) and, where
 it gives one, the small-δ law 1 - κ_max/κ_b = C √δ, reported beside every computed point. The
 law also sets the steps near the fold: at small δ the fold lies within C √δ κ_b of κ_b and
 turns sharply, so the branch is taken there by natural steps and followed from 4 C √δ below
@@ -31,8 +31,8 @@ from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
+from shells.analyses.store import append_record, json_default, read_with_header, write_header
 from shells.errors import InputError
-from shells.store import append_record, json_default, read_with_header, write_header
 
 log = logging.getLogger("shells")
 
@@ -62,7 +62,7 @@ class KnockdownConfig:
         nu: Poisson ratio.
         imperfection: "dimple" (w0 = -δ h exp(-(β/β0)²)), "mode" (w0 = -δ h P_n(cos β)) or
             "harmonic" (w0 = -δ h P_n^m(cos θ) cos(mφ) / max|P_n^m|, the surface model only:
-            ``shells.geometry.HarmonicImperfectSphere``; m = 0 is "mode").
+            ``shells.geometry.shapes.HarmonicImperfectSphere``; m = 0 is "mode").
         load: "curvature" (the natural curvature κ) or "pressure" (a dead external pressure,
             continued in its equivalent curvature κ_p of the paper's Eq. (5); κ_b is then the
             buckling pressure's, classically 12 (1-ν)/√(3(1-ν²)) in κ_p h): the same code
@@ -74,7 +74,7 @@ class KnockdownConfig:
         model: "axisym" (1D, rotational symmetry enforced) or "surface" (2D: every mode can
             appear, κ_max is the first critical point of any kind; no reduced equation).
         size, element_degree: the surface model's bulk element size and degree (P3: P2 locks
-            on spheres); a dimple is meshed with β0 / 4 at the pole (``shells.mesh``).
+            on spheres); a dimple is meshed with β0 / 4 at the pole (``shells.surface.mesh``).
         cells, penalty: the 1D mesh's bulk cells (None: the default) and C1 penalty. The
             penalty ties the slopes to the displacement to O(1/penalty), which on a closed
             sphere acts as a pole-localised imperfection of its own: with 1e4 the perfect
@@ -119,7 +119,7 @@ class KnockdownConfig:
         if self.imperfection not in ("dimple", "mode", "harmonic"):
             raise InputError(f"imperfection must be 'dimple', 'mode' or 'harmonic', got "
                              f"{self.imperfection!r}")
-        from shells.geometry import HARMONIC_DEGREE_MAX
+        from shells.geometry.shapes import HARMONIC_DEGREE_MAX
 
         if self.imperfection == "harmonic" and self.model != "surface":
             raise InputError("the harmonic imperfection is not axisymmetric: it needs the "
@@ -154,8 +154,9 @@ class KnockdownConfig:
 
 
 def _model(cfg: KnockdownConfig, amplitude: float, degree: int) -> Any:
-    from shells.axisym import AxisymModel, RunConfig
-    from shells.geometry import Sphere
+    from shells.analyses.axisym_runs import RunConfig
+    from shells.axisym import AxisymModel
+    from shells.geometry.shapes import Sphere
 
     shape = Sphere(1.0) if amplitude == 0 else _shape(cfg, amplitude, degree)
     run = RunConfig(shape=shape, h_over_r=cfg.h_over_r, nu=cfg.nu, cells=cfg.cells,
@@ -167,7 +168,7 @@ def _model(cfg: KnockdownConfig, amplitude: float, degree: int) -> Any:
 
 def _shape(cfg: KnockdownConfig, amplitude: float, degree: int) -> Any:
     """The unit sphere with the imperfection of ``cfg`` at ``amplitude`` (δ/h)."""
-    from shells.geometry import HarmonicImperfectSphere, ImperfectSphere
+    from shells.geometry.shapes import HarmonicImperfectSphere, ImperfectSphere
 
     if cfg.imperfection == "harmonic":
         return HarmonicImperfectSphere(1.0, amplitude * cfg.h_over_r, degree, cfg.order)
@@ -207,7 +208,7 @@ def _balanced_weight(model: Any, ns: Any) -> float:
     """The arclength norm's state weight ξ with which the state and load parts of the branch's
     tangent are equal at the model's current (converged) state: J z = -∂R/∂λ, ξ² cw₁ |z|² = 1
     (cw₁: ``_Arclength``'s weight at ξ = 1, the RMS over all DOFs in thicknesses)."""
-    from shells.continuation import _Arclength
+    from shells.algorithms.continuation import _Arclength
 
     ar = _Arclength(ns, model.length_scale(), 1.0)
     try:
@@ -229,9 +230,9 @@ def _first_critical(model: Any, ns: Any, cfg: KnockdownConfig, end: float,
     with ``balanced`` steps of ``ds_h`` in κ in the norm balanced at the start
     (``_balanced_weight``). Returns the located points in branch order and the number of
     branch points followed."""
-    from shells.axisym import default_settings
-    from shells.critical import CriticalSettings, follow
-    from shells.geometry import Sphere
+    from shells.algorithms.critical import CriticalSettings, follow
+    from shells.analyses.axisym_runs import default_settings
+    from shells.geometry.shapes import Sphere
 
     steps: dict[str, Any] = {}
     if ds_h is not None:
@@ -293,7 +294,7 @@ def _first_of(found: list[Any], rel_tol: float) -> tuple[Any, list[Any]]:
 
 def _approach(model: Any, ns: Any, kappa: float) -> None:
     """Natural continuation from κ = 0 to ``kappa`` (far from any critical point)."""
-    from shells.continuation import ContinuationSettings, continuation
+    from shells.algorithms.continuation import ContinuationSettings, continuation
 
     lam = kappa * model.length_scale()
     st = ContinuationSettings(method="natural", ds=0.1 * lam, ds_max=0.1 * lam,
@@ -313,8 +314,8 @@ def fold_kappa(cfg: KnockdownConfig, amplitude: float, degree: int,
     (δ/h): for δ > 0 its fold (limit point), for δ = 0 its bifurcation. ``predicted``: the
     asymptotic law's κ_max/κ_b and ``kappa_b`` (absolute), which set the steps near a fold
     close to κ_b. Returns {"kind", "kappa_h", "mode_n", "accuracy", "branch_points"}."""
+    from shells.algorithms.newton import NewtonSolver
     from shells.axisym import SNES_OPTIONS
-    from shells.solvers import NewtonSolver
 
     model, run = _model(cfg, amplitude, degree)
     ns = NewtonSolver(model, options=SNES_OPTIONS)
@@ -341,7 +342,7 @@ def _locate_first(cfg: KnockdownConfig, amplitude: float, model: Any, ns: Any, h
     """``fold_kappa``'s search on ``model`` (solver ``ns``): the located critical point
     (carrying its state and mode), the number of branch points followed and the crossings of
     the fold's own eigenvalue located just before the fold (``_first_of``)."""
-    from shells.critical import CriticalSettings
+    from shells.algorithms.critical import CriticalSettings
 
     end = 1.25 * _kappa_scale(cfg) / h
     perfect = amplitude == 0
@@ -408,8 +409,8 @@ def _describe(c: Any, h: float) -> str:
 def surface_first(cfg: KnockdownConfig, amplitude: float, degree: int) -> dict[str, Any]:
     """The surface model's first critical point (fold or bifurcation, any m) of the sphere with
     imperfection ``amplitude`` (δ/h; 0: the perfect sphere on the same refined mesh), from
-    ``shells.drivers.critical_surface`` (collective on COMM_WORLD)."""
-    from shells.drivers import critical_surface
+    ``shells.analyses.drivers.critical_surface`` (collective on COMM_WORLD)."""
+    from shells.analyses.drivers import critical_surface
 
     # δ = 0 as an imperfect sphere too: the same pole-refined mesh as the imperfect ones
     r = critical_surface(_shape(cfg, amplitude, degree), cfg.h_over_r, cfg.nu,
@@ -425,11 +426,11 @@ def surface_first(cfg: KnockdownConfig, amplitude: float, degree: int) -> dict[s
 
 def perfect_sphere(cfg: KnockdownConfig, degree: int) -> dict[str, Any]:
     """The perfect sphere's first axisymmetric bifurcation and Koiter's reduced equation there
-    (``shells.asymptotics``) with the imperfection of ``cfg`` (its profile of degree
+    (``shells.algorithms.asymptotics``) with the imperfection of ``cfg`` (its profile of degree
     ``degree``): {"kind", "kappa_h", "mode_n", "accuracy", "branch_points", "asymptotics"}."""
-    from shells.asymptotics import reduced_equation
+    from shells.algorithms.asymptotics import reduced_equation
+    from shells.algorithms.newton import NewtonSolver
     from shells.axisym import SNES_OPTIONS
-    from shells.solvers import NewtonSolver
 
     model, run = _model(cfg, 0.0, degree)
     ns = NewtonSolver(model, options=SNES_OPTIONS)
@@ -496,7 +497,7 @@ def knockdown(cfg: KnockdownConfig, outdir: str | Path | None = None
         degree = int(perfect["mode_n"])
     yield {"perfect": perfect, "degree": degree}
     kb = perfect["kappa_h"]
-    from shells.asymptotics import ReducedEquation
+    from shells.algorithms.asymptotics import ReducedEquation
 
     law = None if perfect["asymptotics"] is None else ReducedEquation(
         **{k: v for k, v in perfect["asymptotics"].items()

@@ -4,7 +4,7 @@
 Some forms are not written by hand but derived from another: the 1D model's mode forms C_0..C_4
 are the mode Hessian differentiated k times in m by ``ufl.derivative``, its derivatives expanded
 and m replaced by 0 (``shells.axisym.modes``); both models' dR/dκ is R(κ=1) - R(κ=0), whose
-``ufl.replace`` expands R's derivatives (``shells.formproblem``). FFCx finds a compiled form in
+``ufl.replace`` expands R's derivatives (``shells.problem.forms``). FFCx finds a compiled form in
 its cache by the form's signature, but only after that UFL work is done: 0.10-0.15 s of a 1.6 s
 run on the θ̄ = 8 cap, and again in each of the phase diagram's 128 runs, for kernels that were
 compiled long ago. ``compiled_derived`` remembers, under a key made of the source form's
@@ -33,7 +33,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from shells.store import write_atomic
+from shells.analyses.store import write_atomic
 
 __all__ = ["compiled_derived", "cache_folder", "cache_root", "file_tag"]
 

@@ -1,5 +1,5 @@
 """Tiny algebraic problems with exact answers, for testing the algorithm layer in milliseconds
-(problem layer; implements ``shells.problem.Problem``).
+(problem layer; implements ``shells.problem.interface.Problem``).
 
 Both are gradient systems, R = ∂E/∂w, so their Jacobians are symmetric Hessians whose inertia
 decides stability exactly as for the shell models. The state is a PETSc vector on ``comm``
@@ -40,14 +40,14 @@ from typing import Any
 
 import numpy as np
 
-from shells.problem import ModeInfo
+from shells.problem.interface import ModeInfo
 
 __all__ = ["AlgebraicProblem", "FoldProblem", "FoldPitchforkProblem", "PitchforkProblem",
            "SubcriticalPitchforkProblem"]
 
 
 class AlgebraicProblem:
-    """A gradient system E(w, κ) of a few unknowns on PETSc objects (``shells.problem``).
+    """A gradient system E(w, κ) of a few unknowns on PETSc objects (``shells.problem.interface``).
 
     Subclasses give ``energy(w, k)``, ``gradient(w, k)``, ``hessian(w, k)`` and
     ``dgradient_dkappa(w, k)`` on the full (gathered) state, as numpy arrays; the owned rows

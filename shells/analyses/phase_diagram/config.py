@@ -14,14 +14,14 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from shells.analyses.axisym_runs import default_settings
 from shells.axisym.model import AxisymParameters
-from shells.axisym.run import default_settings
 from shells.errors import InputError
-from shells.geometry import Shape, SphericalCap
-from shells.mesh import MeshSpec
+from shells.geometry.shapes import Shape, SphericalCap
+from shells.surface.mesh import MeshSpec
 
 if TYPE_CHECKING:
-    from shells.continuation import ContinuationSettings
+    from shells.algorithms.continuation import ContinuationSettings
 
 __all__ = ["SNAP_FIT_THETA_MAX_DEG", "THETA_MAX", "Discretisation", "PhaseDiagramConfig", "Task",
            "tasks_of"]
@@ -50,8 +50,8 @@ class Discretisation:
         cells, layer_cells: axisymmetric mesh (bulk cells, cells per √(Rh) at the rim;
             ``AxisymParameters``, whose defaults these are).
         ds_max: largest continuation step (axisym: the weighted arclength of
-            ``shells.continuation``; the default is ``default_settings``' for an open cap, and
-            it may not be below that function's first step).
+            ``shells.algorithms.continuation``; the default is ``default_settings``' for an open
+            cap, and it may not be below that function's first step).
         size, layer_elements: surface-model mesh (``MeshSpec``, whose defaults these are).
     """
 

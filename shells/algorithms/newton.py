@@ -154,7 +154,7 @@ def fall_back_to_mumps(ksp: Any, A: Any, options: dict[str, Any]) -> bool:
 
 
 class NewtonSolver:
-    """SNES Newton on a ``shells.problem.Problem``'s residual and Jacobian.
+    """SNES Newton on a ``shells.problem.interface.Problem``'s residual and Jacobian.
 
     Also exposes the assembled Jacobian and a KSP on it for bordered (arclength) solves.
     ``prefix``: the options prefix (default ``shells_newton_``; see the module docstring).
@@ -175,7 +175,7 @@ class NewtonSolver:
         self.snes.setConvergenceTest(self._converged)
         self._test: dict[str, float | None] = {}
         self.noise_accepted = False
-        # the problem's recommended factorisation (``shells.problem``: ``factor_options``)
+        # the problem's recommended factorisation (``shells.problem.interface``: ``factor_options``)
         # between the defaults and the caller's options
         self.options = apply_options(self.snes, self.prefix,
                                      {**DEFAULT_SNES_OPTIONS,

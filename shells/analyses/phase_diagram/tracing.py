@@ -1,5 +1,5 @@
-"""Tracing one branch of the phase diagram (driver layer, on ``shells.critical.follow``): the
-axisymmetric model's first critical points up and down with the curvatures there, the
+"""Tracing one branch of the phase diagram (driver layer, on ``shells.algorithms.critical.follow``):
+the axisymmetric model's first critical points up and down with the curvatures there, the
 surface model's for spot checks, and the everted branch followed through the snap."""
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from shells.theory import buckling_kappa_R, mirrored_buckling_kappa_R, snap_kapp
 
 __all__ = ["compute_task", "everted_check"]
 
-from shells.phase_diagram.config import PhaseDiagramConfig, Task
+from shells.analyses.phase_diagram.config import PhaseDiagramConfig, Task
 
 log = logging.getLogger("shells")
 
@@ -66,9 +66,9 @@ class _Branch:
 
     def __init__(self, theta: float, h_over_r: float, nu: float, cfg: PhaseDiagramConfig
                  ) -> None:
+        from shells.algorithms.newton import NewtonSolver
         from shells.axisym import AxisymModel
-        from shells.geometry import SphericalCap
-        from shells.solvers import NewtonSolver
+        from shells.geometry.shapes import SphericalCap
 
         self.shape = SphericalCap(1.0, theta)
         self.model = AxisymModel(self.shape, cfg.discretisation.axisym_parameters(h_over_r, nu))
@@ -81,14 +81,14 @@ class _Branch:
 
     def follow(self, kappa_end: float, crit: Any, **kw: Any) -> Iterator[tuple]:
         """``critical.follow`` from κ = 0 to ``kappa_end`` (R = 1: κ = κR), all m checked."""
-        from shells.critical import follow
+        from shells.algorithms.critical import follow
 
         return follow(self.model, self.settings, kappa_end, crit, solver=self.ns,
                       blocks=self.modes, **kw)
 
     def curvatures_at(self, cp: Any) -> dict[str, float]:
         """The curvatures of a critical point's state (the model's state is kept)."""
-        from shells.problem import get_state, set_state
+        from shells.problem.interface import get_state, set_state
 
         keep = get_state(self.model)
         set_state(self.model, cp.state)
@@ -113,7 +113,7 @@ def _trace_axisym(task: Task, cfg: PhaseDiagramConfig) -> dict[str, Any]:
     Going down the first bifurcation ends the run; going up the branch is followed past its
     first bifurcation (folds only) up to the snap fold, unless the cap is inverted (pole
     curvature b11 R > 0) there: a smoothly inverting cap has no fold to look for."""
-    from shells.critical import CriticalSettings
+    from shells.algorithms.critical import CriticalSettings
 
     h = task.h_over_r
     tb = task.thetabar
@@ -168,11 +168,11 @@ def _trace_axisym(task: Task, cfg: PhaseDiagramConfig) -> dict[str, Any]:
 def _trace_surface(task: Task, cfg: PhaseDiagramConfig) -> dict[str, Any]:
     from mpi4py import MPI
 
-    from shells.continuation import ContinuationSettings
-    from shells.critical import CriticalSettings, follow
-    from shells.geometry import SphericalCap
-    from shells.mesh import generate
-    from shells.model import ModelParameters, ShellModel
+    from shells.algorithms.continuation import ContinuationSettings
+    from shells.algorithms.critical import CriticalSettings, follow
+    from shells.geometry.shapes import SphericalCap
+    from shells.surface.mesh import generate
+    from shells.surface.model import ModelParameters, ShellModel
 
     h, tb = task.h_over_r, task.thetabar
     shape = SphericalCap(1.0, task.theta)
@@ -225,7 +225,7 @@ def everted_check(h_over_r: float, thetabar: float, cfg: PhaseDiagramConfig,
     """Follow the up-branch through the snap fold and its second fold onto the everted branch and
     locate the loss of symmetry there (first count change after the branch is stable again):
     checks κ_e R = 2 - κ_b R (mirror symmetry) directly. Costly for deep caps."""
-    from shells.critical import CriticalSettings
+    from shells.algorithms.critical import CriticalSettings
 
     task = Task(h_over_r, thetabar, "up", tag="everted")
     bound = kappa_max or 2.0 - 1.5 * buckling_kappa_R(thetabar, h_over_r) + 1.0

@@ -1,5 +1,5 @@
 """Continuation in the natural curvature κ: natural-parameter (SNES) and pseudo-arclength
-(algorithm layer, on ``shells.problem.Problem``).
+(algorithm layer, on ``shells.problem.interface.Problem``).
 
 ``continuation(problem, settings, ...)`` is a generator: it yields one ``Point`` per converged
 step (scalar indicators only: κ, energy split, Ψ3, Newton iterations, the κ-component of the unit
@@ -27,8 +27,8 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from shells.algorithms.newton import NewtonSolver
 from shells.errors import InputError
-from shells.solvers import NewtonSolver
 
 log = logging.getLogger("shells")
 
@@ -75,12 +75,12 @@ class ContinuationSettings:
             converged point uses the corrector's factorisation under the same bound. Near the
             solution Newton's Jacobian changes by O(|δw|/h), so the chord steps converge as fast
             as Newton's there. 0 (the default): factor at every iteration and for the tangent.
-            The surface model's ``critical`` uses 1e-5 (``REUSE_SURFACE`` in shells.drivers):
-            3 factorisations per step instead of 5, its critical points unchanged to 3e-11
-            (benchmarks/lu_per_step.py); the 1D model's ``critical`` 1e-4, with its default
-            settings and the quadratic ``predictor`` (``REUSE_CRITICAL`` in
-            shells.axisym.run: 156 factorisations instead of 378 on the θ̄ = 8 cap, its points
-            unchanged to 1e-8; before its eigenvalues were Rayleigh quotients the thin
+            The surface model's ``critical`` uses 1e-5 (``REUSE_SURFACE`` in
+            shells.analyses.drivers): 3 factorisations per step instead of 5, its critical points
+            unchanged to 3e-11 (benchmarks/lu_per_step.py); the 1D model's ``critical`` 1e-4, with
+            its default settings and the quadratic ``predictor`` (``REUSE_CRITICAL`` in
+            shells.analyses.axisym_runs: 156 factorisations instead of 378 on the θ̄ = 8 cap, its
+            points unchanged to 1e-8; before its eigenvalues were Rayleigh quotients the thin
             spheres' closely spaced bifurcations moved by up to 2e-5 with 1e-5, round-off).
             Not the default elsewhere: a branch's points are its result there.
         predictor: where the arclength corrector starts (the hyperplane is the tangent
@@ -91,7 +91,7 @@ class ContinuationSettings:
             three). Its converged points are the same to the Newton tolerance, but fewer
             iterations grow the adaptive step sooner, so where the step is below ``ds_max``
             the run takes other points. The 1D model's ``critical`` uses it with its default
-            settings (``shells.axisym.run``).
+            settings (``shells.analyses.axisym_runs``).
     """
 
     method: str = "arclength"
@@ -481,7 +481,7 @@ def arclength_steps(ar: _Arclength, st: ContinuationSettings, lam: float, lam_en
     by its depth it grows steadily, while its share of the whole state's norm, which the
     arclength measures, is small and the arclength steps let the corrector slide along the
     nearly neutral directions of a cluster of bifurcations onto other branches (a closed
-    sphere's; ``shells.critical.switch_branch``).
+    sphere's; ``shells.algorithms.critical.switch_branch``).
     """
     w = ar.w
     secant = secant_from is not None
@@ -655,8 +655,8 @@ def _bordered_newton(ar: _Arclength, st: ContinuationSettings, lam_p: float,
     amplitude a along φ and leaves λ free, which parametrises a pitchfork regularly (branch
     switching). The pins ψ_j hold the other directions of a (nearly) multiple critical
     eigenspace at their value in w_c: a phase condition, the orientation of a buckling pattern
-    on a shape of revolution (``shells.critical.switch_branch``); s_j ψ_j is the force that
-    holds it. One LU factorisation and 2 + len(pins) solves per iteration; the constraints are
+    on a shape of revolution (``shells.algorithms.critical.switch_branch``); s_j ψ_j is the force
+    that holds it. One LU factorisation and 2 + len(pins) solves per iteration; the constraints are
     linear, so every iterate after the first satisfies them. Within ``factor_reuse`` of the
     last factored iterate the factorisation is kept (chord steps), except with
     ``singular_ok``.

@@ -31,6 +31,7 @@ from shells.algorithms.stability import Stability
 from shells.analyses.axisym_runs import RunConfig, critical
 from shells.axisym import SNES_OPTIONS, AxisymModel
 from shells.geometry.shapes import Sphere
+from shells.problem.forms import assemble_symmetric
 from shells.theory import sphere_kappa_b_h
 
 H_OVER_R, NU = 0.002, 0.5
@@ -39,7 +40,7 @@ H_OVER_R, NU = 0.002, 0.5
 def _direct(self: AxisymModel, block: Any, H: Any) -> None:
     """``AxisymModel.assemble_hessian`` as before: every block from its form."""
     if block is None:
-        self._assemble_symmetric(H, self.hessian, self.bcs)
+        assemble_symmetric(H, self.hessian, self.bcs)
     else:
         self.mode_forms.assemble_hessian(block, H, direct=True)
 

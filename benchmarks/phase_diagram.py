@@ -47,7 +47,7 @@ def sphere_checks(h_over_r: float, rel_tol: float) -> dict[str, Any]:
     crit = axisym_runs.critical(Sphere(1.0), h_over_r, 0.5, direction="down", rel_tol=rel_tol)
     psi = []
     for p in axisym_runs.branch(Sphere(1.0), h_over_r, 0.5, direction="up", m_max=0,
-                           kappa_max=0.9 * sphere_kappa_b_h(0.5) / h_over_r):
+                                kappa_max=0.9 * sphere_kappa_b_h(0.5) / h_over_r):
         if p["kappa_h"] != 0:
             psi.append({"kappa_h": p["kappa_h"], "psi3_over_h": p["psi3_over_h"],
                         "law": sphere_psi3_linear(p["kappa_h"], h_over_r)})
@@ -110,9 +110,10 @@ def crosscheck(cfg: PhaseDiagramConfig) -> list[dict[str, Any]]:
     for h, tb in ((0.04, 3.0), (0.01, 8.0)):
         shape = SphericalCap(1.0, tb * math.sqrt(h))
         ref = axisym_runs.critical(shape, h, cfg.nu, direction="up", m_max=cfg.m_max,
-                              kappa_max=1.6 * (0.85 * tb - 0.67) + 0.5,
-                              settings=axisym_runs.default_settings(shape, h, residual_tol=1e-6),
-                              rel_tol=cfg.rel_tol)
+                                   kappa_max=1.6 * (0.85 * tb - 0.67) + 0.5,
+                                   settings=axisym_runs.default_settings(shape, h,
+                                                                         residual_tol=1e-6),
+                                   rel_tol=cfg.rel_tol)
         ours = compute_task(Task(h, tb, "up", tag="crosscheck"), cfg)
         rows.append({"h_over_R": h, "thetabar": tb,
                      "critical": [(c["kind"], c["kappa_R"], c["mode_m"])
@@ -140,7 +141,7 @@ def plate_check(rel_tol: float) -> dict[str, Any]:
     out = {"source": "axisym disk", "model": "axisym", "runs": []}
     for h in (0.01, 0.02):
         c = axisym_runs.critical(Disk(1.0), h, 0.5, direction="up", max_critical=1,
-                            rel_tol=rel_tol)
+                                 rel_tol=rel_tol)
         out["runs"].append({"h_over_r": h, "kappa_r2_over_h": c["kappa_h"] / h**2,
                             "mode_m": c["mode_m"], "kind": c["kind"]})
     return out
@@ -492,7 +493,7 @@ def render(data: dict[str, Any]) -> str:
                ("θ ≤ 60°", lambda p: p["theta_deg"] <= 60.0)]
     for h in sorted({p["h_over_R"] for p in pts}):
         subsets += [(f"h/R = {h:g}, θ ≤ 90°", (lambda hh: lambda p: p["h_over_R"] == hh
-                                                and p["theta_deg"] <= 90.0)(h)),
+                                               and p["theta_deg"] <= 90.0)(h)),
                     (f"h/R = {h:g}, θ̄ ≤ 10", (lambda hh: lambda p: p["h_over_R"] == hh
                                                and p["thetabar"] <= 10.0)(h))]
     for lab, cond in subsets:

@@ -255,7 +255,7 @@ def _remove_session_dirs(pid: int) -> None:
 
 def records(out: Path, case: Case) -> list[dict[str, Any]]:
     """The results on disk: the records of the case's files (a torn last line skipped)."""
-    from shells.analyses.store import read_records
+    from shells.files import read_records
 
     recs: list[dict[str, Any]] = []
     for name in case.files:
@@ -536,7 +536,7 @@ def _run_script(out: Path, name: str, text: str, case: str, ranks: int, timeout:
 def idle_rank(out: Path, ranks: int = 2, timeout: float = 60.0) -> dict[str, Any]:
     """``shells phase-diagram`` with every task on rank 0 and none on the others: all ranks
     must end (it hung at exit: SLEPc initialised on rank 0 only, ``phase_diagram.jobs``)."""
-    from shells.analyses.store import read_records
+    from shells.files import read_records
 
     p, err, hung, left, seconds = _run_script(out, "idle_rank.py", RANK_IDLE, "phase-diagram",
                                               ranks, timeout)

@@ -23,8 +23,9 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from shells.algorithms.continuation import ContinuationSettings, continuation
+from shells.algorithms.continuation import continuation
 from shells.algorithms.newton import NewtonSolver
+from shells.algorithms.settings import ContinuationSettings
 from shells.algorithms.stability import Stability
 from shells.geometry.shapes import SphericalCap
 from shells.surface.mesh import MeshSpec, generate

@@ -26,8 +26,8 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
-from shells.algorithms.continuation import ContinuationSettings
 from shells.algorithms.critical import CriticalSettings, follow
+from shells.algorithms.settings import ContinuationSettings
 from shells.analyses import axisym_runs
 from shells.geometry.shapes import Sphere
 from shells.surface.mesh import MeshSpec, generate
@@ -41,7 +41,7 @@ def run(h: float, nu: float, size: float, degree: int) -> dict:
     shape = Sphere(1.0)
     sm = generate(MeshSpec(shape, h=h, size=size), comm)
     model = ShellModel(sm, ModelParameters(h=h, nu=nu, degree=degree,
-                                                quadrature_degree=2 * degree))
+                                           quadrature_degree=2 * degree))
     kb = sphere_kappa_b_h(nu)
     st = ContinuationSettings(ds=0.1 * kb / h, ds_max=0.1 * kb / h)
     crit = CriticalSettings(stop_at_first=True)

@@ -94,7 +94,7 @@ def main() -> None:
         if stored is None or any(sel(h, nu, load, kind) for sel in args.curves):
             return None
         return next((c for c in stored["curves"] if (c["h_over_R"], c["nu"], c["load"],
-                                                      c["imperfection"]) == (h, nu, load, kind)),
+                                                     c["imperfection"]) == (h, nu, load, kind)),
                     None)
 
     print("Koiter's law (curvature, mode imperfection): 1 - kappa_max/kappa_b against C sqrt(d)")

@@ -204,7 +204,7 @@ def main(outdir: str = "benchmarks/results", *flags: str) -> None:
         return
     results = [run_one(h, 80) for h in H_OVER_R]
     files = figure(results, out) + render_3d(next(r for r in results
-                                                 if r["h_over_R"] == 0.01), out)
+                                                  if r["h_over_R"] == 0.01), out)
     (out / "sphere_postbuckling.json").write_text(json.dumps(
         {"results": results, "files": files}, indent=1, default=float))
     print(f"{'h/R':>6} {'kappa_b h':>10} {'n':>3} {'slope':>9} {'theory':>9} "

@@ -27,7 +27,7 @@ from pathlib import Path
 from mpi4py import MPI
 
 from shells import theory
-from shells.algorithms.continuation import ContinuationSettings
+from shells.algorithms.settings import ContinuationSettings
 from shells.analyses import axisym_runs
 from shells.analyses.branch import BranchConfig, run_branch
 from shells.analyses.drivers import postbuckle_run

@@ -34,7 +34,6 @@ __all__ = [
     "snap_kappa_R",
     "buckling_kappa_R",
     "mirrored_buckling_kappa_R",
-    "default_kappa_range",
 ]
 
 #: The paper's numbers (ν = 1/2 unless stated).
@@ -157,30 +156,3 @@ def mirrored_buckling_kappa_R(thetabar: float, h_over_r: float, b: float = PAPER
                               c: float = PAPER["c"]) -> float:
     """Eq. (4) mirrored about κR = 1: loss of symmetry of the everted branch (κ > 0)."""
     return 2.0 - buckling_kappa_R(thetabar, h_over_r, b, c)
-
-
-def default_kappa_range(shape: object, h_over_r: float, nu: float, direction: str) -> float:
-    """A κ range (absolute, signed) that contains the first critical point with a margin.
-
-    Built from the paper's laws (sphere and any closed shell: κ_b h; caps: the snap line, the
-    mirrored Eq. (4) and Eq. (4); disk: the plate limit), widened by 60 %; other shapes 8/R.
-    """
-    from shells.geometry.shapes import Disk, Sphere, SphericalCap
-
-    sign = 1.0 if direction == "up" else -1.0
-    L = shape.characteristic_size()  # type: ignore[attr-defined]
-    h = h_over_r * L
-    if isinstance(shape, Sphere) or getattr(shape, "closed", False):
-        # any closed shell (a spheroid, a closed meridian table): the sphere's buckling law
-        return sign * 1.6 * sphere_kappa_b_h(nu) / h
-    if isinstance(shape, Disk):
-        return sign * 1.6 * plate_a() * h / L**2
-    if isinstance(shape, SphericalCap):
-        tb = shape.theta / math.sqrt(h_over_r)
-        if direction == "up":
-            kr = max(snap_kappa_R(tb), mirrored_buckling_kappa_R(tb, h_over_r))
-            return (1.6 * max(kr, 1.0) + 0.5) / shape.R
-        return (1.6 * min(buckling_kappa_R(tb, h_over_r), -1.0) - 0.5) / shape.R
-    from shells.geometry.shapes import kappa_length
-
-    return sign * 8.0 / kappa_length(shape)  # type: ignore[arg-type]

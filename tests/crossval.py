@@ -10,8 +10,8 @@ import math
 import pytest
 from mpi4py import MPI
 
-from shells.algorithms.continuation import ContinuationSettings
 from shells.algorithms.critical import CriticalPoint, CriticalSettings, follow
+from shells.algorithms.settings import ContinuationSettings
 from shells.analyses import axisym_runs
 from shells.geometry.shapes import SphericalCap
 from shells.surface.mesh import MeshSpec, generate
@@ -41,7 +41,7 @@ def surface_first(theta_deg: float, direction: str) -> CriticalPoint | None:
 
 def check_cap(theta_deg: float, direction: str) -> None:
     one_d = axisym_runs.critical(SphericalCap(1.0, math.radians(theta_deg)), H, 0.5,
-                            direction=direction, m_max=6, kappa_max=END[direction])
+                                 direction=direction, m_max=6, kappa_max=END[direction])
     two_d = surface_first(theta_deg, direction)
     assert two_d is not None
     assert two_d.kind == one_d["kind"]

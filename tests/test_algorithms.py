@@ -12,8 +12,9 @@ import math
 import numpy as np
 import pytest
 
-from shells.algorithms.continuation import ContinuationSettings, continuation
+from shells.algorithms.continuation import continuation
 from shells.algorithms.critical import CriticalSettings, follow, switch_branch
+from shells.algorithms.settings import ContinuationSettings
 from shells.algorithms.stability import Stability
 from shells.errors import InputError
 from shells.problem.algebraic import (
@@ -79,7 +80,8 @@ def test_natural_steps_down_mirror_the_steps_up():
     run up: the same points and Newton iterations (the secant predictor once pointed back
     along a downward run: more iterations, a 30° cap's run down took 28 points instead of
     10)."""
-    from shells.algorithms.continuation import ContinuationSettings, continuation
+    from shells.algorithms.continuation import continuation
+    from shells.algorithms.settings import ContinuationSettings
 
     st = ContinuationSettings(method="natural", ds=0.1, ds_max=0.2)
     up = list(continuation(FoldProblem(1.0), st, kappa_end=0.9))
@@ -87,7 +89,7 @@ def test_natural_steps_down_mirror_the_steps_up():
     assert [p.newton_its for p in down] == [p.newton_its for p in up]
     assert [p.kappa for p in down] == pytest.approx([-p.kappa for p in up], abs=1e-14)
     assert [p.scalars["w0"] for p in down] == pytest.approx([p.scalars["w0"] for p in up],
-                                                             abs=1e-12)
+                                                            abs=1e-12)
 
 
 class _FoldWithFarRoot(FoldProblem):
@@ -188,7 +190,7 @@ def test_crossings_of_several_blocks_in_one_step_share_the_steps_trials(monkeypa
     P = _ThreeBlocks(c=(0.96, 0.98))
     st = ContinuationSettings(ds=0.3, ds_max=0.3)
     calls = {"solves": 0, "eigs": 0}
-    newton, eigs = critical._bordered_newton, Stability.eigenpairs
+    newton, eigs = critical.bordered_newton, Stability.eigenpairs
 
     def counted_newton(*args, **kwargs):
         calls["solves"] += 1
@@ -198,7 +200,7 @@ def test_crossings_of_several_blocks_in_one_step_share_the_steps_trials(monkeypa
         calls["eigs"] += 1
         return eigs(self, *args, **kwargs)
 
-    monkeypatch.setattr(critical, "_bordered_newton", counted_newton)
+    monkeypatch.setattr(critical, "bordered_newton", counted_newton)
     monkeypatch.setattr(Stability, "eigenpairs", counted_eigs)
 
     def run() -> tuple[list, dict]:

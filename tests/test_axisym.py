@@ -14,8 +14,8 @@ import pytest
 from mpi4py import MPI
 from scipy.optimize import brentq
 
-from shells.algorithms.continuation import ContinuationSettings
 from shells.algorithms.newton import NewtonSolver
+from shells.algorithms.settings import ContinuationSettings
 from shells.algorithms.stability import Stability
 from shells.analyses.axisym_runs import branch, critical, default_settings
 from shells.axisym import SNES_OPTIONS, AxisymModel, AxisymParameters

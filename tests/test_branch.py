@@ -7,7 +7,7 @@ import json
 import pytest
 from mpi4py import MPI
 
-from shells.algorithms.continuation import ContinuationSettings
+from shells.algorithms.settings import ContinuationSettings
 from shells.analyses.branch import BranchConfig, read_branch, run_branch
 from shells.cli import main
 from shells.geometry.shapes import Sphere

@@ -9,7 +9,8 @@ import pytest
 from crossval import check_cap
 from mpi4py import MPI
 
-from shells.algorithms.continuation import ContinuationSettings, continuation
+from shells.algorithms.continuation import continuation
+from shells.algorithms.settings import ContinuationSettings
 from shells.algorithms.stability import Stability
 from shells.analyses import axisym_runs
 from shells.geometry.shapes import Sphere

@@ -187,7 +187,7 @@ def test_order_zero_is_the_mode_imperfection():
     assert np.all(np.isfinite(vh))
     ok = np.all(np.isfinite(vm), axis=1)
     assert comm.allreduce(int(np.sum(ok)), op=MPI.SUM) > 0.9 * comm.allreduce(len(ok),
-                                                                               op=MPI.SUM)
+                                                                              op=MPI.SUM)
     vh, vm = vh[ok], vm[ok]
     dn = float(np.max(np.abs(vh[:, :3] - vm[:, :3]), initial=0.0))
     db = float(np.max(np.abs(vh[:, 3:] - vm[:, 3:]), initial=0.0))

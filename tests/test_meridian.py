@@ -73,7 +73,8 @@ def test_surface_model_on_a_cap_table_matches_the_cap():
     natural steps to κR = 1: the mesh's area and rim within 1e-6 of the exact cap's, energy and
     Ψ3 within 2e-3 (measured 4e-4 and 6e-4: the two meshes differ; at P3 and the default mesh
     the fold of both is within 1e-5 of the 1D model's 1.39343, `shells critical`)."""
-    from shells.algorithms.continuation import ContinuationSettings, continuation
+    from shells.algorithms.continuation import continuation
+    from shells.algorithms.settings import ContinuationSettings
     from shells.surface.mesh import MeshSpec, generate
     from shells.surface.model import ModelParameters, ShellModel
 
@@ -99,7 +100,7 @@ def test_cap_table_reproduces_the_caps_critical_point(direction):
     kmax = 3.0 if direction == "up" else 1.0
     exact = axisym_runs.critical(CAP, 0.04, 0.5, direction=direction, kappa_max=kmax)
     tab = axisym_runs.critical(table(np.sin(t), np.cos(t)), 0.04, 0.5, direction=direction,
-                          kappa_max=kmax)
+                               kappa_max=kmax)
     assert tab["kind"] == exact["kind"] and tab["mode_m"] == exact["mode_m"]
     assert abs(tab["kappa_R"] / exact["kappa_R"] - 1) < 1e-4
 
@@ -111,7 +112,7 @@ def test_closed_and_ellipsoidal_tables():
     u = np.linspace(0, math.pi, 60)
     s_exact = axisym_runs.critical(Sphere(1.0), 0.05, 0.5, max_critical=1)
     s_tab = axisym_runs.critical(table(np.sin(u), np.cos(u)), 0.05, 0.5, max_critical=1,
-                            kappa_max=40.0)
+                                 kappa_max=40.0)
     assert s_tab["kind"] == "bifurcation"
     assert abs(s_tab["kappa_h"] / s_exact["kappa_h"] - 1) < 1e-4
     ell = EllipsoidalCap(1.0, 1.5, math.pi / 2)
@@ -128,7 +129,7 @@ def test_a_closed_table_gets_the_spheres_default_range():
     the sphere law's (it was the 8/R of other shapes, κR = 8 against κ_b R ≈ 30 at h/R = 0.05:
     "no critical point"; with it the surface model finds κ_b h = 1.488927 on the 80-point
     sphere table, the built-in sphere 1.48979)."""
-    from shells.theory import default_kappa_range
+    from shells.analyses.setup import default_kappa_range
 
     u = np.linspace(0, math.pi, 60)
     tab = table(np.sin(u), np.cos(u))

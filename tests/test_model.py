@@ -10,8 +10,9 @@ import pytest
 from conftest import fitted_rate
 from scipy.optimize import brentq
 
-from shells.algorithms.continuation import ContinuationSettings, continuation
+from shells.algorithms.continuation import continuation
 from shells.algorithms.newton import NewtonSolver
+from shells.algorithms.settings import ContinuationSettings
 from shells.geometry.shapes import Sphere, SphericalCap
 from shells.surface.mesh import MeshSpec, generate
 from shells.surface.model import ModelParameters, ShellModel

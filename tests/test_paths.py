@@ -182,7 +182,7 @@ def test_cli_refuses_unusable_outputs(capsys, monkeypatch, shared_tmp, no_work, 
 
 
 def test_cli_refuses_a_file_as_output_folder_and_a_folder_as_output_file(capsys, monkeypatch,
-                                                                          shared_tmp, no_work):
+                                                                         shared_tmp, no_work):
     monkeypatch.delenv("SHELLS_HOST_PATHS", raising=False)
     f, d = shared_tmp / "plain.txt", shared_tmp / "folder.msh"
     if MPI.COMM_WORLD.rank == 0:

@@ -22,8 +22,8 @@ from shells.analyses.phase_diagram import (
     fit_all,
     run_phase_diagram,
 )
-from shells.analyses.store import read_records
 from shells.errors import InputError
+from shells.files import read_records
 
 #: shallow caps at h/R = 0.04 lose symmetry in m = 2 (κ < 0 and the inverted shell) and snap with
 #: m = 0: modes up to 6 cover them, at half the inertia cost of the default 12

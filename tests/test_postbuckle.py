@@ -187,7 +187,7 @@ def test_postbuckle_cli_json_contract_and_shapes(capsys, shared_tmp):
             assert key in cp, key
         assert cp["kind"] == "bifurcation" and cp["mode_m"] == 0
         assert cp["kappa_h"] == pytest.approx(axisym_runs.critical(Sphere(1.0), 0.05, 0.5,
-                                                              penalty=CLOSED_PENALTY)["kappa_h"],
+                                                                   penalty=CLOSED_PENALTY)["kappa_h"],
                                               rel=2e-4)
         pts = d["points"]
         for key in ("kappa_R", "kappa_h", "psi3_over_h", "energy", "newton_its", "branch",
@@ -367,7 +367,7 @@ def test_an_interrupted_side_resumes_after_its_last_point(thick_run, shared_tmp,
     cut_dir = shared_tmp / "pb_cut_side"
     lines = _cut_at_the_critical_point(full_dir, cut_dir)
     monkeypatch.setattr(shells.algorithms.critical, "follow", lambda *a, **k:
-    pytest.fail("followed"))
+                        pytest.fail("followed"))
 
     def kill(model, rec):
         if rec.get("side") == -1 and rec["index"] == 4:

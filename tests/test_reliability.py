@@ -40,8 +40,8 @@ from mpi4py import MPI
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
 import reliability as rel  # noqa: E402
 
-from shells.analyses.store import append_record, read_records  # noqa: E402
 from shells.errors import InputError  # noqa: E402
+from shells.files import append_record, read_records  # noqa: E402
 
 #: natural steps of κR = 5 on a coarse P2 sphere: 5 points, about 0.2 s each
 BRANCH = ["branch", "--shape", "sphere", "--h-over-r", "0.05", "--kappa-h-max", "1", "--size",
@@ -119,7 +119,7 @@ def test_cli_refuses_a_corrupt_points_file_on_every_rank(capsys, shared_tmp):
 # ------------------------------------------------------------------------------------------
 def _branch_config():
     """``BRANCH``'s configuration, as ``shells branch`` builds it."""
-    from shells.algorithms.continuation import ContinuationSettings
+    from shells.algorithms.settings import ContinuationSettings
     from shells.analyses.branch import BranchConfig
     from shells.geometry.shapes import Sphere
 
@@ -453,7 +453,7 @@ def test_critical_interrupted_and_resumed(monkeypatch, capsys, tmp_path_factory,
 
 
 def test_critical_starts_afresh_under_another_configuration(monkeypatch, capsys,
-                                                           tmp_path_factory, critical_reference):
+                                                            tmp_path_factory, critical_reference):
     """A rerun with another configuration (here a shorter kappa range in longer steps: no
     critical point, 4 points) does not resume, with one log line, and computes from point 0;
     so does ``--restart`` with the same configuration; a checkpoint that cannot be read (a
@@ -512,8 +512,8 @@ def test_follow_resumes_exactly_on_the_algebraic_pitchforks():
     the run did: the same points and the same critical points (the pitchforks at kappa = 1
     and 2, located to 1e-8), to the last bit, the first step after the resume searched for a
     change of the point's counts like any other."""
-    from shells.algorithms.continuation import ContinuationSettings
     from shells.algorithms.critical import CriticalSettings, follow
+    from shells.algorithms.settings import ContinuationSettings
     from shells.problem.algebraic import PitchforkProblem
 
     st = ContinuationSettings(ds=0.1, ds_max=0.2, ds_unit="kappa")
@@ -539,8 +539,8 @@ def test_follow_resumes_exactly_with_the_quadratic_predictor():
     the fold x² + κ - 1 = 0, whose branch bends (the quadratic start is not the tangent
     predictor's), the resumed runs from every point take the run's points to the last bit,
     with its iterations, and locate its fold."""
-    from shells.algorithms.continuation import ContinuationSettings
     from shells.algorithms.critical import CriticalSettings, follow
+    from shells.algorithms.settings import ContinuationSettings
     from shells.problem.algebraic import FoldProblem
 
     st = ContinuationSettings(ds=0.05, ds_max=0.05, max_steps=40, predictor="quadratic")
@@ -595,8 +595,8 @@ def test_failed_corrector_steps_are_cut_and_the_run_recovers(monkeypatch, method
     """The pseudo-arclength corrector fails at the injected calls (before the fold, or in the
     locator next to it): the step is halved, and every later point is on the exact branch and
     the fold located to 1e-8 (x² + κ - 1 = 0: at κ = 1)."""
-    from shells.algorithms.continuation import ContinuationSettings
     from shells.algorithms.critical import CriticalSettings, follow
+    from shells.algorithms.settings import ContinuationSettings
     from shells.problem.algebraic import FoldProblem
 
     P = FoldProblem()
@@ -620,8 +620,9 @@ def test_one_failure_anywhere_in_a_run_is_recovered(monkeypatch, method, spoil, 
     iterate, the corrector, the tangent at a converged point (which once went on with the
     failed factor and ended in a MUMPS error), the locator. Every arclength run ends with the
     fold at κ = 1 to 1e-8, every natural run on κ = 0.9, their points on the exact branch."""
-    from shells.algorithms.continuation import ContinuationSettings, continuation
+    from shells.algorithms.continuation import continuation
     from shells.algorithms.critical import CriticalSettings, follow
+    from shells.algorithms.settings import ContinuationSettings
     from shells.problem.algebraic import FoldProblem
 
     def run(calls: set[int]) -> list[int]:
@@ -668,7 +669,8 @@ def test_one_failure_anywhere_in_a_run_is_recovered(monkeypatch, method, spoil, 
 def test_failed_natural_steps_are_cut_and_the_run_recovers(monkeypatch, method, spoil):
     """SNES (natural steps): the failed solves are retried with half the step; the factor of a
     failed factorisation is reset (else every later solve fails), the run lands on κ = 0.9."""
-    from shells.algorithms.continuation import ContinuationSettings, continuation
+    from shells.algorithms.continuation import continuation
+    from shells.algorithms.settings import ContinuationSettings
     from shells.problem.algebraic import FoldProblem
 
     P = FoldProblem()
@@ -719,8 +721,8 @@ def test_slepc_failures_fall_back_on_the_inertia(monkeypatch, caplog, failures):
 
     from slepc4py import SLEPc
 
-    from shells.algorithms.continuation import ContinuationSettings
     from shells.algorithms.critical import CriticalSettings, follow
+    from shells.algorithms.settings import ContinuationSettings
     from shells.problem.algebraic import PitchforkProblem
 
     n = [0]

@@ -374,7 +374,7 @@ def test_tables_reproduce_the_expression(shared_tmp):
     ref = axisym_runs.critical(CAP, H_OVER_R, 0.5, direction="up", kappa_field=fld)["kappa_R"]
     for name, tol in (("profile", 1e-4), ("points", 3e-3)):
         got = axisym_runs.critical(CAP, H_OVER_R, 0.5, direction="up",
-                              kappa_field=files[name])["kappa_R"]
+                                   kappa_field=files[name])["kappa_R"]
         assert abs(got / ref - 1) < tol, (name, got, ref)
     # a table travels with a run's description (resume checks, headers)
     again = CurvatureField.from_description({"field": files["profile"].describe()})

@@ -131,7 +131,8 @@ def test_surface_model_on_a_fitted_cap_matches_the_cap(meshes):
     here, where Ψ3 h is of the order of the rotation squared). (At P3 its fold, `critical`
     with the default settings, is κR = 1.393448 with the fitted R = 1.0000019, against
     1.393434 for the meridian table: 1.0e-5.)"""
-    from shells.algorithms.continuation import ContinuationSettings, continuation
+    from shells.algorithms.continuation import continuation
+    from shells.algorithms.settings import ContinuationSettings
     from shells.surface.mesh import MeshSpec, generate, load_mesh
     from shells.surface.model import ModelParameters, ShellModel
 
@@ -153,7 +154,8 @@ def test_a_mesh_not_of_revolution_runs_with_a_fixed_gauge(meshes):
     a MeshSurface; the 3-2-1 gauge leaves no rigid motion free (the reference Hessian is
     definite) and the surface model follows it to κR = 1 (the apex moves down against the
     mean, as a cap's, and the energy is within 5 % of the unstretched cap's)."""
-    from shells.algorithms.continuation import ContinuationSettings, continuation
+    from shells.algorithms.continuation import continuation
+    from shells.algorithms.settings import ContinuationSettings
     from shells.algorithms.stability import Stability
     from shells.surface.mesh import load_mesh
     from shells.surface.model import ModelParameters, ShellModel

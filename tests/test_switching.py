@@ -21,9 +21,10 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from shells.algorithms.continuation import ContinuationSettings, continuation
+from shells.algorithms.continuation import continuation
 from shells.algorithms.critical import CriticalSettings, follow, switch_branch
 from shells.algorithms.newton import NewtonSolver
+from shells.algorithms.settings import ContinuationSettings
 from shells.algorithms.stability import Stability
 from shells.analyses import axisym_runs
 from shells.geometry.shapes import SphericalCap

@@ -106,7 +106,8 @@ def test_pole_free_gauge_costs_an_axisymmetric_state_nothing(torus_model):
     from dolfinx.fem.petsc import assemble_vector
     from petsc4py import PETSc
 
-    from shells.algorithms.continuation import ContinuationSettings, continuation
+    from shells.algorithms.continuation import continuation
+    from shells.algorithms.settings import ContinuationSettings
 
     m = torus_model
     m.w.x.array[:] = 0.0
@@ -135,7 +136,8 @@ def test_a_user_mesh_of_a_torus(tmp_path_factory):
     import sys
     from pathlib import Path
 
-    from shells.algorithms.continuation import ContinuationSettings, continuation
+    from shells.algorithms.continuation import continuation
+    from shells.algorithms.settings import ContinuationSettings
     from shells.surface.mesh import load_mesh
     from shells.surface.model import ModelParameters, ShellModel
 

@@ -55,7 +55,8 @@ def test_the_surface_model_on_a_user_mesh_matches_the_cap(user_cap):
     """P2, natural steps to κR = 1 (h/R = 0.04): energy and Ψ3 within 2e-3 of the built-in
     cap's on its default P2 mesh (both meshes differ). At P3 (the default on tables) the fold
     is κR = 1.393434 on this mesh against the 1D model's 1.39343 (`shells critical --mesh`)."""
-    from shells.algorithms.continuation import ContinuationSettings, continuation
+    from shells.algorithms.continuation import continuation
+    from shells.algorithms.settings import ContinuationSettings
     from shells.surface.mesh import MeshSpec, generate, load_mesh
     from shells.surface.model import ModelParameters, ShellModel
 
@@ -104,8 +105,8 @@ def test_cli_branch_on_a_user_mesh(user_cap, shared_tmp, capsys):
     """`shells branch --mesh`: the surface model's branch on the user's mesh to κR = 0.5 (P2)
     against the built-in cap's: Ψ3 at the end within 2e-3 (the two meshes differ); the header
     records the mesh file."""
-    from shells.analyses.store import read_with_header
     from shells.cli import main
+    from shells.files import read_with_header
 
     ends = []
     for shape_args, out in ((["--mesh", str(user_cap)], "user"),

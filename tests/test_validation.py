@@ -158,7 +158,7 @@ def anything(v: str) -> None:
 
 
 THETA = in_range(0.1, 179.9)  # a cap (shells.geometry.shapes: THETA_MIN_DEG, CAP_THETA_MAX_DEG)
-H = in_range(1e-5, 0.5)  # shells.cli.common.H_OVER_R_MIN, H_OVER_R_MAX
+H = in_range(1e-5, 0.5)  # shells.parameters.H_OVER_R_MIN, H_OVER_R_MAX
 NU = in_range(-1.0, 0.5, lo_open=True)
 RADIUS = in_range(0.5, 1e6)  # shells.cli.common.RADIUS_RANGE
 

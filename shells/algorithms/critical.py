@@ -42,17 +42,10 @@ from typing import Any
 
 import numpy as np
 
-from shells.algorithms.continuation import (
-    ContinuationSettings,
-    Point,
-    _Arclength,
-    _bordered_newton,
-    arclength_steps,
-    continuation,
-    in_arclength,
-    next_step,
-)
+from shells.algorithms.bordered import Arclength, bordered_newton
+from shells.algorithms.continuation import Point, arclength_steps, continuation, next_step
 from shells.algorithms.newton import NewtonSolver
+from shells.algorithms.settings import ContinuationSettings, in_arclength
 from shells.algorithms.stability import Stability, StabilityResult
 from shells.errors import InputError
 from shells.problem.interface import get_state, set_state
@@ -284,7 +277,7 @@ class _Locator:
         self.stab = stab
         self.L = problem.length_scale()
         self.ns = NewtonSolver(problem)
-        self.ar = _Arclength(self.ns, self.L, st.state_weight)
+        self.ar = Arclength(self.ns, self.L, st.state_weight)
         self.w0 = problem.state.duplicate()
         self.z = problem.state.duplicate()
         self.fold = False  # the step being located contains a fold
@@ -392,7 +385,7 @@ class _Locator:
                 self._load(e.state, e.lam)
                 lam = e.lam * (1.0 + sign * ROUNDOFF_SHIFT) if e.lam != 0 else \
                     sign * ROUNDOFF_SHIFT
-                c = _bordered_newton(self.ar, self.st_locate, lam, plane=(zero, 1.0, zero),
+                c = bordered_newton(self.ar, self.st_locate, lam, plane=(zero, 1.0, zero),
                                      singular_ok=True)
                 if not c.ok:
                     set_state(self.problem,
@@ -476,7 +469,7 @@ class _Locator:
         else:
             deflate = (_Deflation(self.problem, self.stab, self.crit.deflate)
                        if self.crit.deflate and not self.fold else None)
-            ok, its, lam, _ = _bordered_newton(ar, st, self.lam0 + sigma * ar.tl,
+            ok, its, lam, _ = bordered_newton(ar, st, self.lam0 + sigma * ar.tl,
                                                lam_start=lam_p, singular_ok=True,
                                                deflate=deflate)
             log.debug("locate: sigma = %.6g  kappa L = %.8g  converged %s in %d its (%.1f s)",
@@ -1184,7 +1177,7 @@ def follow(problem: Any, settings: ContinuationSettings, kappa_end: float,
             ns.destroy()
 
 
-def _state_kappa(ns: NewtonSolver, ar: _Arclength, lam: float) -> float:
+def _state_kappa(ns: NewtonSolver, ar: Arclength, lam: float) -> float:
     """κL at which the model's current state is nearest to equilibrium (least squares).
 
     The residual is affine in κ (b̄ = b° + κ a° enters the energy quadratically), so one
@@ -1244,7 +1237,7 @@ def _response_direction(problem: Any, control: Any, sigma: float) -> Any:
         stab.destroy()
 
 
-def _critical_directions(problem: Any, ar: _Arclength, mode: np.ndarray, k: int
+def _critical_directions(problem: Any, ar: Arclength, mode: np.ndarray, k: int
                          ) -> tuple[list[Any], list[float]]:
     """The critical eigenspace at the model's current state: the eigenvector closest to ``mode``
     first (oriented like it), then the other k - 1 eigenvectors nearest 0; zero on the gauge DOFs,
@@ -1285,7 +1278,7 @@ def _critical_directions(problem: Any, ar: _Arclength, mode: np.ndarray, k: int
     return dirs, [vals[i] for i in [first, *others[: k - 1]]]
 
 
-def _off_branch_direction(problem: Any, ns: NewtonSolver, ar: _Arclength, phi: Any
+def _off_branch_direction(problem: Any, ns: NewtonSolver, ar: Arclength, phi: Any
                           ) -> tuple[Any, Any]:
     """φ made orthogonal (cw inner product) to the fundamental branch's state tangent z at the
     current (critical) state, unit in the continuation norm, and z itself (dw/dλ). z = -J⁻¹
@@ -1346,7 +1339,7 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
        k = ``cp.multiplicity`` (or ``pinned``) > 1, the k - 1 other eigenvectors nearest 0.
     3. The first point at mode amplitude a = ``sign`` × ``ds`` (continuation norm: RMS in
        thicknesses, ``settings.state_weight``): Newton from w_c + a φ_0 on R(w, λ) = 0 with
-       cw φ_0·(w - w_c) = a and λ free (the corrector ``continuation._bordered_newton`` on
+       cw φ_0·(w - w_c) = a and λ free (the corrector ``bordered.bordered_newton`` on
        that hyperplane): for a pitchfork λ - λ_c ≈ β a², a regular equation in λ for a ≠ 0
        that the fundamental branch (no φ_0-component) does not satisfy. If it fails, a is
        retried with ``ds`` times each of ``factors``.
@@ -1439,7 +1432,7 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
         raise InputError("switch_branch takes its steps in arclength (ds_unit='arclength')")
     ns = solver or NewtonSolver(problem)
     L = problem.length_scale()
-    ar = _Arclength(ns, L, settings.state_weight)
+    ar = Arclength(ns, L, settings.state_weight)
     n = ar.w.getLocalSize()
     wc = ar.w.duplicate()
     wp = wc.duplicate()
@@ -1577,11 +1570,11 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
                 wp.axpy(a, d)
                 wp.copy(ar.w)
                 ar.sync()
-                c = _bordered_newton(ar, st_first, lam_c, plane=(plane_dir, 0.0, wp),
+                c = bordered_newton(ar, st_first, lam_c, plane=(plane_dir, 0.0, wp),
                                      **first_corrector)
                 if c.ok and control is not None:  # converged to newton_tol from there
                     ar.w.copy(wp)
-                    c = _bordered_newton(ar, st_first, c.lam, plane=(plane_dir, 0.0, wp),
+                    c = bordered_newton(ar, st_first, c.lam, plane=(plane_dir, 0.0, wp),
                                          **strict)
                 log.info("switch: amplitude %.4g: %s in %d its, kappa L = %.6g", a,
                          "converged" if c.ok else "failed", c.its, c.lam)

@@ -11,11 +11,13 @@ from typing import Any
 
 import numpy as np
 
-from shells.axisym.mesh import _supported
-from shells.axisym.model import SNES_OPTIONS, AxisymModel, AxisymParameters, _is_sphere
+from shells.axisym.kinematics import is_sphere
+from shells.axisym.mesh import check_supported
+from shells.axisym.model import SNES_OPTIONS, AxisymModel, AxisymParameters
 from shells.errors import InputError
 from shells.geometry.shapes import RunScales, Shape
 from shells.geometry.stimulus import UNIFORM, CurvatureField
+from shells.parameters import check_h_over_r, check_nu
 from shells.theory import sphere_kappa_b_h, sphere_mode_n
 
 __all__ = ["RunConfig", "branch", "critical", "default_cells",
@@ -40,14 +42,14 @@ REUSE_CRITICAL = 1.0e-4
 
 def default_cells(shape: Shape, h_over_r: float) -> int:
     """Bulk cells: 200, and at least 5 per degree of the sphere's critical mode."""
-    if _is_sphere(shape):
+    if is_sphere(shape):
         return max(200, int(math.ceil(5 * sphere_mode_n(h_over_r, 0.0))))
     return 200
 
 
 def default_settings(shape: Shape, h_over_r: float, **overrides: Any) -> Any:
     """Continuation settings scaled to the problem: on a closed shell κ scales with 1/h."""
-    from shells.algorithms.continuation import ContinuationSettings
+    from shells.algorithms.settings import ContinuationSettings
 
     scale = 1.0 / h_over_r if shape.closed else 1.0  # in λ = κ L
     base = dict(method="arclength", ds=0.5 * scale if shape.closed else 0.05,
@@ -60,12 +62,9 @@ def default_settings(shape: Shape, h_over_r: float, **overrides: Any) -> Any:
 def _check_common(shape: Any, h_over_r: Any, nu: Any) -> None:
     if not isinstance(shape, Shape):
         raise InputError(f"shape must be a shells.geometry.shapes shape, got {shape!r}")
-    _supported(shape)
-    if not (isinstance(h_over_r, (int, float)) and math.isfinite(h_over_r)
-            and 0 < h_over_r < 1):
-        raise InputError(f"h/R must lie in (0, 1), got {h_over_r!r}")
-    if not (isinstance(nu, (int, float)) and -1.0 < nu <= 0.5):
-        raise InputError(f"nu must lie in (-1, 0.5], got {nu!r}")
+    check_supported(shape)
+    check_h_over_r(h_over_r)
+    check_nu(nu)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -137,7 +136,7 @@ class RunConfig(RunScales):
     def modes(self) -> list[int]:
         if self.m_max is not None:
             return list(range(self.m_max + 1))
-        if _is_sphere(self.shape):
+        if is_sphere(self.shape):
             return list(range(int(math.ceil(1.3 * sphere_mode_n(self.h_over_r, self.nu))) + 5))
         return list(range(13))
 
@@ -146,7 +145,7 @@ class RunConfig(RunScales):
         """Signed κ at the end of the range."""
         if self.kappa_max is not None:
             mag = self.kappa_max / self.R
-        elif _is_sphere(self.shape):
+        elif is_sphere(self.shape):
             mag = 1.25 * sphere_kappa_b_h(self.nu) / self.h
         else:
             tb = getattr(self.shape, "theta", 1.0) / math.sqrt(self.h_over_r)
@@ -279,7 +278,7 @@ def critical(shape: Shape, h_over_r: float, nu: float = 0.5, direction: str = "u
         InputError: bad parameters.
     """
     numerics = dict(_numerics(numerics))
-    if isinstance(shape, Shape) and _is_sphere(shape):
+    if isinstance(shape, Shape) and is_sphere(shape):
         numerics.setdefault("max_critical", 1)
     cfg = RunConfig(shape=shape, h_over_r=h_over_r, nu=nu, direction=direction, m_max=m_max,
                     kappa_max=kappa_max, **numerics)
@@ -330,6 +329,6 @@ def critical(shape: Shape, h_over_r: float, nu: float = 0.5, direction: str = "u
     theta = getattr(cfg.shape, "theta", None)
     return {"kind": first["kind"], "kappa_R": first["kappa_R"], "kappa_h": first["kappa_h"],
             "mode_m": first["mode_m"], "mode_n": first["mode_n"], "h_over_R": cfg.h_over_r,
-            "nu": cfg.nu, "theta_deg": (None if theta is None or _is_sphere(cfg.shape)
+            "nu": cfg.nu, "theta_deg": (None if theta is None or is_sphere(cfg.shape)
                                         else math.degrees(theta)),
             "model": "axisym", "dofs": dofs, "critical_points": pts}

@@ -26,18 +26,14 @@ from typing import Any
 
 import numpy as np
 
-from shells.algorithms.continuation import ContinuationSettings, Point, continuation, next_step
-from shells.analyses.store import (
-    append_record,
-    load_state_checkpoint,
-    read_with_header,
-    resumable,
-    save_state_checkpoint,
-    write_header,
-)
+from shells.algorithms.continuation import Point, continuation, next_step
+from shells.algorithms.settings import ContinuationSettings
+from shells.analyses.store import load_state_checkpoint, resumable, save_state_checkpoint
 from shells.errors import InputError
+from shells.files import append_record, read_with_header, write_header
 from shells.geometry.shapes import RunScales, Shape, shape_from_description
 from shells.geometry.stimulus import UNIFORM, CurvatureField
+from shells.parameters import check_h_over_r, check_nu
 from shells.surface.fields import FieldWriter
 from shells.surface.mesh import MeshSpec, ShellMesh, generate, load_mesh
 
@@ -62,8 +58,9 @@ class BranchConfig(RunScales):
         shear_penalty: Kirchhoff-Love penalty factor of the surface model.
         continuation: continuation settings.
         kappa_field: the natural-curvature stimulus (``shells.geometry.stimulus``; default:
-        uniform). mesh_file: a user's mesh (``shells.surface.mesh.load_mesh``) of ``shape`` instead
-            of meshing it (``size`` and ``layer_elements`` unused then).
+            uniform).
+        mesh_file: a user's mesh (``shells.surface.mesh.load_mesh``) of ``shape`` instead of
+            meshing it (``size`` and ``layer_elements`` unused then).
     """
 
     shape: Shape
@@ -90,10 +87,8 @@ class BranchConfig(RunScales):
                                                self.kappa_field)
             object.__setattr__(self, "degree", self.degree or deg)
             object.__setattr__(self, "size", self.size or size)
-        if not (math.isfinite(self.h_over_r) and 0 < self.h_over_r < 1):
-            raise InputError(f"h/R must lie in (0, 1), got {self.h_over_r!r}")
-        if not (-1.0 < self.nu <= 0.5):
-            raise InputError(f"nu must lie in (-1, 0.5], got {self.nu!r}")
+        check_h_over_r(self.h_over_r)
+        check_nu(self.nu)
         if not (math.isfinite(self.kappa_end) and self.kappa_end != 0):
             raise InputError("the final kappa must be a nonzero number")
 
@@ -234,7 +229,7 @@ def run_branch(cfg: BranchConfig, outdir: str | os.PathLike, *, comm: Any = None
     t0 = time.perf_counter()
     if shell is None:
         shell = load_mesh(cfg.mesh_file, comm) if cfg.mesh_file else generate(cfg.mesh_spec(),
-                                                                                comm)
+                                                                              comm)
     model = ShellModel(shell, ModelParameters(h=cfg.h, nu=cfg.nu,
                                               shear_penalty=cfg.shear_penalty,
                                               degree=cfg.degree,

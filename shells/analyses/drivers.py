@@ -26,8 +26,9 @@ import time
 from pathlib import Path
 from typing import Any
 
-from shells.analyses.store import append_record, json_default, write_atomic, write_header
 from shells.errors import InputError
+from shells.files import append_record, json_default, write_atomic, write_header
+from shells.parameters import check_model
 
 __all__ = ["ShapeWriter", "branch_axisym", "branch_surface", "critical_run", "critical_surface",
            "folds", "postbuckle_run"]
@@ -103,8 +104,8 @@ def branch_axisym(shape: Any, h_over_r: float, nu: float, kappa_R_end: float,
             "model": "axisym", "shape": shape.describe(), "h_over_r": h_over_r,
             "nu": nu, "kappa_R_end": kappa_R_end, **kappa_field.header_entry()})
     for i, p in enumerate(axisym_runs.branch(shape, h_over_r, nu,
-                                        direction="up" if kappa_R_end > 0 else "down",
-                                        kappa_max=abs(kappa_R_end), kappa_field=kappa_field)):
+                                             direction="up" if kappa_R_end > 0 else "down",
+                                             kappa_max=abs(kappa_R_end), kappa_field=kappa_field)):
         rec = {"index": i, **p}
         points.append(rec)
         if _rank() == 0:
@@ -121,19 +122,20 @@ def critical_run(shape: Any, h_over_r: float, nu: float, *, direction: str = "up
                  outdir: str | os.PathLike | None = None, kappa_field: Any = None,
                  **surface: Any) -> dict[str, Any]:
     """The critical points of the fundamental branch from κ = 0 towards ``kappa_end`` (None:
-    ``shells.theory.default_kappa_range``; the 1D model then uses its own), with either model,
-    under the stimulus ``kappa_field`` (a ``shells.geometry.stimulus.CurvatureField``; None:
+    ``shells.analyses.setup.default_kappa_range``; the 1D model then uses its own), with either
+    model, under the stimulus ``kappa_field`` (a ``shells.geometry.stimulus.CurvatureField``; None:
     uniform); ``surface``: the keyword arguments of ``critical_surface``. Writes
     ``outdir/critical.json`` (rank 0)."""
     from shells.geometry.stimulus import UNIFORM
 
+    check_model(model)
     kappa_field = UNIFORM if kappa_field is None else kappa_field
     L = shape.characteristic_size()
     h = h_over_r * L
     R_or_L = _R_or_L(shape)
     user_range = kappa_end is not None
     if kappa_end is None:
-        from shells.theory import default_kappa_range
+        from shells.analyses.setup import default_kappa_range
 
         kappa_end = default_kappa_range(shape, h_over_r, nu, direction)
     theta_deg = math.degrees(shape.theta) if hasattr(shape, "theta") and not shape.closed \
@@ -149,11 +151,9 @@ def critical_run(shape: Any, h_over_r: float, nu: float, *, direction: str = "up
             shape, h_over_r, nu, direction=direction,
             kappa_max=abs(kappa_end) * R_or_L if user_range else None,
             kappa_field=kappa_field)}
-    elif model == "surface":
+    else:
         result = {**base, **critical_surface(shape, h_over_r, nu, kappa_end, outdir=outdir,
                                              kappa_field=kappa_field, **surface)}
-    else:
-        raise InputError(f"--model must be surface or axisym, got {model!r}")
     if outdir and _rank() == 0:
         Path(outdir).mkdir(parents=True, exist_ok=True)
         write_atomic(Path(outdir) / "critical.json",
@@ -202,8 +202,8 @@ def critical_surface(shape: Any, h_over_r: float, nu: float, kappa_end: float, *
 
     from mpi4py import MPI
 
-    from shells.algorithms.continuation import ContinuationSettings
     from shells.algorithms.critical import CriticalSettings, FollowResume, follow
+    from shells.algorithms.settings import ContinuationSettings
     from shells.analyses.store import load_state_checkpoint, resumable, save_state_checkpoint
     from shells.geometry.stimulus import UNIFORM
     from shells.surface.mesh import MeshSpec, generate, load_mesh

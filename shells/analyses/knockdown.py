@@ -31,8 +31,9 @@ from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from shells.analyses.store import append_record, json_default, read_with_header, write_header
 from shells.errors import InputError
+from shells.files import append_record, json_default, read_with_header, write_header
+from shells.parameters import check_h_over_r, check_model, check_nu
 
 log = logging.getLogger("shells")
 
@@ -97,16 +98,13 @@ class KnockdownConfig:
     order: int = 0
 
     def __post_init__(self) -> None:
-        if not (isinstance(self.h_over_r, (int, float)) and 0 < self.h_over_r <= 0.2):
-            raise InputError(f"h/R must lie in (0, 0.2], got {self.h_over_r!r}")
+        check_h_over_r(self.h_over_r)
         amps = tuple(float(a) for a in self.amplitudes)
         if not amps or not all(math.isfinite(a) and 0 <= a <= 10 for a in amps):
             raise InputError("give imperfection amplitudes delta/h in [0, 10]")
         object.__setattr__(self, "amplitudes", amps)
-        if not (-1.0 < self.nu <= 0.5):
-            raise InputError(f"nu must lie in (-1, 0.5], got {self.nu!r}")
-        if self.model not in ("axisym", "surface"):
-            raise InputError(f"model must be 'axisym' or 'surface', got {self.model!r}")
+        check_nu(self.nu)
+        check_model(self.model)
         if self.model == "surface" and self.load != "curvature":
             raise InputError("the surface model's knock-down is for natural curvature only "
                              "(--load pressure: use --model axisym)")
@@ -207,10 +205,10 @@ def _imperfection_derivative(cfg: KnockdownConfig, degree: int, model: Any) -> A
 def _balanced_weight(model: Any, ns: Any) -> float:
     """The arclength norm's state weight ξ with which the state and load parts of the branch's
     tangent are equal at the model's current (converged) state: J z = -∂R/∂λ, ξ² cw₁ |z|² = 1
-    (cw₁: ``_Arclength``'s weight at ξ = 1, the RMS over all DOFs in thicknesses)."""
-    from shells.algorithms.continuation import _Arclength
+    (cw₁: ``Arclength``'s weight at ξ = 1, the RMS over all DOFs in thicknesses)."""
+    from shells.algorithms.bordered import Arclength
 
-    ar = _Arclength(ns, model.length_scale(), 1.0)
+    ar = Arclength(ns, model.length_scale(), 1.0)
     try:
         if not ar.tangent(None, 1.0, attempts=2):
             raise RuntimeError("the Jacobian at the start of the branch could not be factored")
@@ -294,7 +292,8 @@ def _first_of(found: list[Any], rel_tol: float) -> tuple[Any, list[Any]]:
 
 def _approach(model: Any, ns: Any, kappa: float) -> None:
     """Natural continuation from κ = 0 to ``kappa`` (far from any critical point)."""
-    from shells.algorithms.continuation import ContinuationSettings, continuation
+    from shells.algorithms.continuation import continuation
+    from shells.algorithms.settings import ContinuationSettings
 
     lam = kappa * model.length_scale()
     st = ContinuationSettings(method="natural", ds=0.1 * lam, ds_max=0.1 * lam,

@@ -67,20 +67,12 @@ from typing import Any
 
 import numpy as np
 
-from shells.analyses.store import (
-    CHECKPOINT_ERRORS,
-    append_record,
-    json_default,
-    load_checkpoint,
-    read_meta,
-    read_with_header,
-    save_checkpoint,
-    write_atomic,
-    write_header,
-)
+from shells.analyses.store import CHECKPOINT_ERRORS, load_checkpoint, read_meta, save_checkpoint
 from shells.errors import InputError
+from shells.files import append_record, json_default, read_with_header, write_atomic, write_header
 from shells.geometry.shapes import RunScales, Shape
 from shells.geometry.stimulus import UNIFORM, CurvatureField
+from shells.parameters import check_h_over_r, check_model
 
 __all__ = ["PostbuckleConfig", "postbuckle", "read_postbuckle", "run_postbuckle"]
 
@@ -98,7 +90,8 @@ class PostbuckleConfig(RunScales):
         model: "axisym" (1D; axisymmetric branches only) or "surface" (2D).
         direction: "up" (κ > 0) or "down" (κ < 0).
         at: follow the branch from the ``at``-th bifurcation of the fundamental branch.
-        kappa_end: end of the range (signed κ, absolute); None: ``theory.default_kappa_range``.
+        kappa_end: end of the range (signed κ, absolute); None:
+            ``shells.analyses.setup.default_kappa_range``.
         kappa_min_ratio: bifurcated branches end where κ/κ_c falls below this.
         max_points: at most this many points per side of the bifurcated branch.
         sides: the sides of the critical mode followed, +1 and/or -1 (a pitchfork's two are
@@ -111,8 +104,9 @@ class PostbuckleConfig(RunScales):
             ``shells.surface.model.default_discretisation``, P3 where P2 locks).
         penalty: the 1D model's C1 penalty (None: 1e5 on closed shells, else its default).
         kappa_field: the natural-curvature stimulus (``shells.geometry.stimulus``; default:
-        uniform). mesh_file: the surface model on a user's mesh (``shells.surface.mesh.load_mesh``)
-            of ``shape`` instead of meshing it.
+            uniform).
+        mesh_file: the surface model on a user's mesh (``shells.surface.mesh.load_mesh``) of
+            ``shape`` instead of meshing it.
     """
 
     shape: Shape
@@ -142,14 +136,12 @@ class PostbuckleConfig(RunScales):
                 and all(s in (1, -1) for s in self.sides) and len(set(self.sides)) == len(
                     self.sides)):
             raise InputError(f"sides must be (1,), (-1,) or (1, -1), got {self.sides!r}")
-        if self.model not in ("axisym", "surface"):
-            raise InputError(f"model must be axisym or surface, got {self.model!r}")
+        check_model(self.model)
         if self.direction not in ("up", "down"):
             raise InputError(f"direction must be up or down, got {self.direction!r}")
         if not (isinstance(self.at, int) and 1 <= self.at <= 50):
             raise InputError(f"--at must be an integer in [1, 50], got {self.at!r}")
-        if not (math.isfinite(self.h_over_r) and 0 < self.h_over_r < 1):
-            raise InputError(f"h/R must lie in (0, 1), got {self.h_over_r!r}")
+        check_h_over_r(self.h_over_r)
         if not (0 <= self.kappa_min_ratio < 1):
             raise InputError(f"kappa_min_ratio must lie in [0, 1), got {self.kappa_min_ratio}")
         if not (isinstance(self.max_points, int) and 1 <= self.max_points <= 100000):
@@ -174,7 +166,7 @@ class PostbuckleConfig(RunScales):
 
     @property
     def kappa_stop(self) -> float:
-        from shells.theory import default_kappa_range
+        from shells.analyses.setup import default_kappa_range
 
         if self.kappa_end is not None:
             return self.kappa_end
@@ -380,8 +372,8 @@ class SideResume:
 
 
 def _settings(cfg: PostbuckleConfig, kappa_stop: float) -> tuple[Any, Any]:
-    from shells.algorithms.continuation import ContinuationSettings
     from shells.algorithms.critical import CriticalSettings
+    from shells.algorithms.settings import ContinuationSettings
 
     lam = abs(kappa_stop) * cfg.L
     closed = cfg.shape.closed
@@ -421,8 +413,8 @@ def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], 
             (a fold before the bifurcation; a non-axisymmetric bifurcation on the 1D model).
         RuntimeError: the continuation stopped short of the range, or switching failed.
     """
-    from shells.algorithms.continuation import ContinuationSettings
     from shells.algorithms.critical import follow, switch_branch
+    from shells.algorithms.settings import ContinuationSettings
     from shells.problem.interface import get_state
 
     run = _Run(cfg)

@@ -849,7 +849,7 @@ class ChainCholesky:
         self._vrow = np.ascontiguousarray(rows, dtype=np.intc)
         self._lanes: np.ndarray | None = None  # ``definite``'s work space
 
-    def _constraint_indices(self, dofs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def constraint_indices(self, dofs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Band positions of the rows and columns of constrained DOFs, and of their diagonal."""
         key = dofs.tobytes()
         if key not in self._constraint_cache:
@@ -892,7 +892,7 @@ class ChainCholesky:
         ptr = lambda a, t: ffi.cast(t, ffi.from_buffer(a))  # noqa: E731
         zs, ds = [], []
         for b in range(nb):
-            zero, diagonal = self._constraint_indices(np.asarray(constrained[b]))
+            zero, diagonal = self.constraint_indices(np.asarray(constrained[b]))
             zs.append(zero)
             ds.append(diagonal)
         zero = np.ascontiguousarray(np.concatenate(zs), dtype=np.int64)
@@ -960,7 +960,7 @@ class ChainCholesky:
             if failed[b] or not np.isfinite(band).all():
                 out.append(None)
                 continue
-            zero, diagonal = self._constraint_indices(np.asarray(constrained[b]))
+            zero, diagonal = self.constraint_indices(np.asarray(constrained[b]))
             band[zero] = 0.0
             band[diagonal] = 1.0
             out.append(band)

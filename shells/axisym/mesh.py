@@ -27,10 +27,12 @@ from shells.geometry.shapes import (
     perfect_shape,
 )
 
-__all__ = ["MeridianMesh", "make_meridian_nodes"]
+__all__ = ["MeridianMesh", "check_supported", "make_meridian_nodes"]
 
 
-def _supported(shape: Any) -> None:
+def check_supported(shape: Any) -> None:
+    """Refuse (``InputError``) a shape the 1D model cannot take: one that is not a surface of
+    revolution with a pole, or not one of its shapes."""
     if not getattr(shape, "of_revolution", True):
         raise InputError("the mesh is not a surface of revolution about the z axis (nor a "
                          "torus): the 1D model needs one; the surface model takes it "

@@ -32,34 +32,36 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from shells.axisym.mesh import MeridianMesh, _supported, make_meridian_nodes
+from shells.axisym.kinematics import (
+    JIT_OPTIONS,
+    Jet,
+    cross,
+    dirichlet,
+    dot,
+    is_sphere,
+    meridian_ufl,
+    read_inputs,
+    same_inputs,
+)
+from shells.axisym.mesh import MeridianMesh, check_supported, make_meridian_nodes
 from shells.errors import InputError
 from shells.geometry.shapes import (
-    Disk,
-    EllipsoidalCap,
-    ImperfectSphere,
-    MeridianTable,
     Shape,
-    SphericalCap,
 )
 from shells.geometry.stimulus import UNIFORM, CurvatureField, field_radius
-from shells.problem.formcache import cache_root, compiled_derived, file_tag
-from shells.problem.forms import FormProblem, dkappa_ufl
+from shells.parameters import check_nu
+from shells.problem.formcache import compiled_derived, file_tag
+from shells.problem.forms import FormProblem, assemble_symmetric, dkappa_ufl
 from shells.problem.interface import ModeInfo, orbit_cosine
 
 if TYPE_CHECKING:
     from shells.axisym.modes import ModeForms
 
-__all__ = ["AxisymModel", "AxisymParameters", "Jet"]
+__all__ = ["SNES_OPTIONS", "AxisymModel", "AxisymParameters"]
 
 #: what the load parameter ``kappa`` imposes (``AxisymParameters.load``)
 LOADS = ("curvature", "pressure", "equivalent", "equivalent_normal", "local_pressure")
 
-#: the mode Hessian's kernel is long to compile (the second variation of the whole density at
-#: two phases); the 1D model's forms go to a cache folder of their own (``~/.cache/shells/ffcx``):
-#: FFCx lists its cache folder at every lookup of a compiled form (2.4 ms a form in a shared
-#: folder of 3900 files, 0.1 ms in one of 84: the 21 forms of a run, 50 ms of its set-up)
-JIT_OPTIONS: dict[str, Any] = {"timeout": 300, "cache_dir": str(cache_root() / "ffcx")}
 #: names this module's derivations of forms in the form cache (``shells.problem.formcache``)
 _DERIVATION = file_tag(__file__)
 
@@ -128,8 +130,7 @@ class AxisymParameters:
             raise InputError(f"the {self.load} load is derived for an isotropic stimulus")
         if not (isinstance(self.h, (int, float)) and math.isfinite(self.h) and self.h > 0):
             raise InputError(f"thickness h must be positive, got {self.h!r}")
-        if not (isinstance(self.nu, (int, float)) and -1.0 < self.nu <= 0.5):
-            raise InputError(f"Poisson ratio nu must lie in (-1, 0.5], got {self.nu!r}")
+        check_nu(self.nu, "Poisson ratio nu")
         if not (isinstance(self.cells, int) and 4 <= self.cells <= 100000):
             raise InputError(f"cells must be an integer in [4, 100000], got {self.cells!r}")
         if not (math.isfinite(self.layer_cells) and self.layer_cells > 0):
@@ -141,77 +142,6 @@ class AxisymParameters:
         if self.quadrature_degree not in range(2, 21):
             raise InputError(f"quadrature_degree must be in [2, 20], got "
                              f"{self.quadrature_degree!r}")
-
-
-# ------------------------------------------------------------------------------------------------
-# the energy density of a displacement jet
-# ------------------------------------------------------------------------------------------------
-@dataclass
-class Jet:
-    """Cylindrical components (r, φ, z) of a displacement and its derivatives at a point (UFL).
-
-    ``val``, ``t``, ``ph``, ``tph``, ``phph``: u, ∂_t u, ∂_φ u, ∂_t∂_φ u, ∂_φφ u; ``p``: the slope
-    field (≈ ∂_t u) and ``pt`` = ∂_t p, which replaces ∂_tt u (C1 by penalty).
-    """
-
-    val: tuple
-    t: tuple
-    ph: tuple
-    tph: tuple
-    phph: tuple
-    p: tuple
-    pt: tuple
-    pph: tuple
-
-    def __add__(self, other: Jet) -> Jet:
-        return Jet(*(tuple(a + b for a, b in zip(x, y, strict=True)) for x, y in
-                     zip(self.fields(), other.fields(), strict=True)))
-
-    def fields(self) -> tuple:
-        return (self.val, self.t, self.ph, self.tph, self.phph, self.p, self.pt, self.pph)
-
-
-def _meridian_ufl(shape: Shape, t: Any, mesh: Any = None) -> tuple:
-    """r°, z° and their first and second t-derivatives as UFL expressions of t. An imperfect
-    sphere's amplitude is a ``fem.Constant`` on ``mesh``: one compiled kernel for every
-    amplitude of a knock-down curve."""
-    import ufl
-
-    if isinstance(shape, Disk):
-        return t, 0.0 * t, 1.0 + 0.0 * t, 0.0 * t, 0.0 * t, 0.0 * t
-    if isinstance(shape, MeridianTable):
-        # the spline's values and derivatives, each interpolated into P5 on the meridian mesh
-        # (exact in a cell that holds one cubic piece; C2 across a knot, O(size³) there)
-        from dolfinx import fem
-
-        V = fem.functionspace(mesh, ("Lagrange", 5))
-        out = []
-        for fn in (shape.meridian, shape.meridian_derivative, shape.meridian_second_derivative):
-            for k in (0, 1):
-                f = fem.Function(V)
-                f.interpolate(lambda x, fn=fn, k=k: np.asarray(fn(x[0])[k], dtype=float))
-                out.append(f)
-        return tuple(out)
-    if isinstance(shape, ImperfectSphere):
-        from dolfinx import default_scalar_type, fem
-
-        amp = fem.Constant(mesh, default_scalar_type(shape.amplitude)) if mesh else None
-        r, z = shape.meridian_ufl(t, amp)
-        return r, z, r.dx(0), z.dx(0), r.dx(0).dx(0), z.dx(0).dx(0)
-    if isinstance(shape, EllipsoidalCap):
-        a, c = shape.radius, shape.r3
-    else:
-        a = c = shape.radius
-    s, co = ufl.sin(t), ufl.cos(t)
-    return a * s, c * co, a * co, -c * s, -a * s, -c * co
-
-
-def _dot(a: tuple, b: tuple) -> Any:
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-
-
-def _cross(a: tuple, b: tuple) -> tuple:
-    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
 # ------------------------------------------------------------------------------------------------
@@ -236,7 +166,7 @@ class AxisymModel(FormProblem):
         import ufl
         from dolfinx import default_scalar_type, fem
 
-        _supported(shape)
+        check_supported(shape)
         self.shape = shape
         self.params = params
         nodes = make_meridian_nodes(shape, params.h, params.cells, params.layer_cells,
@@ -257,11 +187,11 @@ class AxisymModel(FormProblem):
                               metadata={"quadrature_degree": params.quadrature_degree})
         self.t = ufl.SpatialCoordinate(mesh)[0]
         (self.r0, self.z0, self.r0t, self.z0t,
-         self.r0tt, self.z0tt) = _meridian_ufl(shape, self.t, mesh)
+         self.r0tt, self.z0tt) = meridian_ufl(shape, self.t, mesh)
         self.g = ufl.sqrt(self.r0t**2 + self.z0t**2)
         self.area_density = 2 * math.pi * self.r0 * self.g  # dω = area_density dt
         params.kappa_field.check_on(shape, axisymmetric=True)
-        if params.load in ("equivalent_normal", "local_pressure") and not _is_sphere(shape):
+        if params.load in ("equivalent_normal", "local_pressure") and not is_sphere(shape):
             raise InputError(f"the {params.load} load is derived for a closed sphere (an open "
                              "shell adds edge terms: use the equivalent load)")
         self.K = self._natural_factors()
@@ -305,11 +235,11 @@ class AxisymModel(FormProblem):
                 xtph = (j.tph[0] - j.t[1], j.tph[1] + self.r0t + j.t[0], j.tph[2])
             import ufl
 
-            c = _cross(xtb, xph)
-            nn = ufl.sqrt(_dot(c, c))
+            c = cross(xtb, xph)
+            nn = ufl.sqrt(dot(c, c))
             n = tuple(ci / nn for ci in c)
-            a = (_dot(xt, xt) / g**2, _dot(xt, xph) / (g * r0), _dot(xph, xph) / r0**2)
-            b = (_dot(n, xtt) / g**2, _dot(n, xtph) / (g * r0), _dot(n, xphph) / r0**2)
+            a = (dot(xt, xt) / g**2, dot(xt, xph) / (g * r0), dot(xph, xph) / r0**2)
+            b = (dot(n, xtt) / g**2, dot(n, xtph) / (g * r0), dot(n, xphph) / r0**2)
             return a, b
 
         a, b = geo(j)
@@ -332,7 +262,7 @@ class AxisymModel(FormProblem):
         gap, potential = self._natural_gap(Eb, kn)
         stretch = self._quad(Ea)
         bend_nat = self.h**2 / 3 * self._quad(gap)
-        pen = self.pen * _dot(e["slope_gap"], e["slope_gap"]) / self.g**2
+        pen = self.pen * dot(e["slope_gap"], e["slope_gap"]) / self.g**2
         out = {"total": stretch + bend_nat + pen, "stretching": stretch,
                "bending": self.h**2 / 3 * self._quad(Eb),
                "curvature_potential": potential,
@@ -445,7 +375,7 @@ class AxisymModel(FormProblem):
         ur, uz, pz = W.sub(0).sub(0), W.sub(0).sub(1), W.sub(1).sub(1)
         poles = self.axis_vertices()
         top = self.vertices_at(0.0)
-        return (_dirichlet(ur, poles) + _dirichlet(pz, poles) + _dirichlet(uz, top))
+        return (dirichlet(ur, poles) + dirichlet(pz, poles) + dirichlet(uz, top))
 
     def axis_vertices(self) -> np.ndarray:
         pts = [0.0] + ([self.shape.t_max] if self.shape.closed else [])
@@ -731,7 +661,7 @@ class AxisymModel(FormProblem):
 
     def assemble_hessian(self, block: Any, H: Any) -> None:
         if block is None:
-            self._assemble_symmetric(H, self.hessian, self.bcs)
+            assemble_symmetric(H, self.hessian, self.bcs)
             return
         self.mode_forms.assemble_hessian(block, H)  # m ≥ 1: Σ m^k C_k, C_k once per state
 
@@ -794,7 +724,7 @@ class AxisymModel(FormProblem):
         n of the mode from the Rayleigh quotient R² ∫ |∇w|² / ∫ w² = n(n+1) of its normal
         component w, |∇w|² = (∂_s w)² + m² w² / r² (exact for the spherical harmonic Y_n^m)."""
         m = 0 if block is None else int(block)
-        if not _is_sphere(self.shape):
+        if not is_sphere(self.shape):
             return ModeInfo(m=m, n=None)
         if block is None:
             key, space, ur_uz = None, self.W, self._radial_axial
@@ -882,29 +812,3 @@ class AxisymModel(FormProblem):
         forms = tuple(fem.form(q * ad * self.dx, jit_options=JIT_OPTIONS)
                       for q in (grad2, wn * wn, uz, 1.0))
         return f, shift, m_c, forms
-
-
-def read_inputs(coefficients: Any, constants: Any, mesh: Any) -> list[np.ndarray]:
-    """Everything compiled forms read (views, not copies): each coefficient's local array
-    (ghosts included), each Constant's value, the mesh geometry."""
-    return ([w.x.array for w in coefficients] + [np.atleast_1d(k.value) for k in constants]
-            + [mesh.geometry.x])
-
-
-def same_inputs(old: list[np.ndarray] | None, new: list[np.ndarray]) -> bool:
-    """Whether ``read_inputs`` are those of ``old`` (a copy of earlier ones), exactly."""
-    return old is not None and len(old) == len(new) and all(
-        np.array_equal(a, b) for a, b in zip(old, new, strict=True))
-
-
-def _dirichlet(V: Any, vertices: np.ndarray) -> list[Any]:
-    from dolfinx import default_scalar_type, fem
-
-    if len(vertices) == 0:
-        return []
-    dofs = fem.locate_dofs_topological(V, 0, vertices)
-    return [fem.dirichletbc(default_scalar_type(0.0), dofs, V)]
-
-
-def _is_sphere(shape: Shape) -> bool:
-    return isinstance(shape, SphericalCap) and shape.closed

@@ -55,14 +55,7 @@ from typing import Any
 
 import numpy as np
 
-from shells.axisym.model import (
-    JIT_OPTIONS,
-    AxisymModel,
-    Jet,
-    _dirichlet,
-    read_inputs,
-    same_inputs,
-)
+from shells.axisym.kinematics import JIT_OPTIONS, Jet, dirichlet, read_inputs, same_inputs
 from shells.errors import InputError
 from shells.problem.formcache import compiled_derived, file_tag
 
@@ -96,7 +89,7 @@ class ModeForms:
     assembled at changed (module docstring).
     """
 
-    def __init__(self, model: AxisymModel) -> None:
+    def __init__(self, model: Any) -> None:
         import basix.ufl
         import ufl
         from dolfinx import default_scalar_type, fem
@@ -297,18 +290,18 @@ class ModeForms:
         instead of five assemblies of the C_k after each change of state)."""
         from petsc4py import PETSc
 
-        from shells.problem.forms import FormProblem
+        from shells.problem.forms import assemble_symmetric
 
         bcs = self.set_mode(m)
         if direct:
-            FormProblem._assemble_symmetric(H, self.form, bcs)
+            assemble_symmetric(H, self.form, bcs)
             return
         E = self.element_matrices()
         if E is not None:  # one process: from the element matrices, no assembly of forms
             self._set_from_elements(H, self._block_elements(E, [m])[0], m)
             return
         if m == 0:
-            FormProblem._assemble_symmetric(H, self.axisymmetric_form, bcs)
+            assemble_symmetric(H, self.axisymmetric_form, bcs)
             return
         C = self.coefficient_matrices()
         same = PETSc.Mat.Structure.SAME_NONZERO_PATTERN
@@ -339,7 +332,7 @@ class ModeForms:
                                        list(layout.entity_dofs(0, 1))),
                                       list(layout.entity_dofs(1, 0)))
                 for key in (0, 1, 2, 3):  # every condition on a vertex DOF
-                    chain._constraint_indices(np.asarray(self._constrained_rows(key).getIndices()))
+                    chain.constraint_indices(np.asarray(self._constrained_rows(key).getIndices()))
             except Exception as e:  # the assembled path instead
                 log.debug("element matrices of the mode forms not available: %s", e)
                 self._chain = False
@@ -537,7 +530,7 @@ class ModeForms:
             pairs = [(S, poles), (D, poles), (W, poles), (PS, poles), (PW, poles)]
         else:
             pairs = [(S, poles), (D, poles), (W, poles), (PS, poles), (PD, poles), (PW, poles)]
-        return [bc for sub, verts in pairs for bc in _dirichlet(sub, verts)]
+        return [bc for sub, verts in pairs for bc in dirichlet(sub, verts)]
 
     def conditions(self, m: int) -> list[Any]:
         """The Dirichlet conditions of mode m (axis conditions and rigid-motion gauges)."""

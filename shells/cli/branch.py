@@ -86,7 +86,7 @@ def _cmd_branch(args: argparse.Namespace) -> int:
 
         title, with_last = f"{shape.kind} h/L = {args.h_over_r}, nu = {args.nu}, axisym", False
     else:
-        from shells.algorithms.continuation import ContinuationSettings
+        from shells.algorithms.settings import ContinuationSettings
         from shells.analyses.branch import BranchConfig
 
         cont = ContinuationSettings(method=args.method, ds=args.ds,

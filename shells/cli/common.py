@@ -13,9 +13,10 @@ import sys
 from collections.abc import Callable
 from typing import Any
 
-from shells.analyses.store import json_default
 from shells.cli import paths
 from shells.errors import InputError
+from shells.files import json_default
+from shells.parameters import check_h_over_r, check_nu
 
 log = logging.getLogger("shells")
 
@@ -279,15 +280,6 @@ KAPPA_H_LIMIT = 100.0
 # --------------------------------------------------------------------------------------------
 # argument validation before any work: ranges common to the subcommands, every path argument
 # --------------------------------------------------------------------------------------------
-#: Largest h/R (h over the shape's length scale) accepted. The model is Koiter's thin-shell
-#: energy (bending h^3/12, no transverse shear or thickness change), an expansion in h/R: at
-#: h/R = 0.5 the faces lie at 0.75 R and 1.25 R and the expansion has no meaning any more. The
-#: thickest shells in tests/ and benchmarks/ have h/R = 0.05.
-H_OVER_R_MAX = 0.5
-#: thinner shells: the bending stiffness, (h/R)² of the stretching one, is lost in round-off
-#: (a tenth of the thinnest sphere the paper computes is 1e-4; 5e-324 overflowed the range)
-H_OVER_R_MIN = 1e-5
-
 #: Path arguments per subcommand: (attribute, label, kind, value used when the attribute is
 #: None). Kinds: "in" (a file read), "msh"/"png" (a file written, with that suffix), "dir" (an
 #: output folder), "shared" (only: shared with the host), "field" (--kappa-field: "in" if it
@@ -317,8 +309,8 @@ def check_ranges(args: argparse.Namespace) -> None:
     from shells.geometry.shapes import THETA_MIN_DEG
 
     nu = getattr(args, "nu", None)
-    if nu is not None and not (math.isfinite(nu) and -1.0 < nu <= 0.5):
-        raise InputError(f"nu must lie in (-1, 0.5], got {nu:g}")
+    if nu is not None:
+        check_nu(nu, "--nu")
     for opt in ("kappa_h_max", "kappa_r_max"):
         k = getattr(args, opt, None)
         if k is not None and not (math.isfinite(k) and k != 0):
@@ -328,9 +320,7 @@ def check_ranges(args: argparse.Namespace) -> None:
     if hs is None:
         return
     for h in hs if isinstance(hs, list) else [hs]:
-        if not (math.isfinite(h) and H_OVER_R_MIN <= h <= H_OVER_R_MAX):
-            raise InputError(f"--h-over-r must lie in [{H_OVER_R_MIN:g}, {H_OVER_R_MAX:g}] (a "
-                             f"thin shell, not thinner than double precision resolves), got {h:g}")
+        check_h_over_r(h, "--h-over-r")
     rng = getattr(args, "thetabar_range", None)
     if args.command == "phase-diagram" and rng and all(math.isfinite(v) for v in rng):
         theta_deg = math.degrees(min(rng) * math.sqrt(min(hs)))

@@ -384,7 +384,7 @@ class ImperfectSphere(SphericalCap):
         c = x[2] / r
         beta = ufl.variable(ufl.acos(c))
         rho = self.radius - self.amplitude * self._profile(ufl.cos(beta), beta, ufl.exp,
-                                                          ufl.cos)
+                                                           ufl.cos)
         drho_over_s = ufl.diff(rho, beta) / ufl.sin(beta)
         s_ebeta = ufl.as_vector([c * x[0] / r, c * x[1] / r, -(1 - c * c)])
         n = rho * x / r - drho_over_s * s_ebeta
@@ -1033,7 +1033,7 @@ class MeridianTable(Shape):
     @classmethod
     def from_file(cls, path: str) -> MeridianTable:
         """Rows "r z" (spaces or commas; # comments), from the pole to the rim."""
-        from shells.analyses.store import read_number_rows
+        from shells.files import read_number_rows
 
         return cls(read_number_rows(path, "the meridian file", "'r z'"))
 

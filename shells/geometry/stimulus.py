@@ -219,7 +219,7 @@ class CurvatureField:
                   ) -> CurvatureField:
         """A table of f from a text file (``TABLE_SUFFIXES``): rows "θ f" or "x y z f",
         separated by spaces or commas, lines starting with # ignored."""
-        from shells.analyses.store import read_number_rows
+        from shells.files import read_number_rows
 
         rows = read_number_rows(path, "the kappa field file", "'theta f' or 'x y z f'")
         return cls(path, anisotropy, rows)

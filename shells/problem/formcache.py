@@ -33,7 +33,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from shells.analyses.store import write_atomic
+from shells.files import write_atomic
 
 __all__ = ["compiled_derived", "cache_folder", "cache_root", "file_tag"]
 

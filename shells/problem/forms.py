@@ -20,7 +20,7 @@ from typing import Any
 
 from shells.problem.formcache import compiled_derived, file_tag
 
-__all__ = ["FormProblem", "dkappa_ufl"]
+__all__ = ["FormProblem", "dkappa_ufl", "assemble_symmetric"]
 
 #: names ``_derive_forms``' derivation of dR/dκ (this file) in the form cache
 _DERIVATION = file_tag(__file__)
@@ -175,15 +175,6 @@ class FormProblem:
         return float(self.comm.allreduce(fem.assemble_scalar(q), op=MPI.SUM))
 
     @staticmethod
-    def _assemble_symmetric(H: Any, form: Any, bcs: list[Any]) -> None:
-        from dolfinx.fem.petsc import assemble_matrix
-
-        H.zeroEntries()
-        assemble_matrix(H, form, bcs=bcs, diagonal=1.0)
-        H.assemble()
-        H.setOption(H.Option.SYMMETRIC, True)
-
-    @staticmethod
     def _assemble_mass(form: Any, bcs: list[Any]) -> Any:
         from dolfinx.fem.petsc import assemble_matrix
 
@@ -212,3 +203,19 @@ class FormProblem:
         B.assemble()
         A.destroy()
         return B
+
+
+def assemble_symmetric(H: Any, form: Any, bcs: list[Any]) -> None:
+    """Assemble the bilinear ``form`` into the symmetric matrix ``H`` in place.
+
+    Args:
+        H: a PETSc matrix with ``form``'s layout; its entries are replaced.
+        form: a compiled symmetric bilinear form.
+        bcs: Dirichlet conditions: their rows and columns are zeroed, with 1 on the diagonal.
+    """
+    from dolfinx.fem.petsc import assemble_matrix
+
+    H.zeroEntries()
+    assemble_matrix(H, form, bcs=bcs, diagonal=1.0)
+    H.assemble()
+    H.setOption(H.Option.SYMMETRIC, True)

@@ -50,7 +50,8 @@ import numpy as np
 from shells.errors import InputError
 from shells.geometry.shapes import Shape
 from shells.geometry.stimulus import UNIFORM, CurvatureField, field_radius
-from shells.problem.forms import FormProblem
+from shells.parameters import check_nu
+from shells.problem.forms import FormProblem, assemble_symmetric
 from shells.problem.interface import ModeInfo
 from shells.surface.mesh import RIM_TAG, ShellMesh
 
@@ -128,8 +129,7 @@ class ModelParameters:
             raise InputError(f"thickness h must be positive, got {self.h!r}")
         if not isinstance(self.kappa_field, CurvatureField):
             raise InputError(f"kappa_field must be a CurvatureField, got {self.kappa_field!r}")
-        if not (-1.0 < self.nu <= 0.5):
-            raise InputError(f"Poisson ratio nu must lie in (-1, 0.5], got {self.nu!r}")
+        check_nu(self.nu, "Poisson ratio nu")
         if not self.shear_penalty > 0:
             raise InputError(f"shear_penalty must be positive, got {self.shear_penalty!r}")
         if self.degree not in (1, 2, 3):
@@ -177,7 +177,7 @@ class ShellModel(FormProblem):
         self.c_shear = fem.Constant(mesh, default_scalar_type(p.shear_penalty * 10.0 / 3.0
                                                               * (1.0 - p.nu)))
         self.dx = ufl.Measure("dx", domain=mesh, metadata={"quadrature_degree":
-                                                            p.quadrature_degree})
+                                                           p.quadrature_degree})
         ft = self.shell.facet_tags
         self.ds = ufl.Measure("ds", domain=mesh, subdomain_data=ft,
                               metadata={"quadrature_degree": p.quadrature_degree})
@@ -676,7 +676,7 @@ class ShellModel(FormProblem):
         return self.create_jacobian()
 
     def assemble_hessian(self, block: Any, H: Any) -> None:
-        self._assemble_symmetric(H, self.hessian, self.bcs)
+        assemble_symmetric(H, self.hessian, self.bcs)
 
     def assemble_mass(self, block: Any) -> Any:
         return self._assemble_mass(self.mass, self.bcs)

@@ -18,10 +18,11 @@ from shells.analyses.axisym_runs import default_settings
 from shells.axisym.model import AxisymParameters
 from shells.errors import InputError
 from shells.geometry.shapes import Shape, SphericalCap
+from shells.parameters import check_h_over_r, check_model, check_nu
 from shells.surface.mesh import MeshSpec
 
 if TYPE_CHECKING:
-    from shells.algorithms.continuation import ContinuationSettings
+    from shells.algorithms.settings import ContinuationSettings
 
 __all__ = ["SNAP_FIT_THETA_MAX_DEG", "THETA_MAX", "Discretisation", "PhaseDiagramConfig", "Task",
            "tasks_of"]
@@ -122,8 +123,7 @@ class PhaseDiagramConfig:
         if not hs:
             raise InputError("give at least one h/R")
         for h in hs:
-            if not (isinstance(h, (int, float)) and math.isfinite(h) and 0 < h < 1):
-                raise InputError(f"h/R must lie in (0, 1), got {h!r}")
+            check_h_over_r(h)
         object.__setattr__(self, "h_over_r", tuple(float(h) for h in hs))
         rng = tuple(self.thetabar_range)
         if len(rng) != 2 or not all(isinstance(v, (int, float)) and math.isfinite(v)
@@ -137,10 +137,8 @@ class PhaseDiagramConfig:
             raise InputError(f"points must be an integer in [1, 10000], got {self.points!r}")
         if a == b and self.points != 1:
             raise InputError("a single theta-bar value (A = B) needs --points 1")
-        if not (isinstance(self.nu, (int, float)) and -1.0 < self.nu <= 0.5):
-            raise InputError(f"nu must lie in (-1, 0.5], got {self.nu!r}")
-        if self.model not in ("axisym", "surface"):
-            raise InputError(f"model must be 'axisym' or 'surface', got {self.model!r}")
+        check_nu(self.nu)
+        check_model(self.model)
         if not (isinstance(self.m_max, int) and 1 <= self.m_max <= 200):
             raise InputError(f"m_max must be an integer in [1, 200], got {self.m_max!r}")
         if not (0 < self.rel_tol < 0.1):

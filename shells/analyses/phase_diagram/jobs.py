@@ -14,14 +14,8 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
-from shells.analyses.store import (
-    append_record,
-    drop_torn_tail,
-    json_default,
-    read_records,
-    write_atomic,
-)
 from shells.errors import InputError
+from shells.files import append_record, drop_torn_tail, json_default, read_records, write_atomic
 from shells.theory import PAPER
 
 __all__ = ["RunStats", "run_phase_diagram"]

@@ -168,8 +168,8 @@ def _trace_axisym(task: Task, cfg: PhaseDiagramConfig) -> dict[str, Any]:
 def _trace_surface(task: Task, cfg: PhaseDiagramConfig) -> dict[str, Any]:
     from mpi4py import MPI
 
-    from shells.algorithms.continuation import ContinuationSettings
     from shells.algorithms.critical import CriticalSettings, follow
+    from shells.algorithms.settings import ContinuationSettings
     from shells.geometry.shapes import SphericalCap
     from shells.surface.mesh import generate
     from shells.surface.model import ModelParameters, ShellModel

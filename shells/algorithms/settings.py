@@ -1,0 +1,135 @@
+"""Settings of the path-following algorithms (algorithm layer): ``ContinuationSettings``, a
+frozen dataclass validated on construction, and its conversion to arclength steps.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, replace
+from typing import Any
+
+from shells.errors import InputError
+
+__all__ = ["ContinuationSettings", "in_arclength"]
+
+
+@dataclass(frozen=True)
+class ContinuationSettings:
+    """All continuation settings, validated on construction.
+
+    Attributes:
+        method: "arclength" (pseudo-arclength, passes folds) or "natural" (steps in κ, SNES).
+        ds: initial step: in λ = κL for "natural", in arclength for "arclength".
+        ds_min, ds_max: bounds of the adaptive step; below ds_min the run stops.
+        target_newton_its: the step grows when Newton needs fewer, shrinks when more.
+        max_newton_its: a corrector needing more counts as failed (step halved, retried).
+        newton_tol: convergence: relative Newton increment (state RMS / L and |δλ|).
+        residual_tol: an absolute bound on the residual norm that replaces the relative one
+            below (None, the default: the relative bound; a value: the behaviour of versions
+            that had only this absolute tolerance).
+        residual_rtol: and (arclength corrector) the residual norm ||R|| at most
+            ``residual_rtol`` ||∂R/∂κ|| max(|κ|, κ_ref) + ``residual_roundoff`` ε ||J||_F ||w||:
+            relative to the κ-load, the force that κ imposes (κ_ref: 1 % of the run's largest
+            |κ|, so the bound does not vanish where the branch crosses κ = 0), plus the
+            round-off floor of a residual assembled with the Jacobian J at the state w (ε:
+            machine epsilon). Both are model-independent: a stiff Jacobian (the axisymmetric
+            model's C1 penalty) has a floor of up to 1e-2 ε ||J||_F ||w||, which exceeds 1e-5
+            of the κ-load on thin bending-dominated shells (a disk: the load is O(h²)).
+            Natural steps (SNES, no increment test) accept a residual below the same bound with
+            10⁻³ ``residual_rtol``: its relative decrease of 1e-9 from the small start residual
+            of a short step can lie below round-off (a P3 sphere stalled at κh ≈ 1.41).
+        residual_roundoff: the factor of the round-off term (measured floors are 1e-3 to 1e-2).
+        state_weight: ξ in the arclength norm.
+        max_steps: safety limit on the number of points.
+        kappa_stops: values of κL (natural method) the run lands on exactly.
+        ds_unit: "arclength" (default) or "kappa": for the arclength method, ds, ds_min and
+            ds_max are then given as steps in κL and converted with the first tangent
+            (ds_arc = ds / |dλ/ds|), which makes them independent of how much the state moves
+            per unit κ (a disk moves many thicknesses per unit κL, a sphere a fraction of one).
+        factor_reuse: the corrector keeps the LU factorisation of an earlier iterate's
+            Jacobian (a chord step: a solve instead of a factorisation) while the state has
+            moved less than this since (RMS, in units of ``state_scale()``, and |δλ| in units of
+            max(1, |λ|)) and the last step contracted by at least 10; the tangent at a
+            converged point uses the corrector's factorisation under the same bound. Near the
+            solution Newton's Jacobian changes by O(|δw|/h), so the chord steps converge as fast
+            as Newton's there. 0 (the default): factor at every iteration and for the tangent.
+            The surface model's ``critical`` uses 1e-5 (``REUSE_SURFACE`` in
+            shells.analyses.drivers): 3 factorisations per step instead of 5, its critical points
+            unchanged to 3e-11 (benchmarks/lu_per_step.py); the 1D model's ``critical`` 1e-4, with
+            its default settings and the quadratic ``predictor`` (``REUSE_CRITICAL`` in
+            shells.analyses.axisym_runs: 156 factorisations instead of 378 on the θ̄ = 8 cap, its
+            points unchanged to 1e-8; before its eigenvalues were Rayleigh quotients the thin
+            spheres' closely spaced bifurcations moved by up to 2e-5 with 1e-5, round-off).
+            Not the default elsewhere: a branch's points are its result there.
+        predictor: where the arclength corrector starts (the hyperplane is the tangent
+            predictor's either way): "tangent" (default), the predictor itself, or
+            "quadratic", the quadratic through the last two points with the tangent at the
+            last (an error of O(s³) instead of O(s²): on the θ̄ = 8 cap at h/R = 0.01 a first
+            Newton update of 1e-7 of the state instead of 1e-5, two iterations instead of
+            three). Its converged points are the same to the Newton tolerance, but fewer
+            iterations grow the adaptive step sooner, so where the step is below ``ds_max``
+            the run takes other points. The 1D model's ``critical`` uses it with its default
+            settings (``shells.analyses.axisym_runs``).
+    """
+
+    method: str = "arclength"
+    ds: float = 0.1
+    ds_min: float = 1.0e-6
+    ds_max: float = 2.0
+    target_newton_its: int = 4
+    max_newton_its: int = 12
+    newton_tol: float = 1.0e-10
+    residual_tol: float | None = None
+    residual_rtol: float = 1.0e-5
+    residual_roundoff: float = 0.1
+    state_weight: float = 1.0
+    max_steps: int = 10000
+    kappa_stops: tuple[float, ...] = ()
+    ds_unit: str = "arclength"
+    factor_reuse: float = 0.0
+    predictor: str = "tangent"
+
+    def __post_init__(self) -> None:
+        if self.method not in ("arclength", "natural"):
+            raise InputError(f"continuation method must be 'arclength' or 'natural', "
+                             f"got {self.method!r}")
+        if not (0 < self.ds_min <= self.ds <= self.ds_max):
+            raise InputError(f"steps must satisfy 0 < ds_min <= ds <= ds_max, got "
+                             f"{self.ds_min}, {self.ds}, {self.ds_max}")
+        if self.target_newton_its < 1 or self.max_newton_its < self.target_newton_its:
+            raise InputError("need 1 <= target_newton_its <= max_newton_its")
+        if self.residual_tol is not None and not (isinstance(self.residual_tol, (int, float))
+                                                  and math.isfinite(self.residual_tol)
+                                                  and self.residual_tol > 0):
+            raise InputError(f"residual_tol must be None or a positive number, got "
+                             f"{self.residual_tol!r}")
+        if not (isinstance(self.residual_rtol, (int, float)) and 0 < self.residual_rtol < 1):
+            raise InputError(f"residual_rtol must lie in (0, 1), got {self.residual_rtol!r}")
+        if not (isinstance(self.residual_roundoff, (int, float))
+                and 0 <= self.residual_roundoff < math.inf):
+            raise InputError(f"residual_roundoff must be a non-negative number, got "
+                             f"{self.residual_roundoff!r}")
+        if not self.state_weight > 0:
+            raise InputError("state_weight must be positive")
+        if self.ds_unit not in ("arclength", "kappa"):
+            raise InputError(f"ds_unit must be 'arclength' or 'kappa', got {self.ds_unit!r}")
+        if not (isinstance(self.factor_reuse, (int, float)) and 0 <= self.factor_reuse < 1):
+            raise InputError(f"factor_reuse must lie in [0, 1), got {self.factor_reuse!r}")
+        if self.predictor not in ("tangent", "quadratic"):
+            raise InputError(f"predictor must be 'tangent' or 'quadratic', got "
+                             f"{self.predictor!r}")
+
+    def describe(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+def in_arclength(st: ContinuationSettings, tl: float) -> ContinuationSettings:
+    """The settings with steps in arclength: as given, or for ``ds_unit`` "kappa" converted with
+    the κ-component ``tl`` of the run's first unit tangent (ds_arc = ds / |dλ/ds|), as the
+    arclength loop does at a run's start (a resumed run passes the converted settings and the
+    first point's ``dkappa_ds`` decides them)."""
+    if st.ds_unit != "kappa":
+        return st
+    scale = 1.0 / max(abs(tl), 1e-6)
+    return replace(st, ds_unit="arclength", ds=st.ds * scale, ds_min=st.ds_min * scale,
+                   ds_max=st.ds_max * scale)

@@ -16,7 +16,7 @@ locates it. Three measurements:
    the 1-ulp perturbations w (1 ± ε) of that state move μ (the round-off of the assembled
    Hessian, whose Frobenius norm is also reported), and how far the state solved again at
    κ (1 ± 1e-10 .. 1e-9) moves it (a new sequence of round-off in the state itself, which the
-   locator's reported accuracy measures: ``shells.algorithms.critical.eigenvalue_roundoff``);
+   locator's reported accuracy measures: ``shells.algorithms.locate.eigenvalue_roundoff``);
 4. where that round-off is: the same state's μ by the two factorisations the eigensolve can
    use (the 1D model's chain LU, ``ChainLU``, and MUMPS), and the spread of μ over 13 states
    solved again at κ (1 + k 1e-10), k = -6..6 (each state moves by ~1e-10 relative, which
@@ -61,13 +61,13 @@ def _task(rel_tol: float):  # noqa: ANN202 - (config, task)
 def located(scale: float, rel_tol: float) -> dict:
     """The task located with the first continuation step scaled by ``scale``; the crossing
     eigenvalue samples of block 2 at the locator's trials."""
-    import shells.algorithms.critical as critical
     import shells.analyses.phase_diagram.tracing as tracing
+    from shells.algorithms import locate
     from shells.analyses.phase_diagram import compute_task
 
     cfg, task = _task(rel_tol)
     samples: list[tuple[float, float]] = []
-    init, eigs_at = tracing._Branch.__init__, critical._Locator.eigs_at
+    init, eigs_at = tracing._Branch.__init__, locate.Locator.eigs_at
 
     def scaled_init(self, *a, **k):  # noqa: ANN001, ANN002, ANN003, ANN202
         init(self, *a, **k)
@@ -79,11 +79,11 @@ def located(scale: float, rel_tol: float) -> dict:
             samples.append((e.lam, out[2][0]))
         return out
 
-    tracing._Branch.__init__, critical._Locator.eigs_at = scaled_init, recorded
+    tracing._Branch.__init__, locate.Locator.eigs_at = scaled_init, recorded
     try:
         rec = compute_task(task, cfg)
     finally:
-        tracing._Branch.__init__, critical._Locator.eigs_at = init, eigs_at
+        tracing._Branch.__init__, locate.Locator.eigs_at = init, eigs_at
     bif = rec["bifurcation"]
     return {"first_step_scale": scale, "kappa_R": bif["kappa_R"], "mode_m": bif["mode_m"],
             "reported_accuracy": bif["accuracy"], "dofs": rec["dofs"],
@@ -120,7 +120,7 @@ def fixed_kappa() -> dict:
             H = st.assemble(2)
             hnorm = float(H.norm())
             # the same state solved again at κ (1 ± η), η ~ 1e-10 (the locator's round-off
-            # measure, ``shells.algorithms.critical.ROUNDOFF_SHIFT``): a new sequence of round-off
+            # measure, ``shells.algorithms.locate.ROUNDOFF_SHIFT``): a new sequence of round-off
             resolved = _resolved(br, st, w0, (1e-10, -1e-10, 2e-10, -2e-10, 1e-9), nev=2)
             factorisations = _two_factorisations(m, st)
             spread = _resolved(br, st, w0, [k * 1e-10 for k in range(-6, 7)], nev=1)

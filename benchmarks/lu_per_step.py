@@ -26,7 +26,7 @@ import time
 from collections import Counter
 from pathlib import Path
 
-from shells.algorithms import continuation, stability
+from shells.algorithms import continuation, settings, stability, switching
 from shells.algorithms import newton as solvers
 from shells.analyses.drivers import critical_surface
 from shells.geometry.shapes import SphericalCap
@@ -39,7 +39,7 @@ def count_run(theta_deg: float, kappa_r_end: float, factor_reuse: float | None) 
     per_step: list[int] = []
     real_lu, real_solve = solvers.setup_factor, solvers.NewtonSolver.solve
     real_setup, real_steps = stability.setup_factor, continuation.arclength_steps
-    real_settings = continuation.ContinuationSettings
+    real_settings = settings.ContinuationSettings
 
     def lu(ksp, A, options):
         count["lu"] += 1
@@ -65,7 +65,6 @@ def count_run(theta_deg: float, kappa_r_end: float, factor_reuse: float | None) 
             per_step.append(count["lu"] - c0)
             yield s
 
-    from shells.algorithms import critical
 
     solvers.setup_factor, solvers.NewtonSolver.solve = lu, solve
     stability.setup_factor, continuation.arclength_steps = setup, steps
@@ -73,9 +72,9 @@ def count_run(theta_deg: float, kappa_r_end: float, factor_reuse: float | None) 
         def forced(**kw):  # noqa: ANN003, ANN202 - overrides the driver's own value
             return real_settings(**{**kw, "factor_reuse": factor_reuse})
 
-        continuation.ContinuationSettings = forced
-    critical_steps = critical.arclength_steps
-    critical.arclength_steps = steps
+        settings.ContinuationSettings = forced
+    switching_steps = switching.arclength_steps
+    switching.arclength_steps = steps
     try:
         t0 = time.perf_counter()
         r = critical_surface(SphericalCap(1.0, math.radians(theta_deg)), 0.04, 0.5,
@@ -84,8 +83,8 @@ def count_run(theta_deg: float, kappa_r_end: float, factor_reuse: float | None) 
     finally:
         solvers.setup_factor, solvers.NewtonSolver.solve = real_lu, real_solve
         stability.setup_factor, continuation.arclength_steps = real_setup, real_steps
-        continuation.ContinuationSettings = real_settings
-        critical.arclength_steps = critical_steps
+        settings.ContinuationSettings = real_settings
+        switching.arclength_steps = switching_steps
     in_steps = sum(per_step)
     return {"theta_deg": theta_deg, "dofs": r["dofs"], "kind": r["kind"],
             "kappa_R": r["kappa_R"], "steps": len(per_step), "lu_per_step": per_step,

@@ -594,7 +594,7 @@ def render(data: dict[str, Any]) -> str:
     if sf_file.exists():
         w("## Surface-model (2D) spot checks\n")
         w("`benchmarks/phase_diagram.py --surface-check H THETABAR DIR` (2D surface model on "
-          "its gmsh mesh, `shells.algorithms.critical.follow`; coarse meshes, not converged):\n")
+          "its gmsh mesh, `shells.algorithms.following.follow`; coarse meshes, not converged):\n")
         w("| h/R | θ̄ | dir | model | DOFs | first critical | fold κR | bifurcation κR (m) | "
           "time |")
         w("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")

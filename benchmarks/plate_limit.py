@@ -23,8 +23,8 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from shells.algorithms.critical import CriticalSettings, follow
-from shells.algorithms.settings import ContinuationSettings
+from shells.algorithms.following import follow
+from shells.algorithms.settings import ContinuationSettings, CriticalSettings
 from shells.geometry.shapes import Disk
 from shells.surface.mesh import MeshSpec, generate
 from shells.surface.model import ModelParameters, ShellModel

@@ -86,7 +86,7 @@ def clean_env(**extra: str) -> dict[str, str]:
 #: 2.3e-10, the located κ 1.7e-12 (compared to ``RTOL``); the campaign's 4 resumed 2-rank runs
 #: (benchmarks/results/reliability.json): 6.0e-10, 3.4e-8, 6.3e-8, 9.4e-8, 1.6e-10, and every
 #: other number 5.8e-12. On one rank every run is the same to the last bit. A bifurcation's
-#: accuracy also holds a measured round-off (``shells.algorithms.critical.EIGEN_ROUNDOFF``: the
+#: accuracy also holds a measured round-off (``shells.algorithms.locate.EIGEN_ROUNDOFF``: the
 #: change of its eigenvalue when the point is solved again at κ (1 ± 1e-10)), itself a difference of
 #: round-offs:
 #: compared as an order of magnitude there (0.9: within a factor 10). The fold's mode is

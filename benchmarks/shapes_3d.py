@@ -29,8 +29,8 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from shells.algorithms.critical import CriticalSettings, follow
-from shells.algorithms.settings import ContinuationSettings
+from shells.algorithms.following import follow
+from shells.algorithms.settings import ContinuationSettings, CriticalSettings
 from shells.analyses import axisym_runs
 from shells.analyses.postbuckle import PostbuckleConfig, postbuckle
 from shells.analyses.render import render_state

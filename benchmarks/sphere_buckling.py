@@ -8,7 +8,7 @@ Degree 3 is the default: P2 with the stiff Kirchhoff-Love penalty locks (docs/mo
 sequence (kept in the JSON, ``--degree 2 --sizes 0.2 0.14 0.1``) converges slowly from above.
 
 For each (ν, mesh size): the fundamental branch from κ = 0 with inertia at every point, the first
-critical point located to 1e-4 (``shells.algorithms.critical``), its degree n. Results are appended
+critical point located to 1e-4 (``shells.algorithms.locate``), its degree n. Results are appended
 to the JSON file as they come (a rerun skips what is there). The table ends with a Richardson
 extrapolation in the mesh size (rate fitted over the last three meshes) beside the thin-shell
 limit 4√(3(1-ν)/((1+ν)(5+4ν))) and the minimum of the supplement's dispersion relation at this h/R.
@@ -26,8 +26,8 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
-from shells.algorithms.critical import CriticalSettings, follow
-from shells.algorithms.settings import ContinuationSettings
+from shells.algorithms.following import follow
+from shells.algorithms.settings import ContinuationSettings, CriticalSettings
 from shells.analyses import axisym_runs
 from shells.geometry.shapes import Sphere
 from shells.surface.mesh import MeshSpec, generate

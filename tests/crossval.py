@@ -10,8 +10,9 @@ import math
 import pytest
 from mpi4py import MPI
 
-from shells.algorithms.critical import CriticalPoint, CriticalSettings, follow
-from shells.algorithms.settings import ContinuationSettings
+from shells.algorithms.following import follow
+from shells.algorithms.records import CriticalPoint
+from shells.algorithms.settings import ContinuationSettings, CriticalSettings
 from shells.analyses import axisym_runs
 from shells.geometry.shapes import SphericalCap
 from shells.surface.mesh import MeshSpec, generate

@@ -13,9 +13,10 @@ import numpy as np
 import pytest
 
 from shells.algorithms.continuation import continuation
-from shells.algorithms.critical import CriticalSettings, follow, switch_branch
-from shells.algorithms.settings import ContinuationSettings
+from shells.algorithms.following import follow
+from shells.algorithms.settings import ContinuationSettings, CriticalSettings
 from shells.algorithms.stability import Stability
+from shells.algorithms.switching import switch_branch
 from shells.errors import InputError
 from shells.problem.algebraic import (
     AlgebraicProblem,
@@ -185,12 +186,12 @@ def test_crossings_of_several_blocks_in_one_step_share_the_steps_trials(monkeypa
     block 0's own crossing then takes the same first trials, which the step computed already:
     fewer corrector solves and eigensolves than with each crossing located afresh, the same
     points to the last digit."""
-    import shells.algorithms.critical as critical
+    from shells.algorithms import locate
 
     P = _ThreeBlocks(c=(0.96, 0.98))
     st = ContinuationSettings(ds=0.3, ds_max=0.3)
     calls = {"solves": 0, "eigs": 0}
-    newton, eigs = critical.bordered_newton, Stability.eigenpairs
+    newton, eigs = locate.bordered_newton, Stability.eigenpairs
 
     def counted_newton(*args, **kwargs):
         calls["solves"] += 1
@@ -200,7 +201,7 @@ def test_crossings_of_several_blocks_in_one_step_share_the_steps_trials(monkeypa
         calls["eigs"] += 1
         return eigs(self, *args, **kwargs)
 
-    monkeypatch.setattr(critical, "bordered_newton", counted_newton)
+    monkeypatch.setattr(locate, "bordered_newton", counted_newton)
     monkeypatch.setattr(Stability, "eigenpairs", counted_eigs)
 
     def run() -> tuple[list, dict]:
@@ -213,13 +214,13 @@ def test_crossings_of_several_blocks_in_one_step_share_the_steps_trials(monkeypa
     assert len(steps) == 1  # one step holds the three crossings
     assert [c.kappa for c in steps[0]] == pytest.approx([0.96, 0.98, 1.0], rel=1e-8)
     assert [c.block for c in steps[0]] == [1, 2, 0]
-    start = critical._Locator.start
+    start = locate.Locator.start
 
     def forgetful_start(self, *args, **kwargs):  # every crossing located afresh
         start(self, *args, **kwargs)
         self._memo.clear()
 
-    monkeypatch.setattr(critical._Locator, "start", forgetful_start)
+    monkeypatch.setattr(locate.Locator, "start", forgetful_start)
     alone, afresh = run()
     assert [c.kappa for c in alone[0]] == [c.kappa for c in steps[0]]
     assert shared["solves"] < afresh["solves"] and shared["eigs"] < afresh["eigs"], \

@@ -9,8 +9,8 @@ import math
 import pytest
 from mpi4py import MPI
 
-from shells.algorithms.critical import CriticalSettings, follow
-from shells.algorithms.settings import ContinuationSettings
+from shells.algorithms.following import follow
+from shells.algorithms.settings import ContinuationSettings, CriticalSettings
 from shells.analyses import axisym_runs
 from shells.cli import main
 from shells.geometry.shapes import Disk, SphericalCap

@@ -118,8 +118,8 @@ def test_a_crossing_just_before_a_fold_is_that_fold(monkeypatch):
     before it kept); a crossing with no fold within the window stays first."""
     from types import SimpleNamespace
 
-    import shells.algorithms.critical as critical
     import shells.analyses.knockdown as kd
+    from shells.algorithms import following
 
     def cp(kind, kappa):
         return SimpleNamespace(kind=kind, kappa=kappa)
@@ -133,14 +133,14 @@ def test_a_crossing_just_before_a_fold_is_that_fold(monkeypatch):
     cfg = KnockdownConfig(0.002, (0.1,), load="pressure")
     cross, fold = cp("bifurcation", 1000.0), cp("fold", 1000.05)
     # crossing, then a fold 5e-5 above it: followed on to the fold, which is first
-    monkeypatch.setattr(critical, "follow", fake_follow(
+    monkeypatch.setattr(following, "follow", fake_follow(
         [(990.0, []), (1000.01, [cross]), (1000.04, []), (1000.06, [fold]), (999.0, [])]))
     found, n = kd._first_critical(None, None, cfg, 2000.0, None)
     assert found == [cross, fold] and n == 4
     first, before = kd._first_of(found, 1e-4)
     assert first is fold and before == [cross]
     # the branch passes 1e-4 beyond the crossing without a fold: the crossing stays first
-    monkeypatch.setattr(critical, "follow", fake_follow(
+    monkeypatch.setattr(following, "follow", fake_follow(
         [(1000.01, [cross]), (1000.09, []), (1000.11, []), (1000.3, [fold])]))
     found, n = kd._first_critical(None, None, cfg, 2000.0, None)
     assert found == [cross] and n == 3
@@ -148,7 +148,7 @@ def test_a_crossing_just_before_a_fold_is_that_fold(monkeypatch):
     assert kd._first_of([cross, cp("fold", 1000.2)], 1e-4) == (cross, [])
     assert kd._first_of([fold], 1e-4) == (fold, []) and kd._first_of([], 1e-4) == (None, [])
     # without the window (the perfect sphere) the first critical point ends the search
-    monkeypatch.setattr(critical, "follow", fake_follow([(1000.01, [cross]), (1000.06, [fold])]))
+    monkeypatch.setattr(following, "follow", fake_follow([(1000.01, [cross]), (1000.06, [fold])]))
     assert kd._first_critical(None, None, cfg, 2000.0, None, window=False) == ([cross], 1)
 
 

@@ -272,7 +272,7 @@ def test_an_interrupted_run_resumes_from_its_critical_point(thick_run, shared_tm
 
     from mpi4py import MPI
 
-    import shells.algorithms.critical
+    import shells.algorithms.switching
     from shells.analyses import postbuckle as pb
 
     cfg, full_dir, full = thick_run
@@ -287,7 +287,7 @@ def test_an_interrupted_run_resumes_from_its_critical_point(thick_run, shared_tm
     def no_follow(*args, **kwargs):
         raise AssertionError("the fundamental branch was followed again")
 
-    monkeypatch.setattr(shells.algorithms.critical, "follow", no_follow)
+    monkeypatch.setattr(shells.algorithms.following, "follow", no_follow)
     resumed = pb.run_postbuckle(cfg, cut_dir)
     MPI.COMM_WORLD.barrier()  # rank 0 writes the file: read it once it has
     assert len(resumed) == len(full)
@@ -313,13 +313,13 @@ def test_a_side_that_cannot_switch_is_reported_and_the_run_goes_on(thick_run, sh
     (the run from the critical point's checkpoint, side +1's switch made to fail)."""
     from mpi4py import MPI
 
-    import shells.algorithms.critical
+    import shells.algorithms.switching
     from shells.analyses import postbuckle as pb
 
     cfg, full_dir, full = thick_run
     cut_dir = shared_tmp / "pb_cut_fail"
     _cut_at_the_critical_point(full_dir, cut_dir)
-    switch = shells.algorithms.critical.switch_branch
+    switch = shells.algorithms.switching.switch_branch
     tried = []
 
     def failing(*args, sign=1.0, **kwargs):
@@ -329,7 +329,7 @@ def test_a_side_that_cannot_switch_is_reported_and_the_run_goes_on(thick_run, sh
                                "fundamental branch at amplitudes (a test)")
         return switch(*args, sign=sign, **kwargs)
 
-    monkeypatch.setattr(shells.algorithms.critical, "switch_branch", failing)
+    monkeypatch.setattr(shells.algorithms.switching, "switch_branch", failing)
     recs = pb.run_postbuckle(cfg, cut_dir)
     MPI.COMM_WORLD.barrier()
     sides = recs[-1]["summary"]["sides"]
@@ -360,13 +360,13 @@ def test_an_interrupted_side_resumes_after_its_last_point(thick_run, shared_tmp,
 
     from mpi4py import MPI
 
-    import shells.algorithms.critical
+    import shells.algorithms.switching
     from shells.analyses import postbuckle as pb
 
     cfg, full_dir, full = thick_run
     cut_dir = shared_tmp / "pb_cut_side"
     lines = _cut_at_the_critical_point(full_dir, cut_dir)
-    monkeypatch.setattr(shells.algorithms.critical, "follow", lambda *a, **k:
+    monkeypatch.setattr(shells.algorithms.following, "follow", lambda *a, **k:
                         pytest.fail("followed"))
 
     def kill(model, rec):

@@ -351,10 +351,11 @@ def critical_reference(tmp_path_factory) -> Path:
 
 
 def _follow_indices(monkeypatch) -> list[int]:
-    """The indices of the points ``shells.algorithms.critical.follow`` computes from now on."""
-    import shells.algorithms.critical
+    """The indices of the points ``shells.algorithms.following.follow`` computes from now on."""
+    import shells.algorithms.following
+    import shells.algorithms.settings
 
-    real = shells.algorithms.critical.follow
+    real = shells.algorithms.following.follow
     computed: list[int] = []
 
     def counting(*args, **kwargs):
@@ -362,7 +363,7 @@ def _follow_indices(monkeypatch) -> list[int]:
             computed.append(p.index)
             yield p, res, found
 
-    monkeypatch.setattr(shells.algorithms.critical, "follow", counting)
+    monkeypatch.setattr(shells.algorithms.following, "follow", counting)
     return computed
 
 
@@ -512,8 +513,8 @@ def test_follow_resumes_exactly_on_the_algebraic_pitchforks():
     the run did: the same points and the same critical points (the pitchforks at kappa = 1
     and 2, located to 1e-8), to the last bit, the first step after the resume searched for a
     change of the point's counts like any other."""
-    from shells.algorithms.critical import CriticalSettings, follow
-    from shells.algorithms.settings import ContinuationSettings
+    from shells.algorithms.following import follow
+    from shells.algorithms.settings import ContinuationSettings, CriticalSettings
     from shells.problem.algebraic import PitchforkProblem
 
     st = ContinuationSettings(ds=0.1, ds_max=0.2, ds_unit="kappa")
@@ -539,8 +540,8 @@ def test_follow_resumes_exactly_with_the_quadratic_predictor():
     the fold x² + κ - 1 = 0, whose branch bends (the quadratic start is not the tangent
     predictor's), the resumed runs from every point take the run's points to the last bit,
     with its iterations, and locate its fold."""
-    from shells.algorithms.critical import CriticalSettings, follow
-    from shells.algorithms.settings import ContinuationSettings
+    from shells.algorithms.following import follow
+    from shells.algorithms.settings import ContinuationSettings, CriticalSettings
     from shells.problem.algebraic import FoldProblem
 
     st = ContinuationSettings(ds=0.05, ds_max=0.05, max_steps=40, predictor="quadratic")
@@ -595,8 +596,8 @@ def test_failed_corrector_steps_are_cut_and_the_run_recovers(monkeypatch, method
     """The pseudo-arclength corrector fails at the injected calls (before the fold, or in the
     locator next to it): the step is halved, and every later point is on the exact branch and
     the fold located to 1e-8 (x² + κ - 1 = 0: at κ = 1)."""
-    from shells.algorithms.critical import CriticalSettings, follow
-    from shells.algorithms.settings import ContinuationSettings
+    from shells.algorithms.following import follow
+    from shells.algorithms.settings import ContinuationSettings, CriticalSettings
     from shells.problem.algebraic import FoldProblem
 
     P = FoldProblem()
@@ -621,8 +622,8 @@ def test_one_failure_anywhere_in_a_run_is_recovered(monkeypatch, method, spoil, 
     failed factor and ended in a MUMPS error), the locator. Every arclength run ends with the
     fold at κ = 1 to 1e-8, every natural run on κ = 0.9, their points on the exact branch."""
     from shells.algorithms.continuation import continuation
-    from shells.algorithms.critical import CriticalSettings, follow
-    from shells.algorithms.settings import ContinuationSettings
+    from shells.algorithms.following import follow
+    from shells.algorithms.settings import ContinuationSettings, CriticalSettings
     from shells.problem.algebraic import FoldProblem
 
     def run(calls: set[int]) -> list[int]:
@@ -721,8 +722,8 @@ def test_slepc_failures_fall_back_on_the_inertia(monkeypatch, caplog, failures):
 
     from slepc4py import SLEPc
 
-    from shells.algorithms.critical import CriticalSettings, follow
-    from shells.algorithms.settings import ContinuationSettings
+    from shells.algorithms.following import follow
+    from shells.algorithms.settings import ContinuationSettings, CriticalSettings
     from shells.problem.algebraic import PitchforkProblem
 
     n = [0]

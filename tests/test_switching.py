@@ -1,4 +1,4 @@
-"""Branch switching at a bifurcation (shells.algorithms.critical.switch_branch), on the surface
+"""Branch switching at a bifurcation (shells.algorithms.switching.switch_branch), on the surface
 model.
 
 A spherical cap (θ = 30°, h/R = 0.04, ν = ½) under κ < 0 loses its rotational symmetry in a
@@ -22,10 +22,11 @@ import pytest
 from mpi4py import MPI
 
 from shells.algorithms.continuation import continuation
-from shells.algorithms.critical import CriticalSettings, follow, switch_branch
+from shells.algorithms.following import follow
 from shells.algorithms.newton import NewtonSolver
-from shells.algorithms.settings import ContinuationSettings
+from shells.algorithms.settings import ContinuationSettings, CriticalSettings
 from shells.algorithms.stability import Stability
+from shells.algorithms.switching import switch_branch
 from shells.analyses import axisym_runs
 from shells.geometry.shapes import SphericalCap
 from shells.surface.mesh import MeshSpec, generate

@@ -23,7 +23,7 @@ c2 ∝ ∫ P_n³ vanishes for odd n: the curvature buckling of a sphere is asymm
 symmetric (at this order) for odd n.
 
 Everything is computed from the problem interface at a located
-``shells.algorithms.critical.CriticalPoint`` by finite differences of residuals and Jacobians (no
+``shells.algorithms.records.CriticalPoint`` by finite differences of residuals and Jacobians (no
 model-specific code): the critical point is first refined (κ_c where the Rayleigh quotient of the
 null vector vanishes, φ by inverse iteration), because the locator's bracket (1e-4 in κ) is too
 coarse for the law's small-δ end. The imperfection enters only through a callable that returns ∂R/∂δ

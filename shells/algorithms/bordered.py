@@ -3,7 +3,7 @@ Newton on R(w, λ) = 0 with a hyperplane and optional pins, and ``Arclength``, t
 norms it works with.
 
 Continuation (``shells.algorithms.continuation``), the locator and branch switching
-(``shells.algorithms.critical``) and the knock-down's limit points all correct with
+(``shells.algorithms.locate``) and the knock-down's limit points all correct with
 ``bordered_newton``.
 """
 
@@ -151,7 +151,7 @@ def bordered_newton(ar: Arclength, st: ContinuationSettings, lam_p: float,
     amplitude a along φ and leaves λ free, which parametrises a pitchfork regularly (branch
     switching). The pins ψ_j hold the other directions of a (nearly) multiple critical
     eigenspace at their value in w_c: a phase condition, the orientation of a buckling pattern
-    on a shape of revolution (``shells.algorithms.critical.switch_branch``); s_j ψ_j is the force
+    on a shape of revolution (``shells.algorithms.switching.switch_branch``); s_j ψ_j is the force
     that holds it. One LU factorisation and 2 + len(pins) solves per iteration; the constraints are
     linear, so every iterate after the first satisfies them. Within ``factor_reuse`` of the
     last factored iterate the factorisation is kept (chord steps), except with

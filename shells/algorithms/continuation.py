@@ -263,7 +263,7 @@ def arclength_steps(ar: Arclength, st: ContinuationSettings, lam: float, lam_end
     by its depth it grows steadily, while its share of the whole state's norm, which the
     arclength measures, is small and the arclength steps let the corrector slide along the
     nearly neutral directions of a cluster of bifurcations onto other branches (a closed
-    sphere's; ``shells.algorithms.critical.switch_branch``).
+    sphere's; ``shells.algorithms.switching.switch_branch``).
     """
     w = ar.w
     secant = secant_from is not None

@@ -1,5 +1,6 @@
-"""Settings of the path-following algorithms (algorithm layer): ``ContinuationSettings``, a
-frozen dataclass validated on construction, and its conversion to arclength steps.
+"""Settings of the path-following algorithms (algorithm layer), frozen dataclasses validated on
+construction: ``ContinuationSettings`` (continuation and its corrector), ``CriticalSettings``
+(locating critical points), and the conversion of steps to arclength.
 """
 
 from __future__ import annotations
@@ -10,7 +11,7 @@ from typing import Any
 
 from shells.errors import InputError
 
-__all__ = ["ContinuationSettings", "in_arclength"]
+__all__ = ["ContinuationSettings", "CriticalSettings", "in_arclength"]
 
 
 @dataclass(frozen=True)
@@ -133,3 +134,47 @@ def in_arclength(st: ContinuationSettings, tl: float) -> ContinuationSettings:
     scale = 1.0 / max(abs(tl), 1e-6)
     return replace(st, ds_unit="arclength", ds=st.ds * scale, ds_min=st.ds_min * scale,
                    ds_max=st.ds_max * scale)
+
+
+@dataclass(frozen=True)
+class CriticalSettings:
+    """How critical points are located.
+
+    Attributes:
+        rel_tol: location accuracy, relative in κ.
+        max_evaluations: at most this many corrector solves per critical point.
+        stop_at_fold: stop following the branch after the first fold.
+        stop_at_first: stop after the first critical point of any kind.
+        max_critical: stop after this many critical points (None: no limit).
+        folds_only_after_first: after the first bifurcation, stop computing inertia (the
+            counts are carried) and locate folds only: the branch is then followed up to its
+            fold at the price of the corrector alone.
+        nev: eigenvalues computed at each trial point (nearest 0).
+        deflate: in steps without a fold, the locator's corrector omits from each Newton step
+            its components along the ``deflate`` eigenvectors of the Jacobian nearest 0 when
+            such a component exceeds 10 times the rest of the step: round-off amplified by
+            the nearly singular Jacobian, or the start of a switch to a branch bifurcating
+            close by (a closed sphere's cluster of axisymmetric modes). Costs one eigensolve
+            per Newton iteration: for the 1D model. 0 (default): off.
+    """
+
+    rel_tol: float = 1.0e-4
+    max_evaluations: int = 25
+    stop_at_fold: bool = True
+    stop_at_first: bool = False
+    max_critical: int | None = None
+    folds_only_after_first: bool = False
+    nev: int = 4
+    deflate: int = 0
+
+    def __post_init__(self) -> None:
+        if not (0 < self.rel_tol < 0.1):
+            raise InputError(f"rel_tol must lie in (0, 0.1), got {self.rel_tol}")
+        if self.max_evaluations < 2 or self.nev < 1:
+            raise InputError("need max_evaluations >= 2 and nev >= 1")
+        if self.max_critical is not None and not (isinstance(self.max_critical, int)
+                                                  and self.max_critical >= 1):
+            raise InputError(f"max_critical must be a positive integer, got "
+                             f"{self.max_critical!r}")
+        if not (isinstance(self.deflate, int) and 0 <= self.deflate <= 20):
+            raise InputError(f"deflate must be an integer in [0, 20], got {self.deflate!r}")

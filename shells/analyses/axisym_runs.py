@@ -1,6 +1,6 @@
 """Drivers of the axisymmetric model (driver layer): one run's configuration and its numerics
 defaults, ``branch`` (the branch with per-m stability) and ``critical`` (its critical points),
-both on ``shells.algorithms.critical.follow``."""
+both on ``shells.algorithms.following.follow``."""
 
 from __future__ import annotations
 
@@ -178,7 +178,7 @@ class _Run:
     def follow(self, crit: Any = None, locate_points: bool = True,
                scalars: bool = True) -> Iterator[tuple]:
         """``critical.follow`` over the run's range with the inertia of every H_m."""
-        from shells.algorithms.critical import follow
+        from shells.algorithms.following import follow
 
         return follow(self.model, self.settings, self.cfg.kappa_end, crit, solver=self.ns,
                       blocks=self.model.modes, locate_points=locate_points, scalars=scalars)
@@ -282,7 +282,7 @@ def critical(shape: Shape, h_over_r: float, nu: float = 0.5, direction: str = "u
         numerics.setdefault("max_critical", 1)
     cfg = RunConfig(shape=shape, h_over_r=h_over_r, nu=nu, direction=direction, m_max=m_max,
                     kappa_max=kappa_max, **numerics)
-    from shells.algorithms.critical import CriticalSettings
+    from shells.algorithms.settings import CriticalSettings
 
     run = _Run(cfg)
     if cfg.settings is None:  # only the critical points are wanted: chord steps, and

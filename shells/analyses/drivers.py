@@ -180,7 +180,7 @@ def critical_surface(shape: Any, h_over_r: float, nu: float, kappa_end: float, *
                      kappa_field: Any = None, mesh_file: str | None = None,
                      resume: bool = True) -> dict[str, Any]:
     """The surface model's critical points up to ``kappa_end``
-    (``shells.algorithms.critical.follow``): meshes ``shape`` (``size``, ``degree`` None:
+    (``shells.algorithms.following.follow``): meshes ``shape`` (``size``, ``degree`` None:
     ``shells.surface.model.default_discretisation``), or runs on the mesh in ``mesh_file`` (a
     user's, of ``shape``; ``size`` then unused), follows the branch in steps ``ds`` .. ``ds_max`` in
     κL (None: range/16, range/10), writes ``outdir/branch.jsonl`` (rank 0): a header (the run's
@@ -202,8 +202,9 @@ def critical_surface(shape: Any, h_over_r: float, nu: float, kappa_end: float, *
 
     from mpi4py import MPI
 
-    from shells.algorithms.critical import CriticalSettings, FollowResume, follow
-    from shells.algorithms.settings import ContinuationSettings
+    from shells.algorithms.following import follow
+    from shells.algorithms.records import FollowResume
+    from shells.algorithms.settings import ContinuationSettings, CriticalSettings
     from shells.analyses.store import load_state_checkpoint, resumable, save_state_checkpoint
     from shells.geometry.stimulus import UNIFORM
     from shells.surface.mesh import MeshSpec, generate, load_mesh

@@ -7,8 +7,8 @@ imperfection "harmonic": not axisymmetric for m > 0); κ is imposed on it as on 
 sphere. With rotational symmetry enforced (the 1D model's axisymmetric
 problem, as in the paper and in the pressure-buckling literature) the perfect sphere's
 bifurcation becomes a limit point: the imperfect branch is followed from κ = 0 with the
-common algorithm layer (``shells.algorithms.critical.follow``, folds only) up to its fold κ_max, and
-the knock-down is κ_max/κ_b, κ_b the perfect sphere's first axisymmetric bifurcation (same mesh,
+common algorithm layer (``shells.algorithms.following.follow``, folds only) up to its fold κ_max,
+and the knock-down is κ_max/κ_b, κ_b the perfect sphere's first axisymmetric bifurcation (same mesh,
 same code path, δ = 0). Points are appended to a JSON-lines file as computed; a rerun with the
 same configuration skips the amplitudes already there.
 
@@ -228,7 +228,8 @@ def _first_critical(model: Any, ns: Any, cfg: KnockdownConfig, end: float,
     with ``balanced`` steps of ``ds_h`` in κ in the norm balanced at the start
     (``_balanced_weight``). Returns the located points in branch order and the number of
     branch points followed."""
-    from shells.algorithms.critical import CriticalSettings, follow
+    from shells.algorithms.following import follow
+    from shells.algorithms.settings import CriticalSettings
     from shells.analyses.axisym_runs import default_settings
     from shells.geometry.shapes import Sphere
 
@@ -341,7 +342,7 @@ def _locate_first(cfg: KnockdownConfig, amplitude: float, model: Any, ns: Any, h
     """``fold_kappa``'s search on ``model`` (solver ``ns``): the located critical point
     (carrying its state and mode), the number of branch points followed and the crossings of
     the fold's own eigenvalue located just before the fold (``_first_of``)."""
-    from shells.algorithms.critical import CriticalSettings
+    from shells.algorithms.settings import CriticalSettings
 
     end = 1.25 * _kappa_scale(cfg) / h
     perfect = amplitude == 0

@@ -9,7 +9,7 @@ bifurcated branch on both sides (driver layer, on the algorithm layer's ``follow
 2. at the bifurcation, the critical mode: on the 1D model the axisymmetric (m = 0) mode of the
    Jacobian (rotational symmetry enforced: the only branches the 1D model represents), on the
    surface model the critical eigenvector of the Hessian (a split (cos mφ, sin mφ) pair's
-   partner is pinned: a phase condition, see ``shells.algorithms.critical.switch_branch``);
+   partner is pinned: a phase condition, see ``shells.algorithms.switching.switch_branch``);
 3. the bifurcated branch on both sides of the mode (amplitude +a and -a), by secant
    pseudo-arclength, until κ leaves [``kappa_min_ratio`` κ_c, κ_max], after ``max_points``
    points, or when the branch returns to the fundamental one (``branch`` = "bifurcated").
@@ -42,7 +42,7 @@ Files: every point is appended to ``DIR/postbuckle.jsonl`` as it is computed
 the bifurcation its state and critical mode go to ``DIR/critical_point/`` (one ``.npz`` per
 rank), and after each point of a side that is written, what resuming after it needs to
 ``DIR/side_checkpoint/`` (the state there and at the point before, the switching loop's step
-and tests: ``shells.algorithms.critical.SwitchResume``; ``shells.analyses.store.save_checkpoint``).
+and tests: ``shells.algorithms.records.SwitchResume``; ``shells.analyses.store.save_checkpoint``).
 A rerun with the same configuration resumes: a file that ended with its summary record is reused;
 otherwise, when the critical point and its checkpoint are there, the fundamental branch and the
 sides that ended are kept, an interrupted side continues after its last checkpointed point (its
@@ -286,7 +286,7 @@ class _Run:
 
 class _Secondary:
     """The critical points of a bifurcated branch of the 1D model, located between two of its
-    points (``shells.algorithms.critical.locate_between``: the generic locator, on the step re-taken
+    points (``shells.algorithms.locate.locate_between``: the generic locator, on the step re-taken
     by pseudo-arclength) where the negative count of a Fourier block rises from one point to the
     next (a secondary bifurcation: the closed sphere's deep dimple turning polygonal), or
     dκ/ds changes sign (a fold of the branch), from the side's third point on (next to the
@@ -323,7 +323,7 @@ class _Secondary:
     def step(self, p: Any, state: np.ndarray, rec: dict[str, Any], kappa_c: float
              ) -> list[dict[str, Any]]:
         """The critical points between the last point and ``p`` (records), if any."""
-        from shells.algorithms.critical import locate_between
+        from shells.algorithms.locate import locate_between
 
         if not self.on:
             return []
@@ -364,7 +364,7 @@ class _Secondary:
 class SideResume:
     """A side interrupted after some points: its ``side``, the ``records`` of its points
     (indices 0 to k, as written) and the ``switch`` state after point k (a
-    ``shells.algorithms.critical.SwitchResume``) that ``switch_branch`` resumes from."""
+    ``shells.algorithms.records.SwitchResume``) that ``switch_branch`` resumes from."""
 
     side: int
     records: list[dict[str, Any]]
@@ -372,8 +372,7 @@ class SideResume:
 
 
 def _settings(cfg: PostbuckleConfig, kappa_stop: float) -> tuple[Any, Any]:
-    from shells.algorithms.critical import CriticalSettings
-    from shells.algorithms.settings import ContinuationSettings
+    from shells.algorithms.settings import ContinuationSettings, CriticalSettings
 
     lam = abs(kappa_stop) * cfg.L
     closed = cfg.shape.closed
@@ -413,8 +412,9 @@ def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], 
             (a fold before the bifurcation; a non-axisymmetric bifurcation on the 1D model).
         RuntimeError: the continuation stopped short of the range, or switching failed.
     """
-    from shells.algorithms.critical import follow, switch_branch
+    from shells.algorithms.following import follow
     from shells.algorithms.settings import ContinuationSettings
+    from shells.algorithms.switching import switch_branch
     from shells.problem.interface import get_state
 
     run = _Run(cfg)
@@ -702,7 +702,7 @@ def _load_side(outdir: Path, comm: Any, header: dict[str, Any], cp: Any,
     resume after its last point that the side checkpoint holds (its later points dropped), or
     None (no such side; or its checkpoint is missing, unreadable, another run's, another
     partition's or not of these points: then the side restarts whole, as a log line says)."""
-    from shells.algorithms.critical import SwitchResume
+    from shells.algorithms.records import SwitchResume
 
     side = _unfinished_side(recs, done)
     if side is None:
@@ -769,7 +769,7 @@ def _load_critical(outdir: Path, comm: Any, header: dict[str, Any]) -> Any:
     or None (missing, incomplete, another run's or another partition's)."""
     from mpi4py import MPI
 
-    from shells.algorithms.critical import CriticalPoint
+    from shells.algorithms.records import CriticalPoint
 
     d = outdir / "critical_point"
     meta = read_meta(d / "meta.json", comm)

@@ -23,7 +23,7 @@ Then rank 0 fits the paper's laws with standard errors (``fit_all``), refines θ
 writes ``DIR/phase_diagram.json`` and the figure ``DIR/phase_diagram.{png,pdf}``.
 
 ``--model surface`` computes the same first critical points with the 2D surface model
-(``shells.algorithms.critical.follow``) for spot checks (much slower; no everted-branch check).
+(``shells.algorithms.following.follow``) for spot checks (much slower; no everted-branch check).
 
 Modules: ``config`` (configuration and tasks), ``tracing`` (one branch), ``jobs`` (claims, the
 points file, the run), ``fits`` (merged points and fits), ``figure``.

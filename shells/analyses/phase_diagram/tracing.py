@@ -1,6 +1,7 @@
-"""Tracing one branch of the phase diagram (driver layer, on ``shells.algorithms.critical.follow``):
-the axisymmetric model's first critical points up and down with the curvatures there, the
-surface model's for spot checks, and the everted branch followed through the snap."""
+"""Tracing one branch of the phase diagram (driver layer, on
+``shells.algorithms.following.follow``): the axisymmetric model's first critical points up and down
+with the curvatures there, the surface model's for spot checks, and the everted branch followed
+through the snap."""
 
 from __future__ import annotations
 
@@ -81,7 +82,7 @@ class _Branch:
 
     def follow(self, kappa_end: float, crit: Any, **kw: Any) -> Iterator[tuple]:
         """``critical.follow`` from κ = 0 to ``kappa_end`` (R = 1: κ = κR), all m checked."""
-        from shells.algorithms.critical import follow
+        from shells.algorithms.following import follow
 
         return follow(self.model, self.settings, kappa_end, crit, solver=self.ns,
                       blocks=self.modes, **kw)
@@ -113,7 +114,7 @@ def _trace_axisym(task: Task, cfg: PhaseDiagramConfig) -> dict[str, Any]:
     Going down the first bifurcation ends the run; going up the branch is followed past its
     first bifurcation (folds only) up to the snap fold, unless the cap is inverted (pole
     curvature b11 R > 0) there: a smoothly inverting cap has no fold to look for."""
-    from shells.algorithms.critical import CriticalSettings
+    from shells.algorithms.settings import CriticalSettings
 
     h = task.h_over_r
     tb = task.thetabar
@@ -168,8 +169,8 @@ def _trace_axisym(task: Task, cfg: PhaseDiagramConfig) -> dict[str, Any]:
 def _trace_surface(task: Task, cfg: PhaseDiagramConfig) -> dict[str, Any]:
     from mpi4py import MPI
 
-    from shells.algorithms.critical import CriticalSettings, follow
-    from shells.algorithms.settings import ContinuationSettings
+    from shells.algorithms.following import follow
+    from shells.algorithms.settings import ContinuationSettings, CriticalSettings
     from shells.geometry.shapes import SphericalCap
     from shells.surface.mesh import generate
     from shells.surface.model import ModelParameters, ShellModel
@@ -225,7 +226,7 @@ def everted_check(h_over_r: float, thetabar: float, cfg: PhaseDiagramConfig,
     """Follow the up-branch through the snap fold and its second fold onto the everted branch and
     locate the loss of symmetry there (first count change after the branch is stable again):
     checks κ_e R = 2 - κ_b R (mirror symmetry) directly. Costly for deep caps."""
-    from shells.algorithms.critical import CriticalSettings
+    from shells.algorithms.settings import CriticalSettings
 
     task = Task(h_over_r, thetabar, "up", tag="everted")
     bound = kappa_max or 2.0 - 1.5 * buckling_kappa_R(thetabar, h_over_r) + 1.0

@@ -1,6 +1,6 @@
 """Knock-down of the closed sphere's curvature buckling by a non-axisymmetric imperfection on the
 surface model (issue 15): the reference surface displaced along the radius by w0 = -δ h
-P_n^m(cos θ) cos(mφ) / max|P_n^m| (``shells.geometry.shapes.HarmonicImperfectSphere``), n the
+P_n^m(cos θ) cos(mφ) / max|P_n^m| (``shells.geometry.imperfections.HarmonicImperfectSphere``), n the
 perfect sphere's critical degree, against the axisymmetric m = 0 (the mode's shape P_n) at the
 same amplitudes, on the same mesh and code path (``shells.analyses.knockdown.surface_first``: the
 first critical point of any kind, with the full Hessian's inertia), and the 1D model's knock-down by

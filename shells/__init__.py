@@ -25,7 +25,7 @@ _GEOMETRY = ("Sphere", "SphericalCap", "EllipsoidalCap", "Disk", "make_shape")
 
 def __getattr__(name: str) -> Any:
     if name in _GEOMETRY:
-        from shells.geometry import shapes as geometry
+        from shells import geometry
 
         return getattr(geometry, name)
     raise AttributeError(f"module 'shells' has no attribute {name!r}")

@@ -1,5 +1,5 @@
 """The non-axisymmetric imperfection of the surface model (issue 15):
-``shells.geometry.shapes.HarmonicImperfectSphere``, the sphere displaced along the radius by
+``shells.geometry.imperfections.HarmonicImperfectSphere``, the sphere displaced along the radius by
 w0 = -δ P_n^m(cos θ) cos(mφ) / max|P_n^m|. Its profile is the spherical harmonic (against
 scipy's associated Legendre functions), its area the second-order law of a perturbed sphere,
 its meshes lie on it, its normal is the surface's, its Gauss-Bonnet and mean-curvature
@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from shells.errors import InputError
-from shells.geometry.shapes import HarmonicImperfectSphere, ImperfectSphere
+from shells.geometry.imperfections import HarmonicImperfectSphere, ImperfectSphere
 
 H = 0.05
 
@@ -70,7 +70,7 @@ def test_profile_is_the_spherical_harmonic_and_the_area_its_law(n, m):
 
 def test_description_round_trip():
     """A mesh's sidecar holds ``describe()``; ``shape_from_description`` rebuilds the shape."""
-    from shells.geometry.shapes import shape_from_description
+    from shells.geometry.catalogue import shape_from_description
 
     for s in (HarmonicImperfectSphere(1.0, 0.005, 9, 2),
               ImperfectSphere(1.0, math.pi, 0.005, "dimple", 0.2, 3)):
@@ -155,7 +155,7 @@ def test_order_zero_is_the_mode_imperfection():
     assert harm.amplitude == mode.amplitude == delta * H
     t = np.linspace(0.0, math.pi, 101)
     for phi in (0.0, 1.0, 4.0):
-        assert np.allclose(harm.rho(_unit(t, phi)), mode._rho(t), rtol=0, atol=1e-15)
+        assert np.allclose(harm.rho(_unit(t, phi)), mode.radius_at(t), rtol=0, atol=1e-15)
     # w0 = -δ h P_n(cos β): inward at the north pole, at the south pole for odd n outward
     assert harm.rho(np.array([0.0, 0.0, 1.0])) == pytest.approx(1 - delta * H, abs=1e-15)
     assert harm.rho(np.array([0.0, 0.0, -1.0])) == pytest.approx(1 + delta * H, abs=1e-15)
@@ -213,7 +213,7 @@ def test_response_along_the_imperfection_same_for_every_m_and_in_1d():
     from shells.algorithms.newton import NewtonSolver
     from shells.analyses.knockdown import KnockdownConfig, _model
     from shells.axisym import SNES_OPTIONS
-    from shells.geometry.shapes import _harmonic_parts
+    from shells.geometry.imperfections import harmonic_parts
     from shells.surface.mesh import MeshSpec, generate
     from shells.surface.model import ModelParameters, ShellModel
 
@@ -243,7 +243,7 @@ def test_response_along_the_imperfection_same_for_every_m_and_in_1d():
         w = ufl.dot(u - mean, model.n0)
         w = w - integral(w) / area
         uu = x / ufl.sqrt(ufl.dot(x, x))
-        cm, q = _harmonic_parts(n, shape.order, uu[0], uu[1], uu[2])
+        cm, q = harmonic_parts(n, shape.order, uu[0], uu[1], uu[2])
         f = cm * q / shape._fmax
         return integral(w * f), integral(f * f)
 

@@ -15,7 +15,7 @@ import pytest
 
 from shells.analyses.knockdown import KnockdownConfig, knockdown
 from shells.errors import InputError
-from shells.geometry.shapes import ImperfectSphere
+from shells.geometry.imperfections import ImperfectSphere
 
 H = 0.05
 
@@ -181,7 +181,7 @@ def test_imperfect_meridian_and_bad_input():
     assert np.allclose(dz, (z1 - z0) / (2 * eps), atol=1e-8)
     # the UFL path's cosine series of P_n(cos t) against the recurrence, up to a thin
     # sphere's degree
-    from shells.geometry.shapes import legendre_cosine_series
+    from shells.geometry.imperfections import legendre_cosine_series
 
     for n in (0, 3, 10, 44):
         s = ImperfectSphere(1.0, math.pi, 0.01, "mode", 0.1, n)

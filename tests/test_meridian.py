@@ -1,5 +1,5 @@
 """Any shell of revolution: a meridian given as a table of points
-(shells.geometry.shapes.MeridianTable) against the exact shapes it samples, on both models (issue
+(shells.geometry.meridian.MeridianTable) against the exact shapes it samples, on both models (issue
 17: a meridian table of a cap reproduces the exact shape's critical point within 0.5 %)."""
 
 from __future__ import annotations
@@ -12,7 +12,8 @@ from mpi4py import MPI
 
 from shells.analyses import axisym_runs
 from shells.errors import InputError
-from shells.geometry.shapes import EllipsoidalCap, MeridianTable, Sphere, SphericalCap
+from shells.geometry.meridian import MeridianTable
+from shells.geometry.shapes import EllipsoidalCap, Sphere, SphericalCap
 
 
 def table(r, z) -> MeridianTable:
@@ -42,7 +43,7 @@ def test_table_normal_curvatures_and_mesh_map_match_the_exact_shape():
     the normal (measured 3.5e-8 off), the principal curvatures (4e-5, 5e-6), the nearest
     meridian parameter; and the map of the reference cap's mesh onto the table lands on the
     sphere, the reference cap having the table's rim radius and meridian length."""
-    from shells.geometry.shapes import mesh_reference, onto_shape
+    from shells.geometry.catalogue import mesh_reference, onto_shape
 
     t = np.linspace(0, CAP.theta, 40)
     tab = table(np.sin(t), np.cos(t))

@@ -14,7 +14,8 @@ from mpi4py import MPI
 from scipy import integrate
 
 from shells.errors import InputError
-from shells.geometry.shapes import Torus, make_shape, shape_from_description
+from shells.geometry.catalogue import make_shape, shape_from_description
+from shells.geometry.shapes import Torus
 from shells.surface.mesh import MeshSpec, generate
 
 TORUS = Torus(1.0, 3.0)

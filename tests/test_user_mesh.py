@@ -40,7 +40,7 @@ def test_a_user_mesh_gets_its_meridian_and_rim(user_cap):
     """The 30° cap's mesh (no sidecar, no boundary elements): the shape is a meridian table
     through its nodes (pole radius 1.6e-4 off at this mesh's 0.05 spacing by the pole), the
     rim is tagged, area and rim length are the cap's."""
-    from shells.geometry.shapes import MeridianTable
+    from shells.geometry.meridian import MeridianTable
     from shells.surface.mesh import load_mesh
 
     sm = load_mesh(user_cap, MPI.COMM_WORLD)
@@ -131,7 +131,7 @@ def test_nodes_without_a_pole_are_refused():
     import numpy as np
 
     from shells.errors import InputError
-    from shells.geometry.shapes import MeridianTable
+    from shells.geometry.meridian import MeridianTable
 
     t, p = np.meshgrid(np.linspace(0.05, CAP.theta, 20), np.linspace(0, 2 * math.pi, 16))
     x = np.column_stack([(np.sin(t) * np.cos(p)).ravel(), (np.sin(t) * np.sin(p)).ravel(),

@@ -31,7 +31,8 @@ from shells.algorithms.settings import ContinuationSettings
 from shells.analyses.store import load_state_checkpoint, resumable, save_state_checkpoint
 from shells.errors import InputError
 from shells.files import append_record, read_with_header, write_header
-from shells.geometry.shapes import RunScales, Shape, shape_from_description
+from shells.geometry.catalogue import shape_from_description
+from shells.geometry.shapes import RunScales, Shape
 from shells.geometry.stimulus import UNIFORM, CurvatureField
 from shells.parameters import check_h_over_r, check_nu
 from shells.surface.fields import FieldWriter

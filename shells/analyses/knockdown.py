@@ -1,8 +1,8 @@
 """Imperfection sensitivity of the closed sphere's curvature buckling (driver layer).
 
 The stress-free reference surface carries an axisymmetric imperfection of amplitude δ
-(``shells.geometry.shapes.ImperfectSphere``: a pole dimple or the buckling mode's shape), or on the
-surface model a spherical harmonic P_n^m(cos θ) cos(mφ) (``HarmonicImperfectSphere``,
+(``shells.geometry.imperfections.ImperfectSphere``: a pole dimple or the buckling mode's shape), or
+on the surface model a spherical harmonic P_n^m(cos θ) cos(mφ) (``HarmonicImperfectSphere``,
 imperfection "harmonic": not axisymmetric for m > 0); κ is imposed on it as on a perfect
 sphere. With rotational symmetry enforced (the 1D model's axisymmetric
 problem, as in the paper and in the pressure-buckling literature) the perfect sphere's
@@ -63,7 +63,7 @@ class KnockdownConfig:
         nu: Poisson ratio.
         imperfection: "dimple" (w0 = -δ h exp(-(β/β0)²)), "mode" (w0 = -δ h P_n(cos β)) or
             "harmonic" (w0 = -δ h P_n^m(cos θ) cos(mφ) / max|P_n^m|, the surface model only:
-            ``shells.geometry.shapes.HarmonicImperfectSphere``; m = 0 is "mode").
+            ``shells.geometry.imperfections.HarmonicImperfectSphere``; m = 0 is "mode").
         load: "curvature" (the natural curvature κ) or "pressure" (a dead external pressure,
             continued in its equivalent curvature κ_p of the paper's Eq. (5); κ_b is then the
             buckling pressure's, classically 12 (1-ν)/√(3(1-ν²)) in κ_p h): the same code
@@ -117,7 +117,7 @@ class KnockdownConfig:
         if self.imperfection not in ("dimple", "mode", "harmonic"):
             raise InputError(f"imperfection must be 'dimple', 'mode' or 'harmonic', got "
                              f"{self.imperfection!r}")
-        from shells.geometry.shapes import HARMONIC_DEGREE_MAX
+        from shells.geometry.imperfections import HARMONIC_DEGREE_MAX
 
         if self.imperfection == "harmonic" and self.model != "surface":
             raise InputError("the harmonic imperfection is not axisymmetric: it needs the "
@@ -166,7 +166,7 @@ def _model(cfg: KnockdownConfig, amplitude: float, degree: int) -> Any:
 
 def _shape(cfg: KnockdownConfig, amplitude: float, degree: int) -> Any:
     """The unit sphere with the imperfection of ``cfg`` at ``amplitude`` (δ/h)."""
-    from shells.geometry.shapes import HarmonicImperfectSphere, ImperfectSphere
+    from shells.geometry.imperfections import HarmonicImperfectSphere, ImperfectSphere
 
     if cfg.imperfection == "harmonic":
         return HarmonicImperfectSphere(1.0, amplitude * cfg.h_over_r, degree, cfg.order)

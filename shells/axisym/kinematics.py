@@ -13,14 +13,9 @@ from typing import Any
 
 import numpy as np
 
-from shells.geometry.shapes import (
-    Disk,
-    EllipsoidalCap,
-    ImperfectSphere,
-    MeridianTable,
-    Shape,
-    SphericalCap,
-)
+from shells.geometry.imperfections import ImperfectSphere
+from shells.geometry.meridian import MeridianTable
+from shells.geometry.shapes import Disk, EllipsoidalCap, Shape, SphericalCap
 from shells.problem.formcache import cache_root
 
 __all__ = ["JIT_OPTIONS", "Jet", "cross", "dirichlet", "dot", "is_sphere", "meridian_ufl",

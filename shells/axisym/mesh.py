@@ -18,14 +18,9 @@ from typing import Any
 import numpy as np
 
 from shells.errors import InputError
-from shells.geometry.shapes import (
-    Disk,
-    EllipsoidalCap,
-    MeridianTable,
-    Shape,
-    SphericalCap,
-    perfect_shape,
-)
+from shells.geometry.catalogue import perfect_shape
+from shells.geometry.meridian import MeridianTable
+from shells.geometry.shapes import Disk, EllipsoidalCap, Shape, SphericalCap
 
 __all__ = ["MeridianMesh", "check_supported", "make_meridian_nodes"]
 

@@ -45,9 +45,7 @@ from shells.axisym.kinematics import (
 )
 from shells.axisym.mesh import MeridianMesh, check_supported, make_meridian_nodes
 from shells.errors import InputError
-from shells.geometry.shapes import (
-    Shape,
-)
+from shells.geometry.shapes import Shape
 from shells.geometry.stimulus import UNIFORM, CurvatureField, field_radius
 from shells.parameters import check_nu
 from shells.problem.formcache import compiled_derived, file_tag

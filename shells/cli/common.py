@@ -124,7 +124,7 @@ def add_shape_args(p: argparse.ArgumentParser, positional: bool,
                    user_mesh: bool = False) -> None:
     """The shape's arguments; ``user_mesh``: also ``--mesh FILE`` (then --shape is optional,
     ``shape_from_args`` checks that exactly one of them is given)."""
-    from shells.geometry.shapes import SHAPES
+    from shells.geometry.catalogue import SHAPES
 
     if positional:
         p.add_argument("shape", metavar="SHAPE", help=f"one of: {', '.join(SHAPES)}")
@@ -163,7 +163,8 @@ def add_ring_arg(p: argparse.ArgumentParser) -> None:
 def shape_from_args(args: argparse.Namespace):
     """The shape of the arguments; with ``--mesh``, the mesh file's (its mesh is built by the
     run)."""
-    from shells.geometry.shapes import MeridianTable, make_shape
+    from shells.geometry.catalogue import make_shape
+    from shells.geometry.meridian import MeridianTable
 
     if getattr(args, "mesh", None) is not None:
         if args.shape is not None or getattr(args, "meridian", None) is not None:

@@ -36,15 +36,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from shells.errors import InputError
-from shells.geometry.shapes import (
-    Disk,
-    EllipsoidalCap,
-    Shape,
-    Sphere,
-    mesh_reference,
-    onto_shape,
-    shape_from_description,
-)
+from shells.geometry.catalogue import mesh_reference, onto_shape, shape_from_description
+from shells.geometry.shapes import Disk, EllipsoidalCap, Shape, Sphere
 
 if TYPE_CHECKING:
     import dolfinx.mesh
@@ -384,7 +377,7 @@ DIMPLE_ELEMENTS = 4.0
 def _pole_refinement(gmsh: Any, spec: MeshSpec) -> bool:
     """A closed imperfect sphere with a pole dimple of width β0: elements of β0 R / 4 within
     3 β0 of the pole, growing to the bulk size beyond. True if set."""
-    from shells.geometry.shapes import ImperfectSphere
+    from shells.geometry.imperfections import ImperfectSphere
 
     shape = spec.shape
     if not (isinstance(shape, ImperfectSphere) and shape.closed and shape.profile == "dimple"):
@@ -741,7 +734,8 @@ def _user_mesh_shape(gmsh: Any, path: str = "") -> Shape:
     the axis), or else the surface known only by its mesh (``surface_fit.MeshSurface``: normal
     and curvatures fitted at its nodes; the surface model only). The rim is tagged on the
     dolfinx mesh (``_tag_boundary``)."""
-    from shells.geometry.shapes import MeridianTable, Torus
+    from shells.geometry.meridian import MeridianTable
+    from shells.geometry.shapes import Torus
     from shells.geometry.surface_fit import MeshSurface
 
     model = gmsh.model

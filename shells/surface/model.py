@@ -83,7 +83,8 @@ def default_discretisation(shape: Shape, h_over_r: float | None = None,
     deep caps (P3, size 0.2), or a sphere when closed; a torus and a surface known only by its
     mesh as the deep caps.
     """
-    from shells.geometry.shapes import EllipsoidalCap, MeridianTable, SphericalCap, Torus
+    from shells.geometry.meridian import MeridianTable
+    from shells.geometry.shapes import EllipsoidalCap, SphericalCap, Torus
 
     sphere = shape.closed and shape.kind in ("sphere", "meridian")
     if sphere and degree == 2:
@@ -800,7 +801,8 @@ class ShellModel(FormProblem):
 
     def _meridian_coordinate(self, x: np.ndarray) -> np.ndarray:
         """s ∈ [0, 1] from the pole to the rim (the south pole of a closed shape) at points x."""
-        from shells.geometry.shapes import Disk, EllipsoidalCap, MeridianTable, Torus
+        from shells.geometry.meridian import MeridianTable
+        from shells.geometry.shapes import Disk, EllipsoidalCap, Torus
 
         if isinstance(self.shape, Disk):
             return np.hypot(x[:, 0], x[:, 1]) / self.shape.radius

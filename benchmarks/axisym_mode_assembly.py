@@ -72,8 +72,8 @@ def main(out: str = "benchmarks/results/axisym_mode_assembly.json", repeats: int
     H, D = model.create_hessian(1), model.create_hessian(1)
 
     def new_state() -> None:  # what a new continuation point does to the C_k's caches
-        mf._C_inputs = None
-        mf._E_inputs = None  # the element matrices (one process, ``shells.axisym.chain``)
+        mf.coefficient_inputs = None
+        mf.element_inputs = None  # the element matrices (one process, ``shells.axisym.chain``)
 
     def poly_all() -> None:
         new_state()

@@ -67,7 +67,7 @@ def located(scale: float, rel_tol: float) -> dict:
 
     cfg, task = _task(rel_tol)
     samples: list[tuple[float, float]] = []
-    init, eigs_at = tracing._Branch.__init__, locate.Locator.eigs_at
+    init, eigs_at = tracing.BranchTracer.__init__, locate.Locator.eigs_at
 
     def scaled_init(self, *a, **k):  # noqa: ANN001, ANN002, ANN003, ANN202
         init(self, *a, **k)
@@ -79,11 +79,11 @@ def located(scale: float, rel_tol: float) -> dict:
             samples.append((e.lam, out[2][0]))
         return out
 
-    tracing._Branch.__init__, locate.Locator.eigs_at = scaled_init, recorded
+    tracing.BranchTracer.__init__, locate.Locator.eigs_at = scaled_init, recorded
     try:
         rec = compute_task(task, cfg)
     finally:
-        tracing._Branch.__init__, locate.Locator.eigs_at = init, eigs_at
+        tracing.BranchTracer.__init__, locate.Locator.eigs_at = init, eigs_at
     bif = rec["bifurcation"]
     return {"first_step_scale": scale, "kappa_R": bif["kappa_R"], "mode_m": bif["mode_m"],
             "reported_accuracy": bif["accuracy"], "dofs": rec["dofs"],
@@ -94,13 +94,13 @@ def fixed_kappa() -> dict:
     """μ of block 2 at κR = KAPPA_FIXED after natural Newton steps, and under 1-ulp
     perturbations of the state."""
     from shells.algorithms.stability import Stability
-    from shells.analyses.phase_diagram.tracing import _Branch
+    from shells.analyses.phase_diagram.tracing import BranchTracer
     from shells.problem.interface import get_state, set_state
 
     cfg, task = _task(1e-5)
     runs, states = [], []
     for n in (9, 12, 17):
-        br = _Branch(task.theta, task.h_over_r, cfg.nu, cfg)
+        br = BranchTracer(task.theta, task.h_over_r, cfg.nu, cfg)
         m = br.model
         for k in np.linspace(0.0, KAPPA_FIXED, n)[1:]:
             _solve_at(br, k)
@@ -146,10 +146,10 @@ def scan() -> dict:
     """Block 2's negative count and μ at 41 κ across the crossing, one natural Newton step each
     from the last."""
     from shells.algorithms.stability import Stability
-    from shells.analyses.phase_diagram.tracing import _Branch
+    from shells.analyses.phase_diagram.tracing import BranchTracer
 
     cfg, task = _task(1e-5)
-    br = _Branch(task.theta, task.h_over_r, cfg.nu, cfg)
+    br = BranchTracer(task.theta, task.h_over_r, cfg.nu, cfg)
     m = br.model
     st = Stability(m)
     rows = []

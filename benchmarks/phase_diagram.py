@@ -366,7 +366,7 @@ def _sphere_exact(h: float, nu: float = 0.5) -> tuple[float, int]:
 def render(data: dict[str, Any]) -> str:
     """The comparison document from the benchmark's JSON (fits recomputed from the points)."""
     from shells.analyses.phase_diagram import fit_all
-    from shells.analyses.phase_diagram.fits import _fit_snap
+    from shells.analyses.phase_diagram.fits import fit_snap
 
     d = data["diagram"]
     pts = d["points"]
@@ -497,7 +497,7 @@ def render(data: dict[str, Any]) -> str:
                     (f"h/R = {h:g}, θ̄ ≤ 10", (lambda hh: lambda p: p["h_over_R"] == hh
                                                and p["thetabar"] <= 10.0)(h))]
     for lab, cond in subsets:
-        s2 = _fit_snap([p for p in pts if cond(p)])
+        s2 = fit_snap([p for p in pts if cond(p)])
         if s2:
             w(f"| {lab} | {s2['n']} | {_fmt(s2['beta'], s2['beta_err'])} | "
               f"{_fmt(s2['alpha'], s2['alpha_err'])} | {s2['rms']:.3f} |")
@@ -638,11 +638,11 @@ def _worst_convergence(conv: list[dict[str, Any]]) -> float:
 def explanations(pts: list[dict[str, Any]], fit: dict[str, Any],
                  conv: list[dict[str, Any]], rel_tol: float) -> str:
     """The evidence-backed explanations, with the measured numbers."""
-    from shells.analyses.phase_diagram.fits import _fit_snap
+    from shells.analyses.phase_diagram.fits import fit_snap
     from shells.theory import buckling_kappa_R
 
     f, x = fit["fits"], fit["extra"]
-    per = {h: _fit_snap([p for p in pts if p["h_over_R"] == h and p["thetabar"] <= 10])
+    per = {h: fit_snap([p for p in pts if p["h_over_R"] == h and p["thetabar"] <= 10])
            for h in sorted({p["h_over_R"] for p in pts})}
     mid = [p for p in pts if p.get("kappa_snap_R") is not None and 3 <= p["thetabar"] <= 6]
     below = [p["kappa_snap_R"] / (0.85 * p["thetabar"] - 0.67) - 1 for p in mid]

@@ -272,7 +272,7 @@ def records(out: Path, case: Case) -> list[dict[str, Any]]:
     return recs
 
 
-def _key(rec: dict[str, Any]) -> str:
+def record_key(rec: dict[str, Any]) -> str:
     if "critical_point" in rec and "number" in rec:
         return f"critical point {rec['number']}"
     if "index" in rec:
@@ -312,8 +312,8 @@ def compare(ref: list[dict[str, Any]], got: list[dict[str, Any]], rtol: float = 
     def tolerance(f: str) -> float | None:
         return next((t for k, t in field_rtol.items() if f.endswith("." + k)), None)
 
-    a = {_key(r): _leaves(r) for r in ref}
-    b = {_key(r): _leaves(r) for r in got}
+    a = {record_key(r): _leaves(r) for r in ref}
+    b = {record_key(r): _leaves(r) for r in got}
     scale: dict[str, float] = {}
     for leaves in a.values():
         for f, u in leaves.items():
@@ -393,7 +393,7 @@ def trial(case: Case, ranks: int, out: Path, ref: list[dict[str, Any]], t_ref: f
             t.killed += 1
         now = records(out, case)
         t.on_disk_after_kills.append(len(now))
-        seen.update((_key(r), r) for r in now if "unreadable" not in r)
+        seen.update((record_key(r), r) for r in now if "unreadable" not in r)
     if torn:
         t.torn = tear(out, case)
     final = run(case.argv, out, ranks)

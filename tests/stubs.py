@@ -27,7 +27,7 @@ def stub_computations(monkeypatch) -> None:
         raise WorkStartedError
         yield  # pragma: no cover
 
-    monkeypatch.setattr(mesh, "_gmsh_model", no_gmsh)
+    monkeypatch.setattr(mesh, "gmsh_model", no_gmsh)
     monkeypatch.setattr(branch, "run_branch", _stub)
     monkeypatch.setattr(axisym_runs, "critical", _stub)
     monkeypatch.setattr(axisym_runs, "branch", _stub)

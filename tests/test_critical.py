@@ -164,18 +164,18 @@ def test_a_slow_crossing_is_located_reproducibly_and_its_accuracy_covers_it():
                              refine=3, rel_tol=1e-5)
     task = next(t for t in tasks_of(cfg)[0] if t.h_over_r == 0.01 and t.direction == "down"
                 and abs(t.thetabar - 15.1142857) < 1e-6)
-    init = tracing._Branch.__init__
+    init = tracing.BranchTracer.__init__
     found = []
     for scale in (1.0, 1.0 + 1e-6, 1.0 - 1e-6):
         def scaled(self, *a, _s=scale, **k):
             init(self, *a, **k)
             self.settings = replace(self.settings, ds=self.settings.ds * _s)
 
-        tracing._Branch.__init__ = scaled
+        tracing.BranchTracer.__init__ = scaled
         try:
             bif = compute_task(task, cfg)["bifurcation"]
         finally:
-            tracing._Branch.__init__ = init
+            tracing.BranchTracer.__init__ = init
         assert bif["mode_m"] == 2
         found.append((bif["kappa_R"], bif["accuracy"] * abs(bif["kappa_R"])))
     for k1, a1 in found:

@@ -97,11 +97,11 @@ def test_the_key_changes_with_anything_that_changes_the_kernels():
         dx = ufl.Measure("dx", domain=domain, metadata={"quadrature_degree": degree})
         return (number * f + c) * u.dx(0) * v.dx(0) * dx
 
-    key = lambda form: formcache._key(form, "a test", None)  # noqa: E731
+    key = lambda form: formcache.record_key(form, "a test", None)  # noqa: E731
     base = key(source())
     assert key(source(cells=12)) == base
     assert len({base, key(source(degree=6)), key(source(number=2.5)), key(source(p=3))}) == 4
-    assert formcache._key(source(), "another derivation", None) != base
+    assert formcache.record_key(source(), "another derivation", None) != base
 
 
 def test_a_changed_derivation_or_a_broken_record_derives_again(folder):

@@ -39,7 +39,7 @@ def test_profile_is_the_spherical_harmonic_and_the_area_its_law(n, m):
     for phi in (0.0, 0.37, 2.0):
         u = _unit(theta, phi)
         # scipy's P_n^m carries the Condon-Shortley phase (-1)^m; ours does not
-        ref = (-1) ** m * lpmv(m, n, np.cos(theta)) * np.cos(m * phi) / s._fmax
+        ref = (-1) ** m * lpmv(m, n, np.cos(theta)) * np.cos(m * phi) / s.f_max
         assert np.allclose(s.profile(u), ref, rtol=0, atol=1e-12)
     # max |f| = 1, at φ = 0 (sampled: within the grid's resolution)
     f0 = s.profile(_unit(theta, 0.0))
@@ -48,7 +48,7 @@ def test_profile_is_the_spherical_harmonic_and_the_area_its_law(n, m):
     assert np.allclose(s.rho(_unit(theta, 0.37)), 1.0 - 1e-3 * s.profile(_unit(theta, 0.37)))
     # A = 4πR² - 2R a ∫f + a² (1 + n(n+1)/2) ∫f² + O(a⁴ n⁴): ∫f = 0 for n > 0 (measured
     # -5e-6 to -1e-5 of the a² term at a = 1e-3, n = 9)
-    law = 4 * math.pi + 1e-6 * (1 + n * (n + 1) / 2) * _f2(n, m, s._fmax)
+    law = 4 * math.pi + 1e-6 * (1 + n * (n + 1) / 2) * _f2(n, m, s.f_max)
     assert s.area() - 4 * math.pi == pytest.approx(law - 4 * math.pi, rel=1e-4)
     # the normal's numpy form against a finite-difference normal of the parametrisation
     # x(θ, φ) = ρ u(θ, φ), away from the poles
@@ -125,7 +125,7 @@ def test_mesh_normal_and_curvature_integrals():
         v = expr.eval(mesh, cells).reshape(-1, 6)
         gap = float(np.max(np.abs(v[:, :3] - shape.normal(v[:, 3:].T).T), initial=0.0))
         assert comm.allreduce(gap, op=MPI.MAX) < 1e-13
-    fmax = HarmonicImperfectSphere(1.0, a, n, m)._fmax
+    fmax = HarmonicImperfectSphere(1.0, a, n, m).f_max
     f2 = _f2(n, m, fmax)
     dA, dH = out[a][0] - out[0.0][0], out[a][2] - out[0.0][2]
     assert dA == pytest.approx(a * a * (1 + n * (n + 1) / 2) * f2, rel=0.01)
@@ -142,14 +142,14 @@ def test_order_zero_is_the_mode_imperfection():
     from dolfinx import fem
     from mpi4py import MPI
 
-    from shells.analyses.knockdown import KnockdownConfig, _shape
+    from shells.analyses.knockdown import KnockdownConfig, imperfect_shape
     from shells.surface.mesh import MeshSpec, generate
 
     comm = MPI.COMM_WORLD
     n, delta = 5, 0.1
-    harm = _shape(KnockdownConfig(H, (delta,), imperfection="harmonic", model="surface",
+    harm = imperfect_shape(KnockdownConfig(H, (delta,), imperfection="harmonic", model="surface",
                                   degree=n), delta, n)
-    mode = _shape(KnockdownConfig(H, (delta,), imperfection="mode", degree=n), delta, n)
+    mode = imperfect_shape(KnockdownConfig(H, (delta,), imperfection="mode", degree=n), delta, n)
     assert isinstance(harm, HarmonicImperfectSphere) and (harm.degree, harm.order) == (n, 0)
     assert isinstance(mode, ImperfectSphere) and mode.profile == "mode"
     assert harm.amplitude == mode.amplitude == delta * H
@@ -211,7 +211,7 @@ def test_response_along_the_imperfection_same_for_every_m_and_in_1d():
     from mpi4py import MPI
 
     from shells.algorithms.newton import NewtonSolver
-    from shells.analyses.knockdown import KnockdownConfig, _model
+    from shells.analyses.knockdown import KnockdownConfig, imperfect_model
     from shells.axisym import SNES_OPTIONS
     from shells.geometry.imperfections import harmonic_parts
     from shells.surface.mesh import MeshSpec, generate
@@ -244,7 +244,7 @@ def test_response_along_the_imperfection_same_for_every_m_and_in_1d():
         w = w - integral(w) / area
         uu = x / ufl.sqrt(ufl.dot(x, x))
         cm, q = harmonic_parts(n, shape.order, uu[0], uu[1], uu[2])
-        f = cm * q / shape._fmax
+        f = cm * q / shape.f_max
         return integral(w * f), integral(f * f)
 
     G = []
@@ -259,7 +259,7 @@ def test_response_along_the_imperfection_same_for_every_m_and_in_1d():
     cfg = KnockdownConfig(H, (delta,), imperfection="mode", degree=n)
     proj = {}
     for s in (1, -1):
-        model, _ = _model(cfg, s * delta, n)
+        model, _ = imperfect_model(cfg, s * delta, n)
         ns = NewtonSolver(model, options=SNES_OPTIONS)
         try:
             model.set_kappa(kh / H)
@@ -323,7 +323,7 @@ def test_surface_models_figure_and_summary(tmp_path, capsys, monkeypatch):
            "points": [{"delta_over_h": 0.03, "kappa_max_h": 1.443040, "knockdown": 0.9686,
                        "kind": "bifurcation", "knockdown_asymptotic": None}]}
     if MPI.COMM_WORLD.rank == 0:
-        path = kd._figure(res, tmp_path / "knockdown.png")
+        path = kd.write_figure(res, tmp_path / "knockdown.png")
         assert (tmp_path / "knockdown.png").stat().st_size > 0 and path.endswith(".png")
     monkeypatch.setattr(kd, "run_knockdown", lambda *a, **k: res)
     assert main(["knockdown", "--h-over-r", "0.05", "--imperfection", "harmonic", "--model",

@@ -78,7 +78,7 @@ def test_knockdown_approaches_koiters_law():
 
 
 def test_balanced_norm_retry_finds_the_same_fold(monkeypatch):
-    """The retry of an attempt in the balanced arclength norm (``_first_critical`` with
+    """The retry of an attempt in the balanced arclength norm (``first_critical`` with
     ``balanced``): with every attempt in the norm of state weight 1 made to find nothing, the
     retry must find the fold the weight-1 norm finds directly, to 1e-4 in κ, in a norm whose
     state weight is not 1 (the dimpled sphere at h/R = 0.05, δ/h = 0.04: ξ = 264, measured)."""
@@ -88,7 +88,7 @@ def test_balanced_norm_retry_finds_the_same_fold(monkeypatch):
     direct = kd.fold_kappa(cfg, 0.04, 9)
     assert direct["kind"] == "fold"
     calls, weights = [], []
-    first_critical, balanced_weight = kd._first_critical, kd._balanced_weight
+    first_critical, balanced_weight = kd.first_critical, kd.balanced_weight
 
     def weight_one_finds_nothing(*a, **k):
         balanced = k.get("balanced", a[6] if len(a) > 6 else False)
@@ -99,8 +99,8 @@ def test_balanced_norm_retry_finds_the_same_fold(monkeypatch):
         weights.append(balanced_weight(*a, **k))
         return weights[-1]
 
-    monkeypatch.setattr(kd, "_first_critical", weight_one_finds_nothing)
-    monkeypatch.setattr(kd, "_balanced_weight", recorded_weight)
+    monkeypatch.setattr(kd, "first_critical", weight_one_finds_nothing)
+    monkeypatch.setattr(kd, "balanced_weight", recorded_weight)
     retried = kd.fold_kappa(cfg, 0.04, 9)
     assert calls == [(0.02, False), (0.02, True)]  # the first retry found it
     assert len(weights) == 1 and abs(weights[0] - 1.0) > 1.0
@@ -112,9 +112,9 @@ def test_balanced_norm_retry_finds_the_same_fold(monkeypatch):
 
 def test_a_crossing_just_before_a_fold_is_that_fold(monkeypatch):
     """Next to a fold the fold mode's eigenvalue may be counted negative a little before
-    dκ/ds changes sign (h/R = 0.002, pressure: 1e-5 below the fold in κ). ``_first_critical``
+    dκ/ds changes sign (h/R = 0.002, pressure: 1e-5 below the fold in κ). ``first_critical``
     follows the branch on after a crossing up to the location tolerance beyond it in κ, and
-    ``_first_of`` takes a fold within that window for the first critical point (the crossings
+    ``first_of`` takes a fold within that window for the first critical point (the crossings
     before it kept); a crossing with no fold within the window stays first."""
     from types import SimpleNamespace
 
@@ -135,21 +135,21 @@ def test_a_crossing_just_before_a_fold_is_that_fold(monkeypatch):
     # crossing, then a fold 5e-5 above it: followed on to the fold, which is first
     monkeypatch.setattr(following, "follow", fake_follow(
         [(990.0, []), (1000.01, [cross]), (1000.04, []), (1000.06, [fold]), (999.0, [])]))
-    found, n = kd._first_critical(None, None, cfg, 2000.0, None)
+    found, n = kd.first_critical(None, None, cfg, 2000.0, None)
     assert found == [cross, fold] and n == 4
-    first, before = kd._first_of(found, 1e-4)
+    first, before = kd.first_of(found, 1e-4)
     assert first is fold and before == [cross]
     # the branch passes 1e-4 beyond the crossing without a fold: the crossing stays first
     monkeypatch.setattr(following, "follow", fake_follow(
         [(1000.01, [cross]), (1000.09, []), (1000.11, []), (1000.3, [fold])]))
-    found, n = kd._first_critical(None, None, cfg, 2000.0, None)
+    found, n = kd.first_critical(None, None, cfg, 2000.0, None)
     assert found == [cross] and n == 3
-    assert kd._first_of(found, 1e-4) == (cross, [])
-    assert kd._first_of([cross, cp("fold", 1000.2)], 1e-4) == (cross, [])
-    assert kd._first_of([fold], 1e-4) == (fold, []) and kd._first_of([], 1e-4) == (None, [])
+    assert kd.first_of(found, 1e-4) == (cross, [])
+    assert kd.first_of([cross, cp("fold", 1000.2)], 1e-4) == (cross, [])
+    assert kd.first_of([fold], 1e-4) == (fold, []) and kd.first_of([], 1e-4) == (None, [])
     # without the window (the perfect sphere) the first critical point ends the search
     monkeypatch.setattr(following, "follow", fake_follow([(1000.01, [cross]), (1000.06, [fold])]))
-    assert kd._first_critical(None, None, cfg, 2000.0, None, window=False) == ([cross], 1)
+    assert kd.first_critical(None, None, cfg, 2000.0, None, window=False) == ([cross], 1)
 
 
 def test_rerun_reads_the_points_back(curve, monkeypatch):
@@ -186,7 +186,7 @@ def test_imperfect_meridian_and_bad_input():
     for n in (0, 3, 10, 44):
         s = ImperfectSphere(1.0, math.pi, 0.01, "mode", 0.1, n)
         series = sum(a * np.cos(j * t) for j, a in legendre_cosine_series(n))
-        assert np.allclose(series, s._profile(np.cos(t), t, np.exp), rtol=0, atol=1e-12)
+        assert np.allclose(series, s.profile_expression(np.cos(t), t, np.exp), rtol=0, atol=1e-12)
     for bad in ({"profile": "bump"}, {"amplitude": 0.5}, {"width": -1.0}):
         with pytest.raises(InputError):
             ImperfectSphere(**{"amplitude": 0.01, **bad})

@@ -155,11 +155,11 @@ def test_no_import_loop():
     assert _cycle(graph) is None, f"import loop: {' -> '.join(_cycle(graph))}"
 
 
-def _private_definitions() -> dict[str, set[Path]]:
-    """Each private name (``_x``, not dunder) defined in the package: functions, classes,
-    methods, module variables and attributes assigned, with the files defining it."""
+def _private_definitions(*folders: Path) -> dict[str, set[Path]]:
+    """Each private name (``_x``, not dunder) defined in the files of ``folders``: functions,
+    classes, methods, module variables and attributes assigned, with the files defining it."""
     defined: dict[str, set[Path]] = defaultdict(set)
-    for path in PACKAGE.rglob("*.py"):
+    for path in (p for folder in folders for p in folder.rglob("*.py")):
         for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
             names: list[str] = []
             if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
@@ -193,12 +193,12 @@ def private_uses(folder: Path, defined: dict[str, set[Path]]) -> list[str]:
                 if isinstance(node.value, ast.Name) and node.value.id in ("self", "cls"):
                     continue
                 owners = defined.get(node.attr)
-                if owners and path not in owners:
+                if owners and path not in owners and any(PACKAGE in o.parents for o in owners):
                     found.append(f"{path.relative_to(ROOT)}:{node.lineno} uses .{node.attr}")
     return found
 
 
-@pytest.mark.parametrize("folder", ["shells"])
+@pytest.mark.parametrize("folder", ["shells", "tests", "benchmarks", "demos"])
 def test_no_private_name_across_modules(folder):
-    uses = private_uses(ROOT / folder, _private_definitions())
+    uses = private_uses(ROOT / folder, _private_definitions(PACKAGE, ROOT / folder))
     assert not uses, "private names used outside their module:\n" + "\n".join(uses)

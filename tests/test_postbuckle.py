@@ -457,7 +457,7 @@ def test_the_deep_dimple_turns_polygonal_at_located_secondary_bifurcations(monke
     summary = next(r["side_end"] for r in recs if "side_end" in r)
     assert [c["mode_m"] for c in summary["critical"]] == [c["mode_m"] for _, c in located]
 
-    monkeypatch.setattr(pb._Secondary, "step", lambda self, *args: [])
+    monkeypatch.setattr(pb.SecondaryLocator, "step", lambda self, *args: [])
     plain = [r for r in run() if r.get("branch") == "bifurcated"]
     assert [(r["kappa"], r["psi3_pole_over_h"]) for r in plain] == \
         [(r["kappa"], r["psi3_pole_over_h"]) for r in down]

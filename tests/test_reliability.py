@@ -308,7 +308,7 @@ def test_branch_killed_torn_and_resumed(shared_tmp, reference):
             if sig == signal.SIGTERM and (len(lines) != 1 or "Traceback" in r.stderr
                                           or "interrupted (SIGTERM)" not in lines[0]):
                 problems.append(f"{sig.name}: stderr {r.stderr[-400:]}")
-            seen.update((rel._key(p), p) for p in rel.records(out, case))
+            seen.update((rel.record_key(p), p) for p in rel.records(out, case))
         with open(bfile, "a") as f:
             f.write(bfile.read_text().splitlines()[-1][:40])  # a write cut short
         final = rel.run(BRANCH, out)

@@ -55,7 +55,7 @@ def test_naghdi_loses_ellipticity_koiter_limit_does_not(meshes):
 
 
 # ------------------------------------------------------------------------------------------------
-# the banded Cholesky test of definiteness (stability._BandedCholesky) against eigenvalues
+# the banded Cholesky test of definiteness (stability.BandedCholesky) against eigenvalues
 # and MUMPS
 # ------------------------------------------------------------------------------------------------
 def _scaled_band_matrix(n: int, kd: int, lowest: float, seed: int):
@@ -97,12 +97,12 @@ def test_banded_cholesky_decides_definiteness_by_the_scaled_eigenvalue(lowest, d
     again)."""
     import numpy as np
 
-    from shells.algorithms.stability import DEFINITE_MARGIN, _BandedCholesky
+    from shells.algorithms.stability import DEFINITE_MARGIN, BandedCholesky
 
     M, B = _scaled_band_matrix(300, 4, lowest, seed=int(1e6 * abs(lowest)) % 1000 + 7)
     assert abs(np.linalg.eigvalsh(B)[0] - lowest) < 1e-14 + 1e-9 * abs(lowest)
     ai, aj, values = M.getValuesCSR()
-    test = _BandedCholesky(ai, aj)
+    test = BandedCholesky(ai, aj)
     assert test.kd <= 4
     assert test.definite(values, DEFINITE_MARGIN) is definite
     bad = values.copy()

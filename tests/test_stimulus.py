@@ -307,7 +307,7 @@ def test_equivalent_load_splits_into_normal_and_tangential_forces():
         c = -2 * (1 + m.nu) / 3 * m.h**2
         us = (u[0] * m.r0t + u[1] * m.z0t) / m.g
         tangential = c * 2 / S.R * m.K[0].dx(0) / m.g * us * m.area_density * m.dx
-        relief = -c * m._normal_load()[1] * u[1] * m.area_density * m.dx
+        relief = -c * m.normal_load()[1] * u[1] * m.area_density * m.dx
         split = [fem.assemble_scalar(fem.form(f)) for f in (tangential, relief)]
         b.destroy()
     diff = work["equivalent"] - work["equivalent_normal"]

@@ -28,14 +28,14 @@ CAP = SphericalCap(1.0, math.radians(30))
 
 def _user_mesh(path: Path, *args: str) -> tuple[np.ndarray, np.ndarray]:
     """A cap meshed by gmsh outside shells (written on rank 0), and its nodes and triangles."""
-    from shells.surface.mesh import _gmsh_model
+    from shells.surface.mesh import gmsh_model
 
     c = MPI.COMM_WORLD
     if c.rank == 0 and not path.exists():
         subprocess.run([sys.executable, str(WRITER), str(path), *args], check=True,
                        capture_output=True)
     c.barrier()
-    with _gmsh_model("fit") as g:
+    with gmsh_model("fit") as g:
         g.merge(str(path))
         tags, x, _ = g.model.mesh.getNodes()
         _, _, en = g.model.mesh.getElements(2)

@@ -369,10 +369,10 @@ def test_cell_estimate_against_gmsh():
 def test_memory_check_reads_the_machine(no_work, monkeypatch):
     from shells.surface import mesh
 
-    real = mesh._memory_limit()  # MemTotal (or a smaller cgroup limit)
+    real = mesh.memory_limit()  # MemTotal (or a smaller cgroup limit)
     assert real is None or real >= 2**27
     argv = ["mesh", "cap", "--theta-deg=30", "--size=0.01"]  # ~21 000 cells: 42 MB + 256 MB
-    monkeypatch.setattr(mesh, "_memory_limit", lambda: 2**40)
+    monkeypatch.setattr(mesh, "memory_limit", lambda: 2**40)
     assert outcome(argv) == "reached"
-    monkeypatch.setattr(mesh, "_memory_limit", lambda: 200 * 2**20)
+    monkeypatch.setattr(mesh, "memory_limit", lambda: 200 * 2**20)
     assert outcome(argv) == "refused"

@@ -99,7 +99,7 @@ LDLT_GROWTH = 100.0
 MAX_BANDWIDTH = 64
 
 
-class _BandedCholesky:
+class BandedCholesky:
     """Positive definiteness (by a margin) of a sequential sparse symmetric matrix of a fixed
     nonzero pattern: its lower triangle in the ordering of ``_band_ordering``, written into
     LAPACK's band storage, factored by ``dpbtrf``."""
@@ -232,7 +232,7 @@ class _ProblemSolve:
         self.solver.solve(x.array_r, y.array_w)
 
 
-class _Block:
+class BlockSolvers:
     """The matrix and LDLᵀ factor of one block layout, and its banded Cholesky test."""
 
     def __init__(self, problem: Any, block: Hashable, options: dict[str, Any]) -> None:
@@ -242,7 +242,7 @@ class _Block:
         # the banded test applies: on one process, and (once H's pattern is seen) to a band
         # no wider than MAX_BANDWIDTH
         self.testable = problem.comm.size == 1
-        self.banded: _BandedCholesky | None = None
+        self.banded: BandedCholesky | None = None
         self.eps: Any = None  # the layout's eigensolver (``eigensolver``), made on first use
         self.shell_eps: Any = None  # the one with the problem's factorisation (``_ProblemSolve``)
         self.shell = _ProblemSolve()
@@ -298,13 +298,13 @@ class _Block:
         return eps
 
     def definite(self, margin: float) -> bool:
-        """H as assembled positive definite by ``margin`` (``_BandedCholesky``); False where
+        """H as assembled positive definite by ``margin`` (``BandedCholesky``); False where
         the test does not apply (in parallel, a wide band)."""
         if not self.testable:
             return False
         ai, aj, values = self.H.getValuesCSR()
         if self.banded is None or not self.banded.matches(ai, aj):
-            self.banded = _BandedCholesky(ai, aj)
+            self.banded = BandedCholesky(ai, aj)
             # a wide band stays wide: the layout's matrix keeps its pattern
             self.testable = self.banded.kd <= MAX_BANDWIDTH
         return self.testable and self.banded.definite(values, margin)
@@ -325,8 +325,8 @@ class Stability:
     def __init__(self, problem: Any, options: dict[str, Any] | None = None) -> None:
         self.problem = problem
         self.options = {**INERTIA_OPTIONS, **(options or {})}
-        self._blocks: dict[Hashable, _Block] = {}
-        self._condensed: dict[int, _Inertia] = {}  # ``_exact_inertia``'s, by matrix
+        self._blocks: dict[Hashable, BlockSolvers] = {}
+        self._condensed: dict[int, _Inertia] = {}  # ``exact_inertia``'s, by matrix
         #: how many inertias the banded test decided, the problem's own LDLᵀ, and MUMPS
         self.calls = {"banded": 0, "ldlt": 0, "mumps": 0}
         #: the blocks with a negative eigenvalue at the last ``negative_counts`` of all
@@ -341,22 +341,24 @@ class Stability:
         problem has ``hessian_quadratic``."""
         return hasattr(self.problem, "hessian_quadratic")
 
-    def _block(self, block: Hashable) -> _Block:
+    def block_solvers(self, block: Hashable) -> BlockSolvers:
+        """The solvers (matrix, factorisation, eigensolver) shared by ``block``'s layout,
+        created on first use."""
         key = self.problem.block_layout(block)
         if key not in self._blocks:
-            self._blocks[key] = _Block(self.problem, block, self.options)
+            self._blocks[key] = BlockSolvers(self.problem, block, self.options)
         return self._blocks[key]
 
     def assemble(self, block: Hashable = None) -> Any:
         """The block's Hessian at the current state (the shared matrix of its layout)."""
-        b = self._block(block)
+        b = self.block_solvers(block)
         self.problem.assemble_hessian(block, b.H)
         return b.H
 
     def inertia(self, block: Hashable = None, test: bool = True) -> tuple[int, int, int]:
         """(negative, zero, positive) eigenvalue counts of the block's Hessian (``test``
         False: MUMPS' without the banded test, which failed on its values already)."""
-        b = self._block(block)
+        b = self.block_solvers(block)
         self.problem.assemble_hessian(block, b.H)
         if test and self.banded_test and b.definite(DEFINITE_MARGIN):
             self.calls["banded"] += 1
@@ -368,7 +370,7 @@ class Stability:
                                "no inertia")
         return counts
 
-    def _exact_inertia(self, block: Hashable) -> tuple[int, int, int]:
+    def exact_inertia(self, block: Hashable) -> tuple[int, int, int]:
         """The exact inertia of a block known not to be definite by the margin: the problem's
         own where it vouches for it (``block_inertia``: the 1D model's unpivoted LDLᵀ of the
         condensed block, growth below ``LDLT_GROWTH``), else MUMPS' of the problem's condensed
@@ -436,7 +438,7 @@ class Stability:
                 self.calls["banded"] += 1
                 out[blk] = 0
             elif blk in decided:  # not definite by the margin: the exact count
-                out[blk] = exact[blk] if blk in exact else self._exact_inertia(blk)[0]
+                out[blk] = exact[blk] if blk in exact else self.exact_inertia(blk)[0]
             else:  # not decided: the banded test first
                 out[blk] = self.inertia(blk)[0]
             if base is not None and out[blk] != base[blk]:
@@ -446,7 +448,7 @@ class Stability:
         return out
 
     def mass(self, block: Hashable = None) -> Any:
-        b = self._block(block)
+        b = self.block_solvers(block)
         if block not in b.M:
             b.M[block] = self.problem.assemble_mass(block)
         return b.M[block]
@@ -470,7 +472,7 @@ class Stability:
         the h/R = 0.01, θ̄ = 15.11 cap's m = 2 block next to its crossing, over 13 states
         solved again at κ (1 + k 1e-10): μ spread by a std of 7.4e-8, the quotient by 3.5e-13,
         smoothly, as κ moves it (``benchmarks/locator_noise.py``)."""
-        b = self._block(block)
+        b = self.block_solvers(block)
         eps = b.eigensolver()
         # the problem's own factorisation where it has one (``block_factor``; not with a
         # user's eigensolver options, nor in the reference mode without the banded test)
@@ -481,7 +483,7 @@ class Stability:
         # takes A - 0 B as A, and the KSP applies the shell alone): H is assembled for MUMPS
         # only, or where it never was (its layout and vectors); eigenvalues bit for bit the
         # same, 1.4 ms a solve less on the θ̄ = 8 cap's blocks. ``b.H`` then keeps the values
-        # last assembled (``_Block``)
+        # last assembled (``BlockSolvers``)
         H = (self.assemble(block) if assemble and (solver is None or not b.H.assembled)
              else b.H)
         if solver is not None:

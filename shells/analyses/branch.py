@@ -179,7 +179,7 @@ def _save_checkpoint(outdir: Path, model: Any, rec: dict[str, Any],
     save_state_checkpoint(outdir / "checkpoint", model, rec["index"], states, scalars)
 
 
-def _load_checkpoint(outdir: Path, model: Any
+def load_branch_checkpoint(outdir: Path, model: Any
                      ) -> tuple[float, int, np.ndarray, float, Any, np.ndarray, float] | None:
     """Read the checkpoint into ``model.w``: (κ, index, w - w_prev, κ - κ_prev, the tangent
     (owned values, λ part) or None, w_prev (owned values), κ_prev), or None.
@@ -245,7 +245,7 @@ def run_branch(cfg: BranchConfig, outdir: str | os.PathLike, *, comm: Any = None
     # trust (a corrupt line) is an error on every rank
     why, done = resumable(bfile, header, comm, resume=resume)
     if why is None:
-        start = _load_checkpoint(outdir, model)
+        start = load_branch_checkpoint(outdir, model)
         if start is None or not any(d.get("index") == start[1] for d in done):
             # (a checkpoint past the file's last point: another run's, left when that one
             # started afresh)

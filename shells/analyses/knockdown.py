@@ -43,8 +43,8 @@ __all__ = ["KnockdownConfig", "fold_kappa", "knockdown", "run_knockdown"]
 #: points of another method (the first critical point located on all counts, shorter steps
 #: when a crossing comes before the fold; /3: one mesh for all amplitudes, steps near the
 #: fold from the asymptotic law; /4: an attempt without a fold repeated in the balanced
-#: arclength norm, ``_first_critical``; /5: a crossing followed by a fold within the location
-#: tolerance is that fold, ``_first_of``)
+#: arclength norm, ``first_critical``; /5: a crossing followed by a fold within the location
+#: tolerance is that fold, ``first_of``)
 METHOD = "first-critical-point/5"
 #: ∂R/∂δ by central differences at δ/h = ±this (R is linear in δ to 1e-7 there, measured)
 DELTA_FD = 1.0e-3
@@ -151,12 +151,14 @@ class KnockdownConfig:
         return d
 
 
-def _model(cfg: KnockdownConfig, amplitude: float, degree: int) -> Any:
+def imperfect_model(cfg: KnockdownConfig, amplitude: float, degree: int) -> Any:
+    """The 1D model of the sphere of ``cfg`` with its imperfection at ``amplitude`` (δ/h; 0:
+    the perfect sphere) for the mode of ``degree``, axisymmetric blocks only."""
     from shells.analyses.axisym_runs import RunConfig
     from shells.axisym import AxisymModel
     from shells.geometry.shapes import Sphere
 
-    shape = Sphere(1.0) if amplitude == 0 else _shape(cfg, amplitude, degree)
+    shape = Sphere(1.0) if amplitude == 0 else imperfect_shape(cfg, amplitude, degree)
     run = RunConfig(shape=shape, h_over_r=cfg.h_over_r, nu=cfg.nu, cells=cfg.cells,
                     penalty=cfg.penalty, m_max=0)
     model = AxisymModel(shape, replace(run.params(), load=cfg.load))
@@ -164,7 +166,7 @@ def _model(cfg: KnockdownConfig, amplitude: float, degree: int) -> Any:
     return model, run
 
 
-def _shape(cfg: KnockdownConfig, amplitude: float, degree: int) -> Any:
+def imperfect_shape(cfg: KnockdownConfig, amplitude: float, degree: int) -> Any:
     """The unit sphere with the imperfection of ``cfg`` at ``amplitude`` (δ/h)."""
     from shells.geometry.imperfections import HarmonicImperfectSphere, ImperfectSphere
 
@@ -174,7 +176,7 @@ def _shape(cfg: KnockdownConfig, amplitude: float, degree: int) -> Any:
                            cfg.width * math.sqrt(cfg.h_over_r), degree)
 
 
-def _kappa_scale(cfg: KnockdownConfig) -> float:
+def kappa_scale(cfg: KnockdownConfig) -> float:
     """The thin-shell κ_b h of the load (sets the followed range)."""
     from shells.theory import sphere_kappa_b_h, sphere_pressure_kappa_h
 
@@ -184,8 +186,8 @@ def _kappa_scale(cfg: KnockdownConfig) -> float:
 def _imperfection_derivative(cfg: KnockdownConfig, degree: int, model: Any) -> Any:
     """A callable giving ∂R/∂(δ/h) at ``model``'s current state and κ (central differences of
     two imperfect models on the same mesh)."""
-    plus, _ = _model(cfg, DELTA_FD, degree)
-    minus, _ = _model(cfg, -DELTA_FD, degree)
+    plus, _ = imperfect_model(cfg, DELTA_FD, degree)
+    minus, _ = imperfect_model(cfg, -DELTA_FD, degree)
 
     def derivative() -> Any:
         out = model.create_vector()
@@ -202,7 +204,7 @@ def _imperfection_derivative(cfg: KnockdownConfig, degree: int, model: Any) -> A
     return derivative
 
 
-def _balanced_weight(model: Any, ns: Any) -> float:
+def balanced_weight(model: Any, ns: Any) -> float:
     """The arclength norm's state weight ξ with which the state and load parts of the branch's
     tangent are equal at the model's current (converged) state: J z = -∂R/∂λ, ξ² cw₁ |z|² = 1
     (cw₁: ``Arclength``'s weight at ξ = 1, the RMS over all DOFs in thicknesses)."""
@@ -218,7 +220,7 @@ def _balanced_weight(model: Any, ns: Any) -> float:
     return 1.0 / math.sqrt(ratio) if ratio > 0 else 1.0
 
 
-def _first_critical(model: Any, ns: Any, cfg: KnockdownConfig, end: float,
+def first_critical(model: Any, ns: Any, cfg: KnockdownConfig, end: float,
                     ds_h: float | None, kappa_start: float = 0.0, balanced: bool = False,
                     window: bool = True) -> tuple[list[Any], int]:
     """The axisymmetric critical points from κ = ``kappa_start`` (the model's state is the
@@ -226,7 +228,7 @@ def _first_critical(model: Any, ns: Any, cfg: KnockdownConfig, end: float,
     location tolerance beyond it in κ (without ``window``: the first critical point only), with
     steps of ``ds_h`` in κh (None: the defaults) in the arclength norm of state weight 1, or
     with ``balanced`` steps of ``ds_h`` in κ in the norm balanced at the start
-    (``_balanced_weight``). Returns the located points in branch order and the number of
+    (``balanced_weight``). Returns the located points in branch order and the number of
     branch points followed."""
     from shells.algorithms.following import follow
     from shells.algorithms.settings import CriticalSettings
@@ -250,11 +252,11 @@ def _first_critical(model: Any, ns: Any, cfg: KnockdownConfig, end: float,
         ok, _ = ns.solve()
         if not ok:
             raise RuntimeError(f"Newton did not converge at the start kappa = {kappa_start}")
-        steps["state_weight"] = _balanced_weight(model, ns)
+        steps["state_weight"] = balanced_weight(model, ns)
     st = default_settings(Sphere(1.0), cfg.h_over_r, **steps)
     # every crossing is located, and the branch is followed on after the first one until it
     # lies a location tolerance beyond it in κ: a fold within that window is the first
-    # critical point (``_first_of``)
+    # critical point (``first_of``)
     crit = CriticalSettings(stop_at_fold=True, max_critical=None if window else 1)
     found: list[Any] = []
     n = after = 0
@@ -272,7 +274,7 @@ def _first_critical(model: Any, ns: Any, cfg: KnockdownConfig, end: float,
     return found, n
 
 
-def _first_of(found: list[Any], rel_tol: float) -> tuple[Any, list[Any]]:
+def first_of(found: list[Any], rel_tol: float) -> tuple[Any, list[Any]]:
     """The first critical point of one attempt's list (branch order) and the crossings located
     before it: a crossing followed by a fold within ``rel_tol`` in κ is that fold, seen early
     through its own eigenvalue.
@@ -317,7 +319,7 @@ def fold_kappa(cfg: KnockdownConfig, amplitude: float, degree: int,
     from shells.algorithms.newton import NewtonSolver
     from shells.axisym import SNES_OPTIONS
 
-    model, run = _model(cfg, amplitude, degree)
+    model, run = imperfect_model(cfg, amplitude, degree)
     ns = NewtonSolver(model, options=SNES_OPTIONS)
     try:
         c, n, before = _locate_first(cfg, amplitude, model, ns, run.h, predicted, kappa_b)
@@ -330,7 +332,7 @@ def _point_record(c: Any, h: float, n: int, before: list[Any] | None = None
                   ) -> dict[str, Any]:
     r = {"kind": c.kind, "kappa_h": c.kappa * h, "mode_n": c.mode_n,
          "accuracy": c.accuracy, "branch_points": n}
-    if before:  # crossings of the fold's own eigenvalue located just before it (``_first_of``)
+    if before:  # crossings of the fold's own eigenvalue located just before it (``first_of``)
         r["crossings_before"] = [{"kappa_h": b.kappa * h, "mode_n": b.mode_n,
                                   "eigenvalue": b.eigenvalue} for b in before]
     return r
@@ -341,10 +343,10 @@ def _locate_first(cfg: KnockdownConfig, amplitude: float, model: Any, ns: Any, h
                   ) -> tuple[Any, int, list[Any]]:
     """``fold_kappa``'s search on ``model`` (solver ``ns``): the located critical point
     (carrying its state and mode), the number of branch points followed and the crossings of
-    the fold's own eigenvalue located just before the fold (``_first_of``)."""
+    the fold's own eigenvalue located just before the fold (``first_of``)."""
     from shells.algorithms.settings import CriticalSettings
 
-    end = 1.25 * _kappa_scale(cfg) / h
+    end = 1.25 * kappa_scale(cfg) / h
     perfect = amplitude == 0
     # Every critical point of the axisymmetric problem is located, and the first one decides.
     # For δ > 0 it must be the fold: the imperfect branch is stable up to its limit point. A
@@ -352,7 +354,7 @@ def _locate_first(cfg: KnockdownConfig, amplitude: float, model: Any, ns: Any, h
     # onto the neighbouring branch of the broken bifurcation (measured at h/R = 0.01, δ/h =
     # 0.001: a "fold" 5 % above κ_b with steps of 0.02 in κh): the run is repeated with
     # steps 4 and 16 times shorter. A crossing followed by a fold within the location
-    # tolerance is that fold (``_first_of``: the fold mode's eigenvalue counted negative
+    # tolerance is that fold (``first_of``: the fold mode's eigenvalue counted negative
     # within 1e-5 of the fold, where it is no longer resolved; under pressure at h/R = 0.002
     # every attempt could end so, and the run reported no limit point). Where the asymptotic
     # law puts the fold within 0.08 in κh of κ_b, the steps are a quarter of that distance
@@ -362,7 +364,7 @@ def _locate_first(cfg: KnockdownConfig, amplitude: float, model: Any, ns: Any, h
     ladder: list[tuple[float, float | None]] = (
         [(0.0, None)] if perfect else [(0.0, 0.02), (0.0, 0.005), (0.0, 0.00125)])
     # each step of an imperfect sphere's ladder is tried in the norm of state weight 1, then,
-    # if that finds no fold, in the balanced norm (``_first_critical``): a pole-localised fold
+    # if that finds no fold, in the balanced norm (``first_critical``): a pole-localised fold
     # mode (a dimple's under pressure at h/R = 0.002) is turned only in the latter, the
     # state weight 1 keeps the folds it finds as they were
     if not perfect and predicted is not None and kappa_b is not None:
@@ -380,13 +382,13 @@ def _locate_first(cfg: KnockdownConfig, amplitude: float, model: Any, ns: Any, h
         try:
             if start > 0:
                 _approach(model, ns, start)
-            found, n = _first_critical(model, ns, cfg, end, ds_h, start, balanced,
+            found, n = first_critical(model, ns, cfg, end, ds_h, start, balanced,
                                        window=not perfect)
         except RuntimeError as e:  # a failed Newton: the next attempt
             log.info("knockdown: delta/h = %g: %s; next attempt", amplitude, e)
             first, before = None, []
             continue
-        first, before = _first_of(found, CriticalSettings().rel_tol)
+        first, before = first_of(found, CriticalSettings().rel_tol)
         if perfect or (first is not None and first.kind == "fold"):
             break
         log.info("knockdown: delta/h = %g: %s first with steps of %s in kappa h%s; next "
@@ -413,12 +415,12 @@ def surface_first(cfg: KnockdownConfig, amplitude: float, degree: int) -> dict[s
     from shells.analyses.drivers import critical_surface
 
     # δ = 0 as an imperfect sphere too: the same pole-refined mesh as the imperfect ones
-    r = critical_surface(_shape(cfg, amplitude, degree), cfg.h_over_r, cfg.nu,
-                         1.25 * _kappa_scale(cfg) / cfg.h_over_r, first_only=True,
+    r = critical_surface(imperfect_shape(cfg, amplitude, degree), cfg.h_over_r, cfg.nu,
+                         1.25 * kappa_scale(cfg) / cfg.h_over_r, first_only=True,
                          size=cfg.size, degree=cfg.element_degree)
     if r["kappa_h"] is None:
         raise RuntimeError(f"no critical point of the surface model found up to kappa h = "
-                           f"{1.25 * _kappa_scale(cfg):.4g} at delta/h = {amplitude:g}")
+                           f"{1.25 * kappa_scale(cfg):.4g} at delta/h = {amplitude:g}")
     return {"kind": r["kind"], "kappa_h": r["kappa_h"], "mode_n": None,
             "mode_m": r["mode_m"], "accuracy": None, "dofs": r.get("dofs"),
             "asymptotics": None}
@@ -432,7 +434,7 @@ def perfect_sphere(cfg: KnockdownConfig, degree: int) -> dict[str, Any]:
     from shells.algorithms.newton import NewtonSolver
     from shells.axisym import SNES_OPTIONS
 
-    model, run = _model(cfg, 0.0, degree)
+    model, run = imperfect_model(cfg, 0.0, degree)
     ns = NewtonSolver(model, options=SNES_OPTIONS)
     try:
         point, count, _ = _locate_first(cfg, 0.0, model, ns, run.h)
@@ -555,11 +557,13 @@ def run_knockdown(cfg: KnockdownConfig, outdir: str | Path | None, figure: bool 
     if outdir is not None:
         out["points_file"] = str(Path(outdir) / "points.jsonl")
         if figure:
-            out["figures"] = [_figure(out, Path(outdir) / "knockdown.png")]
+            out["figures"] = [write_figure(out, Path(outdir) / "knockdown.png")]
     return out
 
 
-def _figure(res: dict[str, Any], path: Path) -> str:
+def write_figure(res: dict[str, Any], path: Path) -> str:
+    """The knock-down curve of ``res`` (computed and asymptotic, log δ axis) to ``path``;
+    returns the path written."""
     import matplotlib
 
     matplotlib.use("Agg")

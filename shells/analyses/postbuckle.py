@@ -284,7 +284,7 @@ class _Run:
         self.ns.destroy()
 
 
-class _Secondary:
+class SecondaryLocator:
     """The critical points of a bifurcated branch of the 1D model, located between two of its
     points (``shells.algorithms.locate.locate_between``: the generic locator, on the step re-taken
     by pseudo-arclength) where the negative count of a Fourier block rises from one point to the
@@ -524,8 +524,8 @@ def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], 
                 n, first, ended = 0, None, "stalled (step below ds_min)"
                 last, ended_before = None, None
                 # the last point's (point, state, counts of the blocks searched) for locating
-                # the critical points of the bifurcated branch (``_Secondary``)
-                secondary = _Secondary(run, sst, closed=cfg.shape.closed)
+                # the critical points of the bifurcated branch (``SecondaryLocator``)
+                secondary = SecondaryLocator(run, sst, closed=cfg.shape.closed)
                 if cont is not None:
                     secondary.resume(cont.records[-1], cont.switch.state)
                     n, first, last = (len(cont.records), cont.records[0]["kappa"],

@@ -136,7 +136,7 @@ _C_DECLARATIONS = _C_DECL + "".join(_lanes_source(_C_LANES_DECL, n) for n in _WI
 _LDFLAGS = ["-l:liblapack.so.3"]
 
 
-def _cache_dir() -> Path:
+def cache_dir() -> Path:
     """The package's cache folder (``shells.problem.formcache.cache_root``), where the C loop is
     built."""
     from shells.problem.formcache import cache_root
@@ -144,7 +144,19 @@ def _cache_dir() -> Path:
     return cache_root()
 
 
-def _library() -> Any:
+def loaded() -> bool:
+    """Whether the compiled C loop is loaded in this process."""
+    return _LIBRARY is not None
+
+
+def unload() -> None:
+    """Forget the loaded C loop: the next ``library()`` loads it again (or builds it, into
+    ``cache_dir()``), as a new process would."""
+    global _LIBRARY
+    _LIBRARY = None
+
+
+def library() -> Any:
     """The compiled C loop (cffi module ``lib``, ``ffi``): built on first use into the cache
     folder under a name that hashes its source, atomically (parallel test workers may build it
     at once), and loaded from there afterwards."""
@@ -157,7 +169,7 @@ def _library() -> Any:
                         + cffi.__version__).encode()
                        ).hexdigest()[:12]
     name = f"_shells_cells_{tag}"
-    folder = _cache_dir()
+    folder = cache_dir()
     found = sorted(folder.glob(f"{name}*.so")) if folder.is_dir() else []
     if not found:
         folder.mkdir(parents=True, exist_ok=True)
@@ -184,7 +196,7 @@ def sum_difference(C: np.ndarray, s: np.ndarray, d: np.ndarray, out: np.ndarray)
     if C.shape != out.shape or C.ndim != 3 or not (C.flags.c_contiguous
                                                    and out.flags.c_contiguous):
         raise ValueError("C and out: C-contiguous arrays of one shape (cells, n, n)")
-    lib = _library()
+    lib = library()
     ffi = lib.ffi
     s = np.ascontiguousarray(s, dtype=np.intc)
     d = np.ascontiguousarray(d, dtype=np.intc)
@@ -204,7 +216,7 @@ class CellTabulator:
         from dolfinx.fem import IntegralType
 
         self.forms = list(forms)
-        lib = _library()
+        lib = library()
         self._lib, self._ffi = lib.lib, lib.ffi
         pointers = []
         for f in self.forms:
@@ -284,7 +296,7 @@ class ElementAssembler:
             raise ValueError("an element entry outside the form's pattern")
         self._indptr, self._indices = indptr.astype(np.int32), indices.astype(np.int32)
         self._pos, self._rows = np.ascontiguousarray(pos, dtype=np.int64), rows
-        lib = _library()
+        lib = library()
         self._lib, self._ffi = lib.lib, lib.ffi
         self._masks: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
 
@@ -464,7 +476,7 @@ class ChainCholesky:
         E = np.ascontiguousarray(E, dtype=np.float64)
         weights = _weights(E, powers, own)
         nf = len(E)
-        lib = _library()
+        lib = library()
         ffi = lib.ffi
         ptr = lambda a, t: ffi.cast(t, ffi.from_buffer(a))  # noqa: E731
         zs, ds = [], []
@@ -497,7 +509,7 @@ class ChainCholesky:
         (blocks x lower band storage, no conditions applied) and which failed (an interior
         block not positive definite). ``keep`` (one block only): arrays (cells x ni x ni,
         cells x ni x nv) that receive the cells' interior factors."""
-        lib = _library()
+        lib = library()
         ffi = lib.ffi
         E = np.ascontiguousarray(E, dtype=np.float64)
         ncells, n = E.shape[1], E.shape[2]
@@ -580,7 +592,7 @@ class ChainCholesky:
             raise ValueError("inconsistent blocks")
         if not own:
             return []
-        lib = _library()
+        lib = library()
         ffi = lib.ffi
         out: list[tuple[int, int, int] | None] = []
         for band in self._condensed_blocks(E, powers, own, constrained):
@@ -650,7 +662,7 @@ class ChainLU:
         for d in range(kd + 1):
             g[: size - d, 2 * kd + d] = lower[d, : size - d]  # below the diagonal: A[j + d, j]
             g[d:, 2 * kd - d] = lower[d, : size - d]  # above: A[j, j + d] = A[j + d, j]
-        lib = _library()
+        lib = library()
         piv = np.zeros(size, dtype=np.intc)
         info = lib.lib.band_lu(lib.ffi.cast("double*", lib.ffi.from_buffer(g)), size, kd,
                                lib.ffi.cast("int*", lib.ffi.from_buffer(piv)))
@@ -671,7 +683,7 @@ class ChainLU:
 
     def solve(self, b: np.ndarray, x: np.ndarray) -> None:
         """x = H^-1 b (arrays of the block's local DOFs, one process; x C-contiguous)."""
-        lib = _library()
+        lib = library()
         ffi = lib.ffi
         b = np.ascontiguousarray(b, dtype=np.float64)
         if not (x.flags.c_contiguous and x.dtype == np.float64 and x.shape == b.shape):

@@ -196,9 +196,9 @@ class AxisymModel(FormProblem):
         self._build_forms()
         self.bcs = self._axis_conditions()
         self._degree_forms: dict[Any, tuple] = {}
-        self._jacobian_fast: Any = None  # ``_jacobian_elements``
+        self._jacobian_fast: Any = None  # ``jacobian_elements``
         self._pair: Any = None  # ``_paired``
-        self._dkappa_kept: Any = None  # dR/dκ from the last paired pass, and its inputs
+        self.dkappa_kept: Any = None  # dR/dκ from the last paired pass, and its inputs
         self._uz_dofs: tuple[np.ndarray, np.ndarray] | None = None  # ``uz_at``'s
 
     # -- kinematics ------------------------------------------------------------------------------
@@ -285,7 +285,7 @@ class AxisymModel(FormProblem):
             # tangential part they omit carries its opposite): balanced by a uniform body force
             # (inertia relief), else the gauge point would carry it as a point load
             c = -2 * (1 + self.nu) / 3 * self.h**2 * self.kappa
-            q, q_z = self._normal_load()
+            q, q_z = self.normal_load()
             out["pressure_work"] = c * (q * un - q_z * j.val[2])
         if "pressure_work" in out:
             out["total"] = out["total"] + out["pressure_work"]
@@ -303,7 +303,7 @@ class AxisymModel(FormProblem):
         return gap, -2 / 3 * self.h**2 * ((1 - self.nu) * (k1 * Eb[0] + k2 * Eb[2])
                                           + self.nu * (k1 + k2) * (Eb[0] + Eb[2]))
 
-    def _normal_load(self) -> tuple[Any, float]:
+    def normal_load(self) -> tuple[Any, float]:
         """q of the normal load c q Ψ3 ("equivalent_normal": Δf - 2f/R²; "local_pressure":
         -2f/R²) and the mean ∫ q n_z dω / A of its axial component."""
         from dolfinx import fem
@@ -497,7 +497,7 @@ class AxisymModel(FormProblem):
     def create_jacobian(self) -> Any:
         """The Jacobian's matrix; on one process one whose values ``assemble_jacobian``
         writes in place (``chain.ElementAssembler.create_matrix``)."""
-        fast = self._jacobian_elements()
+        fast = self.jacobian_elements()
         if fast is None:
             return FormProblem.create_jacobian(self)
         return fast[1].create_matrix()
@@ -508,7 +508,7 @@ class AxisymModel(FormProblem):
         same order, without dolfinx's per-cell insertion (0.55 against 0.85 ms on the θ̄ = 8
         cap's 200 cells, into a matrix of ``create_jacobian``; Newton assembles it at every
         iteration)."""
-        fast = self._jacobian_elements()
+        fast = self.jacobian_elements()
         if fast is None:
             FormProblem.assemble_jacobian(self, A)
             return
@@ -536,12 +536,12 @@ class AxisymModel(FormProblem):
         apply_lifting(b, [self.hessian], bcs=[self.bcs], x0=[self.state], alpha=-1.0)
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         set_bc(b, self.bcs, self.state, -1.0)
-        self._dkappa_kept = (inputs, both[second])
+        self.dkappa_kept = (inputs, both[second])
 
     def assemble_dkappa(self, b: Any) -> None:
         """dR/dκ (``FormProblem``'s), from ``assemble_residual``'s pass where that was at the
         same state (every coefficient, Constant and the geometry compared exactly)."""
-        kept, pair = self._dkappa_kept, self._paired()
+        kept, pair = self.dkappa_kept, self._paired()
         if kept is None or pair is None or not same_inputs(kept[0],
                                                            read_inputs(*pair[4], self.mesh)):
             FormProblem.assemble_dkappa(self, b)
@@ -595,7 +595,7 @@ class AxisymModel(FormProblem):
         size = W2.dofmap.index_map.size_local + W2.dofmap.index_map.num_ghosts
         return forms[0], maps[0], maps[1], np.zeros(size), reads[0]
 
-    def _jacobian_elements(self) -> Any:
+    def jacobian_elements(self) -> Any:
         """(tabulator, assembler, constrained DOFs) of the Jacobian, made on first use; None
         in parallel or where the C loop is not available (then dolfinx assembles it)."""
         if self.comm.size > 1 or self._jacobian_fast is False:

@@ -134,12 +134,12 @@ class ModeForms:
         self._coefficient_forms: list[Any] | None = None
         self._axisymmetric_form: Any = None  # H_0's own form (``axisymmetric_form``)
         self._C: list[Any] | None = None  # the matrices C_k
-        self._C_inputs: list[np.ndarray] | None = None  # what they were assembled from
+        self.coefficient_inputs: list[np.ndarray] | None = None  # what they were assembled from
         self._read: tuple[dict, dict] = ({}, {})  # the coefficients and Constants they read
         self._rows: dict[int, Any] = {}  # the constrained rows of each class of m
         self._chain: Any = None  # ``definite``'s tabulator and chain test (False: unavailable)
         self._E: np.ndarray | None = None  # ``element_matrices``
-        self._E_inputs: list[np.ndarray] | None = None  # what they were tabulated from
+        self.element_inputs: list[np.ndarray] | None = None  # what they were tabulated from
         self._csr: Any = None  # ``_set_from_elements``'s ``ElementAssembler``
         self._schur: Any = None  # ``condensed_hessian``'s matrix
         #: names the derivations of forms from ``hessian_ufl`` in this module (form cache)
@@ -250,19 +250,19 @@ class ModeForms:
         from dolfinx.fem.petsc import assemble_matrix, create_matrix
 
         forms = self.coefficient_forms
-        stale, inputs = self._stale(self._C_inputs)
+        stale, inputs = self._stale(self.coefficient_inputs)
         if stale:
             if self._C is None:  # the direct form's pattern: that of every H_m's matrix
                 self._C = [create_matrix(self.form) for _ in forms]
-            self._C_inputs = None  # not valid while being assembled
+            self.coefficient_inputs = None  # not valid while being assembled
             for C, f in zip(self._C, forms, strict=True):
                 C.zeroEntries()
                 assemble_matrix(C, f)
                 C.assemble()
-            self._C_inputs = [a.copy() for a in inputs]
+            self.coefficient_inputs = [a.copy() for a in inputs]
         return self._C
 
-    def _constrained_rows(self, m: int) -> Any:
+    def constrained_rows(self, m: int) -> Any:
         """Global indices of the owned DOFs constrained in mode m (a PETSc IS)."""
         from petsc4py import PETSc
 
@@ -312,10 +312,10 @@ class ModeForms:
             H.assemble()
         for k in range(1, DEGREE + 1):
             H.axpy(float(m) ** k, C[k], structure=same)
-        H.zeroRowsColumns(self._constrained_rows(m), diag=1.0)
+        H.zeroRowsColumns(self.constrained_rows(m), diag=1.0)
         H.setOption(H.Option.SYMMETRIC, True)
 
-    def _chain_setup(self) -> Any:
+    def chain_setup(self) -> Any:
         """(tabulator, chain test) of ``shells.axisym.chain`` for this space, made on first use;
         None in parallel or where it cannot be set up (no C compiler, an unexpected mesh)."""
         if self.model.comm.size > 1 or self._chain is False:
@@ -332,7 +332,7 @@ class ModeForms:
                                        list(layout.entity_dofs(0, 1))),
                                       list(layout.entity_dofs(1, 0)))
                 for key in (0, 1, 2, 3):  # every condition on a vertex DOF
-                    chain.constraint_indices(np.asarray(self._constrained_rows(key).getIndices()))
+                    chain.constraint_indices(np.asarray(self.constrained_rows(key).getIndices()))
             except Exception as e:  # the assembled path instead
                 log.debug("element matrices of the mode forms not available: %s", e)
                 self._chain = False
@@ -375,19 +375,19 @@ class ModeForms:
     def element_matrices(self) -> np.ndarray | None:
         """The element matrices of C_0..C_4 and of H_0 on every cell (6, cells, 21, 21) at
         the model's current state: tabulated on first use and again whenever an input of the
-        forms changed (as ``coefficient_matrices``). None in parallel (``_chain_setup``)."""
-        setup = self._chain_setup()
+        forms changed (as ``coefficient_matrices``). None in parallel (``chain_setup``)."""
+        setup = self.chain_setup()
         if setup is None:
             return None
-        stale, inputs = self._stale(self._E_inputs)
+        stale, inputs = self._stale(self.element_inputs)
         if stale:
-            self._E_inputs = None  # not valid while being tabulated
+            self.element_inputs = None  # not valid while being tabulated
             tab, _, pairs = setup
             if self._E is None:
                 self._E = np.empty((DEGREE + 2, tab.ncells, tab.n, tab.n))
             tab.tabulate(out=self._E[:DEGREE + 1])
             self._axisymmetric_elements(self._E[0], pairs, self._E[DEGREE + 1])
-            self._E_inputs = [a.copy() for a in inputs]
+            self.element_inputs = [a.copy() for a in inputs]
         return self._E
 
     @staticmethod
@@ -417,7 +417,7 @@ class ModeForms:
     def _set_from_elements(self, H: Any, Em: np.ndarray, m: int) -> None:
         """H's values from the element matrices Em of H_m (``chain.ElementAssembler``), mode
         m's constrained rows and columns 0 and their diagonal 1, flagged symmetric."""
-        self._assembler().set(H, Em, np.asarray(self._constrained_rows(m).getIndices()))
+        self._assembler().set(H, Em, np.asarray(self.constrained_rows(m).getIndices()))
         H.setOption(H.Option.SYMMETRIC, True)
 
     def create_matrix(self) -> Any:
@@ -426,7 +426,7 @@ class ModeForms:
         ``setValuesCSR``, 0.75 ms a block on the θ̄ = 8 cap), else dolfinx's."""
         from dolfinx.fem.petsc import create_matrix
 
-        if self._chain_setup() is not None:
+        if self.chain_setup() is not None:
             return self._assembler().create_matrix()
         return create_matrix(self.form)
 
@@ -491,7 +491,7 @@ class ModeForms:
             return None
         m = int(m)
         return (E, self._powers([m]), DEGREE + 1 if m == 0 else -1,
-                np.asarray(self._constrained_rows(m).getIndices()))
+                np.asarray(self.constrained_rows(m).getIndices()))
 
     def definite(self, ms: list[int], margin: float) -> dict[int, bool] | None:
         """For each m: is H_m - ``margin`` diag(H_m) positive definite (a Cholesky factor
@@ -503,7 +503,7 @@ class ModeForms:
         if E is None:
             return None
         ms = [int(m) for m in ms]
-        constrained = [np.asarray(self._constrained_rows(m).getIndices()) for m in ms]
+        constrained = [np.asarray(self.constrained_rows(m).getIndices()) for m in ms]
         powers = self._powers(ms)
         own = [DEGREE + 1 if m == 0 else -1 for m in ms]  # H_0 has its own form
         answers = self._chain[1].definite(E, powers, own, constrained, margin)

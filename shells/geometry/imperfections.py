@@ -65,7 +65,7 @@ class ImperfectSphere(SphericalCap):
             raise InputError(f"the mode degree must be an integer in [0, 1000], got "
                              f"{self.degree!r}")
 
-    def _profile(self, c: Any, t: Any, exp: Any, cos: Any = None) -> Any:
+    def profile_expression(self, c: Any, t: Any, exp: Any, cos: Any = None) -> Any:
         """f(t) from cos t (``c``), t and an exp function: numpy or UFL alike. With ``cos`` (the
         UFL path) the mode's P_n(cos t) is its cosine series (``legendre_cosine_series``): the
         recurrence's expression, differentiated twice in the energy, took the form compiler
@@ -82,7 +82,9 @@ class ImperfectSphere(SphericalCap):
         return p1
 
     def radius_at(self, t: np.ndarray) -> np.ndarray:
-        return self.radius - self.amplitude * self._profile(np.cos(t), t, np.exp)
+        """ρ(t) = R - δ f(t): the reference surface's distance from the centre at the angle t
+        from the pole."""
+        return self.radius - self.amplitude * self.profile_expression(np.cos(t), t, np.exp)
 
     def meridian(self, t):
         rho = self.radius_at(np.asarray(t, dtype=float))
@@ -104,7 +106,7 @@ class ImperfectSphere(SphericalCap):
         import ufl
 
         amp = self.amplitude if amplitude is None else amplitude
-        rho = self.radius - amp * self._profile(ufl.cos(t), t, ufl.exp, ufl.cos)
+        rho = self.radius - amp * self.profile_expression(ufl.cos(t), t, ufl.exp, ufl.cos)
         return rho * ufl.sin(t), rho * ufl.cos(t)
 
     def normal(self, x):
@@ -122,7 +124,7 @@ class ImperfectSphere(SphericalCap):
         r = ufl.sqrt(ufl.dot(x, x))
         c = x[2] / r
         beta = ufl.variable(ufl.acos(c))
-        rho = self.radius - self.amplitude * self._profile(ufl.cos(beta), beta, ufl.exp,
+        rho = self.radius - self.amplitude * self.profile_expression(ufl.cos(beta), beta, ufl.exp,
                                                            ufl.cos)
         drho_over_s = ufl.diff(rho, beta) / ufl.sin(beta)
         s_ebeta = ufl.as_vector([c * x[0] / r, c * x[1] / r, -(1 - c * c)])
@@ -212,7 +214,7 @@ class HarmonicImperfectSphere(Shape):
                 and abs(self.amplitude) < 0.1 * self.radius):
             raise InputError(f"the imperfection amplitude must be a number below R/10 in size, "
                              f"got {self.amplitude!r}")
-        object.__setattr__(self, "_fmax", self._max_abs())
+        object.__setattr__(self, "f_max", self._max_abs())
 
     def _max_abs(self) -> float:
         """max over θ of |P_n^m(cos θ)| (1 for m = 0: P_n(1) = 1 bounds |P_n|): the largest of
@@ -238,7 +240,7 @@ class HarmonicImperfectSphere(Shape):
         """f at unit vectors u (shape (3, N) or (3,))."""
         u = np.asarray(u, dtype=float)
         cm, q = harmonic_parts(self.degree, self.order, u[0], u[1], u[2])
-        return cm * q / self._fmax  # type: ignore[attr-defined]
+        return cm * q / self.f_max  # type: ignore[attr-defined]
 
     def profile_gradient(self, u: np.ndarray) -> np.ndarray:
         """The ambient gradient ∂f/∂u of the polynomial f(u) (shape (3, N)); its tangential
@@ -255,7 +257,7 @@ class HarmonicImperfectSphere(Shape):
             cm, sm = cm * u[0] - sm * u[1], sm * u[0] + cm * u[1]
         # d/du_x (u_x + i u_y)^m = m (.)^(m-1), d/du_y = i m (.)^(m-1)
         dx, dy = (m * cm1, -m * sm1) if m > 0 else (z, z)
-        return np.stack([dx * q, dy * q, cm * dq]) / self._fmax  # type: ignore[attr-defined]
+        return np.stack([dx * q, dy * q, cm * dq]) / self.f_max  # type: ignore[attr-defined]
 
     def rho(self, u: np.ndarray) -> np.ndarray:
         """ρ = R - amplitude f at unit vectors u."""
@@ -331,7 +333,7 @@ class HarmonicImperfectSphere(Shape):
         r = ufl.sqrt(ufl.dot(x, x))
         u = x / r
         cm, q = harmonic_parts(self.degree, self.order, u[0], u[1], u[2])
-        F = r - self.radius + (self.amplitude / self._fmax) * cm * q  # type: ignore[attr-defined]
+        F = r - self.radius + (self.amplitude / self.f_max) * cm * q  # type: ignore[attr-defined]
         g = ufl.grad(F)
         return g / ufl.sqrt(ufl.dot(g, g))
 

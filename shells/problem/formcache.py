@@ -100,8 +100,11 @@ def _enabled() -> bool:
     return os.environ.get("SHELLS_FORM_CACHE", "1") != "0"
 
 
-def _key(source: Any, tag: str, jit_options: dict[str, Any] | None,
-         extra: tuple[Any, ...] = (), spaces: tuple[Any, ...] | None = None) -> str:
+def record_key(source: Any, tag: str, jit_options: dict[str, Any] | None,
+               extra: tuple[Any, ...] = (), spaces: tuple[Any, ...] | None = None) -> str:
+    """The record's key of a derivation: the source form's signature, the derivation's
+    ``tag``, the versions of UFL, FFCx, basix and dolfinx, the JIT options and the extra
+    coefficients' and spaces' descriptions, hashed."""
     import basix
     import dolfinx
     import ffcx
@@ -230,7 +233,7 @@ def compiled_derived(source: Any, tag: str, derive: Callable[[], list[Any]],
     comm = source.ufl_domain().ufl_cargo().comm
     extra = tuple(extra)
     spaces = tuple(spaces) if spaces is not None else None
-    path = (cache_folder() / f"{_key(source, tag, jit_options, extra, spaces)}.json"
+    path = (cache_folder() / f"{record_key(source, tag, jit_options, extra, spaces)}.json"
             if _enabled() else None)
     found = None
     if path is not None and path.is_file():

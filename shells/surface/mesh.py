@@ -185,7 +185,7 @@ class ShellMesh:
 
 
 @contextlib.contextmanager
-def _gmsh_model(name: str) -> Iterator[Any]:
+def gmsh_model(name: str) -> Iterator[Any]:
     """A fresh gmsh model; gmsh is initialised once per process, quietly, not grabbing SIGINT."""
     import gmsh
 
@@ -515,7 +515,7 @@ def _estimate_cells(spec: MeshSpec) -> float:
     return min(bulk + layer + graded, c * area / s_l**2)
 
 
-def _memory_limit() -> int | None:
+def memory_limit() -> int | None:
     """Bytes of memory this machine (or the cgroup it runs in, if smaller) can hold."""
     limit = None
     try:
@@ -547,7 +547,7 @@ def check_mesh_size(spec: MeshSpec, comm: MPI.Comm | None = None) -> float:
     if comm.rank == 0:
         cells = estimate_cells(spec)
         need = comm.size * PROCESS_BASE_BYTES + cells * MESH_BYTES_PER_CELL
-        limit = _memory_limit()
+        limit = memory_limit()
         if not math.isfinite(cells) or (limit is not None and need > limit):
             err = (f"the mesh would have about {cells:.3g} cells and need about "
                    f"{need / 2**30:.3g} GiB, more than this machine's "
@@ -572,7 +572,7 @@ def generate(spec: MeshSpec, comm: MPI.Comm | None = None, msh_path: str | os.Pa
 
     comm = _MPI.COMM_WORLD if comm is None else comm
     check_mesh_size(spec, comm)
-    with _gmsh_model(f"shells-{spec.shape.kind}") as gmsh:
+    with gmsh_model(f"shells-{spec.shape.kind}") as gmsh:
         if comm.rank == 0:
             _build_model(gmsh, spec)
             if msh_path is not None:
@@ -602,7 +602,7 @@ def write_msh(spec: MeshSpec, path: str | os.PathLike, comm: MPI.Comm | None = N
     err = None
     if comm.rank == 0:
         try:
-            with _gmsh_model(f"shells-{spec.shape.kind}") as gmsh:
+            with gmsh_model(f"shells-{spec.shape.kind}") as gmsh:
                 _build_model(gmsh, spec)
                 _write_current(gmsh, spec, Path(path))
         except InputError as e:
@@ -687,7 +687,7 @@ def read_mesh_shape(path: str | os.PathLike, comm: MPI.Comm | None = None) -> Sh
     comm = _MPI.COMM_WORLD if comm is None else comm
     path = _checked(path, comm)
     spec = _sidecar_spec(path)
-    with _gmsh_model("shells-read") as gmsh:
+    with gmsh_model("shells-read") as gmsh:
         recovered = _read_on_rank0(gmsh, path, comm, recover=spec is None)
     return spec.shape if spec is not None else recovered
 
@@ -702,7 +702,7 @@ def load_mesh(path: str | os.PathLike, comm: MPI.Comm | None = None) -> ShellMes
     path = _checked(path, comm)
     spec = _sidecar_spec(path)
     shape = spec.shape if spec is not None else None
-    with _gmsh_model("shells-read") as gmsh:
+    with gmsh_model("shells-read") as gmsh:
         recovered = _read_on_rank0(gmsh, path, comm, recover=spec is None)
         if recovered is not None:
             shape = recovered

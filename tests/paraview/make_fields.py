@@ -35,7 +35,7 @@ ARRAYS = ("displacement", "director", "mean_curvature_change", "natural_curvatur
 def main(out: Path) -> None:
     from mpi4py import MPI
 
-    from shells.analyses.branch import BranchConfig, _load_checkpoint, read_branch
+    from shells.analyses.branch import BranchConfig, load_branch_checkpoint, read_branch
     from shells.surface.fields import FieldWriter
     from shells.surface.mesh import generate
     from shells.surface.model import ModelParameters, ShellModel
@@ -52,7 +52,7 @@ def main(out: Path) -> None:
                        ModelParameters(h=cfg.h, nu=cfg.nu, shear_penalty=cfg.shear_penalty,
                                        degree=cfg.degree, quadrature_degree=2 * cfg.degree))
     # the run's last state, read back through the branch module's own checkpoint reader
-    ck = _load_checkpoint(run, model)
+    ck = load_branch_checkpoint(run, model)
     assert ck is not None, "no usable checkpoint"
     assert ck[1] == last["index"], "checkpoint is not the last point"
     model.kappa.value = ck[0]

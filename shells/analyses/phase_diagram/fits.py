@@ -76,7 +76,9 @@ def _lstsq(X: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]
     return coef, cov, float(np.sqrt(np.mean(r**2)))
 
 
-def _fit_snap(pts: list[dict[str, Any]]) -> dict[str, Any] | None:
+def fit_snap(pts: list[dict[str, Any]]) -> dict[str, Any] | None:
+    """The snapping line κ_s R = β θ̄ - α of Eq. (3) fitted to the points' ``kappa_snap_R``
+    (least squares, with standard errors); None with fewer than three points."""
     s = [(p["thetabar"], p["kappa_snap_R"]) for p in pts if p.get("kappa_snap_R") is not None]
     if len(s) < 3:
         return None
@@ -138,13 +140,13 @@ def fit_all(points: list[dict[str, Any]], nu: float = 0.5) -> dict[str, Any]:
                                               "thetabar_c")}
     err: dict[str, Any] = dict(fits)
     extra: dict[str, Any] = {}
-    snap = _fit_snap([p for p in points if math.degrees(p["thetabar"] * math.sqrt(
+    snap = fit_snap([p for p in points if math.degrees(p["thetabar"] * math.sqrt(
         p["h_over_R"])) <= SNAP_FIT_THETA_MAX_DEG])
     if snap:
         fits.update(alpha=snap["alpha"], beta=snap["beta"])
         err.update(alpha=snap["alpha_err"], beta=snap["beta_err"])
         extra["snap_fit"] = snap
-    extra["snap_fit_all_folds"] = _fit_snap(points)
+    extra["snap_fit_all_folds"] = fit_snap(points)
     buck = _fit_buckling(points)
     if buck:
         fits.update(b=buck["b"], c=buck["c"])
@@ -175,7 +177,7 @@ def fit_all(points: list[dict[str, Any]], nu: float = 0.5) -> dict[str, Any]:
                 c_vals.append(tc)
         pre = next((p["thetabar"] for p in ph if p.get("up_kind") == "bifurcation"), None)
         e["thetabar_bifurcation_precedes_fold"] = pre
-        e["snap_fit"] = _fit_snap(ph)
+        e["snap_fit"] = fit_snap(ph)
         pd = [p for p in points if p["h_over_R"] == h]
         e["buckling_fit"] = _fit_buckling(pd)
         e["everted_buckling_fit"] = _fit_buckling(pd, "kappa_everted_R", mirrored=True)

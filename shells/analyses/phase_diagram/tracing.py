@@ -62,7 +62,7 @@ def _ufl_vector(items: list[Any]) -> Any:
     return ufl.as_vector(items)
 
 
-class _Branch:
+class BranchTracer:
     """Model and Newton solver of one axisymmetric run, and the curvatures of its state."""
 
     def __init__(self, theta: float, h_over_r: float, nu: float, cfg: PhaseDiagramConfig
@@ -102,7 +102,7 @@ class _Branch:
         self.ns.destroy()
 
 
-def _bifurcation_record(br: _Branch, cp: Any, step_modes: list[int]) -> dict[str, Any]:
+def _bifurcation_record(br: BranchTracer, cp: Any, step_modes: list[int]) -> dict[str, Any]:
     return {"kappa_R": cp.kappa, "bracket": [cp.kappa_lo, cp.kappa_hi], "mode_m": cp.mode_m,
             "modes": [cp.mode_m], "modes_at_step_end": step_modes, "accuracy": cp.accuracy,
             **br.curvatures_at(cp)}
@@ -123,7 +123,7 @@ def _trace_axisym(task: Task, cfg: PhaseDiagramConfig) -> dict[str, Any]:
         bound = 1.6 * max(snap_kappa_R(tb), mirrored_buckling_kappa_R(tb, h), 1.0) + 0.5
     else:
         bound = 2.5 * max(-buckling_kappa_R(tb, h), 1.0) + 1.0
-    br = _Branch(task.theta, h, cfg.nu, cfg)
+    br = BranchTracer(task.theta, h, cfg.nu, cfg)
     out: dict[str, Any] = {"fold": None, "bifurcation": None, "inverted_at_bifurcation": None,
                            "kappa_R_end": sign * bound, "branch_points": 0,
                            "dofs": br.model.num_dofs()}
@@ -230,7 +230,7 @@ def everted_check(h_over_r: float, thetabar: float, cfg: PhaseDiagramConfig,
 
     task = Task(h_over_r, thetabar, "up", tag="everted")
     bound = kappa_max or 2.0 - 1.5 * buckling_kappa_R(thetabar, h_over_r) + 1.0
-    br = _Branch(task.theta, h_over_r, cfg.nu, cfg)
+    br = BranchTracer(task.theta, h_over_r, cfg.nu, cfg)
     folds: list[float] = []
     stable_again = [False]
     result: dict[str, Any] = {"h_over_R": h_over_r, "thetabar": thetabar, "folds": folds,

@@ -19,7 +19,7 @@ from pathlib import Path
 from mpi4py import MPI
 
 from shells.analyses import axisym_runs
-from shells.analyses.drivers import critical_surface
+from shells.analyses.critical import run_surface
 from shells.geometry.shapes import SphericalCap
 
 CAP = SphericalCap(1.0, math.radians(46.2))
@@ -40,7 +40,7 @@ def main() -> None:
     rows = []
     for size, layer in MESHES:
         t0 = time.perf_counter()
-        d = critical_surface(CAP, H_OVER_R, 0.5, 10.0 / CAP.R, first_only=True, size=size,
+        d = run_surface(CAP, H_OVER_R, 0.5, 10.0 / CAP.R, first_only=True, size=size,
                              layer_elements=layer)
         first = d["critical_points"][0]
         rows.append({"size": size, "layer_elements": layer, "degree": 3, "dofs": d["dofs"],

@@ -24,8 +24,8 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
-from shells.analyses.drivers import critical_run
-from shells.analyses.knockdown import KnockdownConfig, run_knockdown
+from shells.analyses import critical, knockdown
+from shells.analyses.knockdown import KnockdownConfig
 from shells.surface.mesh import read_mesh_shape
 
 HERE = Path(__file__).parent
@@ -90,12 +90,12 @@ def main() -> int:
     shape = read_mesh_shape(path, comm)
     out["fitted_R"] = shape.R
     # h itself fixed (the fitted R of the dented sphere is not 1): κh is the comparison
-    r = critical_run(shape, h / shape.R, 0.5, direction="up", model="surface",
+    r = critical.run(shape, h / shape.R, 0.5, direction="up", model="surface",
                      first_only=True, mesh_file=str(path))
     out["surface"] = {"kind": r["kind"], "kappa_h": r["kappa_h"], "dofs": r["dofs"],
                       "wall_s": time.perf_counter() - t0}
     t1 = time.perf_counter()
-    kd = run_knockdown(KnockdownConfig(h_over_r=h, nu=0.5, amplitudes=(a.delta,),
+    kd = knockdown.run(KnockdownConfig(h_over_r=h, nu=0.5, amplitudes=(a.delta,),
                                        imperfection="dimple", width=a.width), None,
                        figure=False)
     p = kd["points"][0]

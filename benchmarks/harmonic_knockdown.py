@@ -26,7 +26,8 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from shells.analyses.knockdown import KnockdownConfig, run_knockdown, surface_first
+from shells.analyses import knockdown
+from shells.analyses.knockdown import KnockdownConfig, surface_first
 
 JSON = Path(__file__).parent / "results" / "harmonic_knockdown.json"
 
@@ -80,7 +81,7 @@ def main() -> int:
             r = point(f"m{m}_delta{d:g}", cfg, d)
             r["knockdown"] = r["kappa_h"] / kb
     # the 1D model's axisymmetric mode P_n (its own κ_b), for reference (seconds)
-    oned = run_knockdown(KnockdownConfig(a.h_over_r, tuple(a.amplitudes), nu=a.nu,
+    oned = knockdown.run(KnockdownConfig(a.h_over_r, tuple(a.amplitudes), nu=a.nu,
                                          imperfection="mode", degree=n), None, figure=False)
     run["axisym_mode"] = {"kappa_b_h": oned["kappa_b_h"],
                           "points": {f"{p['delta_over_h']:g}": p["knockdown"]

@@ -11,7 +11,7 @@ and over the whole run the LU factorisations of the locator's trials, SNES's, an
 factorisations of the inertia (``stability.setup_factor``). Each case runs twice in one
 process, alternating, on the same machine: with the corrector's factorisation reuse switched off
 (``ContinuationSettings.factor_reuse = 0``: a factorisation per corrector iteration and one
-for the tangent, as before issue 14) and with the driver's (``drivers.REUSE_SURFACE``); the
+for the tangent, as before issue 14) and with the driver's (``critical.REUSE_SURFACE``); the
 located point of both is
 compared. Factorisations are counted where they happen (``solvers.setup_factor``), not where
 they are asked for. Prints a table, writes JSON.
@@ -28,7 +28,7 @@ from pathlib import Path
 
 from shells.algorithms import continuation, settings, stability, switching
 from shells.algorithms import newton as solvers
-from shells.analyses.drivers import critical_surface
+from shells.analyses.critical import run_surface
 from shells.geometry.shapes import SphericalCap
 
 CASES = {"cap30 up": (30.0, 3.0), "thetabar5 up": (math.degrees(1.0), 5.0)}
@@ -77,7 +77,7 @@ def count_run(theta_deg: float, kappa_r_end: float, factor_reuse: float | None) 
     switching.arclength_steps = steps
     try:
         t0 = time.perf_counter()
-        r = critical_surface(SphericalCap(1.0, math.radians(theta_deg)), 0.04, 0.5,
+        r = run_surface(SphericalCap(1.0, math.radians(theta_deg)), 0.04, 0.5,
                              kappa_r_end, first_only=True)
         wall = time.perf_counter() - t0
     finally:

@@ -25,13 +25,13 @@ from typing import Any
 
 from mpi4py import MPI
 
+from shells.analyses import phase_diagram
 from shells.analyses.phase_diagram import (
     Discretisation,
     PhaseDiagramConfig,
     Task,
     compute_task,
     everted_check,
-    run_phase_diagram,
 )
 from shells.theory import PAPER, plate_a, sphere_kappa_b_h, sphere_psi3_linear
 
@@ -158,7 +158,7 @@ def compute(args: argparse.Namespace) -> None:
         load = old["load_average"]
     else:
         t0 = time.perf_counter()
-        res = run_phase_diagram(cfg, args.output)
+        res = phase_diagram.run(cfg, args.output)
         t_diagram = time.perf_counter() - t0
         load = list(os.getloadavg())
     checks: dict[str, Any] = {}

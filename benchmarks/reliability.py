@@ -481,10 +481,10 @@ def rank_identity(name: str, work: Path, rtol: float = 1e-8) -> dict[str, Any]:
 RANK_FAILURE = """
 import os, sys
 from mpi4py import MPI
-from shells.analyses import drivers
+from shells.analyses import branch
 from shells.cli import main
 
-real = drivers.branch_axisym
+real = branch.run_axisym
 
 def failing(*args, **kwargs):
     if MPI.COMM_WORLD.rank == int(os.environ["FAIL_RANK"]):
@@ -492,7 +492,7 @@ def failing(*args, **kwargs):
     MPI.COMM_WORLD.barrier()  # the healthy ranks wait for the failed one, as in a collective
     return real(*args, **kwargs)
 
-drivers.branch_axisym = failing
+branch.run_axisym = failing
 sys.exit(main(sys.argv[1:]))
 """
 

@@ -30,7 +30,8 @@ from pathlib import Path
 
 import numpy as np
 
-from shells.analyses.knockdown import METHOD, KnockdownConfig, run_knockdown
+from shells.analyses import knockdown
+from shells.analyses.knockdown import METHOD, KnockdownConfig
 from shells.theory import sphere_pressure_kappa_h
 
 RESULTS = Path("benchmarks/results")
@@ -56,7 +57,7 @@ def _exponent(pts: list[dict], upto: float) -> float:
 def curve(h: float, nu: float, kind: str, load: str, amps: tuple[float, ...]) -> dict:
     t0 = time.perf_counter()
     cfg = KnockdownConfig(h, (0.0, *amps), nu=nu, imperfection=kind, width=1.0, load=load)
-    res = run_knockdown(cfg, Path("results/knockdown") / f"{load}-{kind}-{h}-{nu}",
+    res = knockdown.run(cfg, Path("results/knockdown") / f"{load}-{kind}-{h}-{nu}",
                         figure=False)
     pts = res["points"]
     return {"h_over_R": h, "nu": nu, "imperfection": kind, "load": load, "method": METHOD,

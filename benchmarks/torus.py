@@ -22,8 +22,7 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from shells.analyses import axisym_runs
-from shells.analyses.drivers import critical_run
+from shells.analyses import axisym_runs, critical
 from shells.geometry.shapes import Sphere, Torus
 
 HERE = Path(__file__).parent
@@ -40,7 +39,7 @@ def say(msg: str) -> None:
 
 def _run(shape: Torus, h: float, **kw) -> dict:
     t0 = time.perf_counter()
-    r = critical_run(shape, h, 0.5, direction="up", model="surface", first_only=True, **kw)
+    r = critical.run(shape, h, 0.5, direction="up", model="surface", first_only=True, **kw)
     return {"kind": r["kind"], "kappa_h": r["kappa_h"], "kappa_R": r["kappa_R"],
             "mode_m": r["mode_m"], "dofs": r["dofs"], "wall_s": time.perf_counter() - t0}
 

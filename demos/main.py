@@ -28,10 +28,9 @@ from mpi4py import MPI
 
 from shells import theory
 from shells.algorithms.settings import ContinuationSettings
-from shells.analyses import axisym_runs
+from shells.analyses import axisym_runs, phase_diagram, postbuckle
 from shells.analyses.branch import BranchConfig, run_branch
-from shells.analyses.drivers import postbuckle_run
-from shells.analyses.phase_diagram import PhaseDiagramConfig, run_phase_diagram
+from shells.analyses.phase_diagram import PhaseDiagramConfig
 from shells.analyses.postbuckle import PostbuckleConfig
 from shells.geometry.shapes import Sphere, SphericalCap
 
@@ -90,7 +89,7 @@ def run(outdir: str | Path = "results/demo", quick: bool = False) -> dict:
     # m ≤ 8: the first instabilities of these caps have m ≤ 3 (the full diagram checks 0..12)
     cfg = PhaseDiagramConfig(h_over_r=(0.04,), thetabar_range=(1.5, 7.0),
                              points=3 if quick else 6, refine=0 if quick else 2, m_max=8)
-    pd = run_phase_diagram(cfg, outdir / "phase", comm=MPI.COMM_WORLD,
+    pd = phase_diagram.run(cfg, outdir / "phase", comm=MPI.COMM_WORLD,
                            progress=say if not quick else None)
     out["phase"] = pd
     say("phase diagram, h/R = 0.04 (kappa R of the first instability; paper's lines beside):")
@@ -128,7 +127,7 @@ def run(outdir: str | Path = "results/demo", quick: bool = False) -> dict:
         say(f"{name}: kappa R = {pts[-1]['kappa_R']:+.3f}, apex displacement "
             f"{pts[-1]['apex_uz_over_h']:+.2f} h -> {outdir / name / 'fields.bp'}")
     # the buckled shell: the m = 2 branch switched onto at the located bifurcation
-    pb = postbuckle_run(PostbuckleConfig(cap, 0.04, model="surface", direction="down",
+    pb = postbuckle.run(PostbuckleConfig(cap, 0.04, model="surface", direction="down",
                                          kappa_end=kr_buckled, sides=(1,),
                                          size=size_b, layer_elements=layer_b,
                                          kappa_min_ratio=0.1),

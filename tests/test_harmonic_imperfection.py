@@ -325,7 +325,7 @@ def test_surface_models_figure_and_summary(tmp_path, capsys, monkeypatch):
     if MPI.COMM_WORLD.rank == 0:
         path = kd.write_figure(res, tmp_path / "knockdown.png")
         assert (tmp_path / "knockdown.png").stat().st_size > 0 and path.endswith(".png")
-    monkeypatch.setattr(kd, "run_knockdown", lambda *a, **k: res)
+    monkeypatch.setattr(kd, "run", lambda *a, **k: res)
     assert main(["knockdown", "--h-over-r", "0.05", "--imperfection", "harmonic", "--model",
                  "surface", "--mode-n", "9", "--mode-m", "2", "--amplitudes", "0.03"]) == 0
     out = capsys.readouterr().out

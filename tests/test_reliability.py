@@ -768,7 +768,7 @@ def test_a_continuation_that_gives_up_is_an_error_and_leaves_a_resumable_branch(
 
 def _gives_up(monkeypatch, tmp_path, reference) -> tuple[bool, str]:
     from shells.algorithms import newton as solvers
-    from shells.analyses import drivers
+    from shells.analyses import branch
 
     _one_rank(monkeypatch)
     real = solvers.NewtonSolver.solve
@@ -782,12 +782,12 @@ def _gives_up(monkeypatch, tmp_path, reference) -> tuple[bool, str]:
     monkeypatch.setattr(solvers.NewtonSolver, "solve", failing)
     with pytest.raises(RuntimeError, match=r"stopped at kappa R = 10 before the end of the "
                        r"range, kappa R = 20: .* the same command resumes"):
-        drivers.branch_surface(_branch_config(), out)
+        branch.run_surface(_branch_config(), out)
     monkeypatch.setattr(solvers.NewtonSolver, "solve", real)
     case = rel.Case("branch", BRANCH, ["branch.jsonl"], True)
     kept = rel.records(out, case)
     assert [p["kappa_R"] for p in kept] == pytest.approx([0, 5, 10], rel=1e-12)
-    drivers.branch_surface(_branch_config(), out)
+    branch.run_surface(_branch_config(), out)
     got = rel.records(out, case)
     assert got[:len(kept)] == kept  # from the file, not recomputed
     diffs, _ = rel.compare(reference, got)

@@ -4,7 +4,7 @@ negative, huge, tiny, text, empty) given to any option of any subcommand is eith
 the options with a documented range are refused exactly outside it.
 
 Only the cheap validation paths run: every computation a subcommand would start (meshing,
-axisym_runs.critical/branch, run_branch, run_phase_diagram) is replaced by a stub that raises
+axisym_runs.critical/branch, run_branch, run) is replaced by a stub that raises
 WorkStartedError on every rank, so a value that passes validation ends there.
 
 The properties are driven by hypothesis (python3-hypothesis) when it is importable, with a fixed

@@ -55,7 +55,7 @@ class ContinuationSettings:
             solution Newton's Jacobian changes by O(|δw|/h), so the chord steps converge as fast
             as Newton's there. 0 (the default): factor at every iteration and for the tangent.
             The surface model's ``critical`` uses 1e-5 (``REUSE_SURFACE`` in
-            shells.analyses.drivers): 3 factorisations per step instead of 5, its critical points
+            shells.analyses.critical): 3 factorisations per step instead of 5, its critical points
             unchanged to 3e-11 (benchmarks/lu_per_step.py); the 1D model's ``critical`` 1e-4, with
             its default settings and the quadratic ``predictor`` (``REUSE_CRITICAL`` in
             shells.analyses.axisym_runs: 156 factorisations instead of 378 on the θ̄ = 8 cap, its

@@ -1,12 +1,16 @@
-"""The analyses (drivers): which problem to build from a configuration, the runs' files and
+"""The analyses: which problem to build from a shell's description, the files a run writes,
 resume, and the results of ``shells branch``, ``critical``, ``postbuckle``, ``knockdown`` and
 ``phase-diagram``.
 
-Modules:
+Each analysis has one entry point, its module's ``run``:
 
-* ``store``: run folders, JSON lines, checkpoints and resume;
-* ``drivers``: the surface model's ``branch``, ``critical`` and ``postbuckle`` runs;
-* ``axisym_runs``: the 1D model's ``branch`` and ``critical``;
-* ``branch``, ``postbuckle``, ``knockdown``, ``phase_diagram``: the analyses themselves;
-* ``render``: off-screen pictures of meshes and fields.
+* ``branch.run``: the equilibrium branch in κ, either model;
+* ``critical.run``: the critical points of the fundamental branch, either model;
+* ``postbuckle.run``: the branch that bifurcates at a critical point, both sides;
+* ``knockdown.run``: the knock-down of a closed sphere's buckling by an imperfection;
+* ``phase_diagram.run``: the phase diagram of open caps.
+
+Shared pieces: ``setup`` (the κ range a run covers by default), ``store`` (checkpoints and
+resume), ``axisym_runs`` (the 1D model's ``branch`` and ``critical``), ``writers`` (3D shapes
+and fields for ParaView), ``render`` (off-screen pictures).
 """

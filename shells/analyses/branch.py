@@ -32,13 +32,13 @@ from shells.analyses.store import load_state_checkpoint, resumable, save_state_c
 from shells.errors import InputError
 from shells.files import append_record, read_with_header, write_header
 from shells.geometry.catalogue import shape_from_description
-from shells.geometry.shapes import RunScales, Shape
+from shells.geometry.shapes import RunScales, Shape, kappa_length
 from shells.geometry.stimulus import UNIFORM, CurvatureField
-from shells.parameters import check_h_over_r, check_nu
+from shells.parameters import check_h_over_r, check_model, check_nu
 from shells.surface.fields import FieldWriter
 from shells.surface.mesh import MeshSpec, ShellMesh, generate, load_mesh
 
-__all__ = ["BranchConfig", "run_branch", "read_branch"]
+__all__ = ["BranchConfig", "folds", "read_branch", "run", "run_axisym", "run_branch", "run_surface"]
 
 log = logging.getLogger("shells")
 
@@ -319,3 +319,115 @@ def run_branch(cfg: BranchConfig, outdir: str | os.PathLike, *, comm: Any = None
                 writer.write(float(last["index"]))
             writer.close()
         ns.destroy()
+
+
+def run(shape: Any, h_over_r: float, nu: float, kappa_end: float, *, model: str = "surface",
+        outdir: str | os.PathLike = "results/branch", kappa_field: Any = None,
+        fields: str = "none", resume: bool = True, **surface: Any) -> dict[str, Any]:
+    """The equilibrium branch of a shell from κ = 0 to ``kappa_end``, with either model.
+
+    Args:
+        shape: the shell's reference shape (``shells.geometry``).
+        h_over_r: thickness over the shape's length scale.
+        nu: Poisson's ratio.
+        kappa_end: the end of the range, an absolute natural curvature (its sign: the
+            direction).
+        model: ``"surface"`` (2D) or ``"axisym"`` (1D, shells of revolution).
+        outdir: the run's folder: ``branch.jsonl``, every point appended as computed (the
+            surface model: a rerun resumes from ``checkpoint/``).
+        kappa_field: the natural-curvature stimulus (None: uniform).
+        fields: the surface model's fields for ParaView: ``"none"``, ``"last"`` or ``"all"``.
+        resume: the surface model resumes an unfinished run of the same configuration.
+        **surface: the surface model's ``BranchConfig`` fields (``size``, ``degree``,
+            ``layer_elements``, ``shear_penalty``, ``continuation``, ``mesh_file``).
+
+    Returns:
+        The branch: ``points`` (one record each), ``folds``, ``branch_file`` and, on the
+        surface model, ``config`` and ``dofs``.
+
+    Raises:
+        InputError: a parameter out of range.
+        RuntimeError: the surface model's continuation stopped before the end of the range.
+    """
+    check_model(model)
+    if model == "axisym":
+        return run_axisym(shape, h_over_r, nu, kappa_end * kappa_length(shape), outdir,
+                          kappa_field=kappa_field)
+    cfg = BranchConfig(shape=shape, h_over_r=h_over_r, nu=nu, kappa_end=kappa_end,
+                       kappa_field=UNIFORM if kappa_field is None else kappa_field, **surface)
+    return run_surface(cfg, outdir, fields=fields, resume=resume)
+
+
+def folds(points: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The turning points in κ of a branch (dκ/ds changes sign): kappa_R, kappa_h, index."""
+    return [{"kappa_R": p["kappa_R"], "kappa_h": p["kappa_h"], "index": p["index"]}
+            for a, p in zip(points, points[1:], strict=False)
+            if a["dkappa_ds"] * p["dkappa_ds"] < 0]
+
+
+def run_surface(cfg: Any, outdir: str | os.PathLike, *, fields: str = "none",
+                   resume: bool = True) -> dict[str, Any]:
+    """The surface model's branch: ``run_branch`` on ``cfg``, after the mesh-size check (before
+    the run creates its folder).
+
+    Returns:
+        The configuration, the DOFs, the branch file, the points and the folds.
+
+    Raises:
+        RuntimeError: the continuation stopped before the end of the range (its points so
+            far and its checkpoint are kept: the same call resumes after the last).
+    """
+    from shells.surface.mesh import check_mesh_size
+
+    if cfg.mesh_file is None:
+        check_mesh_size(cfg.mesh_spec())
+    points = list(run_branch(cfg, outdir, fields=fields, resume=resume))
+    end = cfg.kappa_end * cfg.R
+    if points and abs(points[-1]["kappa_R"] - end) > 1e-12 * abs(end) \
+            and len(points) <= cfg.continuation.max_steps:
+        # the continuation gave up (the corrector failed down to the smallest step): the
+        # branch beyond is not known; its points so far and the checkpoint are kept
+        raise RuntimeError(f"the continuation stopped at kappa R = {points[-1]['kappa_R']:.6g} "
+                           f"before the end of the range, kappa R = {end:.6g}: the corrector "
+                           f"did not converge with steps down to {cfg.continuation.ds_min:g}; "
+                           f"{len(points)} points are in {outdir}/branch.jsonl and the same "
+                           "command resumes after the last")
+    header, _ = read_branch(f"{outdir}/branch.jsonl")
+    return {"config": cfg.describe(), "dofs": header.get("dofs"),
+            "branch_file": f"{outdir}/branch.jsonl", "points": points, "folds": folds(points)}
+
+
+def run_axisym(shape: Any, h_over_r: float, nu: float, kappa_R_end: float,
+                  outdir: str | os.PathLike, kappa_field: Any = None) -> dict[str, Any]:
+    """The shell-of-revolution model's branch up to κR = ``kappa_R_end`` (its sign: the
+    direction) under the stimulus ``kappa_field`` (None: uniform), every point appended to
+    ``outdir/branch.jsonl`` (rank 0) as computed."""
+    from shells.analyses import axisym_runs
+    from shells.geometry.stimulus import UNIFORM
+
+    kappa_field = UNIFORM if kappa_field is None else kappa_field
+
+    outdir = Path(outdir)
+    points = []
+    # no checkpoint: a rerun computes the branch again (the 1D model takes seconds), the file
+    # replaced atomically by its header, then each point appended whole and fsync'ed
+    if _rank() == 0:
+        outdir.mkdir(parents=True, exist_ok=True)
+        write_header(outdir / "branch.jsonl", {
+            "model": "axisym", "shape": shape.describe(), "h_over_r": h_over_r,
+            "nu": nu, "kappa_R_end": kappa_R_end, **kappa_field.header_entry()})
+    for i, p in enumerate(axisym_runs.branch(shape, h_over_r, nu,
+                                             direction="up" if kappa_R_end > 0 else "down",
+                                             kappa_max=abs(kappa_R_end), kappa_field=kappa_field)):
+        rec = {"index": i, **p}
+        points.append(rec)
+        if _rank() == 0:
+            append_record(outdir / "branch.jsonl", rec)
+    return {"model": "axisym", "branch_file": str(outdir / "branch.jsonl"), "points": points,
+            "folds": folds(points)}
+
+
+def _rank() -> int:
+    from mpi4py import MPI
+
+    return MPI.COMM_WORLD.rank

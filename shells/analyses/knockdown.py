@@ -37,7 +37,7 @@ from shells.parameters import check_h_over_r, check_model, check_nu
 
 log = logging.getLogger("shells")
 
-__all__ = ["KnockdownConfig", "fold_kappa", "knockdown", "run_knockdown"]
+__all__ = ["KnockdownConfig", "fold_kappa", "knockdown", "run"]
 
 #: how a point is computed; part of a points file's key, so that a rerun never reads back
 #: points of another method (the first critical point located on all counts, shorter steps
@@ -411,11 +411,11 @@ def _describe(c: Any, h: float) -> str:
 def surface_first(cfg: KnockdownConfig, amplitude: float, degree: int) -> dict[str, Any]:
     """The surface model's first critical point (fold or bifurcation, any m) of the sphere with
     imperfection ``amplitude`` (δ/h; 0: the perfect sphere on the same refined mesh), from
-    ``shells.analyses.drivers.critical_surface`` (collective on COMM_WORLD)."""
-    from shells.analyses.drivers import critical_surface
+    ``shells.analyses.critical.run_surface`` (collective on COMM_WORLD)."""
+    from shells.analyses.critical import run_surface
 
     # δ = 0 as an imperfect sphere too: the same pole-refined mesh as the imperfect ones
-    r = critical_surface(imperfect_shape(cfg, amplitude, degree), cfg.h_over_r, cfg.nu,
+    r = run_surface(imperfect_shape(cfg, amplitude, degree), cfg.h_over_r, cfg.nu,
                          1.25 * kappa_scale(cfg) / cfg.h_over_r, first_only=True,
                          size=cfg.size, degree=cfg.element_degree)
     if r["kappa_h"] is None:
@@ -538,7 +538,7 @@ def knockdown(cfg: KnockdownConfig, outdir: str | Path | None = None
         yield rec
 
 
-def run_knockdown(cfg: KnockdownConfig, outdir: str | Path | None, figure: bool = True
+def run(cfg: KnockdownConfig, outdir: str | Path | None, figure: bool = True
                   ) -> dict[str, Any]:
     """The whole curve (``knockdown``) as one result: {"kappa_b", "kappa_b_h", "degree",
     "points": [{"delta_over_h", "kappa_max_h", "knockdown", ...}], "config", "points_file",

@@ -67,9 +67,9 @@ from typing import Any
 
 import numpy as np
 
-from shells.analyses.store import CHECKPOINT_ERRORS, load_checkpoint, read_meta, save_checkpoint
+from shells.analyses.store import load_checkpoint, save_checkpoint
 from shells.errors import InputError
-from shells.files import append_record, json_default, read_with_header, write_atomic, write_header
+from shells.files import append_record, json_default, read_with_header, write_header
 from shells.geometry.shapes import RunScales, Shape
 from shells.geometry.stimulus import UNIFORM, CurvatureField
 from shells.parameters import check_h_over_r, check_model
@@ -741,49 +741,47 @@ def _same_header(meta: dict[str, Any], header: dict[str, Any]) -> bool:
     return json.loads(json.dumps(header, default=json_default)) == meta.get("header")
 
 
-def _checkpoint_name(comm: Any) -> str:
-    return f"state-{comm.rank}-of-{comm.size}.npz"
-
-
 def _save_critical(outdir: Path, model: Any, cp: Any, comm: Any,
                    header: dict[str, Any]) -> None:
-    """The critical point's scalars, state and mode (owned values on this rank; a
-    temporary file renamed into place), and rank 0's ``meta.json`` last."""
-    d = outdir / "critical_point"
-    if comm.rank == 0:
-        d.mkdir(parents=True, exist_ok=True)
-        (d / "meta.json").unlink(missing_ok=True)
-    comm.barrier()
-    tmp = d / f".{_checkpoint_name(comm)}.tmp.npz"
-    np.savez(tmp, state=np.asarray(cp.state), mode=np.asarray(cp.mode),
-             scalars=json.dumps(cp.as_dict(), default=json_default))
-    os.replace(tmp, d / _checkpoint_name(comm))
-    comm.barrier()
-    if comm.rank == 0:
-        write_atomic(d / "meta.json", json.dumps({"ranks": comm.size, "header": header},
-                                                 default=json_default))
+    """The critical point's scalars, state and mode (owned values on this rank) in
+    ``outdir/critical_point`` (``store.save_checkpoint``, the run's header in its meta)."""
+    save_checkpoint(outdir / "critical_point", comm, 0,
+                    {"state": np.asarray(cp.state), "mode": np.asarray(cp.mode),
+                     "scalars": json.dumps(cp.as_dict(), default=json_default)},
+                    meta={"header": header})
 
 
 def _load_critical(outdir: Path, comm: Any, header: dict[str, Any]) -> Any:
     """The ``CriticalPoint`` saved by ``_save_critical`` for this configuration and rank count,
-    or None (missing, incomplete, another run's or another partition's)."""
-    from mpi4py import MPI
-
+    or None on every rank (missing, incomplete, another run's or another partition's)."""
     from shells.algorithms.records import CriticalPoint
 
-    d = outdir / "critical_point"
-    meta = read_meta(d / "meta.json", comm)
-    same = meta is not None and meta.get("ranks") == comm.size and _same_header(meta, header)
-    cp = None
-    if same:
-        try:
-            with np.load(d / _checkpoint_name(comm)) as z:
-                cp = CriticalPoint(**json.loads(str(z["scalars"])), state=z["state"].copy(),
-                                   mode=z["mode"].copy())
-        except CHECKPOINT_ERRORS:
-            cp = None
-    if not comm.allreduce(cp is not None, op=MPI.LAND):
+    got = load_checkpoint(outdir / "critical_point", comm, every_rank=False)
+    if got is None or not _same_header(got[0], header):  # meta: the same on every rank
         log.info("postbuckle: no usable critical-point checkpoint: starting from kappa = 0")
         return None
-    return cp
+    z = got[1][0]
+    return CriticalPoint(**json.loads(str(z["scalars"])), state=z["state"].copy(),
+                         mode=z["mode"].copy())
 
+
+def run(cfg: Any, outdir: str | os.PathLike | None = None,
+                   fields: str = "none") -> dict[str, Any]:
+    """``run_postbuckle`` on ``cfg`` (a ``PostbuckleConfig``), the
+    bifurcated states written for ParaView (``fields``: none, last, all; needs ``outdir``); returns
+    the critical point, the points, the sides' summaries, the DOFs and the files written."""
+    from shells.analyses.writers import ShapeWriter
+
+    out = Path(outdir) if outdir else None
+    shapes = ShapeWriter(out, fields, cfg.model, cfg.h_over_r * cfg.shape.characteristic_size())
+    try:
+        recs = run_postbuckle(cfg, out, on_point=shapes)
+    finally:
+        shapes.close()
+    cp = next(r["critical_point"] for r in recs if "critical_point" in r)
+    points = [r for r in recs if "branch" in r]
+    summary = recs[-1].get("summary", {})
+    return {"config": cfg.describe(), "critical_point": cp, "points": points,
+            "sides": summary.get("sides"), "dofs": summary.get("dofs"),
+            "branch_file": str(out / "postbuckle.jsonl") if out else None,
+            "files": shapes.files}

@@ -8,7 +8,7 @@ never a traceback.
 Modules: ``common`` (the parser class, logging, ``emit``, argument types, the shape and physics
 arguments, the checks of ranges and paths), one per subcommand: ``mesh`` (mesh, info, render),
 ``branch``, ``critical``, ``postbuckle``, ``phase_diagram``, ``knockdown``. They parse, call
-the library (``shells.analyses.drivers`` and the driver modules) and print.
+the analyses (``shells.analyses``: each analysis module's ``run``) and print.
 """
 
 from __future__ import annotations

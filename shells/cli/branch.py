@@ -1,5 +1,5 @@
 """``shells branch`` (CLI layer; no library module imports it): follow a shell in kappa from 0,
-either model; the run is ``shells.analyses.drivers.branch_surface`` / ``branch_axisym``.
+either model; the run is ``shells.analyses.branch.run``.
 """
 
 from __future__ import annotations
@@ -61,7 +61,7 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
 
 
 def _cmd_branch(args: argparse.Namespace) -> int:
-    from shells.analyses import drivers
+    from shells.analyses import branch
 
     shape = shape_from_args(args)
     if (args.kappa_h_max is None) == (args.kappa_r_max is None):
@@ -70,14 +70,8 @@ def _cmd_branch(args: argparse.Namespace) -> int:
     fld = field_from_args(args, shape, args.model)
     k_end = kappa_end(shape, args.h_over_r, args.kappa_h_max, args.kappa_r_max)  # checked
     if args.model == "axisym":
-        L = shape.characteristic_size()
-        from shells.geometry.shapes import kappa_length
-
-        R_or_L = kappa_length(shape)
-        kr = (args.kappa_h_max * R_or_L / (args.h_over_r * L) if args.kappa_h_max is not None
-              else args.kappa_r_max)
-        result = drivers.branch_axisym(shape, args.h_over_r, args.nu, kr, outdir,
-                                       kappa_field=fld)
+        result = branch.run(shape, args.h_over_r, args.nu, k_end, model="axisym",
+                            outdir=outdir, kappa_field=fld)
         header = f"{'kappa R':>10} {'kappa h':>10} {'Psi3/h':>12} {'energy':>12} its unstable m"
 
         def row(p: dict[str, Any]) -> str:
@@ -87,17 +81,15 @@ def _cmd_branch(args: argparse.Namespace) -> int:
         title, with_last = f"{shape.kind} h/L = {args.h_over_r}, nu = {args.nu}, axisym", False
     else:
         from shells.algorithms.settings import ContinuationSettings
-        from shells.analyses.branch import BranchConfig
 
         cont = ContinuationSettings(method=args.method, ds=args.ds,
                                     ds_max=max(args.ds, args.ds_max))
-        cfg = BranchConfig(shape=shape, h_over_r=args.h_over_r, nu=args.nu,
-                           kappa_end=k_end,
-                           size=args.size, layer_elements=args.layer_elements,
-                           shear_penalty=args.shear_penalty, continuation=cont,
-                           degree=args.degree, kappa_field=fld, mesh_file=args.mesh)
-        result = drivers.branch_surface(cfg, outdir, fields=args.fields,
-                                        resume=not args.restart)
+        result = branch.run(shape, args.h_over_r, args.nu, k_end, model="surface",
+                            outdir=outdir, kappa_field=fld, fields=args.fields,
+                            resume=not args.restart, size=args.size,
+                            layer_elements=args.layer_elements,
+                            shear_penalty=args.shear_penalty, continuation=cont,
+                            degree=args.degree, mesh_file=args.mesh)
         header = (f"{'kappa R':>10} {'kappa h':>10} {'Psi3/h':>12} {'apex/h':>10} "
                   f"{'energy':>12} its")
 

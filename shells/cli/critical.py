@@ -1,5 +1,5 @@
 """``shells critical`` (CLI layer; no library module imports it): the critical points of the
-fundamental branch; the run is ``shells.analyses.drivers.critical_run``.
+fundamental branch; the run is ``shells.analyses.critical.run``.
 """
 
 from __future__ import annotations
@@ -47,7 +47,7 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
 
 
 def _cmd_critical(args: argparse.Namespace) -> int:
-    from shells.analyses.drivers import critical_run
+    from shells.analyses import critical
 
     shape = common.shape_from_args(args)
     fld = common.field_from_args(args, shape, args.model)
@@ -55,7 +55,7 @@ def _cmd_critical(args: argparse.Namespace) -> int:
         first_only=args.first_only, size=args.size, layer_elements=args.layer_elements,
         shear_penalty=args.shear_penalty, degree=args.degree, ds=args.ds, ds_max=args.ds_max,
         mesh_file=args.mesh, resume=not args.restart)
-    result = critical_run(shape, args.h_over_r, args.nu, direction=args.direction,
+    result = critical.run(shape, args.h_over_r, args.nu, direction=args.direction,
                           model=args.model, outdir=args.output, kappa_field=fld,
                           kappa_end=common.kappa_end(shape, args.h_over_r, args.kappa_h_max,
                                                      args.kappa_r_max, args.direction),

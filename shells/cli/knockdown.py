@@ -1,6 +1,6 @@
 """``shells knockdown`` (CLI layer; no library module imports it): the knock-down of a closed
 sphere's curvature buckling by an imperfection (axisymmetric, or on the surface model a
-spherical harmonic); the run is ``shells.analyses.knockdown.run_knockdown``.
+spherical harmonic); the run is ``shells.analyses.knockdown.run``.
 """
 
 from __future__ import annotations
@@ -55,7 +55,8 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
 
 
 def _cmd_knockdown(args: argparse.Namespace) -> int:
-    from shells.analyses.knockdown import KnockdownConfig, run_knockdown
+    from shells.analyses import knockdown
+    from shells.analyses.knockdown import KnockdownConfig
     from shells.errors import InputError
 
     if args.mode_n is not None and args.imperfection == "dimple":
@@ -67,7 +68,7 @@ def _cmd_knockdown(args: argparse.Namespace) -> int:
     # the 1D model is serial: rank 0 computes and writes, the others compute without files;
     # the surface model computes on all ranks, rank 0 writes
     outdir = args.output if common.rank() == 0 else None
-    res = run_knockdown(cfg, outdir, figure=not args.no_figure)
+    res = knockdown.run(cfg, outdir, figure=not args.no_figure)
 
     def human() -> None:
         load = "" if cfg.load == "curvature" else (

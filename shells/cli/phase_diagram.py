@@ -1,5 +1,5 @@
 """``shells phase-diagram`` (CLI layer; no library module imports it): the phase diagram of open
-caps; the run is ``shells.analyses.phase_diagram.run_phase_diagram``.
+caps; the run is ``shells.analyses.phase_diagram.run``.
 """
 
 from __future__ import annotations
@@ -59,7 +59,7 @@ def _cmd_phase_diagram(args: argparse.Namespace) -> int:
         rel_tol=args.rel_tol, refine=args.refine,
         discretisation=phase_diagram.Discretisation(cells=args.cells, size=args.size,
                                                     layer_elements=args.layer_elements))
-    res = phase_diagram.run_phase_diagram(cfg, args.output, figure=not args.no_figure)
+    res = phase_diagram.run(cfg, args.output, figure=not args.no_figure)
 
     def human() -> None:
         f, e = res["fits"], res["fits_error"]

@@ -1,5 +1,5 @@
 """``shells postbuckle``: the command line of ``shells.analyses.postbuckle`` (CLI layer; no library
-module imports it); the run is ``shells.analyses.drivers.postbuckle_run``.
+module imports it); the run is ``shells.analyses.postbuckle.run``.
 
     shells postbuckle --shape S --h-over-r H [--nu NU] [--theta-deg T] [--direction up|down]
         [--model axisym|surface] [--at K] [--kappa-r-max X | --kappa-h-max X] [-o DIR]
@@ -84,7 +84,7 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
 
 
 def _cmd_postbuckle(args: argparse.Namespace) -> int:
-    from shells.analyses.drivers import postbuckle_run
+    from shells.analyses import postbuckle
     from shells.analyses.postbuckle import PostbuckleConfig
 
     shape = shape_from_args(args)
@@ -101,7 +101,7 @@ def _cmd_postbuckle(args: argparse.Namespace) -> int:
                            degree=args.degree,
                            sides=(1, -1) if args.sides == "both" else (int(args.sides),),
                            kappa_field=fld, mesh_file=args.mesh)
-    result = postbuckle_run(cfg, args.output, fields=args.fields)
+    result = postbuckle.run(cfg, args.output, fields=args.fields)
     cp, points, sides = result["critical_point"], result["points"], result["sides"]
 
     def human() -> None:

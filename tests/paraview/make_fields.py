@@ -95,8 +95,8 @@ def postbuckled_cap(out: Path) -> dict:
     must hold, interpolated again from the same state."""
     import math
 
-    from shells.analyses.drivers import ShapeWriter
     from shells.analyses.postbuckle import PostbuckleConfig, run_postbuckle
+    from shells.analyses.writers import ShapeWriter
     from shells.geometry.shapes import SphericalCap
     from shells.problem.interface import set_state
     from shells.surface.fields import FieldWriter

@@ -32,9 +32,9 @@ points file, the run), ``fits`` (merged points and fits), ``figure``.
 from shells.analyses.phase_diagram.config import Discretisation, PhaseDiagramConfig, Task, tasks_of
 from shells.analyses.phase_diagram.figure import make_figure
 from shells.analyses.phase_diagram.fits import fit_all, merge_points
-from shells.analyses.phase_diagram.jobs import RunStats, run_phase_diagram
+from shells.analyses.phase_diagram.jobs import RunStats, run
 from shells.analyses.phase_diagram.tracing import compute_task, everted_check
 
 __all__ = ["Discretisation", "PhaseDiagramConfig", "RunStats", "Task", "compute_task",
-           "everted_check", "fit_all", "make_figure", "merge_points", "run_phase_diagram",
+           "everted_check", "fit_all", "make_figure", "merge_points", "run",
            "tasks_of"]

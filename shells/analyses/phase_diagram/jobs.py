@@ -1,6 +1,6 @@
 """Running the phase diagram's tasks (driver layer): dynamic claims over MPI ranks, the resumable
 points file (``shells.analyses.store``), the θ̄_s bisection, then fits and figure
-(``run_phase_diagram``)."""
+(``run``)."""
 
 from __future__ import annotations
 
@@ -18,7 +18,7 @@ from shells.errors import InputError
 from shells.files import append_record, drop_torn_tail, json_default, read_records, write_atomic
 from shells.theory import PAPER
 
-__all__ = ["RunStats", "run_phase_diagram"]
+__all__ = ["RunStats", "run"]
 
 from shells.analyses.phase_diagram.config import PhaseDiagramConfig, Task, tasks_of
 from shells.analyses.phase_diagram.figure import make_figure
@@ -37,7 +37,7 @@ def _record_key(rec: dict[str, Any], signature: str) -> str:
 
 @dataclass
 class RunStats:
-    """What a run did (summed over ranks by ``run_phase_diagram``)."""
+    """What a run did (summed over ranks by ``run``)."""
 
     computed: int = 0
     skipped_done: int = 0
@@ -109,7 +109,7 @@ def _progress_line(r: dict[str, Any], k: int, n: int) -> str:
             f"{r['direction']:>4}: {what}  (rank {r.get('rank')}, {r['wall_time']:.1f} s)")
 
 
-def run_phase_diagram(cfg: PhaseDiagramConfig, outdir: str | Path, comm: Any = None,
+def run(cfg: PhaseDiagramConfig, outdir: str | Path, comm: Any = None,
                       limit: int | None = None, figure: bool = True,
                       progress: Callable[[str], None] | None = None) -> dict[str, Any]:
     """Compute (or complete) a phase diagram in ``outdir``; returns the result on every rank.

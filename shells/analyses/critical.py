@@ -1,19 +1,7 @@
-"""The runs behind ``shells branch``, ``shells critical`` and ``shells postbuckle`` (driver layer):
-which problem to build, the files a run writes, the result dict its subcommand prints.
-
-Every function takes plain typed arguments (a shape, numbers, a folder, a library config), never
-an argparse namespace, and returns the JSON-serialisable result of the subcommand:
-
-* ``branch_surface(cfg, outdir, ...)``, ``branch_axisym(shape, ...)``: the branch in κ from 0
-  (``DIR/branch.jsonl``); ``folds(points)``: its turning points;
-* ``critical_run(shape, ...)``: the critical points of the fundamental branch, either model
-  (``DIR/critical.json``); ``critical_surface(shape, ...)`` the surface model's
-  (``DIR/branch.jsonl``, a rerun resuming from ``DIR/checkpoint/``, the first critical mode in
-  ``DIR/modes.bp``; the 1D model's runs in seconds and computes again);
-* ``postbuckle_run(cfg, outdir, fields)``: ``shells.analyses.postbuckle.run_postbuckle`` with the
-  bifurcated states written for ParaView (``ShapeWriter``).
-
-The command line (``shells.cli``) only parses, calls these and prints.
+"""The critical points of a shell's fundamental branch (analyses layer): ``run`` for either
+model (``DIR/critical.json``), ``run_surface`` the surface model's run (``DIR/branch.jsonl``,
+a rerun resuming from ``DIR/checkpoint/``, the first critical mode in ``DIR/modes.bp``); the 1D
+model's is ``shells.analyses.axisym_runs.critical`` (it computes again in seconds).
 """
 
 from __future__ import annotations
@@ -28,103 +16,22 @@ from typing import Any
 
 from shells.errors import InputError
 from shells.files import append_record, json_default, write_atomic, write_header
+from shells.geometry.shapes import kappa_length
 from shells.parameters import check_model
 
-__all__ = ["ShapeWriter", "branch_axisym", "branch_surface", "critical_run", "critical_surface",
-           "folds", "postbuckle_run"]
+__all__ = ["CRITICAL_CHECKPOINT", "REUSE_SURFACE", "run", "run_surface"]
 
 log = logging.getLogger("shells")
 
 
-def _rank() -> int:
-    from mpi4py import MPI
-
-    return MPI.COMM_WORLD.rank
-
-
-def _R_or_L(shape: Any) -> float:
-    """The length of κR (``shells.geometry.shapes.kappa_length``)."""
-    from shells.geometry.shapes import kappa_length
-
-    return kappa_length(shape)
-
-
-# --------------------------------------------------------------------------------------------
-# branches
-# --------------------------------------------------------------------------------------------
-def folds(points: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """The turning points in κ of a branch (dκ/ds changes sign): kappa_R, kappa_h, index."""
-    return [{"kappa_R": p["kappa_R"], "kappa_h": p["kappa_h"], "index": p["index"]}
-            for a, p in zip(points, points[1:], strict=False)
-            if a["dkappa_ds"] * p["dkappa_ds"] < 0]
-
-
-def branch_surface(cfg: Any, outdir: str | os.PathLike, *, fields: str = "none",
-                   resume: bool = True) -> dict[str, Any]:
-    """The surface model's branch (``shells.analyses.branch.run_branch`` on ``cfg``, a
-    ``BranchConfig``), after the mesh-size check (before the run creates its folder)."""
-    from shells.analyses import branch
-    from shells.surface.mesh import check_mesh_size
-
-    if cfg.mesh_file is None:
-        check_mesh_size(cfg.mesh_spec())
-    points = list(branch.run_branch(cfg, outdir, fields=fields, resume=resume))
-    end = cfg.kappa_end * cfg.R
-    if points and abs(points[-1]["kappa_R"] - end) > 1e-12 * abs(end) \
-            and len(points) <= cfg.continuation.max_steps:
-        # the continuation gave up (the corrector failed down to the smallest step): the
-        # branch beyond is not known; its points so far and the checkpoint are kept
-        raise RuntimeError(f"the continuation stopped at kappa R = {points[-1]['kappa_R']:.6g} "
-                           f"before the end of the range, kappa R = {end:.6g}: the corrector "
-                           f"did not converge with steps down to {cfg.continuation.ds_min:g}; "
-                           f"{len(points)} points are in {outdir}/branch.jsonl and the same "
-                           "command resumes after the last")
-    header, _ = branch.read_branch(f"{outdir}/branch.jsonl")
-    return {"config": cfg.describe(), "dofs": header.get("dofs"),
-            "branch_file": f"{outdir}/branch.jsonl", "points": points, "folds": folds(points)}
-
-
-def branch_axisym(shape: Any, h_over_r: float, nu: float, kappa_R_end: float,
-                  outdir: str | os.PathLike, kappa_field: Any = None) -> dict[str, Any]:
-    """The shell-of-revolution model's branch up to κR = ``kappa_R_end`` (its sign: the
-    direction) under the stimulus ``kappa_field`` (None: uniform), every point appended to
-    ``outdir/branch.jsonl`` (rank 0) as computed."""
-    from shells.analyses import axisym_runs
-    from shells.geometry.stimulus import UNIFORM
-
-    kappa_field = UNIFORM if kappa_field is None else kappa_field
-
-    outdir = Path(outdir)
-    points = []
-    # no checkpoint: a rerun computes the branch again (the 1D model takes seconds), the file
-    # replaced atomically by its header, then each point appended whole and fsync'ed
-    if _rank() == 0:
-        outdir.mkdir(parents=True, exist_ok=True)
-        write_header(outdir / "branch.jsonl", {
-            "model": "axisym", "shape": shape.describe(), "h_over_r": h_over_r,
-            "nu": nu, "kappa_R_end": kappa_R_end, **kappa_field.header_entry()})
-    for i, p in enumerate(axisym_runs.branch(shape, h_over_r, nu,
-                                             direction="up" if kappa_R_end > 0 else "down",
-                                             kappa_max=abs(kappa_R_end), kappa_field=kappa_field)):
-        rec = {"index": i, **p}
-        points.append(rec)
-        if _rank() == 0:
-            append_record(outdir / "branch.jsonl", rec)
-    return {"model": "axisym", "branch_file": str(outdir / "branch.jsonl"), "points": points,
-            "folds": folds(points)}
-
-
-# --------------------------------------------------------------------------------------------
-# critical points
-# --------------------------------------------------------------------------------------------
-def critical_run(shape: Any, h_over_r: float, nu: float, *, direction: str = "up",
+def run(shape: Any, h_over_r: float, nu: float, *, direction: str = "up",
                  model: str = "surface", kappa_end: float | None = None,
                  outdir: str | os.PathLike | None = None, kappa_field: Any = None,
                  **surface: Any) -> dict[str, Any]:
     """The critical points of the fundamental branch from κ = 0 towards ``kappa_end`` (None:
     ``shells.analyses.setup.default_kappa_range``; the 1D model then uses its own), with either
     model, under the stimulus ``kappa_field`` (a ``shells.geometry.stimulus.CurvatureField``; None:
-    uniform); ``surface``: the keyword arguments of ``critical_surface``. Writes
+    uniform); ``surface``: the keyword arguments of ``run_surface``. Writes
     ``outdir/critical.json`` (rank 0)."""
     from shells.geometry.stimulus import UNIFORM
 
@@ -132,7 +39,7 @@ def critical_run(shape: Any, h_over_r: float, nu: float, *, direction: str = "up
     kappa_field = UNIFORM if kappa_field is None else kappa_field
     L = shape.characteristic_size()
     h = h_over_r * L
-    R_or_L = _R_or_L(shape)
+    R_or_L = kappa_length(shape)
     user_range = kappa_end is not None
     if kappa_end is None:
         from shells.analyses.setup import default_kappa_range
@@ -152,7 +59,7 @@ def critical_run(shape: Any, h_over_r: float, nu: float, *, direction: str = "up
             kappa_max=abs(kappa_end) * R_or_L if user_range else None,
             kappa_field=kappa_field)}
     else:
-        result = {**base, **critical_surface(shape, h_over_r, nu, kappa_end, outdir=outdir,
+        result = {**base, **run_surface(shape, h_over_r, nu, kappa_end, outdir=outdir,
                                              kappa_field=kappa_field, **surface)}
     if outdir and _rank() == 0:
         Path(outdir).mkdir(parents=True, exist_ok=True)
@@ -171,7 +78,7 @@ CRITICAL_CHECKPOINT = "checkpoint"
 REUSE_SURFACE = 1.0e-5
 
 
-def critical_surface(shape: Any, h_over_r: float, nu: float, kappa_end: float, *,
+def run_surface(shape: Any, h_over_r: float, nu: float, kappa_end: float, *,
                      first_only: bool = False, size: float | None = None,
                      layer_elements: float = 4.0, shear_penalty: float = 1.0e3,
                      degree: int | None = None, ds: float | None = None,
@@ -214,7 +121,7 @@ def critical_surface(shape: Any, h_over_r: float, nu: float, kappa_end: float, *
     comm = MPI.COMM_WORLD
     L = shape.characteristic_size()
     h = h_over_r * L
-    R_or_L = _R_or_L(shape)
+    R_or_L = kappa_length(shape)
     degree, size = default_discretisation(shape, h_over_r, degree, size, kappa_field)
     lam_end = abs(kappa_end) * L
     ds = ds if ds is not None else lam_end / 16
@@ -349,82 +256,7 @@ def critical_surface(shape: Any, h_over_r: float, nu: float, kappa_end: float, *
             "wall_time": time.perf_counter() - t0}
 
 
-# --------------------------------------------------------------------------------------------
-# post-buckling
-# --------------------------------------------------------------------------------------------
-class ShapeWriter:
-    """Writes the requested bifurcated states while the model holds them (``all``), or the
-    last one of each side at the end (``last``): 1D, a revolved surface (.vts) and the meridian
-    (.csv); 2D, VTX fields (one .bp per side)."""
+def _rank() -> int:
+    from mpi4py import MPI
 
-    def __init__(self, out: Path | None, fields: str, model_kind: str, h: float) -> None:
-        self.out, self.fields, self.kind, self.h = out, fields, model_kind, h
-        self.files: list[str] = []
-        self.last: dict[int, tuple[Any, Any, dict[str, Any]]] = {}
-        self.writers: dict[int, Any] = {}
-
-    def __call__(self, model: Any, rec: dict[str, Any]) -> None:
-        if self.out is None or self.fields == "none" or rec["branch"] != "bifurcated":
-            return
-        if self.fields == "all":
-            self._write(model, rec)
-        else:
-            from shells.problem.interface import get_state
-
-            self.last[rec["side"]] = (model, get_state(model), dict(rec))
-
-    def _write(self, model: Any, rec: dict[str, Any]) -> None:
-        from mpi4py import MPI
-
-        side = rec["side"]
-        if self.kind == "axisym":
-            if MPI.COMM_WORLD.rank != 0:
-                return
-            from shells.axisym.revolve import revolve, write_profile_csv, write_vts
-
-            prof = model.meridian_profile()
-            d = self.out / "shapes"
-            d.mkdir(parents=True, exist_ok=True)
-            stem = d / f"side{side:+d}_{rec['index']:03d}"
-            self.files.append(write_vts(revolve(prof), str(stem) + ".vts"))
-            write_profile_csv(prof, str(stem) + ".csv", self.h)
-            self.files.append(str(stem) + ".csv")
-            return
-        from shells.surface.fields import FieldWriter
-
-        if side not in self.writers:
-            path = self.out / f"fields_side{side:+d}.bp"
-            self.writers[side] = FieldWriter(model, path)
-            self.files.append(str(path))
-        self.writers[side].write(float(rec["index"]))
-
-    def close(self) -> None:
-        from shells.problem.interface import set_state
-
-        for model, state, rec in self.last.values():
-            set_state(model, state)
-            self._write(model, rec)
-        for w in self.writers.values():
-            w.close()
-
-
-def postbuckle_run(cfg: Any, outdir: str | os.PathLike | None = None,
-                   fields: str = "none") -> dict[str, Any]:
-    """``shells.analyses.postbuckle.run_postbuckle`` on ``cfg`` (a ``PostbuckleConfig``), the
-    bifurcated states written for ParaView (``fields``: none, last, all; needs ``outdir``); returns
-    the critical point, the points, the sides' summaries, the DOFs and the files written."""
-    from shells.analyses.postbuckle import run_postbuckle
-
-    out = Path(outdir) if outdir else None
-    shapes = ShapeWriter(out, fields, cfg.model, cfg.h_over_r * cfg.shape.characteristic_size())
-    try:
-        recs = run_postbuckle(cfg, out, on_point=shapes)
-    finally:
-        shapes.close()
-    cp = next(r["critical_point"] for r in recs if "critical_point" in r)
-    points = [r for r in recs if "branch" in r]
-    summary = recs[-1].get("summary", {})
-    return {"config": cfg.describe(), "critical_point": cp, "points": points,
-            "sides": summary.get("sides"), "dofs": summary.get("dofs"),
-            "branch_file": str(out / "postbuckle.jsonl") if out else None,
-            "files": shapes.files}
+    return MPI.COMM_WORLD.rank

@@ -27,6 +27,8 @@ from typing import Any
 
 import numpy as np
 
+from shells.problem.interface import FactorOptions
+
 __all__ = [
     "DEFAULT_SNES_OPTIONS",
     "NewtonSolver",
@@ -175,12 +177,11 @@ class NewtonSolver:
         self.snes.setConvergenceTest(self._converged)
         self._test: dict[str, float | None] = {}
         self.noise_accepted = False
-        # the problem's recommended factorisation (``shells.problem.interface``: ``factor_options``)
-        # between the defaults and the caller's options
+        # the problem's recommended factorisation (``FactorOptions``) between the defaults and
+        # the caller's options
+        recommended = problem.factor_options if isinstance(problem, FactorOptions) else {}
         self.options = apply_options(self.snes, self.prefix,
-                                     {**DEFAULT_SNES_OPTIONS,
-                                      **getattr(problem, "factor_options", {}),
-                                      **(options or {})})
+                                     {**DEFAULT_SNES_OPTIONS, **recommended, **(options or {})})
         self.ksp = self.snes.getKSP()
         configure_factor(self.ksp, self.A, self.options)
         # a second KSP for bordered solves with its own prefix

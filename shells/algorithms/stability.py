@@ -53,6 +53,14 @@ from shells.algorithms.newton import (
     configure_factor,
     setup_factor,
 )
+from shells.problem.interface import (
+    BlockFactor,
+    BlockInertia,
+    BlockInertias,
+    CondensedHessian,
+    DefiniteBlocks,
+    HessianQuadratic,
+)
 
 __all__ = ["StabilityResult", "Stability"]
 
@@ -339,7 +347,7 @@ class Stability:
     def rayleigh_quotients(self) -> bool:
         """Whether ``eigenpairs`` (``refine`` True) gives Rayleigh quotients by quadrature: the
         problem has ``hessian_quadratic``."""
-        return hasattr(self.problem, "hessian_quadratic")
+        return isinstance(self.problem, HessianQuadratic)
 
     def block_solvers(self, block: Hashable) -> BlockSolvers:
         """The solvers (matrix, factorisation, eigensolver) shared by ``block``'s layout,
@@ -377,13 +385,13 @@ class Stability:
         matrix where it offers one (``condensed_hessian``: a Schur complement, the same
         inertia but for the positive eigenvalues of the eliminated DOFs; 1D model: 1200 rows
         instead of 3000), else of the assembled block."""
-        if hasattr(self.problem, "block_inertia"):
+        if isinstance(self.problem, BlockInertia):
             counts = self.problem.block_inertia(block, LDLT_GROWTH)
             if counts is not None:
                 self.calls["ldlt"] += 1
                 return counts
         cond = (self.problem.condensed_hessian(block)
-                if hasattr(self.problem, "condensed_hessian") else None)
+                if isinstance(self.problem, CondensedHessian) else None)
         if cond is None:
             return self.inertia(block, test=False)
         S, eliminated = cond
@@ -413,7 +421,7 @@ class Stability:
         block (in the given order) whose count differs from ``base[block]``: the counts up to
         it."""
         blocks = self.blocks() if blocks is None else tuple(blocks)
-        test = self.banded_test and hasattr(self.problem, "definite_blocks")
+        test = self.banded_test and isinstance(self.problem, DefiniteBlocks)
         # a block that had a negative eigenvalue at the last count is not tested for
         # definiteness (it fails; on the 1D model its lane in the test costs 0.15 ms): its
         # exact count straight away, which is 0 if it has become definite
@@ -426,7 +434,7 @@ class Stability:
                 decided = {**tested, **dict.fromkeys(negative, False)}
         exact: dict[Hashable, int] = {}
         failing = [b for b in blocks if b in decided and not decided[b]]
-        if base is None and len(failing) > 1 and hasattr(self.problem, "block_inertias"):
+        if base is None and len(failing) > 1 and isinstance(self.problem, BlockInertias):
             # their exact counts together (the 1D model: condensed four at a time)
             for b, counts in (self.problem.block_inertias(failing, LDLT_GROWTH) or {}).items():
                 if counts is not None:
@@ -478,7 +486,7 @@ class Stability:
         # user's eigensolver options, nor in the reference mode without the banded test)
         solver = (self.problem.block_factor(block)
                   if self.banded_test and not b.user_options
-                  and hasattr(self.problem, "block_factor") else None)
+                  and isinstance(self.problem, BlockFactor) else None)
         # the shift-invert about 0 with the problem's factorisation reads no value of H (SLEPc
         # takes A - 0 B as A, and the KSP applies the shell alone): H is assembled for MUMPS
         # only, or where it never was (its layout and vectors); eigenvalues bit for bit the

@@ -13,6 +13,22 @@ Modules:
 The interface's names are re-exported here: ``from shells.problem import Problem``.
 """
 
-from shells.problem.interface import ModeInfo, Problem, get_state, orbit_cosine, set_state
+from shells.problem.interface import (
+    BlockFactor,
+    BlockInertia,
+    BlockInertias,
+    CondensedHessian,
+    DefiniteBlocks,
+    FactorOptions,
+    HessianQuadratic,
+    ModeInfo,
+    PoleFunctional,
+    Problem,
+    get_state,
+    orbit_cosine,
+    set_state,
+)
 
-__all__ = ["ModeInfo", "Problem", "get_state", "orbit_cosine", "set_state"]
+__all__ = ["BlockFactor", "BlockInertia", "BlockInertias", "CondensedHessian", "DefiniteBlocks",
+           "FactorOptions", "HessianQuadratic", "ModeInfo", "PoleFunctional", "Problem",
+           "get_state", "orbit_cosine", "set_state"]

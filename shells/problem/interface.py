@@ -37,7 +37,9 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-__all__ = ["ModeInfo", "Problem", "get_state", "orbit_cosine", "set_state"]
+__all__ = ["BlockFactor", "BlockInertia", "BlockInertias", "CondensedHessian", "DefiniteBlocks",
+           "FactorOptions", "HessianQuadratic", "ModeInfo", "PoleFunctional", "Problem",
+           "get_state", "orbit_cosine", "set_state"]
 
 
 @dataclass(frozen=True)
@@ -158,38 +160,93 @@ class Problem(Protocol):
     def classify_mode(self, vec: Any, block: Hashable) -> ModeInfo:
         """The mode (m, n) of an eigenvector of the block's Hessian."""
 
-    # Optional (``shells.algorithms.stability`` uses it where a problem has it, ``hasattr``):
-    # ``definite_blocks(blocks, margin) -> {block: bool} | None``: whether each block's
-    # Hessian H has a Cholesky factor of H - margin diag(H), decided without assembling it (the
-    # 1D model on one process: element matrices condensed on its chain of cells); blocks left
-    # out, or None, are tested on their assembled matrices.
-    # ``block_inertia(block, growth) -> (negative, zero, positive) | None``: the block's
-    # exact inertia from a factorisation the problem does itself, None where it cannot vouch
-    # for it (an unpivoted LDLᵀ whose |L||D||Lᵀ| exceeds ``growth`` times the matrix's
-    # diagonal; the 1D model on one process); then ``condensed_hessian`` or the block goes
-    # to MUMPS.
-    # ``block_factor(block) -> solver | None``: the block's Hessian at the current state (as
-    # ``assemble_hessian`` assembles it) factored by the problem, ``solver.solve(b, x)``
-    # writing H^-1 b into x (arrays of the local DOFs): the operator of the shift-invert
-    # eigensolves instead of MUMPS (the 1D model on one process); None: MUMPS.
-    # ``block_inertias(blocks, growth) -> {block: counts | None} | None``: ``block_inertia``
-    # of several blocks at once (the 1D model: their condensations in one C call).
-    # ``condensed_hessian(block) -> (matrix, k) | None``: a smaller matrix with the block's
-    # inertia but for k fewer positive eigenvalues (a Schur complement after eliminating k
-    # DOFs on which the block is positive definite), factored instead of the block for the
-    # exact count of a block that is not definite (the 1D model on one process).
-    # ``hessian_quadratic(block, v) -> float | None``: vᵀ H v of the block at the current
-    # state by quadrature of the energy's second variation d²E(v, v) (the block's constrained
-    # DOFs of v taken as zero), not by a product with the assembled matrix: its round-off is
-    # that of the mode's own energy, not ε ‖H‖; ``shells.algorithms.stability`` turns every
-    # eigenvalue into its eigenvector's Rayleigh quotient with it (both finite-element models).
-    # ``pole_functional() -> vector``: e with e·w = the top pole's depth Ψ3(pole)/h (a
-    # state-shaped vector; both models, shapes of revolution with a pole): the parameter a
-    # closed sphere's dimple branch is followed with (``switch_branch``'s ``control``, chosen by
-    # ``shells.analyses.postbuckle``).
-    # ``factor_options -> dict``: PETSc options (``pc_factor_...``) the problem recommends for
-    # its Jacobian's factorisation; ``shells.algorithms.newton.NewtonSolver`` puts them between its
-    # defaults and the caller's options (the 1D model on one process: PETSc's own LU).
+
+# -- optional capabilities ---------------------------------------------------------------------
+# A problem may offer any of these; the algorithms use one where ``isinstance(problem, X)``
+# says the problem has it, and otherwise do the general thing (assemble and factor the block
+# with MUMPS, take the eigenvalue the eigensolver gives). Each is a runtime-checkable protocol
+# of one member, so that what an algorithm may ask of a problem is declared in one place.
+
+
+@runtime_checkable
+class DefiniteBlocks(Protocol):
+    """Definiteness of stability blocks decided without assembling them."""
+
+    def definite_blocks(self, blocks: Any, margin: float) -> dict[Hashable, bool] | None:
+        """Whether each block's Hessian H has a Cholesky factor of H - margin diag(H).
+
+        Returns:
+            block -> bool for the blocks the problem decides (the 1D model on one process:
+            element matrices condensed on its chain of cells); blocks left out, or None, are
+            tested on their assembled matrices.
+        """
+
+
+@runtime_checkable
+class BlockInertia(Protocol):
+    """Exact inertia of a stability block from a factorisation the problem does itself."""
+
+    def block_inertia(self, block: Hashable, growth: float) -> tuple[int, int, int] | None:
+        """(negative, zero, positive) of the block, or None where the problem cannot vouch for
+        it (an unpivoted LDLᵀ whose |L||D||Lᵀ| exceeds ``growth`` times the matrix's
+        diagonal); then ``CondensedHessian`` or MUMPS counts it."""
+
+
+@runtime_checkable
+class BlockInertias(Protocol):
+    """``BlockInertia`` of several blocks at once (the 1D model: one C call for all)."""
+
+    def block_inertias(self, blocks: list[Hashable], growth: float
+                       ) -> dict[Hashable, tuple[int, int, int] | None] | None:
+        """block -> ``block_inertia(block, growth)``, or None."""
+
+
+@runtime_checkable
+class CondensedHessian(Protocol):
+    """A smaller matrix with a block's inertia, for exact counts of indefinite blocks."""
+
+    def condensed_hessian(self, block: Hashable) -> tuple[Any, int] | None:
+        """(matrix, k): a Schur complement after eliminating k DOFs on which the block is
+        positive definite, whose inertia is the block's but for k fewer positive eigenvalues;
+        None: factor the block itself."""
+
+
+@runtime_checkable
+class BlockFactor(Protocol):
+    """The operator of the shift-invert eigensolves, factored by the problem."""
+
+    def block_factor(self, block: Hashable) -> Any:
+        """The block's Hessian at the current state (as ``assemble_hessian`` assembles it)
+        factored by the problem: ``solver.solve(b, x)`` writes H⁻¹ b into x (arrays of the
+        local DOFs); None: MUMPS."""
+
+
+@runtime_checkable
+class HessianQuadratic(Protocol):
+    """vᵀ H v by quadrature, for eigenvalues free of the assembled matrix's round-off."""
+
+    def hessian_quadratic(self, block: Hashable, v: Any) -> float | None:
+        """vᵀ H v of the block at the current state by quadrature of the energy's second
+        variation d²E(v, v) (constrained DOFs of v taken as zero), not by a product with the
+        assembled matrix: its round-off is that of the mode's own energy, not ε ‖H‖.
+        ``shells.algorithms.stability`` turns every eigenvalue into its eigenvector's
+        Rayleigh quotient with it."""
+
+
+@runtime_checkable
+class PoleFunctional(Protocol):
+    """The depth of the top pole as a linear functional of the state."""
+
+    def pole_functional(self) -> Any:
+        """e with e·w = Ψ3(pole)/h (a state-shaped vector; shapes of revolution with a pole):
+        the parameter a closed sphere's dimple branch is followed with."""
+
+
+@runtime_checkable
+class FactorOptions(Protocol):
+    """PETSc options the problem recommends for its Jacobian's factorisation."""
+
+    factor_options: dict[str, Any]
 
 
 def get_state(problem: Problem) -> np.ndarray:

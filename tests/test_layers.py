@@ -3,12 +3,12 @@ with ``ast``, nothing imported).
 
 Layers, from the bottom: the shared leaves (``errors``, ``files``, ``parameters``, ``theory``),
 ``problem`` (the interface and its assembly), ``geometry``, the two models (``surface``,
-``axisym``), ``algorithms``, ``analyses``, ``cli``. A module imports only from its own layer or
-the layers below; the algorithms import nothing above the problem interface (they run on any
-``Problem``), and the two models do not import each other. No import loop, and no private name
-(``_x``) of one module is imported or used by another, in the package, its tests and its
-benchmarks. The package root (``shells/__init__.py``, the public API) may import from every
-layer.
+``axisym``), ``algorithms``, ``analyses``, ``api`` (the public Python API), ``cli``. A module
+imports only from its own layer or the layers below; the algorithms import nothing above the problem
+interface (they run on any ``Problem``), and the two models do not import each other. No import
+loop, and no private name (``_x``) of one module is imported or used by another, in the package, its
+tests and its benchmarks. The package root (``shells/__init__.py``, the public API) may import from
+every layer.
 """
 
 from __future__ import annotations
@@ -24,12 +24,14 @@ PACKAGE = ROOT / "shells"
 
 #: the layers from the bottom up: a module's layer is the first whose prefix names it
 LAYERS: list[tuple[str, tuple[str, ...]]] = [
-    ("leaves", ("shells.errors", "shells.files", "shells.parameters", "shells.theory")),
+    ("leaves", ("shells.errors", "shells.files", "shells.parameters",
+                "shells.layers", "shells.theory", "shells.units")),
     ("problem", ("shells.problem",)),
     ("geometry", ("shells.geometry",)),
     ("models", ("shells.surface", "shells.axisym")),
     ("algorithms", ("shells.algorithms",)),
     ("analyses", ("shells.analyses",)),
+    ("api", ("shells.api",)),
     ("cli", ("shells.cli", "shells.__main__")),
 ]
 #: what each layer may import besides its own layer and the ones below it: the algorithms

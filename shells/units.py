@@ -62,8 +62,9 @@ def to_si(value: Any, dimension: str, what: str) -> float:
         raise InputError(f"cannot read {what} {value!r} as a quantity with units "
                          "(e.g. '25 mm')") from None
     if not right:
-        raise InputError(f"{what} must be a {dimension.strip('[]').replace('1/', 'inverse ')}"
-                         f", got {value!r} ({q.dimensionality})")
+        kind = {"[length]": "length", "[pressure]": "pressure (a modulus)",
+                "1/[length]": "curvature (1/length)"}.get(dimension, dimension)
+        raise InputError(f"{what} must be a {kind}, got {value!r} ({q.dimensionality})")
     if not math.isfinite(si):
         raise InputError(f"{what} must be finite, got {value!r}")
     return si

@@ -159,3 +159,43 @@ def test_the_default_model_is_the_1d_model_where_it_applies():
     assert shells.choose_model(shells.Shell(shells.torus(), h_over_r=0.05)) == "surface"
     assert shells.choose_model(shells.Shell(shells.cap(30), h_over_r=0.04),
                                "surface") == "surface"
+
+
+def _cli_json(argv: list[str], capsys) -> dict:
+    from shells.cli import main
+
+    assert main(argv) == 0
+    out = MPI.COMM_WORLD.bcast(capsys.readouterr().out if MPI.COMM_WORLD.rank == 0 else None)
+    return json.loads(out.strip().splitlines()[-1])
+
+
+def test_the_command_line_takes_units(cap30, capsys):
+    """``--radius 25mm --thickness 1mm`` (refused as ``--radius 0.025`` before units): the
+    dimensionless run's κR to 1e-12, with κ in 1/m, R and h in metres added; a range in 1/m."""
+    base = ["critical", "--shape", "cap", "--theta-deg", "30", "--model", "axisym", "--json"]
+    d = _cli_json(base + ["--radius", "25mm", "--thickness", "1mm"], capsys)
+    assert d["kappa_R"] == pytest.approx(cap30.kappa_R, rel=1e-12, abs=0)
+    assert d["kappa_per_m"] == pytest.approx(cap30.kappa_R / 0.025, rel=1e-12)
+    assert d["critical_points"][0]["kappa_per_m"] == pytest.approx(d["kappa_per_m"])
+    assert (d["R_m"], d["h_m"]) == (pytest.approx(0.025), pytest.approx(0.001))
+    short = _cli_json(base + ["--radius", "2.5 cm", "--thickness", "1 mm", "--kappa-max",
+                              "40/m"], capsys)
+    assert short["kappa_R_end"] == pytest.approx(1.0) and short["kind"] == "none"
+
+
+@pytest.mark.parametrize("extra, message", [
+    (["--radius", "0.025", "--h-over-r", "0.04"], "a length with units is any size"),
+    (["--radius", "25mm", "--thickness", "0.001"], "--thickness needs units"),
+    (["--thickness", "1mm"], "needs --radius with units"),
+    (["--radius", "25mm", "--h-over-r", "0.04", "--kappa-max", "40"], "curvature with units"),
+    (["--radius", "25 kg", "--h-over-r", "0.04"], "must be a length"),
+    (["--radius", "25 parsecs per", "--h-over-r", "0.04"], "cannot read"),
+])
+def test_units_on_the_command_line_are_checked(extra, message, capsys):
+    from shells.cli import main
+
+    argv = ["critical", "--shape", "cap", "--theta-deg", "30", "--model", "axisym", *extra]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    if MPI.COMM_WORLD.rank == 0:
+        assert message in err and len(err.strip().splitlines()) == 1

@@ -203,7 +203,7 @@ OPTIONS = [
     (BRANCH, "--method", one_of("arclength", "natural")),
     (["branch", "--shape=sphere", "--h-over-r=0.05", "--model=axisym", "-o", "out"],
      "--kappa-r-max", nonzero_up_to(100 / 0.05)),
-    (KD, "--h-over-r", in_range(1e-5, 0.2)),  # KnockdownConfig: a sphere up to h/R = 0.2
+    (KD, "--h-over-r", H),  # shells.parameters: one range for every entry point
     (KD, "--nu", NU),
     (KD, "--width", in_range(0.0, 50.0, lo_open=True)),
     (KD, "--amplitudes", in_range(0.0, 10.0)),

@@ -11,6 +11,7 @@ from typing import Any
 from shells.cli.common import (
     add_field_args,
     add_json,
+    add_kappa_range,
     add_shape_args,
     add_shell_args,
     emit,
@@ -29,11 +30,7 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
                        "is appended to DIR/branch.jsonl as it is computed and a rerun resumes.")
     add_shape_args(b, positional=False, user_mesh=True)
     add_shell_args(b)
-    g = b.add_mutually_exclusive_group()
-    g.add_argument("--kappa-h-max", type=float, default=None,
-                   help="final kappa h (sign: direction)")
-    g.add_argument("--kappa-r-max", type=float, default=None,
-                   help="final kappa R (sign: direction)")
+    add_kappa_range(b, "final kappa h (sign: direction)", "final kappa R (sign: direction)")
     b.add_argument("--model", default="surface", choices=("surface", "axisym"),
                    help="surface (2D mesh, default) or axisym (shell of revolution, 1D)")
     add_field_args(b)
@@ -65,7 +62,7 @@ def _cmd_branch(args: argparse.Namespace) -> int:
 
     shape = shape_from_args(args)
     if (args.kappa_h_max is None) == (args.kappa_r_max is None):
-        raise InputError("give exactly one of --kappa-h-max and --kappa-r-max")
+        raise InputError("give exactly one of --kappa-h-max, --kappa-r-max and --kappa-max")
     outdir = args.output or "results/branch"
     fld = field_from_args(args, shape, args.model)
     k_end = kappa_end(shape, args.h_over_r, args.kappa_h_max, args.kappa_r_max)  # checked

@@ -66,7 +66,7 @@ def emit(result: dict[str, Any], args: argparse.Namespace, human: Callable[[], N
     if not getattr(args, "json", False):
         human()
     else:
-        print(json.dumps(result, default=json_default), flush=True)
+        print(json.dumps(with_units(result, args), default=json_default), flush=True)
 
 
 # --------------------------------------------------------------------------------------------
@@ -93,16 +93,38 @@ def positive_float(name: str) -> Callable[[str], float]:
 RADIUS_RANGE = (0.5, 1.0e6)
 
 
+class SILength(float):
+    """A length given with units on the command line (``25mm``), in metres."""
+
+
 def length(name: str, lo: float | None) -> Callable[[str], float]:
-    """A length in [lo, RADIUS_RANGE[1]] (lo None: any positive value)."""
+    """A length: a plain number in [lo, RADIUS_RANGE[1]] (lo None: any positive value), the
+    unit of the dimensionless results, or a length with units (``25mm``, ``0.025 m``), any
+    positive value, kept as an ``SILength`` in metres."""
     hi = RADIUS_RANGE[1]
 
     def conv(text: str) -> float:
+        try:
+            float(text)
+            with_units = False
+        except ValueError:
+            with_units = True
+        if with_units:
+            from shells.units import length as si_length
+
+            try:
+                si = si_length(text, f"--{name}")
+            except InputError as e:
+                raise argparse.ArgumentTypeError(str(e)) from None
+            if not si > 0:
+                raise argparse.ArgumentTypeError(f"--{name} must be positive, got {text}")
+            return SILength(si)
         v = positive_float(name)(text)
         if v > hi or (lo is not None and v < lo):
             rng = f"[{lo:g}, {hi:g}]" if lo is not None else f"(0, {hi:g}]"
             raise argparse.ArgumentTypeError(f"{name} must lie in {rng} (results are "
-                                             f"dimensionless: R sets the unit), got {text}")
+                                             f"dimensionless: R sets the unit), got {text}; a "
+                                             f"length with units is any size (25mm)")
         return v
 
     return conv
@@ -193,9 +215,13 @@ def shape_from_args(args: argparse.Namespace):
 
 
 def add_shell_args(p: argparse.ArgumentParser) -> None:
-    """--h-over-r (required) and --nu."""
-    p.add_argument("--h-over-r", type=positive_float("h/R"), required=True,
+    """--h-over-r or --thickness (one of them required) and --nu."""
+    g = p.add_mutually_exclusive_group(required=True)
+    g.add_argument("--h-over-r", type=positive_float("h/R"), default=None,
                    help="thickness over R (disk: over its radius)")
+    g.add_argument("--thickness", type=length("thickness", None), default=None,
+                   help="instead of --h-over-r: the thickness, a length with units (1mm) with "
+                   "--radius given with units, or a number in the unit of --radius")
     p.add_argument("--nu", type=float, default=0.5, help="Poisson ratio (default 0.5)")
 
 
@@ -245,11 +271,15 @@ def field_from_args(args: argparse.Namespace, shape: Any, model: str) -> Any:
     return fld
 
 
-def add_kappa_range(p: argparse.ArgumentParser) -> None:
-    """--kappa-h-max | --kappa-r-max: the end of the range, in magnitude (--direction: sign)."""
+def add_kappa_range(p: argparse.ArgumentParser, help_h: str = "end of the range, |kappa h|",
+                    help_r: str = "end of the range, |kappa R|") -> None:
+    """--kappa-h-max | --kappa-r-max | --kappa-max: the end of the range (--kappa-max a
+    curvature with units, for a --radius with units)."""
     g = p.add_mutually_exclusive_group()
-    g.add_argument("--kappa-h-max", type=float, default=None, help="end of the range, |kappa h|")
-    g.add_argument("--kappa-r-max", type=float, default=None, help="end of the range, |kappa R|")
+    g.add_argument("--kappa-h-max", type=float, default=None, help=help_h)
+    g.add_argument("--kappa-r-max", type=float, default=None, help=help_r)
+    g.add_argument("--kappa-max", default=None, metavar="K",
+                   help="the same as a curvature with units (40/m), with --radius in units")
 
 
 def kappa_end(shape: Any, h_over_r: float, kappa_h: float | None, kappa_r: float | None,
@@ -304,6 +334,75 @@ PATH_ARGS: dict[str, list[tuple[str, str, str, str | None]]] = {
 }
 
 
+def apply_units(args: argparse.Namespace) -> None:
+    """Lengths and curvatures given with units, turned into the dimensionless arguments: a
+    --radius with units becomes R = 1 (the computation is the dimensionless one) with
+    ``args.radius_m`` its length in metres; --r3 and --ring with units become ratios to it;
+    --thickness becomes --h-over-r; --kappa-max (1/m) becomes --kappa-r-max."""
+    radius = getattr(args, "radius", None)
+    args.radius_m = float(radius) if isinstance(radius, SILength) else None
+    if args.radius_m is not None and args.command in ("mesh", "render", "info"):
+        raise InputError("a mesh is written in the shape's own numbers: give --radius as a "
+                         "number (the runs take lengths with units)")
+    if args.radius_m is not None:
+        for opt in ("r3", "ring"):
+            v = getattr(args, opt, None)
+            if v is not None and not isinstance(v, SILength):
+                raise InputError(f"--{opt} needs units when --radius has them (e.g. 30mm)")
+            if v is not None:
+                setattr(args, opt, float(v) / args.radius_m)
+        args.radius = 1.0
+    else:
+        for opt in ("r3", "ring", "thickness"):
+            if isinstance(getattr(args, opt, None), SILength):
+                raise InputError(f"--{opt} with units needs --radius with units (e.g. "
+                                 "--radius 25mm)")
+    thickness = getattr(args, "thickness", None)
+    if thickness is not None:
+        if getattr(args, "mesh", None) is not None or getattr(args, "shape", None) == "meridian":
+            raise InputError("--thickness needs the shape's radius: give --h-over-r for a "
+                             "meridian table or a mesh")
+        if args.radius_m is not None and not isinstance(thickness, SILength):
+            raise InputError("--thickness needs units when --radius has them (e.g. 1mm)")
+        scale = args.radius_m if isinstance(thickness, SILength) else args.radius
+        args.h_over_r = float(thickness) / scale
+    k = getattr(args, "kappa_max", None)
+    if k is not None:
+        from shells.units import curvature
+
+        try:
+            float(k)
+            si = None  # a plain number: no units
+        except ValueError:
+            si = curvature(k, "--kappa-max")
+        if si is None or args.radius_m is None:
+            raise InputError("--kappa-max is a curvature with units (e.g. 40/m) for a "
+                             "--radius with units; otherwise give --kappa-r-max")
+        args.kappa_r_max = si * args.radius_m
+
+
+def with_units(result: dict[str, Any], args: argparse.Namespace) -> dict[str, Any]:
+    """The result with its lengths and curvatures in SI units added where the shell was given
+    with units: ``R_m``, ``h_m``, and ``kappa_per_m`` beside every ``kappa_R``."""
+    r = getattr(args, "radius_m", None)
+    if r is None:
+        return result
+
+    def add(d: dict[str, Any]) -> dict[str, Any]:
+        out = dict(d)
+        if isinstance(d.get("kappa_R"), (int, float)):
+            out["kappa_per_m"] = d["kappa_R"] / r
+        for key in ("critical_points", "points"):
+            if isinstance(d.get(key), list):
+                out[key] = [add(x) if isinstance(x, dict) else x for x in d[key]]
+        if isinstance(d.get("critical_point"), dict):
+            out["critical_point"] = add(d["critical_point"])
+        return out
+
+    h = getattr(args, "h_over_r", None)
+    return {**add(result), "R_m": r, **({"h_m": h * r} if isinstance(h, float) else {})}
+
+
 def check_ranges(args: argparse.Namespace) -> None:
     """Ranges shared by several subcommands (nu, the kappa range, h/R; the phase diagram's
     smallest cap), before any work or any file is written."""
@@ -312,6 +411,7 @@ def check_ranges(args: argparse.Namespace) -> None:
     nu = getattr(args, "nu", None)
     if nu is not None:
         check_nu(nu, "--nu")
+    apply_units(args)
     for opt in ("kappa_h_max", "kappa_r_max"):
         k = getattr(args, opt, None)
         if k is not None and not (math.isfinite(k) and k != 0):

@@ -27,12 +27,12 @@ log = logging.getLogger("shells")
 def run(shape: Any, h_over_r: float, nu: float, *, direction: str = "up",
                  model: str = "surface", kappa_end: float | None = None,
                  outdir: str | os.PathLike | None = None, kappa_field: Any = None,
-                 **surface: Any) -> dict[str, Any]:
+                 first_only: bool = False, **surface: Any) -> dict[str, Any]:
     """The critical points of the fundamental branch from κ = 0 towards ``kappa_end`` (None:
     ``shells.analyses.setup.default_kappa_range``; the 1D model then uses its own), with either
     model, under the stimulus ``kappa_field`` (a ``shells.geometry.stimulus.CurvatureField``; None:
-    uniform); ``surface``: the keyword arguments of ``run_surface``. Writes
-    ``outdir/critical.json`` (rank 0)."""
+    uniform); ``first_only``: stop at the first critical point (either model); ``surface``: the
+    keyword arguments of ``run_surface``. Writes ``outdir/critical.json`` (rank 0)."""
     from shells.geometry.stimulus import UNIFORM
 
     check_model(model)
@@ -57,10 +57,11 @@ def run(shape: Any, h_over_r: float, nu: float, *, direction: str = "up",
         result = {**base, **axisym_runs.critical(
             shape, h_over_r, nu, direction=direction,
             kappa_max=abs(kappa_end) * R_or_L if user_range else None,
-            kappa_field=kappa_field)}
+            kappa_field=kappa_field, **({"max_critical": 1} if first_only else {}))}
     else:
         result = {**base, **run_surface(shape, h_over_r, nu, kappa_end, outdir=outdir,
-                                             kappa_field=kappa_field, **surface)}
+                                        kappa_field=kappa_field, first_only=first_only,
+                                        **surface)}
     if outdir and _rank() == 0:
         Path(outdir).mkdir(parents=True, exist_ok=True)
         write_atomic(Path(outdir) / "critical.json",

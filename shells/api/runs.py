@@ -84,7 +84,8 @@ def _kappa_end(shell: Shell, kappa_max: Any, kappa_R_max: Any, kappa_h_max: Any,
 
 def critical(shell: Shell, direction: str = "up", *, model: str | None = None,
              kappa_max: Any = None, kappa_R_max: float | None = None,
-             kappa_h_max: float | None = None, outdir: Any = None, **options: Any) -> Result:
+             kappa_h_max: float | None = None, outdir: Any = None, first_only: bool = False,
+             **options: Any) -> Result:
     """The critical points of the shell's fundamental branch from κ = 0 (``shells critical``).
 
     Args:
@@ -94,8 +95,9 @@ def critical(shell: Shell, direction: str = "up", *, model: str | None = None,
         kappa_max, kappa_R_max, kappa_h_max: the end of the range (module docstring).
         outdir: a folder for the run's files (``critical.json``; the surface model also its
             branch, checkpoints and modes); None: none.
+        first_only: stop at the first critical point.
         **options: the surface model's numerics (``size``, ``degree``, ``layer_elements``,
-            ``shear_penalty``, ``ds``, ``ds_max``, ``first_only``, ``mesh_file``, ``resume``).
+            ``shear_penalty``, ``ds``, ``ds_max``, ``mesh_file``, ``resume``).
 
     Returns:
         The ``Result``: ``kind``, ``kappa_R``, ``kappa_h``, ``mode_m``, ``mode_n`` of the first
@@ -109,7 +111,8 @@ def critical(shell: Shell, direction: str = "up", *, model: str | None = None,
     data = analysis.run(shell.shape, shell.h_over_r, shell.nu, direction=direction, model=m,
                         kappa_end=_kappa_end(shell, kappa_max, kappa_R_max, kappa_h_max,
                                              direction),
-                        outdir=outdir, kappa_field=shell.kappa_field, **options)
+                        outdir=outdir, kappa_field=shell.kappa_field, first_only=first_only,
+                        **options)
     return Result("critical", data, shell.describe())
 
 

@@ -52,11 +52,12 @@ def _cmd_critical(args: argparse.Namespace) -> int:
     shape = common.shape_from_args(args)
     fld = common.field_from_args(args, shape, args.model)
     surface = {} if args.model != "surface" else dict(
-        first_only=args.first_only, size=args.size, layer_elements=args.layer_elements,
+        size=args.size, layer_elements=args.layer_elements,
         shear_penalty=args.shear_penalty, degree=args.degree, ds=args.ds, ds_max=args.ds_max,
         mesh_file=args.mesh, resume=not args.restart)
     result = critical.run(shape, args.h_over_r, args.nu, direction=args.direction,
                           model=args.model, outdir=args.output, kappa_field=fld,
+                          first_only=args.first_only,
                           kappa_end=common.kappa_end(shape, args.h_over_r, args.kappa_h_max,
                                                      args.kappa_r_max, args.direction),
                           **surface)

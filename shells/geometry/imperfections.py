@@ -186,12 +186,11 @@ class HarmonicImperfectSphere(Shape):
     ``ImperfectSphere``). The exact normal is the normalised gradient of F(x) = |x| - ρ(x/|x|),
     f a polynomial in u = x/|x| (``harmonic_parts``): ``normal`` (NumPy) and ``normal_ufl``.
     The surface model interpolates ``normal`` (``has_ufl_normal`` False: Lagrange of one degree
-    above the state's, b° = -∇n° from it): the UFL normal in its Jacobian took FFCx 140 s to
-    compile for n = 2 (P2) and 600 s for n = 4, once per amplitude (the interpolated one: the
-    forms of every sphere, cached). On the default mesh (P3, size 0.21) the interpolated b°
-    differs from the exact one by 1.1e-3 (RMS) of the imperfection's own b° - b°_sphere at
-    n = 9, m = 2 (P5: 7.8e-5). ``meridian`` is the one at φ = 0 (its poles are the surface's:
-    the rigid-motion gauge and the apex read them)."""
+    above the state's, b° = -∇n° from it): the UFL normal in its Jacobian takes FFCx minutes
+    to compile, once per amplitude, while the interpolated one's forms are those of every
+    sphere, cached; its error and cost: docs/imperfections.md, the harmonic imperfection.
+    ``meridian`` is the one at φ = 0 (its poles are the surface's: the rigid-motion gauge and
+    the apex read them)."""
 
     radius: float = 1.0
     amplitude: float = 0.0

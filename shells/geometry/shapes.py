@@ -40,8 +40,8 @@ def check_positive(name: str, value: float) -> None:
 #: Smallest half opening angle of a cap (degrees). Below it a cap is degenerate for the mesher:
 #: ``shells.surface.mesh`` tells the cap's surface from the flat base of its OCC ball sector by the
 #: height of its bounding box, flat meaning < 1e-6 R, and a cap's height is its sagitta
-#: R (1 - cos theta), which falls below 1e-6 R at theta = 0.081 deg (measured: 0.05 deg fails
-#: with an IndexError in gmsh, 0.09 deg meshes); 0.1 deg (sagitta 1.5e-6 R) keeps a margin.
+#: R (1 - cos theta), which falls below 1e-6 R at theta = 0.081 deg (docs/design-notes.md,
+#: "Meshes"); 0.1 deg (sagitta 1.5e-6 R) keeps a margin.
 #: The plate limit (theta-bar = theta / sqrt(h/R) -> 0) stays reachable: at h/R = 0.01, 0.1 deg
 #: is theta-bar = 0.017. Every cap in tests/, benchmarks/ and demos/ has theta >= 2 deg.
 THETA_MIN_DEG = 0.1
@@ -102,7 +102,7 @@ class Shape:
 
     def area(self) -> float:
         """Exact area: 2 pi int r(t) |x'(t)| dt (closed form where one exists)."""
-        from scipy import integrate  # here: importing it costs 0.3-0.5 s, paid by every CLI run
+        from scipy import integrate  # here: a slow import every CLI run would pay
 
         def integrand(t: float) -> float:
             r, _ = self.meridian(np.array(t))

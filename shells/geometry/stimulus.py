@@ -202,7 +202,7 @@ class CurvatureField:
 
     def header_entry(self) -> dict[str, Any]:
         """A run header's entry for the field: {"field": ``describe()``}, none for the uniform
-        stimulus (the headers of uniform runs are those written before fields existed)."""
+        stimulus (so that the headers of uniform runs match those of files without fields)."""
         return {} if self.uniform else {"field": self.describe()}
 
     @classmethod

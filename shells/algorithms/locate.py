@@ -439,7 +439,15 @@ class Deflation:
 
 
 def m_dot(M: Any, x: Any) -> float:
-    """xᵀ M x (M a PETSc matrix, x a PETSc vector)."""
+    """xᵀ M x.
+
+    Args:
+        M: a PETSc matrix.
+        x: a PETSc vector.
+
+    Returns:
+        The product.
+    """
     return m_inner(M, x, x)
 
 
@@ -974,7 +982,15 @@ def _critical_point(loc: Locator, kind: str, lam_star: float, bracket: tuple[flo
 
 
 def m_inner(M: Any, x: Any, y: Any) -> float:
-    """xᵀ M y (M a PETSc matrix, x and y PETSc vectors)."""
+    """xᵀ M y.
+
+    Args:
+        M: a PETSc matrix.
+        x, y: PETSc vectors.
+
+    Returns:
+        The product.
+    """
     t = M.createVecLeft()
     M.mult(y, t)
     out = float(x.dot(t))

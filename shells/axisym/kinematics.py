@@ -99,12 +99,26 @@ def meridian_ufl(shape: Shape, t: Any, mesh: Any = None) -> tuple:
 
 
 def dot(a: tuple, b: tuple) -> Any:
-    """The dot product of two 3-tuples of UFL expressions."""
+    """The dot product of two 3-tuples of UFL expressions.
+
+    Args:
+        a, b: the 3-tuples.
+
+    Returns:
+        Σ a_i b_i.
+    """
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
 def cross(a: tuple, b: tuple) -> tuple:
-    """The cross product of two 3-tuples of UFL expressions, as a 3-tuple."""
+    """The cross product of two 3-tuples of UFL expressions.
+
+    Args:
+        a, b: the 3-tuples.
+
+    Returns:
+        a × b, a 3-tuple.
+    """
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
@@ -157,5 +171,12 @@ def dirichlet(V: Any, vertices: np.ndarray) -> list[Any]:
 
 
 def is_sphere(shape: Shape) -> bool:
-    """Whether ``shape`` is a closed sphere (for the 1D model: two poles, no rim)."""
+    """Whether ``shape`` is a closed sphere (for the 1D model: two poles, no rim).
+
+    Args:
+        shape: the shape.
+
+    Returns:
+        True for a closed sphere (imperfect ones included).
+    """
     return isinstance(shape, SphericalCap) and shape.closed

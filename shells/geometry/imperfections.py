@@ -20,7 +20,14 @@ __all__ = ["HARMONIC_DEGREE_MAX", "harmonic_parts", "HarmonicImperfectSphere", "
 
 def legendre_cosine_series(n: int) -> list[tuple[int, float]]:
     """P_n(cos t) = Σ_j a_j cos(j t): the pairs (j, a_j), from P_n(cos t) = Σ_k g_k g_(n-k)
-    cos((n - 2k) t), g_k = C(2k, k) / 4^k (the terms of k and n - k merged)."""
+    cos((n - 2k) t), g_k = C(2k, k) / 4^k (the terms of k and n - k merged).
+
+    Args:
+        n: the degree.
+
+    Returns:
+        The pairs (j, a_j), j ascending (of n's parity).
+    """
     g = [math.comb(2 * k, k) / 4.0**k for k in range(n + 1)]
     out: dict[int, float] = {}
     for k in range(n + 1):
@@ -147,7 +154,16 @@ def harmonic_parts(n: int, m: int, ux: Any, uy: Any, uz: Any) -> tuple[Any, Any]
     C_m = Re((u_x + i u_y)^m) (= sin^m θ cos mφ) and Q_n^m = d^m P_n / dc^m (c = u_z), both by
     their stable recurrences, NumPy arrays or UFL expressions alike (no Condon-Shortley phase:
     Q_n^m(1) > 0). Q_m^m = (2m-1)!!, Q_(m+1)^m = (2m+1) c Q_m^m,
-    (l - m) Q_l^m = (2l-1) c Q_(l-1)^m - (l+m-1) Q_(l-2)^m."""
+    (l - m) Q_l^m = (2l-1) c Q_(l-1)^m - (l+m-1) Q_(l-2)^m.
+
+    Args:
+        n: the degree.
+        m: the order (0 <= m <= n).
+        ux, uy, uz: the components of the unit vector u (arrays or UFL expressions).
+
+    Returns:
+        (C_m, Q_n^m), of the inputs' kind.
+    """
     cm, sm = 1.0 + 0.0 * ux, 0.0 * ux
     for _ in range(m):
         cm, sm = cm * ux - sm * uy, sm * ux + cm * uy

@@ -32,7 +32,15 @@ __all__ = ["CAP_THETA_MAX_DEG", "THETA_MIN_DEG", "Disk", "EllipsoidalCap", "RunS
 
 
 def check_positive(name: str, value: float) -> None:
-    """Refuse (``InputError``) a ``value`` that is not a finite positive number."""
+    """Refuse a value that is not a finite positive number.
+
+    Args:
+        name: the value's name, for the message.
+        value: the value.
+
+    Raises:
+        InputError: if it is not a finite positive number.
+    """
     if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
         raise InputError(f"{name} must be a positive number, got {value!r}")
 
@@ -54,8 +62,14 @@ CAP_THETA_MAX_DEG = 180.0 - THETA_MIN_DEG
 
 
 def check_theta(theta: float) -> None:
-    """Refuse (``InputError``) a cap's half opening angle outside [``THETA_MIN_DEG``, 180°]
-    (radians)."""
+    """Refuse a cap's half opening angle outside [``THETA_MIN_DEG``, 180°].
+
+    Args:
+        theta: the angle, in radians.
+
+    Raises:
+        InputError: if it is out of range or not a number.
+    """
     if not (isinstance(theta, (int, float)) and math.isfinite(theta)):
         raise InputError(f"theta must be a number, got {theta!r}")
     if not 0.0 < theta <= math.pi * (1 + 1e-12):
@@ -487,8 +501,15 @@ class RunScales:
 
 
 def kappa_length(shape: Shape) -> float:
-    """The length of κR: the pole radius of curvature R of spheres and caps; the ellipsoid's
-    equatorial radius r1 (the paper's R = r1 = r2); the disk's radius."""
+    """The length R of κR.
+
+    Args:
+        shape: the shape.
+
+    Returns:
+        The pole radius of curvature R of spheres and caps; the ellipsoid's equatorial radius
+        r1 (the paper's R = r1 = r2); the disk's radius.
+    """
     if isinstance(shape, EllipsoidalCap):
         return shape.radius
     return shape.R if math.isfinite(shape.R) else shape.characteristic_size()

@@ -261,7 +261,14 @@ class FactorOptions(Protocol):
 
 
 def get_state(problem: Problem) -> np.ndarray:
-    """A copy of this rank's owned state values."""
+    """A copy of this rank's owned state values.
+
+    Args:
+        problem: the problem.
+
+    Returns:
+        The owned values (a numpy array).
+    """
     return problem.state.array_r.copy()
 
 

@@ -285,7 +285,7 @@ class BlockSolvers:
             eps.setOptionsPrefix(EIGEN_PREFIX)
             eps.setFromOptions()  # the user's -shells_eigen_... options
             self._seed = eps.getBV().getRandomContext().getSeed()
-            # a user's options, if any, override the dimensions set per solve (as before reuse)
+            # a user's options, if any, override the dimensions set per solve (as on a new EPS)
             self.user_options = any(k.startswith(EIGEN_PREFIX)
                                     for k in PETSc.Options().getAll())
             self.eps = eps

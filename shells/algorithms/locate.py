@@ -67,7 +67,7 @@ ROUNDOFF_SHIFT = 1.0e-10
 
 
 #: Krylov subspace of the round-off measurement's solves (one eigenvalue, nearest 0): enough for
-#: one eigenvalue to converge as with the default size, at a lower cost a solve
+#: one eigenvalue to converge as with the default size, at a lower cost per solve
 #: (docs/design-notes.md, "Locator: round-off of the crossing eigenvalue")
 ROUNDOFF_NCV = 8
 

@@ -33,8 +33,8 @@ class ContinuationSettings:
             does not vanish where the branch crosses κ = 0), plus the round-off floor of a
             residual assembled with the Jacobian J at the state w (ε: machine epsilon). Both
             terms are model-independent: a stiff Jacobian (the 1D model's C1 penalty) has a
-            round-off floor above any fixed fraction of the κ-load of a thin bending-dominated
-            shell (a disk's load is O(h²)). Natural steps (SNES) accept a residual below the
+            round-off floor that can exceed the relative term on thin bending-dominated shells
+            (a disk's load is O(h²)). Natural steps (SNES) accept a residual below the
             same bound with 10⁻³ ``residual_rtol`` and no round-off term, since a relative
             decrease from the small start residual of a short step can lie below round-off
             (docs/model.md, "Solvers").

@@ -204,7 +204,8 @@ class HarmonicImperfectSphere(Shape):
     The surface model interpolates ``normal`` (``has_ufl_normal`` False: Lagrange of one degree
     above the state's, b° = -∇n° from it): the UFL normal in its Jacobian takes FFCx minutes
     to compile, once per amplitude, while the interpolated one's forms are those of every
-    sphere, cached; its error and cost: docs/imperfections.md, the harmonic imperfection.
+    sphere, cached; its error and cost: docs/imperfections.md, the harmonic imperfection, and
+    docs/design-notes.md, "The harmonic imperfection's normal".
     ``meridian`` is the one at φ = 0 (its poles are the surface's: the rigid-motion gauge and
     the apex read them)."""
 

@@ -31,7 +31,8 @@ from typing import Any
 from shells.errors import InputError
 
 #: public name -> the module that defines it (imported on first use: the ``shells`` command
-#: installs its signal handlers before any heavy import)
+#: installs its signal handlers before any heavy import; docs/design-notes.md, "Start-up
+#: imports")
 _PUBLIC = {
     **{n: "shells.api.shell" for n in ("Geometry", "Shell", "bilayer", "cap", "disk",
                                        "ellipsoid", "mesh", "meridian", "sphere", "torus")},

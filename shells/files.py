@@ -37,7 +37,17 @@ log = logging.getLogger("shells")
 
 
 def json_default(o: Any) -> Any:
-    """JSON for numpy scalars and arrays."""
+    """``json.dumps``' ``default``: numpy scalars and arrays as Python numbers and lists.
+
+    Args:
+        o: the object ``json`` cannot serialise itself.
+
+    Returns:
+        Its Python equivalent.
+
+    Raises:
+        TypeError: for anything else.
+    """
     if isinstance(o, np.generic):
         return o.item()
     if isinstance(o, np.ndarray):
@@ -82,7 +92,14 @@ def _lock(fd: int) -> bool:
 
 
 def drop_torn_tail(path: str | os.PathLike) -> int:
-    """Truncate a torn (unterminated) last line of ``path``; returns the bytes dropped."""
+    """Truncate a torn (unterminated) last line of a file.
+
+    Args:
+        path: the file (nothing happens if it does not exist).
+
+    Returns:
+        The number of bytes dropped.
+    """
     if not Path(path).exists():
         return 0
     fd = os.open(path, os.O_RDWR)
@@ -94,8 +111,14 @@ def drop_torn_tail(path: str | os.PathLike) -> int:
 
 
 def append_record(path: str | os.PathLike, rec: dict[str, Any]) -> None:
-    """One line, one write(2) on an O_APPEND descriptor, flushed to disk. Under an exclusive
-    lock, a torn last line left by an earlier crash is truncated first."""
+    """Append one record as one line: one write(2) on an O_APPEND descriptor, flushed to disk.
+
+    Under an exclusive lock, a torn last line left by a crash is truncated first.
+
+    Args:
+        path: the JSON-lines file.
+        rec: the record (numpy values allowed, ``json_default``).
+    """
     line = (json.dumps(rec, default=json_default) + "\n").encode()
     fd = os.open(path, os.O_RDWR | os.O_APPEND | os.O_CREAT, 0o644)
     try:
@@ -108,9 +131,20 @@ def append_record(path: str | os.PathLike, rec: dict[str, Any]) -> None:
 
 
 def read_records(path: str | os.PathLike) -> list[dict[str, Any]]:
-    """The records of a file (none if it does not exist). Blank lines and a torn last line
-    (unterminated: a write cut short, or one still being written by another process) are
-    skipped; a terminated line that is not a JSON object raises ``InputError``."""
+    """The records of a JSON-lines file.
+
+    Blank lines and a torn last line (unterminated: a write cut short, or one still being
+    written by another process) are skipped.
+
+    Args:
+        path: the file.
+
+    Returns:
+        The records in order; none if the file does not exist.
+
+    Raises:
+        InputError: if a terminated line is not a JSON object (a corrupt file).
+    """
     path = Path(path)
     if not path.exists():
         return []
@@ -132,7 +166,17 @@ def read_records(path: str | os.PathLike) -> list[dict[str, Any]]:
 
 
 def read_with_header(path: str | os.PathLike) -> tuple[dict[str, Any], list[dict[str, Any]]]:
-    """(header, the other records) of a file whose records may include {"header": ...}."""
+    """Read a JSON-lines file whose records may include {"header": ...}.
+
+    Args:
+        path: the file.
+
+    Returns:
+        (the header, or {} if there is none; the other records).
+
+    Raises:
+        InputError: as ``read_records``.
+    """
     header: dict[str, Any] = {}
     recs = []
     for rec in read_records(path):
@@ -145,8 +189,13 @@ def read_with_header(path: str | os.PathLike) -> tuple[dict[str, Any], list[dict
 
 def write_header(path: str | os.PathLike, header: dict[str, Any],
                  records: Sequence[dict[str, Any]] = ()) -> None:
-    """Replace ``path`` by a file holding the header record and then ``records`` (a run's kept
-    records when it resumes), atomically."""
+    """Replace a file, atomically, by its header record followed by ``records``.
+
+    Args:
+        path: the JSON-lines file.
+        header: the header (written as {"header": header}).
+        records: a resumed run's kept records.
+    """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     write_atomic(path, "".join(json.dumps(r, default=json_default) + "\n"
@@ -154,8 +203,15 @@ def write_header(path: str | os.PathLike, header: dict[str, Any],
 
 
 def write_atomic(path: str | os.PathLike, text: str) -> None:
-    """Replace ``path`` by a file holding ``text``: a temporary file in the same folder, flushed
-    to disk, then renamed over it (a kill leaves the old file or the new one)."""
+    """Replace a file by one holding ``text``, atomically.
+
+    A temporary file in the same folder, flushed to disk, is renamed over it: a kill leaves the
+    old file or the new one.
+
+    Args:
+        path: the file.
+        text: its new contents.
+    """
     path = Path(path)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     with open(tmp, "w") as f:
@@ -167,9 +223,21 @@ def write_atomic(path: str | os.PathLike, text: str) -> None:
 
 def read_number_rows(path: str | os.PathLike, what: str, rows: str
                      ) -> tuple[tuple[float, ...], ...]:
-    """The rows of numbers of a text table (spaces or commas; blank lines and lines starting
-    with # skipped); an ``InputError`` naming ``what`` (e.g. "the meridian file") and the
-    expected ``rows`` (e.g. "'r z'") if it cannot be read or holds anything else."""
+    """The rows of numbers of a text table (spaces or commas).
+
+    Blank lines and lines starting with # are skipped.
+
+    Args:
+        path: the file.
+        what: what the file is, for messages (e.g. "the meridian file").
+        rows: what a row should hold, for messages (e.g. "'r z'").
+
+    Returns:
+        The rows, as tuples of floats.
+
+    Raises:
+        InputError: if the file cannot be read or holds anything else.
+    """
     try:
         with open(path, encoding="utf-8") as fh:
             lines = [ln.replace(",", " ").split() for ln in fh

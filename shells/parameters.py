@@ -77,6 +77,9 @@ def check_h_over_r(h_over_r: Any, name: str = "h/R") -> float:
 def check_model(model: Any) -> str:
     """The model's name, checked.
 
+    Args:
+        model: "axisym" or "surface".
+
     Returns:
         ``model``.
 

@@ -3,11 +3,14 @@ only (no algorithm imports a model).
 
 Modules:
 
-* ``newton``: ``NewtonSolver`` (PETSc SNES, bordered solves);
-* ``continuation``: natural and pseudo-arclength continuation, the one corrector and the one
-  arclength loop;
+* ``settings``: ``ContinuationSettings``, ``CriticalSettings`` (frozen, validated);
+* ``records``: ``CriticalPoint`` and the resume records ``FollowResume``, ``SwitchResume``;
+* ``newton``: ``NewtonSolver`` (PETSc SNES, bordered solves) and the options prefixes;
+* ``bordered``: the one corrector, ``bordered_newton``, and its ``Arclength`` vectors;
+* ``continuation``: natural and pseudo-arclength continuation, the one arclength loop;
 * ``stability``: inertia and eigenpairs of the stability blocks (MUMPS, SLEPc);
-* ``critical``: following a branch with its stability, locating critical points, branch
-  switching;
+* ``locate``: locating folds and bifurcations inside a step;
+* ``following``: ``follow``, continuation with stability at every point;
+* ``switching``: ``switch_branch``, branch switching at a located bifurcation;
 * ``asymptotics``: Koiter's reduced equation at a located bifurcation.
 """

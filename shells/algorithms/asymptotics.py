@@ -17,20 +17,18 @@ and c2 c3 δ > 0, the imperfect branch from κ = 0 reaches a limit point (fold) 
     1 - κ_max/κ_c = C √δ,   C = 2 √(c2 c3) / (|c1| κ_c),
 
 and for the other sign of δ it has none at this order. c2 = 0 is a symmetric bifurcation: the
-law is then 1 - κ_max/κ_c ∝ δ^(2/3) with a coefficient from the next order (not computed here).
-On a closed sphere the axisymmetric buckling mode is the Legendre polynomial P_n, and
-c2 ∝ ∫ P_n³ vanishes for odd n: the curvature buckling of a sphere is asymmetric for even n and
-symmetric (at this order) for odd n.
+law is then 1 - κ_max/κ_c ∝ δ^(2/3) with a coefficient from the next order (not computed here;
+on a closed sphere c2 ∝ ∫ P_n³ vanishes for odd n: docs/imperfections.md, "Koiter's law").
 
 Everything is computed from the problem interface at a located
 ``shells.algorithms.records.CriticalPoint`` by finite differences of residuals and Jacobians (no
-model-specific code): the critical point is first refined (κ_c where the Rayleigh quotient of the
-null vector vanishes, φ by inverse iteration), because the locator's bracket (1e-4 in κ) is too
-coarse for the law's small-δ end. The imperfection enters only through a callable that returns ∂R/∂δ
-at the problem's current state and κ (the driver knows the imperfection;
-``shells.analyses.knockdown`` builds it from two imperfect models on the same mesh). The amplitude ξ
-is measured as the RMS of φ's DOFs in units of the problem's ``state_scale()`` (thicknesses), the
-continuation norm of ``shells.algorithms.continuation``; C does not depend on that choice.
+model-specific code). The critical point is first refined (κ_c where the Rayleigh quotient of
+the null vector vanishes, φ by inverse iteration), because the locator's bracket is too coarse
+for the law's small-δ end. The imperfection enters only through a callable that returns ∂R/∂δ
+at the problem's current state and κ (``shells.analyses.knockdown`` builds it from two
+imperfect models on the same mesh). The amplitude ξ is the RMS of φ's DOFs in units of the
+problem's ``state_scale()`` (thicknesses), the continuation norm; C does not depend on that
+choice.
 """
 
 from __future__ import annotations
@@ -46,14 +44,24 @@ __all__ = ["ReducedEquation", "reduced_equation"]
 
 #: a symmetric bifurcation: φᵀR(w_c ± ξφ) is odd in ξ, its even part below this fraction of
 #: its size (an asymmetric one has an even part ~ c2 ξ² that dominates at the critical point,
-#: where the odd part is ~ ξ³; measured on the 1D sphere at ξ = 0.01 h: 1.8 for even degrees
-#: n, 0.009 for n = 9)
+#: where the odd part is ~ ξ³; the two kinds lie orders of magnitude apart on the 1D sphere:
+#: docs/imperfections.md, "Koiter's law")
 SYMMETRIC_BELOW = 0.1
 
 
 @dataclass(frozen=True)
 class ReducedEquation:
-    """The coefficients of G = c1 (κ - κ_c) ξ + c2 ξ² + c3 δ at one bifurcation."""
+    """The coefficients of G = c1 (κ - κ_c) ξ + c2 ξ² + c3 δ at one bifurcation.
+
+    Attributes:
+        kappa_c: the refined critical κ.
+        c1, c2, c3: the coefficients (c3 None without an imperfection).
+        kappa_c_accuracy: the refinement's last correction of κ_c, relative.
+        slope: the bifurcated branch's initial slope relative to κ_c, -c2/(c1 κ_c).
+        asymmetry: the even part of φᵀR(w_c ± ξφ) over its size at the finite-difference
+            amplitude.
+        kind: "asymmetric" or "symmetric" (asymmetry below ``SYMMETRIC_BELOW``).
+    """
 
     kappa_c: float
     c1: float
@@ -81,6 +89,7 @@ class ReducedEquation:
         return None if c is None or delta <= 0 else 1.0 - c * math.sqrt(delta)
 
     def as_dict(self) -> dict[str, Any]:
+        """The fields and ``coefficient`` (JSON-ready)."""
         d = asdict(self)
         d["coefficient"] = self.coefficient
         return d
@@ -95,12 +104,25 @@ def reduced_equation(problem: Any, cp: Any, solver: Any,
                      imperfection: Callable[[], Any] | None = None, *,
                      refine: int = 4, rel_step: float = 2.0e-3,
                      amplitude: float = 0.01) -> ReducedEquation:
-    """The reduced equation at the simple bifurcation ``cp`` (carrying its state and mode) of
-    ``problem`` (``solver``: its ``shells.algorithms.newton.NewtonSolver``, whose Jacobian matrix
-    and LU are used). ``imperfection()``: ∂R/∂δ (a Vec) at the problem's current state and κ, or
-    None (then c3 is None). ``rel_step``: the κ step (relative) of the fundamental branch's finite
-    differences; ``amplitude``: that of ξ (RMS thicknesses). Leaves the problem at the refined
-    critical state."""
+    """The reduced equation at a simple bifurcation.
+
+    Args:
+        problem: the problem.
+        cp: the located bifurcation, carrying its state and mode.
+        solver: the problem's ``shells.algorithms.newton.NewtonSolver``, whose Jacobian matrix
+            is used.
+        imperfection: returns ∂R/∂δ (a Vec) at the problem's current state and κ; None: c3
+            is None.
+        refine: iterations of the refinement of κ_c and φ.
+        rel_step: the κ step (relative) of the fundamental branch's finite differences.
+        amplitude: the finite-difference step of ξ (RMS thicknesses).
+
+    Returns:
+        The coefficients. The problem is left at the refined critical state.
+
+    Raises:
+        InputError: if ``cp`` carries no state or mode, or is not a bifurcation.
+    """
     from petsc4py import PETSc
 
     if cp.state is None or cp.mode is None:

@@ -2,9 +2,9 @@
 Newton on R(w, λ) = 0 with a hyperplane and optional pins, and ``Arclength``, the vectors and
 norms it works with.
 
-Continuation (``shells.algorithms.continuation``), the locator and branch switching
-(``shells.algorithms.locate``) and the knock-down's limit points all correct with
-``bordered_newton``.
+Continuation (``shells.algorithms.continuation``), the locator (``shells.algorithms.locate``),
+branch switching (``shells.algorithms.switching``) and the knock-down's limit points all
+correct with ``bordered_newton``.
 """
 
 from __future__ import annotations
@@ -61,12 +61,15 @@ class Arclength:
             v.destroy()
 
     def set_lambda(self, lam: float) -> None:
+        """Set the problem's κ to λ / L."""
         self.problem.set_kappa(lam / self.L)
 
     def get_lambda(self) -> float:
+        """The problem's λ = κ L."""
         return self.problem.get_kappa() * self.L
 
     def sync(self) -> None:
+        """Propagate the state's owned values to its ghosts (``Problem.sync``)."""
         self.problem.sync()
 
     def restore(self, lam: float) -> None:
@@ -76,16 +79,27 @@ class Arclength:
         self.set_lambda(lam)
 
     def dres_dlambda(self) -> None:
+        """Assemble ∂R/∂λ at the current state into ``Fl`` and record its norm."""
         self.ns.assemble_dkappa(self.Fl)
         self.Fl.scale(1.0 / self.L)
         self.fl_norm = float(self.Fl.norm())
 
     def residual_bound(self, st: ContinuationSettings, lam: float,
                        roundoff: bool = True) -> float:
-        """The residual tolerance at the current state and λ (``ContinuationSettings``):
-        ``residual_tol`` if given, else residual_rtol ||∂R/∂λ|| max(|λ|, λ_ref) +
-        residual_roundoff ε ||J||_F ||w|| (J: the last factored Jacobian; without this term
-        if not ``roundoff``: a Newton solve, which measures the round-off it stalls at)."""
+        """The residual tolerance at the current state and λ (``ContinuationSettings``).
+
+        Args:
+            st: the settings whose ``residual_tol``, ``residual_rtol`` and
+                ``residual_roundoff`` apply.
+            lam: the λ at which the κ-load is taken.
+            roundoff: include the round-off term (False for a Newton solve, which measures
+                the round-off it stalls at itself).
+
+        Returns:
+            ``residual_tol`` if given, else residual_rtol ||∂R/∂λ|| max(|λ|, λ_ref) +
+            residual_roundoff ε ||J||_F ||w|| (J: the last factored Jacobian; ∂R/∂λ from the
+            last ``dres_dlambda``).
+        """
         if st.residual_tol is not None:
             return st.residual_tol
         load = self.fl_norm * max(abs(lam), self.lam_ref)
@@ -94,10 +108,22 @@ class Arclength:
 
     def tangent(self, sign_ref: tuple[Any, float] | None, direction: float,
                 attempts: int = 1, reuse: bool = False) -> bool:
-        """Unit tangent at the current (converged) point: J z = -R_λ, τ ∝ (z, 1). False, and
-        the tangent left as it was, if the Jacobian could not be factored (in ``attempts``).
-        ``reuse``: solve with the factorisation held (the corrector's, of a Jacobian within
-        ``factor_reuse`` of this point) instead of factoring afresh."""
+        """Compute the unit tangent (``tw``, ``tl``) at the current (converged) point.
+
+        J z = -R_λ, τ ∝ (z, 1), oriented like ``sign_ref`` (positive inner product in the
+        continuation norm), which carries a branch around folds.
+
+        Args:
+            sign_ref: the previous tangent (τ_w, τ_λ); None: orient by ``direction``.
+            direction: the sign of τ_λ wanted when there is no ``sign_ref``.
+            attempts: factorisations to try (a failed factor is reset between them).
+            reuse: solve with the factorisation held (the corrector's, of a Jacobian within
+                ``factor_reuse`` of this point) instead of factoring afresh.
+
+        Returns:
+            True; False, with the tangent left as it was, if the Jacobian could not be
+            factored or the tangent is not finite.
+        """
         if not reuse and not self.ns.factor(attempts):
             return False
         self.dres_dlambda()
@@ -120,8 +146,16 @@ class Arclength:
         return True
 
     def start_tangent(self, sign_ref: tuple[Any, float] | None, direction: float) -> None:
-        """``tangent`` at a run's start, where there is no step to cut: one retry (the failed
-        factor was reset), then an error."""
+        """``tangent`` at a run's start, where there is no step to cut.
+
+        Args:
+            sign_ref: as for ``tangent``.
+            direction: as for ``tangent``.
+
+        Raises:
+            RuntimeError: if the Jacobian cannot be factored in two attempts (the failed
+                factor is reset between them).
+        """
         if not self.tangent(sign_ref, direction, attempts=2):
             raise RuntimeError(f"the Jacobian at the start kappa L = {self.get_lambda():.6g} "
                                "could not be factored (twice)")
@@ -142,32 +176,46 @@ def bordered_newton(ar: Arclength, st: ContinuationSettings, lam_p: float,
                      pins: Sequence[Any] = (), wc: Any = None,
                      max_dlam: float | None = None, keep_best: bool | None = None
                      ) -> Correction:
-    """The corrector: Newton on R(w, λ) + Σ_j s_j ψ_j = 0 with the step's hyperplane
+    """Correct the problem's state onto the branch: Keller's bordered Newton, with pins.
+
+    Newton on R(w, λ) + Σ_j s_j ψ_j = 0 with the step's hyperplane
     cw τ_w·(w - w_p) + τ_λ (λ - λ_p) = 0 and, for each pin ψ_j, cw ψ_j·(w - w_c) = 0; unknowns
-    w, λ and the multipliers s_j. Without pins this is Keller's bordered Newton.
+    w, λ and the multipliers s_j. One LU factorisation and 2 + len(pins) solves per
+    iteration; the constraints are linear, so every iterate after the first satisfies them.
+    Within ``factor_reuse`` of the last factored iterate the factorisation is kept (chord
+    steps), except with ``singular_ok``, whose acceptance after 3 iterations takes the
+    residual bound alone, which a chord iterate meets farther from the solution.
 
-    ``plane`` = (τ_w, τ_λ, w_p): the hyperplane (default: the ``Arclength``'s tangent and
-    predictor). (0, 1, ·) fixes λ = λ_p (landing on a given κ); (φ, 0, w_c + a φ) fixes the
-    amplitude a along φ and leaves λ free, which parametrises a pitchfork regularly (branch
-    switching). The pins ψ_j hold the other directions of a (nearly) multiple critical
-    eigenspace at their value in w_c: a phase condition, the orientation of a buckling pattern
-    on a shape of revolution (``shells.algorithms.switching.switch_branch``); s_j ψ_j is the force
-    that holds it. One LU factorisation and 2 + len(pins) solves per iteration; the constraints are
-    linear, so every iterate after the first satisfies them. Within ``factor_reuse`` of the
-    last factored iterate the factorisation is kept (chord steps), except with
-    ``singular_ok``.
+    Args:
+        ar: the vectors and norms; the corrector starts from the problem's current state.
+        st: the settings (tolerances, ``max_newton_its``, ``factor_reuse``).
+        lam_p: the predictor's λ.
+        lam_start: the λ Newton starts from (default: ``lam_p``).
+        singular_ok: next to a singular point, where round-off amplified along the critical
+            mode stalls the increment above ``newton_tol`` although the residual is
+            converged: accept a residual below the residual bound after 3 iterations, and if
+            Newton diverges (next to a cluster of singular modes, a closed sphere's) keep the
+            iterate of smallest residual when it is below the bound.
+        deflate: a callable ``deflate(a, b, ...)`` that may remove components from each
+            iteration's solves (the locator's safeguard against Newton steps that switch to
+            a branch bifurcating close by).
+        plane: (τ_w, τ_λ, w_p), the hyperplane (default: the ``Arclength``'s tangent and
+            predictor). (0, 1, ·) fixes λ = λ_p (landing on a given κ); (φ, 0, w_c + a φ)
+            fixes the amplitude a along φ with λ free, which parametrises a pitchfork
+            regularly (branch switching).
+        pins: the ψ_j, held at their value in ``wc``: a phase condition, e.g. the orientation
+            of a buckling pattern on a shape of revolution
+            (``shells.algorithms.switching.switch_branch``); s_j ψ_j is the force that holds it.
+        wc: the state the pins refer to (needed with pins).
+        max_dlam: an iterate with |λ - λ_p| above it counts as divergence (default
+            10 max(1, |λ_p|)).
+        keep_best: keep the iterate of smallest residual on divergence (default:
+            ``singular_ok``).
 
-    Starts from the problem's current state and ``lam_start`` (default: λ_p). ``singular_ok``:
-    next to a singular point the Jacobian is nearly singular and round-off is amplified along
-    the critical mode, so the increment stalls above ``newton_tol`` although the residual is
-    converged; then a residual below the residual bound after 3 iterations is accepted, and if
-    Newton diverges (next to a cluster of singular modes, a closed sphere's) the iterate of
-    smallest residual is kept when that residual is below the bound. The residual bound is
-    ``Arclength.residual_bound`` (relative to the κ-load and the round-off floor, or
-    ``residual_tol``). An iterate with |λ - λ_p| > ``max_dlam`` (default 10 max(1, |λ_p|))
-    counts as divergence. ``deflate(a, b, ...)``, when given, may remove components from the
-    solves of each iteration (the locator's safeguard against Newton steps that switch to a
-    branch bifurcating close by).
+    Returns:
+        The ``Correction``; on success the problem holds the converged state and λ, and
+        ``ar.drift`` how far it moved since the factorisation the solver holds. The residual
+        bound is ``Arclength.residual_bound``.
     """
     ns, w = ar.ns, ar.w
     tw, tl, wp = plane if plane is not None else (ar.tw, ar.tl, ar.wp)
@@ -199,8 +247,8 @@ def bordered_newton(ar: Arclength, st: ContinuationSettings, lam_p: float,
 
     def fail(it: int) -> Correction:
         # kept only if it is what singular_ok would accept (3 updates at least): an earlier
-        # iterate is within the bound of the branch but not on it (a trial at a fold, its
-        # third iterate lost to a failed assembly, was kept 1.3e-7 off, past the fold)
+        # iterate can be within the bound of the branch but not on it (docs/design-notes.md,
+        # "Corrector: the kept iterate")
         if best_w is None or best_updates < 3 or not best[0] <= ar.residual_bound(st, best[1]):
             return Correction(False, it, lam, s)
         best_w.copy(w)
@@ -244,8 +292,7 @@ def bordered_newton(ar: Arclength, st: ContinuationSettings, lam_p: float,
             # (k = 0 keeps the bordered formula's order of operations, k > 0 the pinned one's:
             # next to a closed sphere's cluster of singular modes the state along the nearly
             # singular directions is set by round-off, and the branch switched onto from it
-            # depends on it; measured: reordering moved the h/R = 0.01 sphere's critical
-            # state's eigenvalue from 6.2e-7 to 4.5e-7 and sent its switch onto another branch)
+            # depends on it; docs/design-notes.md, "Corrector: order of operations")
             r[0] = -(ar.cw * (tw.dot(ar.Fl) + tw.dot(ar.a)) + tl * (lam - lam_p)) if k else \
                 -((ar.cw * tw.dot(ar.Fl) + tl * (lam - lam_p)) + ar.cw * tw.dot(ar.a))
             if k:

@@ -8,7 +8,7 @@ consumer can write fields or check stability between two ``next()`` calls.
 
 The parameter is λ = κ L (L: the problem's ``length_scale()``: R, the disk's radius).
 Pseudo-arclength uses the norm ||(δw, δλ)||² = ξ² |δw|²/(N h²) + δλ² (N: number of DOFs, h: the
-problem's ``state_scale()``, the thickness, so the state is measured in thicknesses;
+problem's ``state_scale()``, the thickness, so the state counts in thicknesses;
 ξ = ``state_weight``), a
 predictor along the unit tangent and Keller's bordered Newton corrector on the hyperplane
 orthogonal to it; two solves per iteration share one LU factorisation. The tangent orientation is
@@ -50,6 +50,7 @@ class Point:
     scalars: dict[str, float] = field(default_factory=dict)
 
     def as_dict(self) -> dict[str, Any]:
+        """The point as one flat dict: its fields, then its scalars."""
         d = {k: v for k, v in asdict(self).items() if k != "scalars"}
         d.update(self.scalars)
         return d
@@ -66,21 +67,41 @@ def continuation(problem: Any, settings: ContinuationSettings, *, kappa_start: f
     """Follow the branch from the problem's current state at ``kappa_start`` to ``kappa_end``.
 
     The first point is the (re-converged) start; the run ends on the point at ``kappa_end``
-    exactly, or when the step falls below ``ds_min``, or after ``max_steps`` points.
-    ``initial_tangent`` (local state array, λ part: the secant from the previous point)
-    resumes a run as it was: an arclength run in its direction, a natural one with that secant
-    predictor; ``initial_ds`` (None: ``settings.ds``) is the first step, the one the
-    interrupted run would have taken next (``next_step``). Arclength runs: ``on_tangent(τ_w,
-    τ_λ)``, if given, is called before each point is yielded with the unit tangent the next
-    step's predictor follows (this rank's owned values, a copy); ``tangent`` = such a tangent
-    at the start is used as it is, instead of the Jacobian's tangent there oriented by
-    ``initial_tangent``: a resumed run then predicts its first step exactly as the interrupted
-    one did (a tangent solved again at the restored state is the same only if the interrupted
-    run solved it with that state's own factorisation, not, e.g., a corrector iterate's).
-    ``scalars=False``: the points' ``scalars`` are left empty (``problem.scalars()`` is not
-    called: a caller that wants critical points only). ``previous`` = (local state array, κ,
-    step): the point before the start and the step that led from it to the start, for the
-    quadratic predictor's first step (``ContinuationSettings.predictor``) of a resumed run.
+    exactly, or when the step falls below ``ds_min``, or after ``max_steps`` points. The
+    problem's state holds each point while it is yielded.
+
+    Args:
+        problem: the problem, its state the start.
+        settings: the method, steps and tolerances.
+        kappa_start: the start's κ.
+        kappa_end: the κ the run lands on.
+        solver: the Newton solver to use (default: a new one).
+        start_index: the first point's ``index``.
+        initial_tangent: (local state array, λ part), the secant from the previous point:
+            resumes a run as it was, an arclength run in its direction, a natural one with
+            that secant predictor.
+        skip_first: do not yield the start (a resumed run has it already).
+        initial_ds: the first step (None: ``settings.ds``), e.g. the one an interrupted run
+            would have taken next (``next_step``).
+        tangent: (τ_w, τ_λ), a unit tangent at the start (as ``on_tangent`` gave it), used as
+            it is instead of the Jacobian's tangent there: a resumed run then predicts its
+            first step exactly as the interrupted one did (a tangent solved again at the
+            restored state is the same only if the interrupted run solved it with that
+            state's own factorisation, not, e.g., a corrector iterate's). Arclength only.
+        on_tangent: called as ``on_tangent(τ_w, τ_λ)`` before each point is yielded, with the
+            unit tangent the next step's predictor follows (this rank's owned values, a
+            copy). Arclength only.
+        scalars: False: the points' ``scalars`` are left empty (``problem.scalars()`` is not
+            called: a caller that wants critical points only).
+        previous: (local state array, κ, step): the point before the start and the step that
+            led from it to the start, for the quadratic predictor's first step
+            (``ContinuationSettings.predictor``) of a resumed run.
+
+    Yields:
+        One ``Point`` per converged step.
+
+    Raises:
+        RuntimeError: if Newton does not converge at the start (two attempts).
     """
     ns = solver or NewtonSolver(problem)
     L = problem.length_scale()
@@ -115,7 +136,17 @@ def continuation(problem: Any, settings: ContinuationSettings, *, kappa_start: f
 
 
 def next_step(st: ContinuationSettings, step: float, its: int) -> float:
-    """The step the loop takes after a point reached with ``step`` in ``its`` iterations."""
+    """The step the loop takes after a point reached with ``step`` in ``its`` iterations.
+
+    Args:
+        st: the settings (``ds_min``, ``ds_max``, ``target_newton_its``).
+        step: the step that reached the point.
+        its: the corrector's iterations there.
+
+    Returns:
+        ``step`` scaled by target / its (within a factor 2 either way), clipped to
+        [``ds_min``, ``ds_max``].
+    """
     return min(st.ds_max, max(st.ds_min, step * _growth(its, st.target_newton_its)))
 
 
@@ -178,15 +209,24 @@ def _natural(problem, ns, st, lam0, lam_end, L, point, its0, skip_first,
 
 
 #: a converged step that moved the state by more than this multiple of (the state's norm +
-#: the predictor's increment) landed on another solution, not the branch's next point: on a
-#: 2-rank run Newton from a natural step just short of a cap's snap-through fold converged
-#: in 20 iterations to a spurious root 1e4 thicknesses away (Psi3/h = 1.4e4 after -1.4)
+#: the predictor's increment) landed on another solution, not the branch's next point (Newton
+#: from a step just short of a fold can converge to a distant spurious root:
+#: docs/design-notes.md, "Jumps of the corrector")
 JUMP_FACTOR = 10.0
 
 
 def jumped(w: Any, w_old: Any, predicted: float) -> bool:
-    """Whether the step from ``w_old`` to ``w`` (predictor increment of norm ``predicted``)
-    is a jump to another solution (``JUMP_FACTOR``)."""
+    """Whether a converged step jumped to another solution (``JUMP_FACTOR``).
+
+    Args:
+        w: the converged state.
+        w_old: the state before the step.
+        predicted: the norm of the predictor's increment.
+
+    Returns:
+        True if ||w - w_old|| exceeds ``JUMP_FACTOR`` (||w_old|| + ``predicted``); False when
+        that scale is 0.
+    """
     scale = float(w_old.norm()) + predicted
     if scale == 0.0:
         return False  # no scale to compare with
@@ -237,33 +277,47 @@ def arclength_steps(ar: Arclength, st: ContinuationSettings, lam: float, lam_end
                     **corrector: Any) -> Iterator[tuple[int, float, float, np.ndarray]]:
     """The pseudo-arclength loop, from the converged state in ``ar`` at λ = ``lam``.
 
-    Predictor along the unit tangent (τ_w, τ_λ), the corrector (``_bordered_newton`` with
-    ``corrector``'s keywords: pins, singular_ok, ...) on the hyperplane orthogonal to it, the
-    step adapted to the corrector's iterations (halved after a failure, the run ends below
-    ``ds_min``). With ``st.predictor`` "quadratic" (and the Jacobian's tangent, no
-    ``control``) Newton starts a step's first attempt from the quadratic through the last two
-    points with the tangent at the last, not from the predictor itself: the same point (the
-    hyperplane is the predictor's), from an error of O(s³) instead of O(s²); ``previous`` =
-    (local state array, λ, step) of the point before the start serves the first step. The
-    tangent is the Jacobian's (J z = -R_λ, oriented like the previous one; ``ar.tangent`` must
-    have been called at the start), or with ``secant_from`` = (w, λ) of the previous point the
-    secant through the last two points (needed when the corrector carries constraints the
-    Jacobian tangent does not know: the pins). The run lands exactly on λ_end when the
-    predictor, or the corrector, crosses it while moving towards it (a
-    corrector at fixed λ from the chord's interpolant). ``reject()``, asked after each
-    converged corrector, may refuse the point (a jump to another branch): the step is halved,
-    at most 3 times. Yields (iterations, step, τ_λ, the pins' multipliers) per point; the
-    problem's state holds the point.
+    Predictor along the unit tangent (τ_w, τ_λ), the corrector (``bordered_newton``) on the
+    hyperplane orthogonal to it, the step adapted to the corrector's iterations (halved after
+    a failure; the run ends below ``ds_min``). With ``st.predictor`` "quadratic" (and the
+    Jacobian's tangent, no ``control``) Newton starts a step's first attempt from the
+    quadratic through the last two points with the tangent at the last: the same point (the
+    hyperplane is the predictor's), from an error of O(s³) instead of O(s²). The run lands
+    exactly on λ_end when the predictor, or the corrector, crosses it while moving towards it
+    (a corrector at fixed λ from the chord's interpolant). The problem's state holds each
+    point while it is yielded.
 
-    ``control`` (a state-shaped vector e; secant tangents only): the branch is parametrised by
-    c = e·w instead of its arclength. The secant is scaled to a unit change of c, the step is
-    a change of c, and the corrector's hyperplane is e·(w - w_p) = 0 with λ free: natural
-    continuation in c, through folds in λ, as long as c itself keeps moving along the branch
-    (the run ends where it stops moving). A localised dimple is followed this way: measured
-    by its depth it grows steadily, while its share of the whole state's norm, which the
-    arclength measures, is small and the arclength steps let the corrector slide along the
-    nearly neutral directions of a cluster of bifurcations onto other branches (a closed
-    sphere's; ``shells.algorithms.switching.switch_branch``).
+    Args:
+        ar: the vectors and norms, holding the converged start; with the Jacobian's tangent
+            ``ar.tangent`` must have been called at the start.
+        st: the settings, steps in arclength (``in_arclength``).
+        lam: the start's λ.
+        lam_end: the λ the run lands on.
+        direction: the sign of the run's direction in λ.
+        secant_from: (w, λ) of the point before the start: secant tangents through the last
+            two points instead of the Jacobian's (J z = -R_λ, oriented like the previous
+            one). Needed when the corrector carries constraints the Jacobian tangent does not
+            know: the pins.
+        reject: asked after each converged corrector; True refuses the point (a jump to
+            another branch) and halves the step, at most 3 times a step.
+        control: a state-shaped vector e (secant tangents only): the branch is parametrised
+            by c = e·w instead of its arclength. The secant is scaled to a unit change of c,
+            the step is a change of c, and the corrector's hyperplane is e·(w - w_p) = 0 with
+            λ free: natural continuation in c, through folds in λ, as long as c keeps moving
+            (the run ends where it stops). A localised dimple is followed this way: its depth
+            grows steadily, while its share of the whole state's norm, which the arclength
+            weighs, is small, and arclength steps let the corrector slide along the nearly
+            neutral directions of a cluster of bifurcations onto other branches (a closed
+            sphere's; ``shells.algorithms.switching.switch_branch``).
+        previous: (local state array, λ, step) of the point before the start, for the
+            quadratic predictor's first step.
+        **corrector: keywords of ``bordered_newton`` (pins, singular_ok, deflate, ...).
+
+    Yields:
+        (iterations, step, τ_λ, the pins' multipliers) per point.
+
+    Raises:
+        ValueError: if ``control`` is given without ``secant_from``.
     """
     w = ar.w
     secant = secant_from is not None
@@ -393,9 +447,8 @@ def arclength_steps(ar: Arclength, st: ContinuationSettings, lam: float, lam_end
 #: with a ``control``, a step is refused whose secant turns from the predictor's direction by
 #: more than MAX_TURN (radians) or is longer than MAX_STRETCH times the predictor's step, both
 #: in the continuation norm: past a fold of the control its corrector, at a value of c the
-#: branch no longer takes nearby, lands on a farther part of the branch (measured on
-#: ``SubcriticalPitchforkProblem`` with c = 0.3 x + y: 27 times the predictor's step, turned by
-#: 20 degrees only)
+#: branch does not take nearby, lands on a farther part of the branch, which may lie in
+#: nearly the same direction (docs/design-notes.md, "Jumps of the corrector")
 MAX_TURN = math.pi / 3
 MAX_STRETCH = 3.0
 

@@ -40,27 +40,44 @@ def follow(problem: Any, settings: ContinuationSettings, kappa_end: float,
            resume: FollowResume | None = None,
            track: Callable[[FollowResume], None] | None = None, scalars: bool = True
            ) -> Iterator[tuple[Point, StabilityResult, list[CriticalPoint]]]:
-    """Follow the branch from κ = ``kappa_start`` (default 0; the problem's state must then be
-    near the branch's state there) to ``kappa_end`` with stability at every point.
+    """Follow the branch to ``kappa_end`` with stability at every point.
 
-    Yields (point, stability, critical points located in the step that ended at this point).
-    The problem's state is the point's state at each yield. Stability: the negative count of
-    every block of ``blocks`` (default: ``(None,)``, the Jacobian; the axisymmetric model's
-    Fourier blocks are ``problem.stability_blocks()``), in ``StabilityResult.counts``, their
-    sum in ``negative_count``; ``nev`` > 0 also computes that many eigenvalues per point (of
-    block ``None``). A step is searched for critical points (``locate``) when a count changes
-    or dκ/ds changes sign, or, with ``locate_when(point, counts before, counts after)``, when
-    that says so (folds are always located); ``locate_points=False``: stability only.
+    Stability is the negative count of every block of ``blocks``, in
+    ``StabilityResult.counts``, their sum in ``negative_count``. A step is searched for
+    critical points (``locate``) when a count changes or dκ/ds changes sign.
 
-    Resuming: ``track(r)``, if given, is called at every point just before it is yielded, with
-    its ``FollowResume`` r; ``follow(..., resume=r)`` with the same problem (any partition: r's
-    arrays are this rank's owned values), settings and arguments then continues after that
-    point as this run did (``kappa_start`` unused): from r's state and κ, the first tangent
-    oriented by r's secant, r's next step in r's arclength units, the points from index
-    r.index + 1, and the first step searched for a change of r's counts (and a fold) as any
-    other. The points are the uninterrupted run's to the corrector's round-off (the start is
-    re-converged by Newton). Nothing is yielded when r ended the run. ``scalars=False``: the
-    points carry no ``scalars`` (``continuation``'s).
+    Args:
+        problem: the problem; its state must be near the branch's state at ``kappa_start``.
+        settings: continuation settings (arclength method).
+        kappa_end: the κ the run ends at.
+        crit: how critical points are located and when the run stops (default
+            ``CriticalSettings()``).
+        solver: the Newton solver to use (default: a new one).
+        nev: compute that many eigenvalues of block ``None`` per point (0: none).
+        blocks: the stability blocks to count (default ``(None,)``, the Jacobian; the
+            axisymmetric model's Fourier blocks are ``problem.stability_blocks()``).
+        locate_when: ``locate_when(point, counts before, counts after)`` decides whether a
+            step is searched for bifurcations (default: when a count changes); folds are
+            always located.
+        locate_points: False: stability only, no location.
+        kappa_start: the start's κ (unused when resuming).
+        resume: a ``FollowResume`` handed out by ``track``: with the same problem (any
+            partition: its arrays are this rank's owned values), settings and arguments the
+            run continues after that point as the tracked run did: from its state and κ, the
+            first tangent oriented by its secant, its next step in its arclength units, the
+            points from index r.index + 1, the first step searched for a change of its counts
+            (and a fold). The points are the uninterrupted run's to the corrector's round-off
+            (the start is re-converged). Nothing is yielded when that run had ended.
+        track: called as ``track(r)`` at every point just before it is yielded, with its
+            ``FollowResume`` r (a checkpoint).
+        scalars: False: the points carry no ``scalars`` (``continuation``'s).
+
+    Yields:
+        (point, stability, critical points located in the step that ended at this point).
+        The problem's state is the point's state at each yield.
+
+    Raises:
+        InputError: if ``settings.method`` is not "arclength".
     """
     crit = crit or CriticalSettings()
     if settings.method != "arclength":
@@ -177,6 +194,14 @@ def state_kappa(ns: NewtonSolver, ar: Arclength, lam: float) -> float:
     The residual is affine in κ (b̄ = b° + κ a° enters the energy quadratically), so one
     least-squares step from any guess is exact. A critical point's state comes from a trial
     solve whose κ is not the located κ (which is interpolated).
+
+    Args:
+        ns: the problem's Newton solver.
+        ar: the arclength vectors (for ∂R/∂λ).
+        lam: a guess of λ = κL.
+
+    Returns:
+        The least-squares λ; the problem's κ is set to it.
     """
     ar.set_lambda(lam)
     F = ns.b

@@ -1,11 +1,9 @@
 """Locating critical points along a branch: folds and bifurcations inside a step, their
 classification and modes (algorithm layer, on ``shells.problem.Problem``).
 
-``shells.algorithms.following.follow`` runs the pseudo-arclength continuation and, at every point,
-the inertia of every stability block it is given (MUMPS LDLᵀ): the Hessian (block ``None``; the
-surface model's only block) or the axisymmetric model's Fourier blocks H_m. A change of a block's
-negative count between two points brackets a critical point, a sign change of dκ/ds a fold; both are
-located inside that step (``locate``):
+A change of a stability block's negative count between two points of a branch
+(``shells.algorithms.following.follow``) brackets a critical point, a sign change of dκ/ds a
+fold; both are located inside that step (``locate``):
 
 * the step is re-taken from its first point with a shorter arclength σ (same tangent, same
   bordered corrector), so σ parametrises the branch between the two points, through folds too;
@@ -59,13 +57,8 @@ __all__ = ["EIGEN_ROUNDOFF", "FOLD_ALONG", "ROUNDOFF_NCV", "ROUNDOFF_SHIFT", "De
 #: the eigenvalues near 0 of a stability block are reproducible only to about this multiple
 #: of their change when the point is solved again at a κ shifted by round-off
 #: (``Locator.eigenvalue_roundoff``), so a crossing only to that over |dμ/dκ|, which the
-#: reported accuracy includes. Set when the eigenvalues were the shift-invert's (measured,
-#: benchmarks/locator_noise.py, on the 1D model's m = 2 block of the θ̄ = 15.11 cap going down,
-#: h/R = 0.01, ||H||_F = 4.6e9, dμ/dκR = 2.3e-3: the state solved again at κ (1 ± 1e-10) moved
-#: the crossing eigenvalue by up to 1.9e-7, the trial states scattered it by 3.5e-7 run against
-#: run and the located κ by 3.1e-4 relative; with this factor the runs reported 1.5e-4 to
-#: 7.0e-4). Where the problem gives Rayleigh quotients (``Stability.eigenpairs``) the change
-#: is 1e-12 there, the located κ spread 3e-11 and the reported accuracy 2e-9
+#: reported accuracy includes; the factor makes the reported accuracy cover the spread of
+#: repeated runs (docs/design-notes.md, "Locator: round-off of the crossing eigenvalue")
 EIGEN_ROUNDOFF = 6.0
 
 
@@ -73,8 +66,9 @@ EIGEN_ROUNDOFF = 6.0
 ROUNDOFF_SHIFT = 1.0e-10
 
 
-#: Krylov subspace of the round-off measurement's solves (one eigenvalue, nearest 0): 8 converges
-#: as 24 does (the same value to 1e-12 on the θ̄ = 8 cap) at half the cost of a solve
+#: Krylov subspace of the round-off measurement's solves (one eigenvalue, nearest 0): enough for
+#: one eigenvalue to converge as with the default size, at a lower cost per solve
+#: (docs/design-notes.md, "Locator: round-off of the crossing eigenvalue")
 ROUNDOFF_NCV = 8
 
 
@@ -94,10 +88,19 @@ class _Eval:
 
 
 class Locator:
-    """Re-takes an arclength step from its stored first point with trial lengths σ, so that σ
-    parametrises the branch between the step's two points (through folds too); its trials
+    """Re-takes an arclength step from its stored first point with trial lengths σ.
+
+    σ parametrises the branch between the step's two points (through folds too); the trials
     (state, dκ/ds, negative counts, eigenvalues) are what ``locate`` brackets a critical point
-    with."""
+    with. What a step's trials computed is remembered until another step starts.
+
+    Args:
+        problem: the problem.
+        st: the continuation's settings (the corrector's; trials allow at least 30 Newton
+            iterations, as a trial next to a singular point may need them).
+        crit: the location settings.
+        stab: the stability solvers to count and solve with.
+    """
 
     def __init__(self, problem: Any, st: ContinuationSettings, crit: CriticalSettings,
                  stab: Stability) -> None:
@@ -115,20 +118,30 @@ class Locator:
         self.fold = False  # the step being located contains a fold
         # what the step's trials computed (``start``): the crossings of several blocks in one
         # step are located one after another from the same points, and their secant steps
-        # often take the same first trials (a deep cap's m = 4 and 5 in one step: three). The
-        # step it belongs to is the one ``start`` holds in w0, lam0 and fold (none yet)
+        # often take the same first trials. The step it belongs to is the one ``start`` holds
+        # in w0, lam0 and fold (none yet)
         self._memo: dict[tuple, Any] = {}
         self.lam0 = math.nan
 
     def destroy(self) -> None:
+        """Free the solver and work vectors."""
         self.ns.destroy()
         for v in (self.w0, self.z):
             v.destroy()
 
     def start(self, w0: np.ndarray, lam0: float, tl0: float, fold: bool = False) -> None:
-        """Set the step's first point and its tangent (oriented like the branch there);
-        ``fold``: the step contains a fold (no deflation there: the branch turns into the
-        near-null direction)."""
+        """Set the step's first point and its tangent (oriented like the branch there).
+
+        Args:
+            w0: the first point's state (owned values at least).
+            lam0: its λ = κL.
+            tl0: its dκ/ds (orients the tangent).
+            fold: the step contains a fold (no deflation there: the branch turns into the
+                near-null direction).
+
+        Raises:
+            RuntimeError: if the Jacobian there cannot be factored.
+        """
         from mpi4py import MPI
 
         n_own = self.w0.getLocalSize()
@@ -144,8 +157,15 @@ class Locator:
         self.ar.start_tangent(None, 1.0 if tl0 >= 0 else -1.0)
 
     def state_tangent(self) -> Any:
-        """z = -J⁻¹ ∂R/∂λ at the current point (``self.z``): the tangent's state part, with
-        λ-part 1 (unnormalised; along the Jacobian's null vector next to a fold)."""
+        """The tangent's state part z = -J⁻¹ ∂R/∂λ at the current point.
+
+        Returns:
+            ``self.z``, for λ-part 1 (unnormalised; along the Jacobian's null vector next to a
+            fold).
+
+        Raises:
+            RuntimeError: if the Jacobian cannot be factored in two attempts.
+        """
         ar, ns = self.ar, self.ns
         if not ns.factor(attempts=2):  # one retry: the failed factor was reset
             raise RuntimeError(f"the Jacobian at kappa L = {ar.get_lambda():.6g} could not be "
@@ -172,8 +192,16 @@ class Locator:
 
     def eigs_at(self, e: _Eval, nev: int, blocks: tuple[Hashable, ...]
                 ) -> dict[Hashable, tuple[float, ...]]:
-        """The ``nev`` eigenvalues nearest 0 (ascending) of each of ``blocks`` at an evaluated
-        (converged) point."""
+        """The eigenvalues nearest 0 of blocks at an evaluated (converged) point.
+
+        Args:
+            e: the trial point.
+            nev: how many eigenvalues per block.
+            blocks: the blocks.
+
+        Returns:
+            {block: its ``nev`` eigenvalues nearest 0, ascending}.
+        """
         out = {}
         for b in blocks:
             key = ("eigs", e.sigma, e.lam, b, nev)
@@ -184,21 +212,26 @@ class Locator:
         return out
 
     def eigenvalue_roundoff(self, e: _Eval, block: Hashable) -> float:
-        """The round-off of block's eigenvalue nearest 0 at an evaluated point, measured:
-        ``EIGEN_ROUNDOFF`` times its largest change when the point is solved again at
-        κL (1 ± ``ROUNDOFF_SHIFT``) (the corrector from the point's state; where it fails,
-        a 1-ulp perturbation w (1 ± ε) of the state, random signs, a fixed seed, instead).
-        The shift is far too small to change the physics (dμ/dκ times it is ~1e-13 on the 1D
-        model's caps), but it changes every entry of the block's matrix, and so redraws the
-        round-off of its assembly and factorisation, which bounds a shift-invert eigenvalue
-        that small: on the h/R = 0.01, θ̄ = 15.11 cap's m = 2 block (‖H‖_F = 4.6e9) μ moved
-        by a std of 7.4e-8 over 13 such shifts, and the same state gave μ = 1.3e-7 by the
-        chain LU and -3.6e-8 by MUMPS, while 1-ulp perturbations of the state moved it by
-        1.5e-11 only; its Rayleigh quotient (``Stability.eigenpairs``, where the problem has
-        ``hessian_quadratic``) moves by a std of 3.5e-13 (``benchmarks/locator_noise.py``),
-        which this measures then. 0 where it cannot be measured
-        (an eigensolve that fails: the shift-invert factorisation of an exactly singular
-        block, as at an algebraic problem's exact root)."""
+        """Measure the round-off of a block's eigenvalue nearest 0 at an evaluated point.
+
+        The point is solved again at κL (1 ± ``ROUNDOFF_SHIFT``) (the corrector from the
+        point's state; where it fails, a 1-ulp perturbation w (1 ± ε) of the state, random
+        signs, a fixed seed, instead). The shift is far too small to change the physics, but
+        it changes every entry of the block's matrix, and so redraws the round-off of its
+        assembly and factorisation, which bounds a shift-invert eigenvalue that small; a
+        Rayleigh quotient (``Stability.eigenpairs``, where the problem has
+        ``hessian_quadratic``) has far less (docs/model.md, "Stability and critical points";
+        ``benchmarks/locator_noise.py``).
+
+        Args:
+            e: the trial point.
+            block: the block.
+
+        Returns:
+            ``EIGEN_ROUNDOFF`` times the eigenvalue's largest change; 0 where it cannot be
+            measured (an eigensolve that fails: the shift-invert factorisation of an exactly
+            singular block, as at an algebraic problem's exact root).
+        """
         from petsc4py import PETSc
 
         self._load(e.state, e.lam)
@@ -233,7 +266,15 @@ class Locator:
         return EIGEN_ROUNDOFF * change
 
     def counts_at(self, e: _Eval, blocks: tuple[Hashable, ...]) -> dict[Hashable, int]:
-        """The negative counts of ``blocks`` at an evaluated (converged) point."""
+        """The negative counts of ``blocks`` at an evaluated (converged) point.
+
+        Args:
+            e: the trial point.
+            blocks: the blocks.
+
+        Returns:
+            {block: negative count}.
+        """
         missing = tuple(b for b in blocks if ("count", e.sigma, e.lam, b) not in self._memo)
         if missing:
             self._load(e.state, e.lam)
@@ -257,10 +298,20 @@ class Locator:
 
     def modes_at(self, e: _Eval, nev: int, block: Hashable = None
                  ) -> tuple[_Eval, list[Any], list[float]]:
-        """The ``nev`` eigenpairs nearest 0 of ``block`` at an evaluated (converged) point,
-        from its stored state (no corrector, which may not converge again right next to a
-        bifurcation), ordered by |μ|: the point with the nearest eigenvalue, the vectors, the
-        eigenvalues."""
+        """The eigenpairs nearest 0 of a block at an evaluated (converged) point.
+
+        From the point's stored state: no corrector, which may not converge again right next
+        to a bifurcation.
+
+        Args:
+            e: the trial point.
+            nev: how many eigenpairs.
+            block: the block.
+
+        Returns:
+            (``e`` with ``eig`` the eigenvalue nearest 0, the eigenvectors, the eigenvalues),
+            ordered by |μ|; (e, [], []) if none converged.
+        """
         self._load(e.state, e.lam)
         vals, vecs = self.stab.eigenpairs(nev, modes=True, block=block)
         if not vals:
@@ -272,12 +323,23 @@ class Locator:
     def evaluate(self, sigma: float, near: _Eval | None = None,
                  blocks: tuple[Hashable, ...] = (),
                  base: dict[Hashable, int] | None = None) -> _Eval:
-        """Corrector on the hyperplane at arclength σ of the step, then the negative count of
-        each of ``blocks`` (eigenvalues: ``eigs_at``, on demand), up to the first whose count
-        differs from ``base`` when that is given (``complete`` False if some were left
-        unchecked); starts from ``near``'s state (shifted along the tangent) when given:
-        Newton is slow next to a bifurcation, where the Jacobian is singular, so the closest
-        known solution is the best start."""
+        """Solve the trial at arclength σ of the step and count its blocks' negative eigenvalues.
+
+        Args:
+            sigma: the trial's arclength σ; the corrector works on the hyperplane there.
+            near: a trial whose state (shifted along the tangent) is the Newton start: Newton
+                is slow next to a bifurcation, where the Jacobian is singular, so the closest
+                known solution is the best start. None: the step's predictor.
+            blocks: the blocks to count (eigenvalues: ``eigs_at``, on demand).
+            base: stop counting after the first block whose count differs from it
+                (``complete`` is then False if some were left unchecked).
+
+        Returns:
+            The trial point; the problem holds its state.
+
+        Raises:
+            RuntimeError: if the corrector fails.
+        """
         ar = self.ar
         w = ar.w
         self.w0.copy(w)
@@ -326,12 +388,20 @@ class Locator:
 
 
 class Deflation:
-    """The corrector's safeguard next to singular points: removes from Newton's solves their
-    components along the Jacobian's ``k`` eigenvectors nearest 0 (M-orthogonal projection, M
-    the mass of block ``None``) where such a component exceeds 10 times the rest: round-off
-    amplified by the nearly singular Jacobian, or the start of a switch to a branch that
-    bifurcates close by. ``keep``: a direction (a followed mode) whose near-parallel
-    eigenvectors are not removed. One eigensolve per call (at the problem's current state)."""
+    """The corrector's safeguard next to singular points (a ``bordered_newton`` ``deflate``).
+
+    Called with Newton's solves, it removes their components along the Jacobian's ``k``
+    eigenvectors nearest 0 (M-orthogonal projection, M the mass of block ``None``) where such
+    a component exceeds 10 times the rest: round-off amplified by the nearly singular
+    Jacobian, or the start of a switch to a branch that bifurcates close by. One eigensolve
+    per call (at the problem's current state).
+
+    Args:
+        problem: the problem.
+        stab: the stability solvers for the eigensolve.
+        k: how many eigenvectors.
+        keep: a direction (a followed mode) whose near-parallel eigenvectors are not removed.
+    """
 
     def __init__(self, problem: Any, stab: Stability, k: int, keep: Any = None) -> None:
         self.problem, self.stab, self.k, self.keep = problem, stab, k, keep
@@ -369,23 +439,55 @@ class Deflation:
 
 
 def m_dot(M: Any, x: Any) -> float:
-    """xᵀ M x."""
+    """xᵀ M x.
+
+    Args:
+        M: a PETSc matrix.
+        x: a PETSc vector.
+
+    Returns:
+        The product.
+    """
     return m_inner(M, x, x)
 
 
 def negative_total(counts: dict[Hashable, int]) -> int:
-    """The number of negative eigenvalues over all blocks of ``counts`` (block -> count)."""
+    """The number of negative eigenvalues over all blocks.
+
+    Args:
+        counts: {block: negative count}.
+
+    Returns:
+        Their sum.
+    """
     return int(sum(counts.values()))
 
 
 def locate(loc: Locator, p0: Point, w0: np.ndarray, counts0: dict[Hashable, int], p1: Point,
            counts1: dict[Hashable, int] | None, w1: np.ndarray, *,
            limit: int | None = None) -> list[CriticalPoint]:
-    """The critical points in the step from ``p0`` to ``p1``, in branch order: the crossings of
-    every stability block whose negative count changes (``counts0`` to ``counts1``, by block),
-    and the fold when dκ/ds changes sign (last: the branch is followed up to it). A step with a
-    fold is searched for crossings up to the fold's near side only (the counts there decide).
-    ``counts1`` None: folds only. ``limit``: at most this many crossings (the first ones)."""
+    """The critical points in the step from ``p0`` to ``p1``, in branch order.
+
+    The crossings of every stability block whose negative count changes, and the fold when
+    dκ/ds changes sign (last: the branch is followed up to it). A step with a fold is searched
+    for crossings up to the fold's near side only (the counts there decide).
+
+    Args:
+        loc: the locator.
+        p0: the step's first point.
+        w0: its state (owned values).
+        counts0: its negative counts, by block.
+        p1: the step's last point (``step``: the step's arclength).
+        counts1: its negative counts; None: folds only.
+        w1: its state.
+        limit: at most this many crossings (the first ones).
+
+    Returns:
+        The located points (the problem's state is left at a trial's).
+
+    Raises:
+        RuntimeError: if the step's first point cannot be factored.
+    """
     fold = (p0.dkappa_ds >= 0) != (p1.dkappa_ds >= 0)
     n_own = loc.w0.getLocalSize()
     lo = _Eval(0.0, p0.kappa_L, p0.dkappa_ds, w0[:n_own].copy())
@@ -417,14 +519,30 @@ def locate_between(problem: Any, settings: ContinuationSettings, p0: Point, w0: 
                    counts0: dict[Hashable, int], p1: Point, w1: np.ndarray,
                    counts1: dict[Hashable, int], crit: CriticalSettings | None = None,
                    stab: Stability | None = None) -> list[CriticalPoint]:
-    """The critical points between two converged points of any branch, however it was
-    followed (the pseudo-arclength of ``follow``, a switched branch's steps in a control such as
-    a dimple's depth): ``locate`` on the step from ``p0`` re-taken by pseudo-arclength along the
-    tangent there (J z = -∂R/∂λ, oriented by ``p0.dkappa_ds``), ``p1`` at its arclength
-    coordinate on that tangent (the projection of p1 - p0: p1 lies on the trial hyperplane of
-    that σ). Blocks compared: those of ``counts0`` (give only the blocks to search: a neutral
-    orbit mode's count is of either sign). The problem is left at ``p1``'s state and κ.
-    ``settings``: the corrector's (its state weight, Newton iterations, residual bounds)."""
+    """The critical points between two converged points of any branch, however it was followed.
+
+    E.g. the pseudo-arclength of ``follow``, or a switched branch's steps in a control such as
+    a dimple's depth. ``locate`` runs on the step from ``p0`` re-taken by pseudo-arclength
+    along the tangent there (J z = -∂R/∂λ, oriented by ``p0.dkappa_ds``), with ``p1`` at its
+    arclength coordinate on that tangent (the projection of p1 - p0: p1 lies on the trial
+    hyperplane of that σ).
+
+    Args:
+        problem: the problem.
+        settings: the corrector's settings (state weight, Newton iterations, residual bounds).
+        p0, w0, counts0: the first point, its state (owned values) and its negative counts;
+            only the blocks of ``counts0`` are compared (give only the blocks to search: a
+            neutral orbit mode's count is of either sign).
+        p1, w1, counts1: the second point, its state and counts.
+        crit: the location settings (default ``CriticalSettings()``).
+        stab: the stability solvers to use (default: new ones).
+
+    Returns:
+        The located points, in branch order. The problem is left at ``p1``'s state and κ.
+
+    Raises:
+        RuntimeError: if ``p1`` does not lie ahead of the tangent at ``p0``.
+    """
     stab_own = stab is None
     stab = Stability(problem) if stab is None else stab
     loc = Locator(problem, settings, crit or CriticalSettings(), stab)
@@ -581,8 +699,8 @@ def _locate_crossing(loc: Locator, p0: Point, w0: np.ndarray, lo: _Eval, hi: _Ev
         vals = e.eigs[b]
         if rising and k <= 0 and sum(v < 0 for v in vals) > e.counts.get(b, c0[b]):
             # more negative eigenvalues than the inertia counts: the one nearest 0 lies at
-            # round-off (|μ| ~ 1e-17 ||H||, measured on a deep cap's m = 2 block next to its
-            # crossing), where the factorisation's sign is arbitrary; it has crossed
+            # round-off (|μ| ~ 1e-17 ||H||: docs/model.md, "Stability and critical points"),
+            # where the factorisation's sign is arbitrary; it has crossed
             return max(v for v in vals if v < 0)
         if not rising:
             vals, k = tuple(-v for v in vals), -k
@@ -608,8 +726,8 @@ def _locate_crossing(loc: Locator, p0: Point, w0: np.ndarray, lo: _Eval, hi: _Ev
         the step, decided by the sign of its crossing eigenvalue where that is known and
         disagrees with the inertia: the eigenvalue is a Rayleigh quotient, accurate to far
         below the factorisation's round-off (``Stability.eigenpairs``), which decides the
-        inertia's sign within ~1e-7 of 0 on the 1D model's stiff blocks (a bracket decided
-        by it would exclude the root that its eigenvalue samples give)."""
+        inertia's sign within about ε ||H|| of 0, large on the 1D model's stiff blocks (a
+        bracket decided by it would exclude the root that its eigenvalue samples give)."""
         b = moved_at(hi)[0]
         if not refined or abs(c1[b] - c0[b]) != 1 or b not in e.counts:
             return
@@ -742,10 +860,10 @@ def _locate_crossing(loc: Locator, p0: Point, w0: np.ndarray, lo: _Eval, hi: _Ev
     if math.isfinite(fl) and math.isfinite(fh) and fl != fh and hi.lam != lo.lam \
             and not refined:
         # no better than the round-off of the crossing eigenvalue allows. Not measured where
-        # the eigenvalues are Rayleigh quotients by quadrature (``Stability.eigenpairs``),
-        # whose measured round-off (1e-10 to 1.5e-10 in μ on the θ̄ = 8 cap's five crossings,
-        # 2 solves and 2 eigensolves each) left every reported accuracy as the interpolation
-        # alone gives it, there and at the θ̄ = 15.11 cap's slow crossing (2e-9)
+        # the eigenvalues are Rayleigh quotients by quadrature (``Stability.eigenpairs``):
+        # their round-off lies below the interpolation's error, and measuring it costs 2
+        # solves and 2 eigensolves (docs/design-notes.md, "Locator: round-off of the
+        # crossing eigenvalue")
         accuracy = max(accuracy, loc.eigenvalue_roundoff(near, block)
                        * abs(hi.lam - lo.lam) / abs(fh - fl))
     if interpolated is not None and hi.lam != lo.lam:
@@ -812,17 +930,16 @@ def _critical_point(loc: Locator, kind: str, lam_star: float, bracket: tuple[flo
     tangent: ``FOLD_ALONG``).
 
     Its name (m, n) is that of the cleanest of the eigenvectors whose eigenvalues lie within a
-    factor 10 of the nearest one (largest ``m_power``, where the problem reports it): the two
-    members of a pair split by the rigid-motion gauge can differ in purity, measured on the
-    θ̄ = 5 cap next to its snap: μ = 5.8e-5 with 72 % of its power in m = 1 and 1.0e-4 with
-    100 % in m = 2, crossing together (m = 1 crosses only past the fold, in the 1D model)."""
+    factor 10 of the nearest one (largest ``m_power``, where the problem reports it): next to
+    another critical point the eigenvector nearest 0 can be a mixture, and the members of a
+    pair split by the rigid-motion gauge can differ in purity (docs/design-notes.md,
+    "Naming a critical point's mode")."""
     e, vecs, vals = loc.modes_at(near, max(loc.crit.nev, 1), block)
     if kind == "fold" and vecs:
         # a fold's mode is the Jacobian's null vector, the branch's own direction there
         # (J τ_w = 0 where τ_λ = 0): of the eigenvectors nearest 0, the one along the state
-        # tangent, whatever other soft mode lies nearer 0 at the trial (measured: a coarse
-        # 30° surface cap's m = 1 pair at 1.1e-3, within 10 times the fold's 2.5e-4 and
-        # 0.03 % purer, named the fold m = 1)
+        # tangent, whatever other soft mode lies nearer 0 at the trial (docs/design-notes.md,
+        # "Naming a critical point's mode")
         z = loc.state_tangent()  # at e's state, which modes_at loaded
         M = loc.stab.mass(block)
         zz = max(m_dot(M, z), 1e-300)
@@ -834,11 +951,9 @@ def _critical_point(loc: Locator, kind: str, lam_star: float, bracket: tuple[flo
             vecs, vals = [vecs[best]], [vals[best]]  # named by that one alone
         else:
             # none of them is: the fold's eigenvalue at the trial lies beyond the nev modes
-            # that crossed before it (measured: the h/R = 0.04 ellipsoid's fold, P3 surface
-            # model, past its m = 3, 4, 2 bifurcations: its four nearest 0 were the m = 2 and
-            # m = 3 pairs at -3.4e-3 to -3.9e-3, each at cosine < 1e-4 with the tangent, which
-            # is m = 0 to 5e-7 of its power; the fold was named m = 2). The tangent itself
-            # then, M-normalised, with its Rayleigh quotient as the eigenvalue
+            # that crossed before it (past several bifurcations; docs/design-notes.md,
+            # "Naming a critical point's mode"). The tangent itself then, M-normalised, with
+            # its Rayleigh quotient as the eigenvalue
             v = z.copy()
             v.scale(1.0 / math.sqrt(zz))
             mu = m_dot(loc.stab.assemble(block), v)
@@ -867,7 +982,15 @@ def _critical_point(loc: Locator, kind: str, lam_star: float, bracket: tuple[flo
 
 
 def m_inner(M: Any, x: Any, y: Any) -> float:
-    """xᵀ M y."""
+    """xᵀ M y.
+
+    Args:
+        M: a PETSc matrix.
+        x, y: PETSc vectors.
+
+    Returns:
+        The product.
+    """
     t = M.createVecLeft()
     M.mult(y, t)
     out = float(x.dot(t))

@@ -62,9 +62,19 @@ DEFAULT_SNES_OPTIONS: dict[str, Any] = {
 
 
 def apply_options(obj: Any, prefix: str, options: dict[str, Any]) -> dict[str, Any]:
-    """Set the defaults ``options`` under ``prefix``, call ``obj.setFromOptions()``, then remove
-    them again. An option the user already has in the database under ``prefix`` wins and stays.
-    Returns the options in effect (the user's values as strings)."""
+    """Configure a PETSc object from default options without leaving them in the database.
+
+    Sets ``options`` under ``prefix``, calls ``obj.setFromOptions()``, then removes them
+    again. An option the user already has in the database under ``prefix`` wins and stays.
+
+    Args:
+        obj: a PETSc object with ``setOptionsPrefix`` and ``setFromOptions`` (SNES, KSP, EPS).
+        prefix: its options prefix.
+        options: the defaults, without the prefix.
+
+    Returns:
+        The options in effect (the user's values as strings).
+    """
     from petsc4py import PETSc
 
     opts = PETSc.Options()
@@ -90,6 +100,12 @@ def configure_factor(ksp: Any, A: Any, options: dict[str, Any]) -> None:
 
     MUMPS reads ICNTL/CNTL when the factor matrix is created (at PC set-up), by which time the
     prefixed options are gone from the database, so they are set here through the API.
+
+    Args:
+        ksp: the KSP whose PC factors ``A``; nothing is set unless it is a MUMPS LU or
+            Cholesky.
+        A: the operator.
+        options: the options in effect (``mat_mumps_icntl_<i>``, ``mat_mumps_cntl_<i>``).
     """
     ksp.setOperators(A)
     pc = ksp.getPC()
@@ -110,15 +126,33 @@ def reset_factor(ksp: Any, A: Any, options: dict[str, Any]) -> None:
     Needed after a failed factorisation: MUMPS keeps INFOG(1) < 0 and PETSc then skips the
     numeric phase of every later factorisation of that factor, so one bad matrix (a diverged
     Newton iterate) would make every later solve fail or return Inf.
+
+    Args:
+        ksp: the KSP.
+        A: its operator.
+        options: the options in effect (for ``configure_factor``).
     """
     ksp.getPC().reset()
     configure_factor(ksp, A, options)
 
 
 def setup_factor(ksp: Any, A: Any, options: dict[str, Any]) -> bool:
-    """Factor ``A`` (``ksp.setUp()``); False, and the factor reset, if the factorisation failed.
+    """Factor ``A`` (``ksp.setUp()``), falling back to MUMPS if another package fails.
+
     A factorisation by a package other than MUMPS that fails (PETSc's own LU does not pivot: a
-    zero pivot) is repeated with MUMPS, which ``ksp`` then keeps (``fall_back_to_mumps``)."""
+    zero pivot) is repeated with MUMPS, which ``ksp`` then keeps (``fall_back_to_mumps``).
+
+    Args:
+        ksp: the KSP, configured by ``configure_factor``.
+        A: its operator.
+        options: the options in effect (updated if the solver falls back to MUMPS).
+
+    Returns:
+        True if ``A`` is factored; False, with the factor reset, if the factorisation failed.
+
+    Raises:
+        petsc4py.PETSc.Error: if MUMPS itself raises.
+    """
     from petsc4py import PETSc
 
     try:
@@ -139,10 +173,20 @@ def setup_factor(ksp: Any, A: Any, options: dict[str, Any]) -> bool:
 
 
 def fall_back_to_mumps(ksp: Any, A: Any, options: dict[str, Any]) -> bool:
-    """Switch ``ksp``'s factorisation to MUMPS for good (``options`` updated to match) if it is
-    an LU or Cholesky of another package; False if it is MUMPS already (or not a factorisation).
+    """Switch ``ksp``'s factorisation to MUMPS for good if it is another package's.
+
     MUMPS pivots; the other packages' factorisations are faster where they apply (the 1D
-    model's banded matrices on one process) but stop at a zero pivot."""
+    model's banded matrices on one process) but stop at a zero pivot.
+
+    Args:
+        ksp: the KSP.
+        A: its operator.
+        options: the options in effect, updated to match.
+
+    Returns:
+        True if it switched; False if the factorisation is MUMPS already (or ``ksp`` does
+        not factor).
+    """
     pc = ksp.getPC()
     if pc.getType() not in ("lu", "cholesky") or pc.getFactorSolverType() == "mumps":
         return False
@@ -159,7 +203,12 @@ class NewtonSolver:
     """SNES Newton on a ``shells.problem.interface.Problem``'s residual and Jacobian.
 
     Also exposes the assembled Jacobian and a KSP on it for bordered (arclength) solves.
-    ``prefix``: the options prefix (default ``shells_newton_``; see the module docstring).
+
+    Args:
+        problem: the problem; its state is the Newton iterate.
+        options: options over the defaults (``DEFAULT_SNES_OPTIONS``, then the problem's
+            ``factor_options``).
+        prefix: the options prefix (default ``shells_newton_``; see the module docstring).
     """
 
     def __init__(self, problem: Any, options: dict[str, Any] | None = None,
@@ -206,9 +255,11 @@ class NewtonSolver:
 
     # -- assembly ----------------------------------------------------------------------------
     def assemble_residual(self, b: Any) -> None:
+        """The residual at the current state into ``b``."""
         self.problem.assemble_residual(b)
 
     def assemble_jacobian(self, A: Any) -> None:
+        """The Jacobian at the current state into ``A``."""
         self.problem.assemble_jacobian(A)
 
     def assemble_dkappa(self, v: Any) -> None:
@@ -217,19 +268,25 @@ class NewtonSolver:
 
     # -- solves ------------------------------------------------------------------------------
     def solve(self, atol: float | None = None) -> tuple[bool, int]:
-        """Newton from the current state at the current κ. Returns (converged, iterations).
+        """Newton from the current state at the current κ.
 
-        ``atol``: an absolute residual tolerance for this solve (the larger of it and the
-        solver's own ``snes_atol``); continuation passes its residual bound, relative to the
-        κ-load, because a relative decrease of 1e-9 from a small start residual (a short step)
-        lies below round-off. A residual that round-off keeps above both is accepted when it
-        is below ``NOISE_FACTOR`` times the residual's measured round-off (``residual_noise``)
-        at two successive iterates and Newton's step has settled (``NOISE_STEP``). The residual
-        alone is not enough: on an ill-conditioned Jacobian Newton contracts only linearly at
-        round-off (measured on a thin sphere, h/R = 0.001: the first iterate at round-off
-        1.7e-4 off the converged profile, the accepted one 3.5e-8, 12 iterations 8e-12).
-        ``self.noise_accepted`` tells whether the last solve ended so. A failed solve leaves
-        the state as it was.
+        A residual that round-off keeps above the tolerances is accepted when it is below
+        ``NOISE_FACTOR`` times the residual's measured round-off (``residual_noise``) at two
+        successive iterates and Newton's step has settled (``NOISE_STEP``). The residual alone
+        is not enough: on an ill-conditioned Jacobian Newton contracts only linearly at
+        round-off, so its first iterate there can still be far from the solution
+        (docs/model.md, "Solvers"). ``self.noise_accepted`` tells whether the last solve
+        ended so. A factorisation other than MUMPS that fails is replaced by MUMPS and the
+        solve repeated.
+
+        Args:
+            atol: an absolute residual tolerance for this solve (the larger of it and the
+                solver's own ``snes_atol``); continuation passes its residual bound, relative
+                to the κ-load, because a relative decrease from a small start residual (a
+                short step) can lie below round-off.
+
+        Returns:
+            (converged, iterations). A failed solve leaves the state as it was.
         """
         from petsc4py import PETSc
 
@@ -262,8 +319,9 @@ class NewtonSolver:
         start.destroy()
         return reason > 0, its
 
-    #: a residual below this multiple of its measured round-off is at round-off (Newton
-    #: stalled at 1.1-1.2 times the measurement of ``residual_noise`` on thin spheres)
+    #: a residual below this multiple of its measured round-off is at round-off
+    #: (``residual_noise`` samples two inputs only; Newton stalls a little above it:
+    #: docs/design-notes.md, "Newton at round-off")
     NOISE_FACTOR = 4.0
     #: and the state is converged at round-off when Newton's step is below this fraction of
     #: it, or no longer shrinks (halves)
@@ -272,10 +330,9 @@ class NewtonSolver:
     def _converged(self, snes: Any, its: int, norms: tuple[float, float, float]) -> int:
         """SNES's convergence test: PETSc's default (atol, rtol, stol, max_it) and the
         round-off acceptance of ``solve``. The round-off is measured only when the residual is
-        below the a-priori bound ``roundoff_floor()`` (an upper bound of it: ε ||J||_F ||w||
-        exceeds the measured round-off by up to 1e3, so it must not accept a residual
-        itself: it once accepted a whole load step's residual, 1.6e-5 < 1.7e-4, at iteration
-        0, where Newton goes on to 1.8e-7)."""
+        below the a-priori bound ``roundoff_floor()``; that bound can exceed the actual
+        round-off by orders of magnitude, so it never accepts a residual itself
+        (docs/model.md, "Solvers")."""
         from petsc4py import PETSc
 
         R = PETSc.SNES.ConvergedReason
@@ -306,11 +363,16 @@ class NewtonSolver:
         return R.ITERATING
 
     def residual_noise(self) -> float:
-        """The round-off of the assembled residual at the current state, measured:
+        """Measure the round-off of the assembled residual at the current state.
+
         ||R(w') - R(w) - J (w' - w)|| with w' = w (1 ± ε) (random signs, exact differences;
         J: the last assembled Jacobian, whose change over the last Newton step is negligible
         against ε). The linear term removed, what remains is the assembly's rounding, sampled
-        at two inputs: the level at which Newton's residual stalls."""
+        at two inputs: the level at which Newton's residual stalls.
+
+        Returns:
+            The norm above; the state is restored.
+        """
         if not self.A.isAssembled():
             self.assemble_jacobian(self.A)
         w = self.problem.state
@@ -338,22 +400,35 @@ class NewtonSolver:
                 v.destroy()
 
     def roundoff_floor(self, factor: float = 0.1) -> float:
-        """``factor`` ε ||J||_F ||w||: an a-priori upper bound of the residual's round-off at
-        the current state (J: the last assembled Jacobian; assembled here if there is none
-        yet)."""
+        """An a-priori upper bound of the residual's round-off at the current state.
+
+        Args:
+            factor: the multiple of ε ||J||_F ||w|| (J: the last assembled Jacobian,
+                assembled here if there is none yet).
+
+        Returns:
+            ``factor`` ε ||J||_F ||w||.
+        """
         if not self.A.isAssembled():
             self.assemble_jacobian(self.A)
         w = self.problem.state
         return factor * float(np.finfo(float).eps) * float(self.A.norm()) * float(w.norm())
 
     def residual_norm(self) -> float:
+        """||R|| at the current state (assembled into the solver's residual vector)."""
         self.assemble_residual(self.b)
         return float(self.b.norm())
 
     def factor(self, attempts: int = 1) -> bool:
-        """Assemble and factor the Jacobian at the current state for ``lin_solve``; False if
-        the factorisation failed ``attempts`` times (a failed factor is reset, so a later
-        attempt factors afresh; ``lin_solve`` after a failure returns Inf)."""
+        """Assemble and factor the Jacobian at the current state for ``lin_solve``.
+
+        Args:
+            attempts: how many times to try (a failed factor is reset, so a later attempt
+                factors afresh).
+
+        Returns:
+            False if every attempt failed (``lin_solve`` then returns Inf).
+        """
         for _ in range(attempts):
             self.assemble_jacobian(self.A)
             self.lin.setOperators(self.A)  # same matrix object: the configured factor is kept
@@ -362,8 +437,10 @@ class NewtonSolver:
         return False
 
     def lin_solve(self, rhs: Any, out: Any) -> None:
+        """Solve J out = rhs with the factorisation of the last ``factor``."""
         self.lin.solve(rhs, out)
 
     def destroy(self) -> None:
+        """Free the solvers, the Jacobian and the work vectors."""
         for o in (self.snes, self.lin, self.A, self.b, self.x):
             o.destroy()

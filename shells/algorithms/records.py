@@ -21,7 +21,27 @@ __all__ = ["CriticalPoint", "FollowResume", "SwitchResume", "block_key"]
 
 @dataclass
 class CriticalPoint:
-    """A located critical point (κ absolute; κL = κ times the shape's length scale)."""
+    """A located critical point (κ absolute; κL = κ times the shape's length scale).
+
+    Attributes:
+        kind: "fold" or "bifurcation".
+        kappa, kappa_L: the located κ and κL.
+        kappa_lo, kappa_hi: the final bracket in κ.
+        negative_before, negative_after: the block's negative counts on either side.
+        multiplicity: the change of the count over the step (several eigenvalues crossing
+            in one step are one critical point).
+        eigenvalue: the mode's eigenvalue at the state the mode was computed at.
+        mode_m, mode_n: the mode's azimuthal wavenumber and (spheres) degree
+            (``Problem.classify_mode``), None if unknown.
+        mode_rayleigh: the classification's Rayleigh quotients and spectra.
+        block: the stability block that changed (``None``: the Jacobian).
+        evaluations: corrector solves spent locating it.
+        accuracy: the estimated error of ``kappa``, relative.
+        after_point: the index of the branch point before the critical point.
+        wall_time: seconds spent locating it.
+        state: this rank's owned values of the state next to the point (not exported).
+        mode: this rank's owned values of the critical mode (not exported).
+    """
 
     kind: str
     kappa: float
@@ -66,7 +86,7 @@ class FollowResume:
         counts: the negative count of each stability block at the point (blocks in a stable
             order: ``None`` first); the first step after a resume is searched for a change.
         found: critical points located up to the point.
-        folds_only: inertia no longer computed (``folds_only_after_first``).
+        folds_only: inertia not computed any more (``folds_only_after_first``).
         ended: the run ended at the point (its stop rule, or ``kappa_end`` reached): a resumed
             ``follow`` yields nothing.
         state, state_prev: this rank's owned state values at the point and at the one before
@@ -151,5 +171,12 @@ class SwitchResume:
 
 
 def block_key(b: Hashable) -> tuple[int, Any]:
-    """Blocks in a stable order: ``None`` (the Jacobian) first, then by label."""
+    """Sort key for stability blocks: ``None`` (the Jacobian) first, then by label.
+
+    Args:
+        b: a block label.
+
+    Returns:
+        A key that orders ``None`` before every label.
+    """
     return (0, 0) if b is None else (1, b)

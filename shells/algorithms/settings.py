@@ -26,20 +26,20 @@ class ContinuationSettings:
         max_newton_its: a corrector needing more counts as failed (step halved, retried).
         newton_tol: convergence: relative Newton increment (state RMS / L and |δλ|).
         residual_tol: an absolute bound on the residual norm that replaces the relative one
-            below (None, the default: the relative bound; a value: the behaviour of versions
-            that had only this absolute tolerance).
-        residual_rtol: and (arclength corrector) the residual norm ||R|| at most
-            ``residual_rtol`` ||∂R/∂κ|| max(|κ|, κ_ref) + ``residual_roundoff`` ε ||J||_F ||w||:
-            relative to the κ-load, the force that κ imposes (κ_ref: 1 % of the run's largest
-            |κ|, so the bound does not vanish where the branch crosses κ = 0), plus the
-            round-off floor of a residual assembled with the Jacobian J at the state w (ε:
-            machine epsilon). Both are model-independent: a stiff Jacobian (the axisymmetric
-            model's C1 penalty) has a floor of up to 1e-2 ε ||J||_F ||w||, which exceeds 1e-5
-            of the κ-load on thin bending-dominated shells (a disk: the load is O(h²)).
-            Natural steps (SNES, no increment test) accept a residual below the same bound with
-            10⁻³ ``residual_rtol``: its relative decrease of 1e-9 from the small start residual
-            of a short step can lie below round-off (a P3 sphere stalled at κh ≈ 1.41).
-        residual_roundoff: the factor of the round-off term (measured floors are 1e-3 to 1e-2).
+            below (None, the default: the relative bound).
+        residual_rtol: the arclength corrector also needs ||R|| at most ``residual_rtol``
+            ||∂R/∂κ|| max(|κ|, κ_ref) + ``residual_roundoff`` ε ||J||_F ||w||: relative to the
+            κ-load, the force that κ imposes (κ_ref: 1 % of the run's largest |κ|, so the bound
+            does not vanish where the branch crosses κ = 0), plus the round-off floor of a
+            residual assembled with the Jacobian J at the state w (ε: machine epsilon). Both
+            terms are model-independent: a stiff Jacobian (the 1D model's C1 penalty) has a
+            round-off floor that can exceed the relative term on thin bending-dominated shells
+            (a disk's load is O(h²)). Natural steps (SNES) accept a residual below the
+            same bound with 10⁻³ ``residual_rtol`` and no round-off term, since a relative
+            decrease from the small start residual of a short step can lie below round-off
+            (docs/model.md, "Solvers").
+        residual_roundoff: the factor of the round-off term; it lies above the round-off
+            floors of both models (docs/design-notes.md, "Residual acceptance").
         state_weight: ξ in the arclength norm.
         max_steps: safety limit on the number of points.
         kappa_stops: values of κL (natural method) the run lands on exactly.
@@ -53,24 +53,19 @@ class ContinuationSettings:
             max(1, |λ|)) and the last step contracted by at least 10; the tangent at a
             converged point uses the corrector's factorisation under the same bound. Near the
             solution Newton's Jacobian changes by O(|δw|/h), so the chord steps converge as fast
-            as Newton's there. 0 (the default): factor at every iteration and for the tangent.
-            The surface model's ``critical`` uses 1e-5 (``REUSE_SURFACE`` in
-            shells.analyses.critical): 3 factorisations per step instead of 5, its critical points
-            unchanged to 3e-11 (benchmarks/lu_per_step.py); the 1D model's ``critical`` 1e-4, with
-            its default settings and the quadratic ``predictor`` (``REUSE_CRITICAL`` in
-            shells.analyses.axisym_runs: 156 factorisations instead of 378 on the θ̄ = 8 cap, its
-            points unchanged to 1e-8; before its eigenvalues were Rayleigh quotients the thin
-            spheres' closely spaced bifurcations moved by up to 2e-5 with 1e-5, round-off).
-            Not the default elsewhere: a branch's points are its result there.
+            as Newton's there. 0 (the default): factor at every iteration and for the tangent,
+            since elsewhere a branch's points are the result. The critical-point runs use it
+            (``REUSE_SURFACE``, ``REUSE_CRITICAL``; docs/design-notes.md, "Chord steps").
         predictor: where the arclength corrector starts (the hyperplane is the tangent
             predictor's either way): "tangent" (default), the predictor itself, or
             "quadratic", the quadratic through the last two points with the tangent at the
-            last (an error of O(s³) instead of O(s²): on the θ̄ = 8 cap at h/R = 0.01 a first
-            Newton update of 1e-7 of the state instead of 1e-5, two iterations instead of
-            three). Its converged points are the same to the Newton tolerance, but fewer
-            iterations grow the adaptive step sooner, so where the step is below ``ds_max``
-            the run takes other points. The 1D model's ``critical`` uses it with its default
-            settings (``shells.analyses.axisym_runs``).
+            last (an error of O(s³) instead of O(s²)). Its converged points are the same to
+            the Newton tolerance, but fewer iterations grow the adaptive step sooner, so
+            where the step is below ``ds_max`` the run takes other points. The 1D model's
+            ``critical`` uses it (docs/design-notes.md, "Quadratic predictor").
+
+    Raises:
+        InputError: on construction, for a setting out of its range.
     """
 
     method: str = "arclength"
@@ -121,14 +116,25 @@ class ContinuationSettings:
                              f"{self.predictor!r}")
 
     def describe(self) -> dict[str, Any]:
+        """The settings as a plain dict (for a run's JSON record)."""
         return asdict(self)
 
 
 def in_arclength(st: ContinuationSettings, tl: float) -> ContinuationSettings:
-    """The settings with steps in arclength: as given, or for ``ds_unit`` "kappa" converted with
-    the κ-component ``tl`` of the run's first unit tangent (ds_arc = ds / |dλ/ds|), as the
-    arclength loop does at a run's start (a resumed run passes the converted settings and the
-    first point's ``dkappa_ds`` decides them)."""
+    """The settings with their steps in arclength.
+
+    Settings with ``ds_unit`` "kappa" are converted with the κ-component of the run's first
+    unit tangent (ds_arc = ds / |dλ/ds|), as the arclength loop does at a run's start; a
+    resumed run passes the converted settings, and its first point's ``dkappa_ds`` decides
+    them.
+
+    Args:
+        st: the settings.
+        tl: the κ-component dλ/ds of the first unit tangent.
+
+    Returns:
+        ``st`` itself if its steps are in arclength already, else a converted copy.
+    """
     if st.ds_unit != "kappa":
         return st
     scale = 1.0 / max(abs(tl), 1e-6)
@@ -156,6 +162,9 @@ class CriticalSettings:
             the nearly singular Jacobian, or the start of a switch to a branch bifurcating
             close by (a closed sphere's cluster of axisymmetric modes). Costs one eigensolve
             per Newton iteration: for the 1D model. 0 (default): off.
+
+    Raises:
+        InputError: on construction, for a setting out of its range.
     """
 
     rel_tol: float = 1.0e-4

@@ -25,15 +25,14 @@ Any block that fails the test (indefinite, singular, or merely within τ of sing
 crossing block next to a critical point) gets an exact count: MUMPS', or the problem's own
 where it vouches for it (``block_inertia``: the 1D model's unpivoted LDLᵀ of the condensed
 block within a growth bound, ``LDLT_GROWTH``), so every count reported is that of a backward
-stable factorisation or of a block definite by a margin. On the 1D model's blocks
-the test costs about a third of the MUMPS factorisation it replaces (0.5 against 1.5 ms,
-measured on a loaded machine; benchmarks/axisym_speed.py), and located points are unchanged
-to the last digit (tests/test_stability.py compares the counts with MUMPS' block by block).
+stable factorisation or of a block definite by a margin. The test is cheaper than the
+factorisation it replaces and leaves every count as MUMPS gives it (tests/test_stability.py
+compares them block by block; docs/design-notes.md, "Definiteness before inertia").
 A problem may decide the same test itself without assembling its blocks
-(``definite_blocks``, ``shells.problem.interface``): the 1D model on one process factors its element
-matrices condensed on the meridian's chain of cells (``shells.axisym.chain``), every block
-m = 0..12 of a point in about 6 ms instead of 21. The eigensolves' shift-invert likewise applies
-the problem's own factorisation where it has one (``block_factor``, through a python PC).
+(``definite_blocks``, ``shells.problem.interface``): the 1D model on one process factors its
+element matrices condensed on the meridian's chain of cells (``shells.axisym.chain``; docs/model.md,
+"Stability and critical points"). The eigensolves' shift-invert likewise applies the
+problem's own factorisation where it has one (``block_factor``, through a python PC).
 """
 
 from __future__ import annotations
@@ -89,13 +88,15 @@ class StabilityResult:
     counts: dict[Hashable, int] | None = None
 
     def as_dict(self) -> dict[str, Any]:
+        """The scalars and eigenvalues (JSON-ready); modes and counts are left out."""
         return {"stable": self.stable, "negative_count": self.negative_count,
                 "zero_count": self.zero_count, "eigenvalues": list(self.eigenvalues)}
 
 
 #: a block is positive definite without an LDLᵀ when the banded Cholesky of H - τ diag(H)
-#: succeeds, τ this margin (relative: the lowest eigenvalue of the diagonally scaled H; the 1D
-#: model's blocks sit at 1e-12..1e-9 on a loaded branch, its round-off at ~1e-15)
+#: succeeds, τ this margin (relative: the lowest eigenvalue of the diagonally scaled H), which
+#: lies between the Cholesky's round-off (~1e-15) and the lowest scaled eigenvalues of definite
+#: blocks on a loaded branch (1e-12 and above on the 1D model)
 DEFINITE_MARGIN = 1.0e-13
 #: a problem's own LDLᵀ without pivoting (``block_inertia``) decides a count only if the
 #: diagonal of |L||D||Lᵀ| stays below this many times the matrix's: its backward error is then
@@ -128,6 +129,7 @@ class BandedCholesky:
         self.has_diagonal = len(self.diagonal) == n
 
     def matches(self, ai: np.ndarray, aj: np.ndarray) -> bool:
+        """Whether the CSR pattern (``ai``, ``aj``) is the one this test was built for."""
         return (len(ai) == len(self.ai) and len(aj) == len(self.aj)
                 and np.array_equal(ai, self.ai) and np.array_equal(aj, self.aj))
 
@@ -258,14 +260,20 @@ class BlockSolvers:
         self.user_options = False
 
     def eigensolver(self, shell: bool = False) -> Any:
-        """The layout's SLEPc EPS: shift-invert about 0 with MUMPS, for H v = μ M v (GHEP),
-        made once and reused by every eigensolve of the layout's blocks. Reuse keeps the
-        factorisation's symbolic analysis and the EPS's set-up between solves (on the 1D
-        model's Fourier blocks 11.7 against 20.6 ms a solve, eigenvalues equal to 5e-12);
-        its random start vector is reseeded before each solve (``eigenpairs``), so a solve
-        does not depend on the solves before it. ``shell``: the layout's second EPS, whose
-        shift-invert applies ``self.shell`` (a problem's own factorisation) instead of MUMPS;
-        the same settings otherwise."""
+        """The layout's SLEPc EPS: shift-invert about 0 with MUMPS, for H v = μ M v (GHEP).
+
+        Made once and reused by every eigensolve of the layout's blocks: reuse keeps the
+        factorisation's symbolic analysis and the EPS's set-up between solves (docs/model.md,
+        "Stability and critical points"); its random start vector is reseeded before each
+        solve (``eigenpairs``), so a solve does not depend on the solves before it.
+
+        Args:
+            shell: the layout's second EPS, whose shift-invert applies ``self.shell`` (a
+                problem's own factorisation) instead of MUMPS; the same settings otherwise.
+
+        Returns:
+            The EPS, created on first use.
+        """
         from petsc4py import PETSc
 
         if shell:
@@ -277,7 +285,7 @@ class BlockSolvers:
             eps.setOptionsPrefix(EIGEN_PREFIX)
             eps.setFromOptions()  # the user's -shells_eigen_... options
             self._seed = eps.getBV().getRandomContext().getSeed()
-            # a user's options, if any, override the dimensions set per solve (as before reuse)
+            # a user's options, if any, override the dimensions set per solve (as on a new EPS)
             self.user_options = any(k.startswith(EIGEN_PREFIX)
                                     for k in PETSc.Options().getAll())
             self.eps = eps
@@ -306,8 +314,15 @@ class BlockSolvers:
         return eps
 
     def definite(self, margin: float) -> bool:
-        """H as assembled positive definite by ``margin`` (``BandedCholesky``); False where
-        the test does not apply (in parallel, a wide band)."""
+        """Whether H as assembled is positive definite by ``margin`` (``BandedCholesky``).
+
+        Args:
+            margin: τ of the test H - τ diag(H).
+
+        Returns:
+            The test's answer; False where the test does not apply (in parallel, a wide
+            band).
+        """
         if not self.testable:
             return False
         ai, aj, values = self.H.getValuesCSR()
@@ -324,7 +339,13 @@ class BlockSolvers:
 
 
 class Stability:
-    """Inertia and eigenpairs of a problem's stability blocks at its current state."""
+    """Inertia and eigenpairs of a problem's stability blocks at its current state.
+
+    Args:
+        problem: the problem whose blocks are analysed.
+        options: options of the LDLᵀ factorisation over ``INERTIA_OPTIONS`` (prefix
+            ``shells_inertia_``).
+    """
 
     #: test blocks for definiteness by banded Cholesky before any LDLᵀ (module docstring);
     #: False: MUMPS for every block (the reference the benchmark compares with)
@@ -341,6 +362,7 @@ class Stability:
         self._negative: set[Hashable] = set()
 
     def blocks(self) -> tuple[Hashable, ...]:
+        """All of the problem's stability blocks."""
         return tuple(self.problem.stability_blocks())
 
     @property
@@ -364,8 +386,19 @@ class Stability:
         return b.H
 
     def inertia(self, block: Hashable = None, test: bool = True) -> tuple[int, int, int]:
-        """(negative, zero, positive) eigenvalue counts of the block's Hessian (``test``
-        False: MUMPS' without the banded test, which failed on its values already)."""
+        """The inertia of the block's Hessian, assembled at the current state.
+
+        Args:
+            block: the block.
+            test: try the banded definiteness test first; False: MUMPS' count without it
+                (the caller's test failed on these values already).
+
+        Returns:
+            (negative, zero, positive) eigenvalue counts.
+
+        Raises:
+            RuntimeError: if the LDLᵀ factorisation fails.
+        """
         b = self.block_solvers(block)
         self.problem.assemble_hessian(block, b.H)
         if test and self.banded_test and b.definite(DEFINITE_MARGIN):
@@ -379,12 +412,23 @@ class Stability:
         return counts
 
     def exact_inertia(self, block: Hashable) -> tuple[int, int, int]:
-        """The exact inertia of a block known not to be definite by the margin: the problem's
-        own where it vouches for it (``block_inertia``: the 1D model's unpivoted LDLᵀ of the
-        condensed block, growth below ``LDLT_GROWTH``), else MUMPS' of the problem's condensed
-        matrix where it offers one (``condensed_hessian``: a Schur complement, the same
-        inertia but for the positive eigenvalues of the eliminated DOFs; 1D model: 1200 rows
-        instead of 3000), else of the assembled block."""
+        """The exact inertia of a block known not to be definite by the margin.
+
+        The problem's own where it vouches for it (``block_inertia``: the 1D model's unpivoted
+        LDLᵀ of the condensed block, growth below ``LDLT_GROWTH``), else MUMPS' of the
+        problem's condensed matrix where it offers one (``condensed_hessian``: a Schur
+        complement, the same inertia but for the positive eigenvalues of the eliminated DOFs,
+        and a smaller matrix), else of the assembled block.
+
+        Args:
+            block: the block.
+
+        Returns:
+            (negative, zero, positive) eigenvalue counts.
+
+        Raises:
+            RuntimeError: if every factorisation fails.
+        """
         if isinstance(self.problem, BlockInertia):
             counts = self.problem.block_inertia(block, LDLT_GROWTH)
             if counts is not None:
@@ -405,26 +449,35 @@ class Stability:
         return neg, zero, pos + int(eliminated)
 
     def negative_count(self, block: Hashable = None) -> int:
+        """The block's number of negative eigenvalues (``inertia``)."""
         return self.inertia(block)[0]
 
     def negative_counts(self, blocks: Iterable[Hashable] | None = None,
                         base: dict[Hashable, int] | None = None) -> dict[Hashable, int]:
-        """The negative count of every block (default: all of the problem's blocks). A problem
-        that tests its blocks' definiteness without assembling them
+        """The negative count of every block.
+
+        A problem that tests its blocks' definiteness without assembling them
         (``definite_blocks(blocks, margin)``: {block: bool}, the same test as the banded
         Cholesky's; the 1D model on one process) has that answer used first: a block definite
         by the margin is not assembled at all (its matrix is then not the block's: call
         ``inertia`` before ``eigenpairs(assemble=False)``), one that is not goes straight to
         MUMPS (or to the problem's own exact count, ``block_inertia``; several at once with
         ``block_inertias``). A block negative at the last count of all (``base`` None) skips
-        the test. The counts do not depend on either shortcut. ``base``: stop after the first
-        block (in the given order) whose count differs from ``base[block]``: the counts up to
-        it."""
+        the test. The counts do not depend on either shortcut.
+
+        Args:
+            blocks: the blocks (default: all of the problem's).
+            base: stop after the first block (in the given order) whose count differs from
+                ``base[block]``.
+
+        Returns:
+            {block: negative count}, up to that block with ``base``.
+        """
         blocks = self.blocks() if blocks is None else tuple(blocks)
         test = self.banded_test and isinstance(self.problem, DefiniteBlocks)
         # a block that had a negative eigenvalue at the last count is not tested for
-        # definiteness (it fails; on the 1D model its lane in the test costs 0.15 ms): its
-        # exact count straight away, which is 0 if it has become definite
+        # definiteness (the test would fail and cost time): its exact count straight away,
+        # which is 0 if it has become definite
         decided: dict[Hashable, bool] = {}
         if test:
             negative = [b for b in blocks if b in self._negative]
@@ -456,6 +509,7 @@ class Stability:
         return out
 
     def mass(self, block: Hashable = None) -> Any:
+        """The block's mass matrix (assembled once, kept)."""
         b = self.block_solvers(block)
         if block not in b.M:
             b.M[block] = self.problem.assemble_mass(block)
@@ -464,22 +518,35 @@ class Stability:
     def eigenpairs(self, nev: int = 6, *, modes: bool = False, assemble: bool = True,
                    block: Hashable = None, ncv: int | None = None, refine: bool = True
                    ) -> tuple[list[float], list[Any]]:
-        """The ``nev`` eigenvalues of H v = μ M v nearest 0 of a block (M: its mass),
-        ascending, and with ``modes`` their eigenvectors. ``assemble=False``: the block's
-        matrix as last assembled (by ``inertia``). Where the shift-invert applies the
-        problem's own factorisation (``block_factor``), which reads no value of the block's
-        matrix, that matrix is not assembled at all (it keeps its last values). ``ncv``: the
-        Krylov subspace's size (default max(2 nev + 10, 24); its cost grows with it, a solve
-        converges in one restart at the default).
+        """The eigenvalues of H v = μ M v nearest 0 of a block (M: its mass).
 
         Where the problem evaluates vᵀ H v by quadrature (``hessian_quadratic``), each
         eigenvalue is its eigenvector's Rayleigh quotient vᵀ H v / vᵀ M v (``refine``): the
         shift-invert's μ carries the round-off of the assembled matrix and of its
-        factorisation, ε ‖H‖ (~1e-6 on the 1D model's stiff blocks), the quotient only that
-        of the mode's own energy, and its error in the vector is of second order. Measured on
-        the h/R = 0.01, θ̄ = 15.11 cap's m = 2 block next to its crossing, over 13 states
-        solved again at κ (1 + k 1e-10): μ spread by a std of 7.4e-8, the quotient by 3.5e-13,
-        smoothly, as κ moves it (``benchmarks/locator_noise.py``)."""
+        factorisation, ε ‖H‖ (large on the 1D model's stiff blocks), the quotient only that
+        of the mode's own energy, and its error in the vector is of second order
+        (docs/model.md, "Stability and critical points"; ``benchmarks/locator_noise.py``).
+        Where the shift-invert applies the problem's own factorisation (``block_factor``),
+        which reads no value of the block's matrix, that matrix is not assembled at all (it
+        keeps its last values).
+
+        Args:
+            nev: how many eigenvalues (at most the block's size).
+            modes: also return the eigenvectors.
+            assemble: False: use the block's matrix as last assembled (by ``inertia``).
+            block: the block.
+            ncv: the Krylov subspace's size (default max(2 nev + 10, 24); its cost grows with
+                it, and a solve converges in one restart at the default).
+            refine: Rayleigh quotients where the problem has ``hessian_quadratic``.
+
+        Returns:
+            (eigenvalues ascending, their eigenvectors or []). Fewer than ``nev`` if SLEPc
+            converged fewer (logged as a warning).
+
+        Raises:
+            petsc4py.PETSc.Error: if the solve fails (an exactly singular block); the
+                layout's EPS is then replaced at the next solve.
+        """
         b = self.block_solvers(block)
         eps = b.eigensolver()
         # the problem's own factorisation where it has one (``block_factor``; not with a
@@ -490,8 +557,7 @@ class Stability:
         # the shift-invert about 0 with the problem's factorisation reads no value of H (SLEPc
         # takes A - 0 B as A, and the KSP applies the shell alone): H is assembled for MUMPS
         # only, or where it never was (its layout and vectors); eigenvalues bit for bit the
-        # same, 1.4 ms a solve less on the θ̄ = 8 cap's blocks. ``b.H`` then keeps the values
-        # last assembled (``BlockSolvers``)
+        # same. ``b.H`` then keeps the values last assembled (``BlockSolvers``)
         H = (self.assemble(block) if assemble and (solver is None or not b.H.assembled)
              else b.H)
         if solver is not None:
@@ -502,8 +568,8 @@ class Stability:
         nev = min(nev, size)
         ncv = max(2 * nev + 10, 24) if ncv is None else max(int(ncv), nev + 1)
         # mpd too: a reused EPS keeps the mpd its first set-up derived from that call's ncv,
-        # and a later, larger nev then fails SLEPc's check ncv <= nev + mpd (measured: the
-        # orbit count's n + 1 pairs after a smaller solve, on a coarse sphere's dimple)
+        # and a later, larger nev then fails SLEPc's check ncv <= nev + mpd (as the orbit
+        # count's n + 1 pairs after a smaller solve did)
         eps.setDimensions(nev=nev, ncv=min(ncv, size), mpd=min(ncv, size))
         if b.user_options:
             eps.setFromOptions()
@@ -551,18 +617,27 @@ class Stability:
 
     def negative_count_modulo_orbit(self, block: Hashable = None, threshold: float = 0.7,
                                     count: int | None = None) -> tuple[int, int]:
-        """(negative count, how many of those eigenvectors lie along the state's symmetry
-        orbit): ``classify_mode(v).rayleigh["orbit"]`` ≥ ``threshold``, the problem's overlap
-        with the orbit tangent (a pattern's rotation about the axis of a shell of revolution, a
-        dimple's sliding over a closed sphere: neutral in the continuum, of either sign on a
-        mesh), among the n + 1 eigenpairs nearest 0, n the negative count. The second is 0 for
-        problems that report no orbit; eigenpairs are computed only when the count is
-        positive. ``count``: the block's negative count where the caller has it already
-        (``negative_counts``): a neutral mode's sign is round-off, and another factorisation
-        may decide it otherwise. (Measured on
-        the 30° cap's m = 2 branch, h/R = 0.04, size 0.25: the orientation mode's overlap falls
-        from 0.92 next to the bifurcation to 0.82 at κR = -1.15, as the discrete orbit tangent
-        departs from the continuum one; the next two modes stay below 0.38.)"""
+        """The negative count, and how many of those eigenvectors lie along the state's orbit.
+
+        The orbit is the state's symmetry orbit: a pattern's rotation about the axis of a
+        shell of revolution, a dimple's sliding over a closed sphere, neutral in the
+        continuum and of either sign on a mesh. An eigenvector lies along it when the
+        problem's overlap ``classify_mode(v).rayleigh["orbit"]`` is at least ``threshold``;
+        the n + 1 eigenpairs nearest 0 are examined, n the negative count. The default
+        threshold separates the orientation mode from the next modes along a buckled cap's
+        branch (docs/model.md, "Symmetric meshes: perfect bifurcations").
+
+        Args:
+            block: the block.
+            threshold: the least overlap of an orbit mode.
+            count: the block's negative count where the caller has it already
+                (``negative_counts``): a neutral mode's sign is round-off, and another
+                factorisation may decide it otherwise.
+
+        Returns:
+            (negative count, orbit modes among them); the second is 0 for problems that
+            report no orbit. Eigenpairs are computed only when the count is positive.
+        """
         n = self.negative_count(block) if count is None else int(count)
         if n == 0:
             return 0, 0
@@ -570,8 +645,8 @@ class Stability:
         orbit = 0
         try:
             # (the eigenvalues nearest 0 need not hold the negative ones the inertia counts:
-            # a pair of positive orbit modes nearer 0 than the one negative eigenvalue, measured
-            # on the surface model's dimple at 0.7 h, must not count)
+            # a pair of positive orbit modes nearer 0 than the one negative eigenvalue, as on
+            # the surface model's dimple branch, must not count)
             for val, v in zip(vals, vecs, strict=True):
                 info = self.problem.classify_mode(v, block)
                 if val < 0 and (info.rayleigh or {}).get("orbit", 0.0) >= threshold:
@@ -583,7 +658,16 @@ class Stability:
 
     def check(self, nev: int = 0, modes: bool = False, block: Hashable = None
               ) -> StabilityResult:
-        """Inertia (always) and, with ``nev`` > 0, the eigenpairs nearest 0, of one block."""
+        """Inertia (always) and eigenpairs nearest 0 of one block.
+
+        Args:
+            nev: how many eigenpairs (0: none).
+            modes: keep the eigenvectors.
+            block: the block.
+
+        Returns:
+            The ``StabilityResult``: stable iff no negative and no zero eigenvalue.
+        """
         neg, zero, _ = self.inertia(block)
         vals, vecs = (self.eigenpairs(nev, modes=modes, assemble=False, block=block)
                       if nev > 0 else ([], []))
@@ -591,6 +675,7 @@ class Stability:
                                zero_count=zero, eigenvalues=vals, modes=vecs if modes else None)
 
     def destroy(self) -> None:
+        """Free every layout's matrices, factors and eigensolvers."""
         for b in self._blocks.values():
             b.destroy()
         self._blocks.clear()

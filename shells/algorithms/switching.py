@@ -1,7 +1,7 @@
 """Branch switching at a located bifurcation (algorithm layer, on ``shells.problem.Problem``).
 
 ``switch_branch(problem, cp, ...)`` leaves the fundamental branch along the critical mode: the
-first point by the corrector on an amplitude hyperplane along the mode (measured off the
+first point by the corrector on an amplitude hyperplane along the mode (orthogonal to the
 fundamental branch's tangent), then pseudo-arclength steps with secant tangents, pins (phase
 conditions) holding the other directions of a multiple critical eigenspace, optional deflation,
 and a ``reject`` test that refuses a corrector that jumped back across the fundamental branch.
@@ -163,96 +163,61 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
                   phase: Sequence[Any] = ()) -> Iterator[Point]:
     """Follow the branch that bifurcates at ``cp`` along its critical mode.
 
-    1. The critical state w_c (``cp.state``) and its κ (least squares: the residual is affine
-       in κ; the state is a trial solve next to the located κ, not at it).
-    2. The critical eigenspace there (SLEPc): φ_0 the eigenvector of ``cp.mode``, and, when
-       k = ``cp.multiplicity`` (or ``pinned``) > 1, the k - 1 other eigenvectors nearest 0.
-    3. The first point at mode amplitude a = ``sign`` × ``ds`` (continuation norm: RMS in
-       thicknesses, ``settings.state_weight``): Newton from w_c + a φ_0 on R(w, λ) = 0 with
-       cw φ_0·(w - w_c) = a and λ free (the corrector ``bordered.bordered_newton`` on
-       that hyperplane): for a pitchfork λ - λ_c ≈ β a², a regular equation in λ for a ≠ 0
-       that the fundamental branch (no φ_0-component) does not satisfy. If it fails, a is
-       retried with ``ds`` times each of ``factors``.
-    4. Pseudo-arclength continuation (``continuation.arclength_steps``) with secant
-       predictors from (w_c, λ_c) and that point onwards, adaptive steps from ``settings``
-       (arclength units: ``ds_unit`` must be "arclength"; the first step is |a|), landing on
-       ``kappa_end`` exactly when the branch crosses it, or ending after ``settings.max_steps``
-       points or when the step falls below
-       ``ds_min``. Each yielded point carries in ``scalars``: ``mode_amplitude`` =
-       cw φ_0·(w - w_c), ``residual`` = ||R(w, λ)|| and ``residual_bound`` (the corrector's
-       bound, ``ContinuationSettings``) and ``pin_force`` = ||Σ s_j ψ_j||. If the state's
-       distance from the fundamental branch (its linear prediction w_c + (λ - λ_c) dw/dλ) falls
-       below ``min_amplitude`` times the first point's, or the state lies along -φ_0 (the
-       amplitude changed sign and makes up at least half of that distance), the branch has
-       led back to the fundamental branch and a RuntimeError is raised (a step that would jump
-       to the -φ_0 side is refused and shortened instead). The distance, not the amplitude:
-       a dimple localised at one pole of a sphere leaves the shape of P_n, and its amplitude
-       along P_n shrinks and changes sign far from the fundamental branch. ``release_pins``:
-       after that many points the pins are dropped (below). ``deflate`` > 0: every corrector omits
-       dominant components along that many near-null eigenvectors of the Jacobian other than
-       the followed mode (``Deflation``; for clusters of nearly simultaneous bifurcations,
-       the closed sphere's neighbouring degrees on the 1D model).
+    1. The critical state w_c (``cp.state``) and its κ by least squares (``state_kappa``).
+    2. The critical eigenspace there: φ_0 the eigenvector of ``cp.mode`` and, for k =
+       ``cp.multiplicity`` (or ``pinned``) > 1, the k - 1 other eigenvectors nearest 0.
+    3. The first point: Newton from w_c + a φ_0, a = ``sign`` × ``ds`` × each of ``factors``
+       in turn, with the amplitude cw φ̂_0·(w - w_c) = a fixed and λ free: for a pitchfork
+       λ - λ_c ≈ β a², a regular equation that the fundamental branch does not satisfy (φ̂_0:
+       φ_0 made orthogonal to the fundamental branch's tangent).
+    4. Secant pseudo-arclength steps (``arclength_steps``) from (w_c, λ_c), the other k - 1
+       eigenvectors pinned at their w_c values (phase conditions: the orientation of a
+       pattern on a shape of revolution is nearly neutral, and unpinned Newton drifts along
+       it), to ``kappa_end``. A step that jumps across the fundamental branch is refused.
 
-    Localised branches (``control`` = a state-shaped vector e, the functional c = e·w, e.g.
-    the depth of a dimple at a pole; no pins). Where several bifurcations nearly coincide, a
-    single critical mode is an arbitrary member of the cluster, chosen by round-off (which
-    crossed first at the located state), and the branches along different members part
-    within a few steps. The direction followed is instead the cluster's combination of largest
-    c: the projection of e on the ``cluster`` eigenvectors nearest 0 (φ_0 among them), which
-    for a closed sphere's axisymmetric modes P_n (all of value 1 at the pole) is a packet
-    localised at the pole. The first point has c - c_c = ``sign`` × ``ds`` × f (λ free), with
-    ``cluster``, 2 and 1 eigenvectors in turn until its corrector converges (``response``:
-    first along the state's response to e as a force, ``_response_direction``, which holds
-    every degree of a multiplet whether or not the cluster's eigenvectors do; ``phase``:
-    functionals ψ_j held at their values at w_c, as pins, along the whole branch, for a
-    neutral direction the state would otherwise drift along, a dimple's sliding over a closed
-    sphere: where its eigenvalue, of either sign on a mesh, crosses 0 the corrector at fixed
-    c is singular and the steps stall); the branch is then
-    followed with c as its parameter (``continuation.arclength_steps``' ``control``: secant
-    predictor, corrector at fixed c converged by plain Newton, no deflation), steps in c from
-    ``settings``. Where c turns (a fold of c on the branch: the steps in c are refused until
-    they fall below ``ds_min``), the branch goes on by secant arclength from the last two
-    points (steps up to the largest a step of c took; points carry ``control_parameter`` 1
-    before, 0 after). The return tests stay (distance from the fundamental branch; a side
-    crossed when c - c_c changes sign while c is the parameter). Measured on the h/R = 0.01
-    closed sphere (1D model): first amplitudes 0.25 and 0.35 give the same dimple branch,
-    which the arclength loop did not (docs/model.md).
+    With a ``control`` e (a localised branch: a dimple at a closed sphere's pole), the first
+    direction is the combination of largest c = e·w of the ``cluster`` eigenvectors nearest 0,
+    independent of which member of a cluster of nearly coincident bifurcations crossed first,
+    and the branch is followed with c as its parameter until c turns (``FOLD_STRETCH``), then
+    by secant arclength. The reasons: docs/design-notes.md, "Branch switching".
 
-    Resuming: ``track(r)``, if given, is called at every point just before it is yielded, with
-    its ``SwitchResume`` r; ``switch_branch(..., resume=r)`` with the same problem (partition),
-    critical point and arguments then continues after that point as this run did: steps 1-2
-    again at w_c (the same directions), no first point (3), the loop (4) from r's state with
-    r's secant, step and tests, the points from index r.index + 1 (the same to round-off: the
-    loop's λ is r.lam = κ L, the corrector's λ through κ).
+    Args:
+        problem: the problem.
+        cp: the located bifurcation, with its state and mode.
+        settings: continuation settings, steps in arclength; the first step is |a|.
+        kappa_end: the κ the branch lands on.
+        ds: the first amplitude (RMS in thicknesses), or with a control the first change of c.
+        solver: the Newton solver to use (default: a new one).
+        sign: the side: +1 along φ_0, -1 against it.
+        pinned: the dimension k of the critical eigenspace (default ``cp.multiplicity``).
+        factors: the multiples of ``ds`` tried in turn for the first point.
+        min_amplitude: the branch has led back to the fundamental branch when its distance
+            from w_c + (λ - λ_c) dw/dλ falls below this fraction of the first point's.
+        release_pins: drop the pins after that many points.
+        deflate: every corrector omits dominant components along that many near-null
+            eigenvectors of the Jacobian other than the followed mode (``Deflation``).
+        resume: a ``SwitchResume`` from ``track``: the run continues after that point as the
+            tracked one did (same problem partition, critical point and arguments).
+        track: called as ``track(r)`` with each point's ``SwitchResume`` before it is yielded.
+        control: the functional e (a state-shaped vector), e.g. a pole's depth.
+        cluster: with a control, how many eigenvectors the first direction combines.
+        response: with a control, try first the response (H + σ M)⁻¹ e to e as a force,
+            which holds every degree of a multiplet whether or not the eigensolve returned it.
+        phase: with a control, functionals pinned at their w_c values along the branch (a
+            dimple's sliding over a closed sphere, which is neutral).
 
-    Multiple eigenvalues (k > 1). On a shape of revolution every mode m ≥ 1 is a (cos mφ,
-    sin mφ) pair and every direction of that plane gives the same branch up to a rotation about
-    the axis: the pattern's orientation is a continuous symmetry, and along the new branch it is
-    a nearly neutral direction of the Hessian. A mesh breaks the symmetry slightly: (i) the pair
-    splits into two simple eigenvalues crossing at nearly the same κ (``cp.multiplicity`` = 2,
-    κ located at the first crossing); the branch followed is the one along the first crossing's
-    eigenvector, which for a supercritical pitchfork is the stable orientation (the second
-    crossing's branch is a saddle with an extra negative eigenvalue of the size of the
-    splitting); (ii) the orientation stiffness along the new branch is so small (on a coarse cap
-    mesh, a Hessian eigenvalue ~10⁻⁶ against ~10⁻³ for the other modes) that the residual
-    tolerance does not determine the orientation: an unpinned Newton step leaves the orbit of
-    rotations along its tangent and diverges (the previous, unpinned version of this function
-    failed that way). So the other k - 1 eigenvectors are pinned at their w_c values for the
-    whole branch (a phase condition) and the force s_j ψ_j that holds the orientation is
-    reported as ``pin_force``: it is the only residual of the yielded states (≈ 10⁻⁵ of the
-    κ-load on the coarse cap mesh), i.e. they are equilibria up to the mesh's orientation
-    force; (iii) the bifurcation is imperfect: the path from κ = 0 turns onto one sign of the
-    new branch, the other sign lies on a separate branch with its own fold near κ_c; for |a|
-    well above the imperfection both are graphs over a (either ``sign`` works) and
-    a² ∝ |κ - κ_c| holds there, not within the imperfection scale of κ_c.
+    Yields:
+        The points, from the first one off the fundamental branch. Their ``scalars`` add
+        ``mode_amplitude``, ``kappa_c``, ``deviation_m``/``deviation_n`` (the class of
+        w - w_c), ``pin_force`` = ||Σ s_j ψ_j||, ``residual``, ``residual_bound`` and, with a
+        control, ``control_parameter`` (1: at fixed c, 0: by arclength past a fold of c).
 
-    The perfect sphere's (2n+1)-fold eigenvalue is different: its eigenspace holds inequivalent
-    directions (the axisymmetric Y_n^0 among them, and mixtures whose branches are not rotations
-    of each other). The direction followed is the eigenvector of ``cp.mode`` (the first to
-    cross on the mesh) and the other k - 1 that crossed in the same step are pinned at zero
-    amplitude; this follows *a* branch tangent to that direction if one exists (pinning
-    suppresses the others); which inequivalent branch it is, and whether another is preferred,
-    needs the reduced bifurcation equations on the whole eigenspace and is not analysed.
+    Raises:
+        InputError: if ``cp`` has no state or mode, ``ds`` is not positive, or the steps are
+            not in arclength.
+        RuntimeError: if no first point converges, or the branch leads back to the
+            fundamental branch (its distance below ``min_amplitude`` times the first
+            point's, or the state along -φ_0).
     """
     if cp.state is None or cp.mode is None:
         raise InputError("this critical point carries no state/mode to switch from")
@@ -291,29 +256,25 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
         corrector = dict(pins=pins, wc=wc, singular_ok=True, deflate=defl, max_dlam=max_dlam,
                          keep_best=False)
         # with a control, each point off the first corrector's is converged by plain Newton to
-        # ``newton_tol``: at fixed c the Jacobian is regular on the branch (measured: 4-5
-        # quadratic iterations to 1e-15 on the 1D spheres with penalty 1e4-1e5), and the
+        # ``newton_tol``: at fixed c the Jacobian is regular on the branch, and the
         # corrector's acceptance of a stalled Newton (``singular_ok``: the residual bound
-        # after 3 iterations) kept states off the branch there (h/R = 0.01: a point 1 % off
-        # in κ, its last Newton step 17 in κL; with penalty 1e6 at h/R = 0.001 no Newton
-        # converges, its increments stay near 1e-3 R); the deflation, which removes the
-        # cluster's components from every increment, bent the branch onto others
+        # after 3 iterations) kept states off the branch there; the deflation, which removes
+        # the cluster's components from every increment, bent the branch onto others
+        # (docs/design-notes.md, "Branch switching")
         strict = dict(corrector, singular_ok=False, deflate=None)
         # the first point, a small amplitude along the mode, lies next to κ_c: a corrector
         # that went farther than a quarter of κ_c (plus 1 % of the range) converged onto
-        # another branch (measured: the h/R = 0.05 sphere's outward side, amplitude 0.125,
-        # from κL = 29.65 to an equilibrium at κL = -0.009); it is refused like a failure and
-        # the next amplitude is tried
+        # another branch (docs/model.md, "The 1D model's closed sphere"); it is refused like a
+        # failure and the next amplitude is tried
         first_corrector = dict(corrector, max_dlam=min(max_dlam,
                                                        0.25 * abs(lam_c) + ar.lam_ref))
         sgn = 1.0 if sign >= 0 else -1.0
 
-        # the amplitude is measured along φ_0 made orthogonal (in the continuation norm's
+        # the amplitude is taken along φ_0 made orthogonal (in the continuation norm's
         # inner product) to the fundamental branch's tangent at w_c: the DOF inner product is
         # not the physical one (the 1D model's unknowns carry no area weight), so φ_0 itself
         # can overlap the fundamental branch's direction, whose own motion in κ would then
-        # meet the amplitude condition (measured: the 1D sphere's first corrector landed back
-        # on the fundamental branch 1 % below κ_c)
+        # meet the amplitude condition (docs/design-notes.md, "Branch switching")
         amp_dir, tangent = _off_branch_direction(problem, ns, ar, dirs[0])
         pred = dirs[0].copy()
         pred.scale(1.0 / (ar.cw * amp_dir.dot(dirs[0])))
@@ -429,8 +390,8 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
         def jumped() -> bool:
             """A corrector that crossed to the -φ_0 side, or fell to a quarter of the last
             point's distance in one step, jumped to another branch (a long step next to a
-            cluster of bifurcations; measured: from a sphere's dimple branch back to the
-            fundamental branch 25 % lower in κ): refused, the step is shortened."""
+            cluster of bifurcations; docs/design-notes.md, "Branch switching"): refused, the
+            step is shortened."""
             dev = deviation()
             return crossed(side_amplitude(), dev) or dev < 0.25 * last[0]
 

@@ -30,25 +30,39 @@ __all__ = ["RunConfig", "branch", "critical", "default_cells",
 
 
 #: ``ContinuationSettings.factor_reuse`` of ``critical`` with its default settings: the
-#: corrector's chord steps and the tangent from its factorisation. At 1e-5, 230 factorisations
-#: instead of 378 on the θ̄ = 8 cap (the run 7 % faster, its located points unchanged to 2e-9;
-#: the h/R = 0.01 and 0.002 spheres' bifurcations to 3e-9 and 9e-9). Since the corrector starts
-#: from the branch's quadratic extrapolation (``continuation.arclength_steps``), its first
-#: update is 1e-7 of the state instead of 1e-5, and at 1e-4 its second iterate keeps the
-#: first's factorisation too: 156 factorisations there, the located points within 1e-8 of
-#: those at 1e-5 (the spheres' within 7e-9, the θ̄ = 15 cap's going down the same)
+#: corrector's chord steps and the tangent from its factorisation. With the quadratic
+#: predictor the corrector's first update is small enough that at this bound its second
+#: iterate keeps the first's factorisation too, the located points unchanged
+#: (docs/design-notes.md, "Chord steps")
 REUSE_CRITICAL = 1.0e-4
 
 
 def default_cells(shape: Shape, h_over_r: float) -> int:
-    """Bulk cells: 200, and at least 5 per degree of the sphere's critical mode."""
+    """The default number of bulk cells of the 1D mesh.
+
+    Args:
+        shape: the shell.
+        h_over_r: thickness over the shape's length scale.
+
+    Returns:
+        200, and on a sphere at least 5 per degree of its critical mode.
+    """
     if is_sphere(shape):
         return max(200, int(math.ceil(5 * sphere_mode_n(h_over_r, 0.0))))
     return 200
 
 
 def default_settings(shape: Shape, h_over_r: float, **overrides: Any) -> Any:
-    """Continuation settings scaled to the problem: on a closed shell κ scales with 1/h."""
+    """Continuation settings scaled to the problem: on a closed shell κ scales with 1/h.
+
+    Args:
+        shape: the shell.
+        h_over_r: thickness over the shape's length scale.
+        **overrides: ``ContinuationSettings`` fields that replace the defaults.
+
+    Returns:
+        The ``ContinuationSettings``.
+    """
     from shells.algorithms.settings import ContinuationSettings
 
     scale = 1.0 / h_over_r if shape.closed else 1.0  # in λ = κ L
@@ -87,7 +101,10 @@ class RunConfig(RunScales):
             end of range).
         settings: continuation settings (None: ``default_settings``).
         kappa_field: the natural-curvature stimulus (``shells.geometry.stimulus``; default:
-        uniform).
+            uniform).
+
+    Raises:
+        InputError: on construction, for a parameter out of range or an unsupported shape.
     """
 
     shape: Shape
@@ -130,10 +147,12 @@ class RunConfig(RunScales):
 
     @property
     def n_cells(self) -> int:
+        """The bulk cells: ``cells``, or ``default_cells``."""
         return self.cells if self.cells is not None else default_cells(self.shape, self.h_over_r)
 
     @property
     def modes(self) -> list[int]:
+        """The Fourier modes checked: 0..m_max (default 12; spheres 1.3 n + 4)."""
         if self.m_max is not None:
             return list(range(self.m_max + 1))
         if is_sphere(self.shape):
@@ -153,6 +172,7 @@ class RunConfig(RunScales):
         return mag if self.direction == "up" else -mag
 
     def params(self) -> AxisymParameters:
+        """The 1D model's parameters of this run."""
         return AxisymParameters(h=self.h, nu=self.nu, cells=self.n_cells,
                                 layer_cells=self.layer_cells, grading=self.grading,
                                 penalty=self.penalty, kappa_field=self.kappa_field)
@@ -243,16 +263,15 @@ def _numerics(numerics: dict[str, Any], extra: tuple[str, ...] = ()) -> dict[str
 def critical(shape: Shape, h_over_r: float, nu: float = 0.5, direction: str = "up",
              m_max: int | None = None, kappa_max: float | None = None,
              **numerics: Any) -> dict[str, Any]:
-    """Critical points of the axisymmetric branch from κ = 0 (the first one, and all of them up
-    to and including the first fold or the end of the range).
+    """Critical points of the axisymmetric branch from κ = 0.
 
-    At every branch point the inertia of H_m (m = 0..m_max) is computed; a change of a negative
-    count, or a sign change of dκ/ds, between two points is located by bisection along the
-    branch (chord-parametrised arclength) to |Δκ|/|κ| < ``rel_tol`` (default 1e-4). Kinds:
-    "fold" (dκ/ds changes sign; its mode is m = 0) and "bifurcation" (m ≥ 1, or m = 0 without a
-    fold). ``mode_m`` is the lowest m whose count changes at the point; for a closed sphere
-    ``mode_n`` is the largest m unstable just past it (the degree: all m ≤ n of Y_n^m share the
-    critical value).
+    The first one, and all of them up to and including the first fold or the end of the
+    range. At every branch point the inertia of H_m (m = 0..m_max) is computed; a change of a
+    negative count, or a sign change of dκ/ds, between two points is located inside that step
+    (``shells.algorithms.locate``) to |Δκ|/|κ| < ``rel_tol`` (default 1e-4). Kinds: "fold"
+    (dκ/ds changes sign; its mode is m = 0) and "bifurcation". Only the critical points are
+    the result, so the corrector takes chord steps from the quadratic predictor
+    (``REUSE_CRITICAL``) unless ``settings`` are given.
 
     Args:
         shape: Sphere, SphericalCap, EllipsoidalCap or Disk (``shells.geometry.shapes``).
@@ -270,12 +289,15 @@ def critical(shape: Shape, h_over_r: float, nu: float = 0.5, direction: str = "u
     Returns:
         {"kind": "fold" | "bifurcation" | "none", "kappa_R", "kappa_h", "mode_m", "mode_n",
         "h_over_R", "nu", "theta_deg", "model": "axisym", "dofs", "critical_points": [{"kind",
-        "kappa_R", "kappa_h", "mode_m", "mode_n"}, ...]}; the top-level values describe the
-        first critical point (None if there is none); ``theta_deg`` is None for a sphere or a
-        disk, ``mode_n`` None for non-spheres; ``dofs`` counts the base-state unknowns.
+        "kappa_R", "kappa_h", "mode_m", "mode_n", "kappa_R_bracket", "accuracy"}, ...]}; the
+        top-level values describe the first critical point (None if there is none);
+        ``mode_m`` is the block whose count changes, ``mode_n`` the degree on a sphere (None
+        for non-spheres and folds); ``theta_deg`` is None for a sphere or a disk; ``dofs``
+        counts the base-state unknowns.
 
     Raises:
         InputError: bad parameters.
+        RuntimeError: the continuation stopped before the end of the range.
     """
     numerics = dict(_numerics(numerics))
     if isinstance(shape, Shape) and is_sphere(shape):
@@ -293,8 +315,8 @@ def critical(shape: Shape, h_over_r: float, nu: float = 0.5, direction: str = "u
     # there the locator's corrector omits dominant components along the Jacobian's four
     # eigenvectors nearest 0 (else it lands on a branch bifurcating close by). Elsewhere it
     # must not: on a thin disk the soft axisymmetric bending modes are among them, and their
-    # components are the corrections Newton needs (measured: with it the h/R = 0.02 disk's
-    # m = 2 bifurcation came out 1.3e-3 low, at a state off the branch)
+    # components are the corrections Newton needs (docs/model.md, "Stability and critical
+    # points")
     crit = CriticalSettings(rel_tol=cfg.rel_tol, stop_at_fold=True,
                             max_critical=cfg.max_critical,
                             deflate=0)

@@ -62,6 +62,9 @@ class BranchConfig(RunScales):
             uniform).
         mesh_file: a user's mesh (``shells.surface.mesh.load_mesh``) of ``shape`` instead of
             meshing it (``size`` and ``layer_elements`` unused then).
+
+    Raises:
+        InputError: on construction, for a parameter out of range.
     """
 
     shape: Shape
@@ -94,9 +97,11 @@ class BranchConfig(RunScales):
             raise InputError("the final kappa must be a nonzero number")
 
     def mesh_spec(self) -> MeshSpec:
+        """The mesh this run generates (without a ``mesh_file``)."""
         return MeshSpec(self.shape, h=self.h, size=self.size, layer_elements=self.layer_elements)
 
     def describe(self) -> dict[str, Any]:
+        """The configuration as the branch file's JSON header (what a resume compares)."""
         d = asdict(self)
         d["shape"] = self.shape.describe()
         d["continuation"] = self.continuation.describe()
@@ -105,11 +110,12 @@ class BranchConfig(RunScales):
         del d["kappa_field"]
         d.update(self.kappa_field.header_entry())
         if d["mesh_file"] is None:
-            del d["mesh_file"]  # the headers of branches on shells' own meshes, as before
+            del d["mesh_file"]  # branches on shells' own meshes: headers of existing files match
         return d
 
     @classmethod
     def from_description(cls, d: dict[str, Any]) -> BranchConfig:
+        """The configuration that ``describe`` gave ``d``."""
         c = dict(d["continuation"])
         c["kappa_stops"] = tuple(c.get("kappa_stops", ()))
         return cls(shape=shape_from_description(d["shape"]), h_over_r=d["h_over_r"], nu=d["nu"],
@@ -121,7 +127,15 @@ class BranchConfig(RunScales):
 
 
 def point_record(p: Point, cfg: BranchConfig) -> dict[str, Any]:
-    """The JSON record of a point; public keys: kappa_R, kappa_h, psi3_over_h, energy, ..."""
+    """The JSON record of a point: its fields and scalars, plus ``kappa_R`` and ``kappa_h``.
+
+    Args:
+        p: the point.
+        cfg: the run (its R and h).
+
+    Returns:
+        The record (public keys: kappa_R, kappa_h, psi3_over_h, energy, ...).
+    """
     d = p.as_dict()
     d["kappa_R"] = p.kappa * cfg.R
     d["kappa_h"] = p.kappa * cfg.h
@@ -157,7 +171,14 @@ class _Progress:
 
 
 def read_branch(path: str | os.PathLike) -> tuple[dict[str, Any], list[dict[str, Any]]]:
-    """Header and points of a branch file (a torn last line from a crash is ignored)."""
+    """Read a branch file.
+
+    Args:
+        path: the ``branch.jsonl`` file.
+
+    Returns:
+        (header, points); a torn last line from a crash is ignored.
+    """
     return read_with_header(path)
 
 
@@ -181,12 +202,19 @@ def _save_checkpoint(outdir: Path, model: Any, rec: dict[str, Any],
 
 def load_branch_checkpoint(outdir: Path, model: Any
                      ) -> tuple[float, int, np.ndarray, float, Any, np.ndarray, float] | None:
-    """Read the checkpoint into ``model.w``: (κ, index, w - w_prev, κ - κ_prev, the tangent
-    (owned values, λ part) or None, w_prev (owned values), κ_prev), or None.
+    """Read the branch checkpoint into ``model.w``.
 
-    Nodes are matched by their coordinates (``shells.analyses.store.load_state_checkpoint``), so the
-    checkpoint may come from another partition or rank count; None when it is missing,
-    incomplete or from another mesh.
+    Nodes are matched by their coordinates (``shells.analyses.store.load_state_checkpoint``), so
+    the checkpoint may come from another partition or rank count.
+
+    Args:
+        outdir: the run's folder (its ``checkpoint/``).
+        model: the surface model, on the run's mesh.
+
+    Returns:
+        (κ, index, w - w_prev, κ - κ_prev, the tangent (owned values, λ part) or None,
+        w_prev (owned values), κ_prev); None when the checkpoint is missing, incomplete or
+        from another mesh.
     """
     got = load_state_checkpoint(outdir / "checkpoint", model, ("w", "w_prev"))
     if got is None:
@@ -207,10 +235,25 @@ def load_branch_checkpoint(outdir: Path, model: Any
 def run_branch(cfg: BranchConfig, outdir: str | os.PathLike, *, comm: Any = None,
                fields: str = "none", resume: bool = True, shell: ShellMesh | None = None,
                label: str = "branch") -> Iterator[dict[str, Any]]:
-    """Compute the branch of ``cfg`` and yield each point's record as it is written.
+    """Compute the surface model's branch of ``cfg``, each point stored as it is computed.
 
     On resume, the records already in the branch file are yielded first (without recomputing),
-    then the run continues from the checkpoint.
+    then the run continues from the checkpoint as the interrupted run would have.
+
+    Args:
+        cfg: the run.
+        outdir: the run's folder (``branch.jsonl``, ``checkpoint/``, ``fields.bp``).
+        comm: the communicator (default ``MPI.COMM_WORLD``).
+        fields: the fields written for ParaView: "none", "last" or "all".
+        resume: resume an unfinished run of the same configuration (False: start afresh).
+        shell: the mesh, if already made (default: generated, or read from ``mesh_file``).
+        label: the name in log messages.
+
+    Yields:
+        Each point's record, as it is written.
+
+    Raises:
+        InputError: for an unknown ``fields``, or a branch file that cannot be trusted.
     """
     from mpi4py import MPI
 
@@ -359,7 +402,14 @@ def run(shape: Any, h_over_r: float, nu: float, kappa_end: float, *, model: str 
 
 
 def folds(points: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """The turning points in κ of a branch (dκ/ds changes sign): kappa_R, kappa_h, index."""
+    """The turning points in κ of a branch.
+
+    Args:
+        points: the branch's records, in order.
+
+    Returns:
+        {"kappa_R", "kappa_h", "index"} of each point after which dκ/ds changed sign.
+    """
     return [{"kappa_R": p["kappa_R"], "kappa_h": p["kappa_h"], "index": p["index"]}
             for a, p in zip(points, points[1:], strict=False)
             if a["dkappa_ds"] * p["dkappa_ds"] < 0]
@@ -367,13 +417,21 @@ def folds(points: list[dict[str, Any]]) -> list[dict[str, Any]]:
 
 def run_surface(cfg: Any, outdir: str | os.PathLike, *, fields: str = "none",
                    resume: bool = True) -> dict[str, Any]:
-    """The surface model's branch: ``run_branch`` on ``cfg``, after the mesh-size check (before
-    the run creates its folder).
+    """The surface model's branch: ``run_branch`` on ``cfg``, after the mesh-size check.
+
+    The mesh size is checked before the run creates its folder.
+
+    Args:
+        cfg: a ``BranchConfig``.
+        outdir: the run's folder.
+        fields: as for ``run_branch``.
+        resume: as for ``run_branch``.
 
     Returns:
         The configuration, the DOFs, the branch file, the points and the folds.
 
     Raises:
+        InputError: a mesh too large, or a bad ``fields``.
         RuntimeError: the continuation stopped before the end of the range (its points so
             far and its checkpoint are kept: the same call resumes after the last).
     """
@@ -399,9 +457,19 @@ def run_surface(cfg: Any, outdir: str | os.PathLike, *, fields: str = "none",
 
 def run_axisym(shape: Any, h_over_r: float, nu: float, kappa_R_end: float,
                   outdir: str | os.PathLike, kappa_field: Any = None) -> dict[str, Any]:
-    """The shell-of-revolution model's branch up to κR = ``kappa_R_end`` (its sign: the
-    direction) under the stimulus ``kappa_field`` (None: uniform), every point appended to
-    ``outdir/branch.jsonl`` (rank 0) as computed."""
+    """The 1D (shell-of-revolution) model's branch, every point stored as computed.
+
+    Args:
+        shape: the shell of revolution.
+        h_over_r: thickness over the shape's length scale.
+        nu: Poisson's ratio.
+        kappa_R_end: the end of the range in κR (its sign: the direction).
+        outdir: the run's folder; ``branch.jsonl`` is written by rank 0.
+        kappa_field: the natural-curvature stimulus (None: uniform).
+
+    Returns:
+        {"model", "branch_file", "points", "folds"}.
+    """
     from shells.analyses import axisym_runs
     from shells.geometry.stimulus import UNIFORM
 

@@ -28,11 +28,31 @@ def run(shape: Any, h_over_r: float, nu: float, *, direction: str = "up",
                  model: str = "surface", kappa_end: float | None = None,
                  outdir: str | os.PathLike | None = None, kappa_field: Any = None,
                  first_only: bool = False, **surface: Any) -> dict[str, Any]:
-    """The critical points of the fundamental branch from κ = 0 towards ``kappa_end`` (None:
-    ``shells.analyses.setup.default_kappa_range``; the 1D model then uses its own), with either
-    model, under the stimulus ``kappa_field`` (a ``shells.geometry.stimulus.CurvatureField``; None:
-    uniform); ``first_only``: stop at the first critical point (either model); ``surface``: the
-    keyword arguments of ``run_surface``. Writes ``outdir/critical.json`` (rank 0)."""
+    """The critical points of a shell's fundamental branch from κ = 0, with either model.
+
+    Args:
+        shape: the shell's reference shape.
+        h_over_r: thickness over the shape's length scale.
+        nu: Poisson's ratio.
+        direction: "up" (κ > 0) or "down" (κ < 0).
+        model: "surface" (2D) or "axisym" (1D).
+        kappa_end: the end of the range, an absolute κ (None:
+            ``shells.analyses.setup.default_kappa_range``; the 1D model then uses its own).
+        outdir: the output folder: ``critical.json`` (rank 0) and, on the surface model,
+            ``run_surface``'s files. None: nothing written.
+        kappa_field: the stimulus, a ``shells.geometry.stimulus.CurvatureField`` (None:
+            uniform).
+        first_only: stop at the first critical point (either model).
+        **surface: the keyword arguments of ``run_surface``.
+
+    Returns:
+        The run's parameters and the result of ``run_surface`` or
+        ``shells.analyses.axisym_runs.critical``.
+
+    Raises:
+        InputError: a parameter out of range.
+        RuntimeError: the continuation stopped before the end of the range.
+    """
     from shells.geometry.stimulus import UNIFORM
 
     check_model(model)
@@ -73,9 +93,9 @@ def run(shape: Any, h_over_r: float, nu: float, *, direction: str = "up",
 CRITICAL_CHECKPOINT = "checkpoint"
 
 
-#: ``ContinuationSettings.factor_reuse`` of the surface model's critical points: 3 LU
-#: factorisations per arclength step instead of 5, the located points unchanged to 3e-11 (the
-#: 30° cap's fold, the θ̄ = 5 cap's bifurcation; benchmarks/lu_per_step.py)
+#: ``ContinuationSettings.factor_reuse`` of the surface model's critical points: fewer LU
+#: factorisations per arclength step, the located points unchanged (docs/design-notes.md,
+#: "Chord steps"; benchmarks/lu_per_step.py)
 REUSE_SURFACE = 1.0e-5
 
 
@@ -87,25 +107,45 @@ def run_surface(shape: Any, h_over_r: float, nu: float, kappa_end: float, *,
                      outdir: str | os.PathLike | None = None,
                      kappa_field: Any = None, mesh_file: str | None = None,
                      resume: bool = True) -> dict[str, Any]:
-    """The surface model's critical points up to ``kappa_end``
-    (``shells.algorithms.following.follow``): meshes ``shape`` (``size``, ``degree`` None:
-    ``shells.surface.model.default_discretisation``), or runs on the mesh in ``mesh_file`` (a
-    user's, of ``shape``; ``size`` then unused), follows the branch in steps ``ds`` .. ``ds_max`` in
-    κL (None: range/16, range/10), writes ``outdir/branch.jsonl`` (rank 0): a header (the run's
-    configuration), every point as it is computed and every critical point as it is located
-    ({"critical_point": {...}, "number": i}), and after each point a checkpoint
-    (``outdir/checkpoint/``: the state there and at the point before, the next step, the negative
-    count, and the first critical point's state and mode once located;
-    ``shells.analyses.store.save_state_checkpoint``), and at the end the first critical mode to
-    ``outdir/modes.bp``; returns the first critical point's kind, κ and mode, every critical point,
-    the DOFs, the mesh and the wall time.
+    """The surface model's critical points up to ``kappa_end`` (``follow``), resumable.
 
+    Writes ``outdir/branch.jsonl`` (rank 0): a header (the run's configuration), every point
+    as it is computed and every critical point as it is located ({"critical_point": {...},
+    "number": i}); after each point a checkpoint (``outdir/checkpoint/``: the state there and
+    at the point before, the next step, the negative counts, and the first critical point's
+    state and mode once located); at the end the first critical mode to ``outdir/modes.bp``.
     A rerun with the same configuration (``resume``) resumes after the last checkpointed point
-    (on any rank count): its points and critical points so far are kept as written, the next
-    ones are the uninterrupted run's (``follow``'s ``resume``), and so is the result (timings
-    aside). Another configuration, no points or a checkpoint that is missing, incomplete,
-    unreadable or not of this file: the run starts afresh, with one log line; a corrupt line
-    in the file is an ``InputError``."""
+    (on any rank count): the points and critical points so far are kept as written, the next
+    ones and the result are the uninterrupted run's (``follow``'s ``resume``). Another
+    configuration, no points, or an unusable checkpoint: the run starts afresh, with one log
+    line.
+
+    Args:
+        shape: the shell's reference shape.
+        h_over_r: thickness over the shape's length scale.
+        nu: Poisson's ratio.
+        kappa_end: the end of the range, an absolute κ (its sign: the direction).
+        first_only: stop at the first critical point.
+        size: the mesh's bulk element size (None: ``default_discretisation``).
+        layer_elements: elements across the rim's boundary layer.
+        shear_penalty: the Kirchhoff-Love penalty factor.
+        degree: the element degree (None: ``default_discretisation``).
+        ds: the first step in κL (None: range/16).
+        ds_max: the largest step in κL (None: range/10).
+        outdir: the output folder (None: nothing written or resumed).
+        kappa_field: the stimulus (None: uniform).
+        mesh_file: a user's mesh of ``shape`` instead of meshing it (``size`` then unused).
+        resume: resume an unfinished run of the same configuration.
+
+    Returns:
+        The first critical point's ``kind`` ("none" if there is none), ``kappa_R``,
+        ``kappa_h``, ``mode_m``, ``mode_n``; ``critical_points`` (all), ``dofs``, ``mesh`` and
+        ``wall_time``.
+
+    Raises:
+        InputError: ``ds`` below 1e-7 of the range, or a corrupt line in the branch file.
+        RuntimeError: the continuation stopped before the end of the range.
+    """
     from dataclasses import asdict
 
     from mpi4py import MPI

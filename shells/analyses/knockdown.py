@@ -40,13 +40,11 @@ log = logging.getLogger("shells")
 __all__ = ["KnockdownConfig", "fold_kappa", "knockdown", "run"]
 
 #: how a point is computed; part of a points file's key, so that a rerun never reads back
-#: points of another method (the first critical point located on all counts, shorter steps
-#: when a crossing comes before the fold; /3: one mesh for all amplitudes, steps near the
-#: fold from the asymptotic law; /4: an attempt without a fold repeated in the balanced
-#: arclength norm, ``first_critical``; /5: a crossing followed by a fold within the location
-#: tolerance is that fold, ``first_of``)
+#: points of another method. Changed with every change of the search (what each version
+#: changed: docs/design-notes.md, "Knock-down search")
 METHOD = "first-critical-point/5"
-#: ∂R/∂δ by central differences at δ/h = ±this (R is linear in δ to 1e-7 there, measured)
+#: ∂R/∂δ by central differences at δ/h = ±this (R is linear in δ to well below the
+#: difference's own error there: docs/design-notes.md, "Knock-down search")
 DELTA_FD = 1.0e-3
 #: after a crossing, at most this many points are followed while looking for the fold within
 #: the location tolerance (a safety limit: the window in κ ends the search first)
@@ -78,9 +76,14 @@ class KnockdownConfig:
             on spheres); a dimple is meshed with β0 / 4 at the pole (``shells.surface.mesh``).
         cells, penalty: the 1D mesh's bulk cells (None: the default) and C1 penalty. The
             penalty ties the slopes to the displacement to O(1/penalty), which on a closed
-            sphere acts as a pole-localised imperfection of its own: with 1e4 the perfect
-            sphere's bifurcation is shifted by 6e-4 and the knock-down at δ/h ≤ 1e-4 is 30 %
-            off the asymptotic law (h/R = 0.1, measured); 1e6 (default) puts it out of reach.
+            sphere acts as a pole-localised imperfection of its own, large enough at the 1D
+            model's default to spoil the small-δ end of a curve; 1e6 (default) puts it out of
+            reach (docs/imperfections.md, "Method").
+
+    Raises:
+        InputError: on construction, for a value out of its range or an inconsistent
+            combination (a harmonic imperfection on the 1D model, pressure on the surface
+            model, an order m > 0 without "harmonic" or above the degree).
     """
 
     h_over_r: float
@@ -143,8 +146,8 @@ class KnockdownConfig:
                              f"{self.width!r}")
 
     def describe(self) -> dict[str, Any]:
-        """The fields; ``order`` only for the harmonic imperfection (the other curves' keys,
-        stored in their points files, are those of before it existed)."""
+        """The fields; ``order`` only for the harmonic imperfection, so that the keys stored
+        in the other curves' points files, which have no ``order``, still match."""
         d = asdict(self)
         if self.imperfection != "harmonic":
             del d["order"]
@@ -152,8 +155,16 @@ class KnockdownConfig:
 
 
 def imperfect_model(cfg: KnockdownConfig, amplitude: float, degree: int) -> Any:
-    """The 1D model of the sphere of ``cfg`` with its imperfection at ``amplitude`` (δ/h; 0:
-    the perfect sphere) for the mode of ``degree``, axisymmetric blocks only."""
+    """The 1D model of the imperfect sphere, axisymmetric blocks only.
+
+    Args:
+        cfg: the curve.
+        amplitude: δ/h (0: the perfect sphere).
+        degree: the mode's degree n (the "mode" and "harmonic" imperfections).
+
+    Returns:
+        (the ``AxisymModel``, its ``RunConfig``).
+    """
     from shells.analyses.axisym_runs import RunConfig
     from shells.axisym import AxisymModel
     from shells.geometry.shapes import Sphere
@@ -167,7 +178,7 @@ def imperfect_model(cfg: KnockdownConfig, amplitude: float, degree: int) -> Any:
 
 
 def imperfect_shape(cfg: KnockdownConfig, amplitude: float, degree: int) -> Any:
-    """The unit sphere with the imperfection of ``cfg`` at ``amplitude`` (δ/h)."""
+    """The unit sphere with the imperfection of ``cfg`` at ``amplitude`` (δ/h) of ``degree``."""
     from shells.geometry.imperfections import HarmonicImperfectSphere, ImperfectSphere
 
     if cfg.imperfection == "harmonic":
@@ -205,9 +216,21 @@ def _imperfection_derivative(cfg: KnockdownConfig, degree: int, model: Any) -> A
 
 
 def balanced_weight(model: Any, ns: Any) -> float:
-    """The arclength norm's state weight ξ with which the state and load parts of the branch's
-    tangent are equal at the model's current (converged) state: J z = -∂R/∂λ, ξ² cw₁ |z|² = 1
-    (cw₁: ``Arclength``'s weight at ξ = 1, the RMS over all DOFs in thicknesses)."""
+    """The arclength norm's state weight ξ that balances the tangent's state and load parts.
+
+    At the model's current (converged) state: J z = -∂R/∂λ, ξ² cw₁ |z|² = 1 (cw₁:
+    ``Arclength``'s weight at ξ = 1, the RMS over all DOFs in thicknesses).
+
+    Args:
+        model: the problem, at a converged state.
+        ns: its Newton solver.
+
+    Returns:
+        ξ (1 where the state part vanishes).
+
+    Raises:
+        RuntimeError: if the Jacobian cannot be factored.
+    """
     from shells.algorithms.bordered import Arclength
 
     ar = Arclength(ns, model.length_scale(), 1.0)
@@ -223,13 +246,27 @@ def balanced_weight(model: Any, ns: Any) -> float:
 def first_critical(model: Any, ns: Any, cfg: KnockdownConfig, end: float,
                     ds_h: float | None, kappa_start: float = 0.0, balanced: bool = False,
                     window: bool = True) -> tuple[list[Any], int]:
-    """The axisymmetric critical points from κ = ``kappa_start`` (the model's state is the
-    branch's there) up to the first fold, or, when a crossing comes first (``window``), up to a
-    location tolerance beyond it in κ (without ``window``: the first critical point only), with
-    steps of ``ds_h`` in κh (None: the defaults) in the arclength norm of state weight 1, or
-    with ``balanced`` steps of ``ds_h`` in κ in the norm balanced at the start
-    (``balanced_weight``). Returns the located points in branch order and the number of
-    branch points followed."""
+    """The axisymmetric critical points of one attempt, up to the first fold.
+
+    Args:
+        model: the problem; its state is the branch's at ``kappa_start``.
+        ns: its Newton solver.
+        cfg: the curve.
+        end: the κ the branch is followed to at most.
+        ds_h: the steps in κh (None: the defaults), in the arclength norm of state weight 1.
+        kappa_start: the start's κ.
+        balanced: steps of ``ds_h`` in κ in the norm balanced at the start
+            (``balanced_weight``) instead.
+        window: when a crossing comes first, follow the branch on until it lies a location
+            tolerance beyond it in κ (a fold within it is the first critical point,
+            ``first_of``); False: stop at the first critical point.
+
+    Returns:
+        (the located points in branch order, the number of branch points followed).
+
+    Raises:
+        RuntimeError: if Newton fails at the start or on the way.
+    """
     from shells.algorithms.following import follow
     from shells.algorithms.settings import CriticalSettings
     from shells.analyses.axisym_runs import default_settings
@@ -242,8 +279,7 @@ def first_critical(model: Any, ns: Any, cfg: KnockdownConfig, end: float,
         # An imperfect sphere's fold mode is localised (a dimple's: within sqrt(Rh) of the
         # pole) and weakly loaded, so with the state weight 1 (the state's RMS over the whole
         # sphere, in thicknesses, against λ = κR) dκ/ds stays near 1 until the fold mode's
-        # eigenvalue is at the Jacobian's round-off (measured under pressure at h/R = 0.002,
-        # δ/h = 0.01: dκ/ds = 0.995 where the eigenvalue is 2e-6 of its start value 2e-3);
+        # eigenvalue is at the Jacobian's round-off (docs/imperfections.md, "Method");
         # there the corrector stalls, the eigenvalue's sign flips with round-off (a pair of
         # "bifurcations" with dκ/ds > 0) and the steps fall below ds_min short of the fold. A
         # balanced norm turns the tangent where the eigenvalue is still well resolved.
@@ -275,16 +311,22 @@ def first_critical(model: Any, ns: Any, cfg: KnockdownConfig, end: float,
 
 
 def first_of(found: list[Any], rel_tol: float) -> tuple[Any, list[Any]]:
-    """The first critical point of one attempt's list (branch order) and the crossings located
-    before it: a crossing followed by a fold within ``rel_tol`` in κ is that fold, seen early
-    through its own eigenvalue.
+    """The first critical point of one attempt, and the crossings located before it.
 
-    Next to an imperfect sphere's fold its mode's eigenvalue reaches the level at which it is
-    resolved (measured: a scatter of 3e-6 from point to point, where it starts from 1e-4 to
-    1e-3) within 1e-5 in κ of the fold, while dκ/ds is still positive: the inertia may count
-    it negative first, a "bifurcation" of the fold's own mode (pole-localised, carrying the
-    load) located 1e-5 below the fold. The two are one critical point at the location
-    tolerance; the fold is reported, with the crossings before it."""
+    A crossing followed by a fold within ``rel_tol`` in κ is that fold, seen early through
+    its own eigenvalue: next to an imperfect sphere's fold its mode's eigenvalue reaches the
+    round-off level at which it is resolved while dκ/ds is still positive, so the inertia may
+    count it negative first, a "bifurcation" of the fold's own mode (pole-localised, carrying
+    the load) just below the fold. The two are one critical point at the location tolerance
+    (docs/imperfections.md, "Crossings just before the fold").
+
+    Args:
+        found: one attempt's critical points, in branch order.
+        rel_tol: the location tolerance, relative in κ.
+
+    Returns:
+        (the first critical point or None, the crossings before it when it is such a fold).
+    """
     if not found or found[0].kind == "fold":
         return (found[0] if found else None), []
     fold = next((c for c in found if c.kind == "fold"), None)
@@ -312,10 +354,24 @@ def _approach(model: Any, ns: Any, kappa: float) -> None:
 def fold_kappa(cfg: KnockdownConfig, amplitude: float, degree: int,
                predicted: float | None = None, kappa_b: float | None = None
                ) -> dict[str, Any]:
-    """The first axisymmetric critical point of the sphere with imperfection ``amplitude``
-    (δ/h): for δ > 0 its fold (limit point), for δ = 0 its bifurcation. ``predicted``: the
-    asymptotic law's κ_max/κ_b and ``kappa_b`` (absolute), which set the steps near a fold
-    close to κ_b. Returns {"kind", "kappa_h", "mode_n", "accuracy", "branch_points"}."""
+    """The first axisymmetric critical point of the imperfect sphere.
+
+    Args:
+        cfg: the curve.
+        amplitude: δ/h: for δ > 0 the point is its fold (limit point), for δ = 0 its
+            bifurcation.
+        degree: the mode's degree n.
+        predicted: the asymptotic law's κ_max/κ_b, which with ``kappa_b`` sets the steps
+            near a fold close to κ_b.
+        kappa_b: the perfect sphere's κ_b (absolute).
+
+    Returns:
+        {"kind", "kappa_h", "mode_n", "accuracy", "branch_points"} and, where crossings of
+        the fold's own eigenvalue came first, "crossings_before".
+
+    Raises:
+        RuntimeError: if no limit point is found in any attempt.
+    """
     from shells.algorithms.newton import NewtonSolver
     from shells.axisym import SNES_OPTIONS
 
@@ -351,14 +407,13 @@ def _locate_first(cfg: KnockdownConfig, amplitude: float, model: Any, ns: Any, h
     # Every critical point of the axisymmetric problem is located, and the first one decides.
     # For δ > 0 it must be the fold: the imperfect branch is stable up to its limit point. A
     # crossing first means a step went past the fold, which turns ever more sharply as δ → 0,
-    # onto the neighbouring branch of the broken bifurcation (measured at h/R = 0.01, δ/h =
-    # 0.001: a "fold" 5 % above κ_b with steps of 0.02 in κh): the run is repeated with
-    # steps 4 and 16 times shorter. A crossing followed by a fold within the location
-    # tolerance is that fold (``first_of``: the fold mode's eigenvalue counted negative
-    # within 1e-5 of the fold, where it is no longer resolved; under pressure at h/R = 0.002
-    # every attempt could end so, and the run reported no limit point). Where the asymptotic
-    # law puts the fold within 0.08 in κh of κ_b, the steps are a quarter of that distance
-    # (and 4 times shorter on a retry), from 4 times that distance below κ_b. The perfect
+    # onto the neighbouring branch of the broken bifurcation (docs/design-notes.md,
+    # "Knock-down search"): the run is repeated with steps 4 and 16 times shorter. A
+    # crossing followed by a fold within the location tolerance is that fold (``first_of``:
+    # the fold mode's eigenvalue counted negative just before the fold, where it is no
+    # longer resolved; docs/imperfections.md, "Crossings just before the fold"). Where the
+    # asymptotic law puts the fold within 0.08 in κh of κ_b, the steps are a quarter of that
+    # distance (and 4 times shorter on a retry), from 4 times that distance below κ_b. The perfect
     # sphere's branch is the uniform shrink.
     # (start κ, step in κh) of each attempt
     ladder: list[tuple[float, float | None]] = (
@@ -409,9 +464,22 @@ def _describe(c: Any, h: float) -> str:
 
 
 def surface_first(cfg: KnockdownConfig, amplitude: float, degree: int) -> dict[str, Any]:
-    """The surface model's first critical point (fold or bifurcation, any m) of the sphere with
-    imperfection ``amplitude`` (δ/h; 0: the perfect sphere on the same refined mesh), from
-    ``shells.analyses.critical.run_surface`` (collective on COMM_WORLD)."""
+    """The surface model's first critical point (fold or bifurcation, any m).
+
+    From ``shells.analyses.critical.run_surface``, collective on COMM_WORLD.
+
+    Args:
+        cfg: the curve.
+        amplitude: δ/h (0: the perfect sphere on the same pole-refined mesh).
+        degree: the harmonic's or mode's degree n.
+
+    Returns:
+        {"kind", "kappa_h", "mode_n" (None), "mode_m", "accuracy" (None), "dofs",
+        "asymptotics" (None)}.
+
+    Raises:
+        RuntimeError: if no critical point is found in the range.
+    """
     from shells.analyses.critical import run_surface
 
     # δ = 0 as an imperfect sphere too: the same pole-refined mesh as the imperfect ones
@@ -427,9 +495,20 @@ def surface_first(cfg: KnockdownConfig, amplitude: float, degree: int) -> dict[s
 
 
 def perfect_sphere(cfg: KnockdownConfig, degree: int) -> dict[str, Any]:
-    """The perfect sphere's first axisymmetric bifurcation and Koiter's reduced equation there
-    (``shells.algorithms.asymptotics``) with the imperfection of ``cfg`` (its profile of degree
-    ``degree``): {"kind", "kappa_h", "mode_n", "accuracy", "branch_points", "asymptotics"}."""
+    """The perfect sphere's first axisymmetric bifurcation and Koiter's reduced equation there.
+
+    Args:
+        cfg: the curve (its imperfection gives c3, ``shells.algorithms.asymptotics``).
+        degree: the imperfection profile's degree (the located mode's where ``cfg.degree`` is
+            None).
+
+    Returns:
+        {"kind", "kappa_h" (the refined κ_c h), "kappa_h_located", "mode_n", "accuracy",
+        "branch_points", "asymptotics"}.
+
+    Raises:
+        RuntimeError: if the bifurcation is not found.
+    """
     from shells.algorithms.asymptotics import reduced_equation
     from shells.algorithms.newton import NewtonSolver
     from shells.axisym import SNES_OPTIONS
@@ -453,11 +532,23 @@ def perfect_sphere(cfg: KnockdownConfig, degree: int) -> dict[str, Any]:
 
 def knockdown(cfg: KnockdownConfig, outdir: str | Path | None = None
               ) -> Iterator[dict[str, Any]]:
-    """The knock-down curve of ``cfg``: first the perfect sphere ({"perfect": {...}}), then one
-    record per amplitude {"delta_over_h", "kappa_max_h", "knockdown", ...}, appended to
-    ``outdir``/points.jsonl as computed (those already there, same configuration, are read
-    back instead of recomputed; the amplitudes may differ, the rest of the configuration
-    not)."""
+    """The knock-down curve of ``cfg``, point by point.
+
+    Args:
+        cfg: the curve.
+        outdir: the folder of ``points.jsonl``, to which the records are appended as
+            computed; those already there (same configuration and method; the amplitudes may
+            differ) are read back instead of recomputed. None: nothing stored.
+
+    Yields:
+        First {"perfect": {...}, "degree"}, then one record per amplitude {"delta_over_h",
+        "kappa_max_h", "knockdown", "kind", "accuracy", "degree", "knockdown_asymptotic",
+        ...}; an amplitude whose search fails gets "kind" "none" and its "error".
+
+    Raises:
+        InputError: if ``points.jsonl`` holds another configuration, or the harmonic's order
+            exceeds the critical degree.
+    """
     from shells.theory import sphere_mode_n
 
     out = None if outdir is None else Path(outdir) / "points.jsonl"
@@ -540,9 +631,20 @@ def knockdown(cfg: KnockdownConfig, outdir: str | Path | None = None
 
 def run(cfg: KnockdownConfig, outdir: str | Path | None, figure: bool = True
                   ) -> dict[str, Any]:
-    """The whole curve (``knockdown``) as one result: {"kappa_b", "kappa_b_h", "degree",
-    "points": [{"delta_over_h", "kappa_max_h", "knockdown", ...}], "config", "points_file",
-    "figures"}; with ``figure`` and ``outdir`` also ``outdir``/knockdown.png (log δ axis)."""
+    """The knock-down analysis: the whole curve (``knockdown``) as one result.
+
+    Args:
+        cfg: the curve.
+        outdir: the output folder (None: nothing written).
+        figure: with ``outdir``, also write ``outdir``/knockdown.png (log δ axis).
+
+    Returns:
+        {"kappa_b", "kappa_b_h", "load", "p_b_over_E", "p_c_over_E_classical", "degree",
+        "asymptotics", "points" (by δ), "config", "figures", "points_file"}.
+
+    Raises:
+        InputError: as ``knockdown``.
+    """
     recs = list(knockdown(cfg, outdir))
     head, pts = recs[0], sorted(recs[1:], key=lambda r: r["delta_over_h"])
     h = cfg.h_over_r  # R = 1
@@ -562,8 +664,15 @@ def run(cfg: KnockdownConfig, outdir: str | Path | None, figure: bool = True
 
 
 def write_figure(res: dict[str, Any], path: Path) -> str:
-    """The knock-down curve of ``res`` (computed and asymptotic, log δ axis) to ``path``;
-    returns the path written."""
+    """Plot the knock-down curve (computed and asymptotic, log δ axis).
+
+    Args:
+        res: a result of ``run``.
+        path: the image file.
+
+    Returns:
+        The path written.
+    """
     import matplotlib
 
     matplotlib.use("Agg")

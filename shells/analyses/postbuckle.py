@@ -4,54 +4,34 @@ bifurcated branch on both sides (driver layer, on the algorithm layer's ``follow
 
 ``postbuckle(cfg)`` yields one record per computed point:
 
-1. the fundamental branch from κ = 0 by pseudo-arclength with the stability at every point, up
-   to its ``cfg.at``-th bifurcation, located to 1e-4 in κ (``branch`` = "fundamental");
-2. at the bifurcation, the critical mode: on the 1D model the axisymmetric (m = 0) mode of the
-   Jacobian (rotational symmetry enforced: the only branches the 1D model represents), on the
-   surface model the critical eigenvector of the Hessian (a split (cos mφ, sin mφ) pair's
-   partner is pinned: a phase condition, see ``shells.algorithms.switching.switch_branch``);
-3. the bifurcated branch on both sides of the mode (amplitude +a and -a), by secant
-   pseudo-arclength, until κ leaves [``kappa_min_ratio`` κ_c, κ_max], after ``max_points``
-   points, or when the branch returns to the fundamental one (``branch`` = "bifurcated").
-   A closed shell with a pole (the sphere; on either model, not on a user's mesh) instead:
-   the dimple at the top pole, switched onto along the combination of its cluster of nearly
-   simultaneous modes (the 1D model: degrees n, n ± 1, ...; the surface model: the located
-   multiplet) that deepens the pole most, its depth Ψ3(pole)/h the branch's parameter (steps
-   of ``amplitude`` to 4 ``amplitude`` thicknesses; side -1 pushes the pole in, +1 out; past a
-   fold of the depth by arclength; the summary's ``parameter``: "psi3_pole_over_h", else
-   "arclength"; ``switch_branch``'s ``control``). The two models' dimples agree within 0.4 %
-   in κ/κ_b at equal depth (h/R = 0.05, ``benchmarks/dimple_2d.py``).
+1. the fundamental branch from κ = 0 with the stability at every point, up to its
+   ``cfg.at``-th bifurcation, located to 1e-4 in κ (``branch`` = "fundamental");
+2. the critical mode there: on the 1D model the axisymmetric (m = 0) mode of the Jacobian
+   (the only branches the 1D model represents), on the surface model the critical
+   eigenvector of the Hessian (a split (cos mφ, sin mφ) pair's partner pinned);
+3. the bifurcated branch on each of ``cfg.sides`` (``branch`` = "bifurcated"), until κ leaves
+   [``kappa_min_ratio`` κ_c, κ_max], after ``max_points`` points, or when it returns to the
+   fundamental branch. On a closed shell with a pole (the sphere; either model, not on a
+   user's mesh) the branch is the dimple at the top pole, its depth Ψ3(pole)/h the branch's
+   parameter (the summary's ``parameter``: "psi3_pole_over_h", else "arclength"; side -1
+   pushes the pole in; docs/model.md, "The 1D model's closed sphere").
 
-Each bifurcated point carries ``side`` (+1/-1, the sign of the first amplitude), ``start``
-("down" or "up": where κ goes from κ_c on that side) and ``subcritical`` (it goes back against
-the loading, towards smaller |κ|): a transcritical (asymmetric) bifurcation, as the closed
-sphere's, has one side of each; a pitchfork two alike.
+Each bifurcated point carries ``side`` (the sign of the first amplitude), ``start`` ("down" or
+"up": where κ goes from κ_c on that side) and ``subcritical`` (it goes back towards smaller
+|κ|). Stability is the negative count of the full Hessian (``negative_count``; on the 1D model
+Σ_m N_m over the Fourier blocks, each m ≥ 1 counted for its cos and sin members, per block in
+``negative_counts``); ``orientation_modes`` of them lie along the state's symmetry orbit (a
+pattern's rotation about the axis, a dimple's sliding over a sphere), neutral for the shell,
+and ``stable`` means no other negative eigenvalue.
 
-Stability at every point: the negative count of the full Hessian (``negative_count``; on the 1D
-model Σ_m (1 or 2) N_m over m = 0..m_max, each m ≥ 1 counted for its cos and sin members, with
-the per-mode counts in ``negative_counts`` and the axisymmetric count N_axi of the Jacobian).
-``orientation_modes`` of the negative ones lie along the orbit of the state under the
-rotations that map the reference surface onto itself (``Stability.negative_count_modulo_orbit``
-with the models' ``classify_mode`` overlap): on the surface model turning a pattern about the
-axis, and on a closed sphere (both models; the 1D model's m = 1 block, counted as a pair)
-sliding the dimple away from the pole. These are neutral for the shell, and on a mesh their
-eigenvalue is small and of either sign; ``stable`` means no other negative eigenvalue.
-
-Files: every point is appended to ``DIR/postbuckle.jsonl`` as it is computed
-(header first), each side's points followed by a {"side_end": {...}} record when it ends. At
-the bifurcation its state and critical mode go to ``DIR/critical_point/`` (one ``.npz`` per
-rank), and after each point of a side that is written, what resuming after it needs to
-``DIR/side_checkpoint/`` (the state there and at the point before, the switching loop's step
-and tests: ``shells.algorithms.records.SwitchResume``; ``shells.analyses.store.save_checkpoint``).
-A rerun with the same configuration resumes: a file that ended with its summary record is reused;
-otherwise, when the critical point and its checkpoint are there, the fundamental branch and the
-sides that ended are kept, an interrupted side continues after its last checkpointed point (its
-points up to there kept, the next ones those of the uninterrupted run: same secant, step and tests),
-and the other unfinished sides are followed from the bifurcation. A side whose checkpoint is
-missing, corrupt or another run's restarts whole from the bifurcation (its partial points
-dropped, a log line says why); without the critical point the run starts again from κ = 0.
-(On the 1D model a side's first 3 points are held back until no retry at another amplitude can
-drop them, so a side interrupted before its third point restarts whole.)
+Files (``run_postbuckle``): the records in ``DIR/postbuckle.jsonl`` (header first, each side
+ended by a {"side_end": ...} record), the critical point in ``DIR/critical_point/`` and the
+side being followed in ``DIR/side_checkpoint/`` (``shells.analyses.store``). A rerun with the
+same configuration reuses a complete file; otherwise it resumes from the critical point: the
+sides that ended are kept, an interrupted side continues after its last checkpointed point as
+the uninterrupted run would, and a side whose checkpoint is unusable restarts from the
+bifurcation (a log line says why); without the critical point the run starts from κ = 0. (A
+1D side's first 3 points are held back until no retry at another amplitude can drop them.)
 """
 
 from __future__ import annotations
@@ -156,8 +136,8 @@ class PostbuckleConfig(RunScales):
         if self.model == "surface" and (self.degree is None or self.size is None):
             from shells.surface.model import default_discretisation
 
-            # size 0.2 with 3 layer elements: the 30° cap's m = 2 bifurcation within 3e-4 of
-            # the 1D model's (P2), the ellipsoid's within 1e-4 (P3)
+            # size 0.2 with 3 layer elements: close to the 1D model's bifurcations on caps and
+            # ellipsoids (docs/design-notes.md, "Post-buckling runs")
             deg, size = default_discretisation(self.shape, self.h_over_r, self.degree,
                                                0.2 if self.size is None else self.size,
                                                self.kappa_field)
@@ -166,6 +146,7 @@ class PostbuckleConfig(RunScales):
 
     @property
     def kappa_stop(self) -> float:
+        """The end of the κ range: ``kappa_end``, or the shape's default range."""
         from shells.analyses.setup import default_kappa_range
 
         if self.kappa_end is not None:
@@ -173,28 +154,28 @@ class PostbuckleConfig(RunScales):
         return default_kappa_range(self.shape, self.h_over_r, self.nu, self.direction)
 
     def describe(self) -> dict[str, Any]:
+        """The configuration as the JSON header of its file (what a resume compares)."""
         d = asdict(self)
         d["shape"] = self.shape.describe()
         d["sides"] = list(self.sides)  # as JSON reads it back (a resumed file's header)
         del d["kappa_field"]
         d.update(self.kappa_field.header_entry())
         if d["mesh_file"] is None:
-            del d["mesh_file"]  # the headers of runs on shells' own meshes, as before
+            del d["mesh_file"]  # runs on shells' own meshes: headers of existing files match
         return d
 
 
 #: the 1D model's branch switching: near-null modes deflated from its first corrector's steps
 #: (the neighbouring degrees of a sphere's buckling mode), and the round-off factor of the
-#: residual bound: with the penalty 1e6 the residual stalled at about 10 ε ||J||_F ||w|| on the
-#: arclength-followed inward branch of the h/R = 0.01 sphere below κ/κ_b = 0.94 (measured then;
-#: the dimple's points are now converged by plain Newton, their residuals far below the bound)
+#: residual bound, above the floor of the stiff penalised Jacobian (docs/design-notes.md,
+#: "Post-buckling runs")
 DEFLATE = 4
 ROUNDOFF = 10.0
 #: the closed sphere's dimple branch: switched onto along the projection of the pole's depth
 #: on this many eigenvectors nearest 0 at κ_b, or on the located multiplet if larger (the 1D
-#: model: the neighbouring degrees, h/R = 0.01: 4.6e-7, 2.5e-6, then 2.5e-4 ... 9.6e-4; h/R =
-#: 0.001: six within 1e-5; the surface model at h/R = 0.05: the 36 modes of degrees 8 and 9),
-#: and followed with the depth Ψ3(pole)/h as the parameter (``switch_branch``'s ``control``)
+#: model: the neighbouring degrees; the surface model: the multiplet of the critical degrees;
+#: docs/model.md, "The 1D model's closed sphere"), and followed with the depth Ψ3(pole)/h as the
+#: parameter (``switch_branch``'s ``control``)
 CLUSTER = 6
 #: the 1D model's C1 penalty on closed shells (see ``_Run``)
 CLOSED_PENALTY = 1.0e5
@@ -215,12 +196,10 @@ class _Run:
             from shells.axisym import SNES_OPTIONS, AxisymModel
 
             # the C1 penalty ties the slopes to the displacement only to O(1/penalty): on a
-            # closed sphere that is a pole-localised, mirror-symmetric imperfection (measured:
-            # Legendre content 3.6e-6 h at κh = 1, h/R = 0.01, for penalty 1e4, exactly 10x less
-            # per decade of penalty, independent of the mesh), which the near-critical even
-            # degrees amplify into a fold 2e-4 before κ_b: 1e5 makes it 10x smaller. Not 1e6:
-            # then on the dimple branch of the h/R = 0.001 sphere no Newton iteration converges
-            # (its increments stay near 1e-3 R; with 1e5: 5 quadratic iterations to 1e-15)
+            # closed sphere that is a mirror-symmetric imperfection, ∝ 1/penalty, which the
+            # near-critical even degrees amplify into a fold just before κ_b; 1e5 makes it 10x
+            # smaller than the default. Not 1e6: then Newton does not converge on the dimple
+            # branch of thin spheres (docs/model.md, "The 1D model's closed sphere")
             penalty = cfg.penalty if cfg.penalty is not None else (
                 CLOSED_PENALTY if cfg.shape.closed else 1.0e4)
             rc = RunConfig(shape=cfg.shape, h_over_r=cfg.h_over_r, nu=cfg.nu,
@@ -243,11 +222,19 @@ class _Run:
         self.stab = Stability(self.model)
 
     def stability(self, orbit: bool = True) -> dict[str, Any]:
-        """The point's stability record; ``orbit`` False: no mode is counted as an orientation
-        mode (the fundamental branch: a state with the shell's symmetry has no orbit, and the
-        tangent of its mesh-sized asymmetry, as the P_n of a closed sphere's penalty
-        imperfection, rotated, is a member of the unstable multiplet past κ_b: measured, the
-        1D sphere's fundamental point at 1.02 κ_b counted 4 of its 57)."""
+        """The point's stability record.
+
+        Args:
+            orbit: count orientation modes apart; False on the fundamental branch: a state
+                with the shell's symmetry has no orbit, and the tangent of its mesh-sized
+                asymmetry (the P_n of a closed sphere's penalty imperfection, rotated) is a
+                member of the unstable multiplet past κ_b, which must not be discounted
+                (docs/design-notes.md, "Post-buckling runs").
+
+        Returns:
+            ``stable``, ``negative_count``, ``orientation_modes`` and, on the 1D model,
+            ``negative_counts`` per block and ``negative_count_axisymmetric``.
+        """
         if self.cfg.model == "surface":
             # a rotation of the buckling pattern about the axis is neutral for the shell; on
             # the mesh (exactly C_k-symmetric) its eigenvalue is tiny and of either sign, and
@@ -262,9 +249,8 @@ class _Run:
         slide = 0
         if orbit and self.cfg.shape.closed and counts.get(1, 0) > 0:
             # on a closed sphere a rotation about its centre slides a dimple at the pole over
-            # it: neutral, an m = 1 pair of either sign on the meridian's mesh (measured at
-            # h/R = 0.05: 5e-8 to 4e-6 against 0.0075 to 0.44 for the block's next mode,
-            # negative at some points from 9.8 h deep)
+            # it: neutral, an m = 1 pair of either sign on the meridian's mesh, far below the
+            # block's next mode (docs/model.md, "The 1D model's closed sphere")
             slide = 2 * self.stab.negative_count_modulo_orbit(1, count=counts[1])[1]
         return {"stable": total - slide == 0, "negative_count": total,
                 "negative_counts": [counts[m] for m in sorted(counts)],
@@ -272,6 +258,7 @@ class _Run:
                 "orientation_modes": slide}
 
     def record(self, p: Any, branch: str, **extra: Any) -> dict[str, Any]:
+        """The record of point ``p`` on ``branch``: its scalars, κR, κh, stability, ``extra``."""
         d = p.as_dict()
         d.update(branch=branch, kappa_R=p.kappa * self.cfg.R, kappa_h=p.kappa * self.cfg.h,
                  **self.stability(orbit=branch != "fundamental"))
@@ -280,6 +267,7 @@ class _Run:
         return d
 
     def destroy(self) -> None:
+        """Free the stability and Newton solvers."""
         self.stab.destroy()
         self.ns.destroy()
 
@@ -378,7 +366,7 @@ def _settings(cfg: PostbuckleConfig, kappa_stop: float) -> tuple[Any, Any]:
     closed = cfg.shape.closed
     # a closed sphere's axisymmetric modes of neighbouring degrees bifurcate within 1e-4 in κ:
     # short steps, and the locator's corrector deflates the near-null modes (else it lands on
-    # the branches bifurcating close by; measured: 2e-4 low at 1/6 of the range per step)
+    # the branches bifurcating close by: docs/model.md, "The 1D model's closed sphere")
     # (the surface model: 1/20, its steps cost a factorisation of 10⁴-10⁵ DOFs each, and the
     # locator brackets a bifurcation to 1e-4 within a step of any length)
     frac = 1.0 / 80 if closed else 1.0 / 40 if cfg.model == "axisym" else 1.0 / 20
@@ -394,18 +382,25 @@ def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], 
                resume: tuple[Any, dict[int, dict[str, Any]]]
                | tuple[Any, dict[int, dict[str, Any]], SideResume | None] | None = None
                ) -> Iterator[dict[str, Any]]:
-    """Compute the run of ``cfg``; yields its records in order (see the module docstring):
-    fundamental points, then {"critical_point": {...}} once, then each side's bifurcated points
-    and its {"side_end": {...}} record, then {"summary": {...}} last. ``on_point(model, record)`` is
-    called at every point while the model holds its state (for fields and shapes);
-    ``on_critical(model, cp)`` once the bifurcation is located (the ``CriticalPoint`` with its
-    state and mode: a checkpoint); ``on_side_point(model, side, r)`` after a bifurcated point's
-    record has been yielded (and stored by the consumer), with the ``SwitchResume`` r that
-    resumes the side after it (a checkpoint). ``resume`` = (that ``CriticalPoint``, {side: its
-    "side_end" record} of the sides that ended[, a ``SideResume``]): the fundamental branch and
-    those sides are not computed again (nor yielded), the ``SideResume``'s side continues after
-    its last point (its points from there on yielded), the other sides are followed from the
-    critical point.
+    """Compute the run of ``cfg`` (see the module docstring).
+
+    Args:
+        cfg: the run.
+        on_point: called as ``on_point(model, record)`` at every point while the model holds
+            its state (for fields and shapes).
+        on_critical: called as ``on_critical(model, cp)`` once the bifurcation is located,
+            with the ``CriticalPoint`` and its state and mode (a checkpoint).
+        on_side_point: called as ``on_side_point(model, side, r)`` after a bifurcated point's
+            record has been yielded (and stored by the consumer), with the ``SwitchResume`` r
+            that resumes the side after it (a checkpoint).
+        resume: (that ``CriticalPoint``, {side: its "side_end" record} of the sides that
+            ended[, a ``SideResume``]): the fundamental branch and those sides are not
+            computed again (nor yielded), the ``SideResume``'s side continues after its last
+            point, the other sides are followed from the critical point.
+
+    Yields:
+        The records in order: fundamental points, {"critical_point": {...}} once, each
+        side's bifurcated points and its {"side_end": {...}} record, {"summary": {...}} last.
 
     Raises:
         InputError: bad configuration, or a first critical point the model cannot switch at
@@ -467,15 +462,16 @@ def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], 
                      sorted(done_sides) or "none")
         lam_c = abs(cp.kappa_L)
         # a closed shell with a pole (the sphere): the dimple at the pole, its depth the
-        # branch's parameter (steps in thicknesses of depth; on the 1D model the arclength
-        # steps slid onto other branches of the cluster, their path depended on the first
+        # branch's parameter (steps in thicknesses of depth; on the 1D model arclength steps
+        # slide onto other branches of the cluster, their path depending on the first
         # amplitude and on round-off; the surface model's multiplet has no preferred member)
         dimple = (cfg.shape.closed and getattr(cfg.shape, "of_revolution", True)
                   and getattr(cfg.shape, "has_pole", True) and cfg.mesh_file is None)
         control = run.model.pole_functional() if dimple else None
         # the surface model's dimple could slide over the sphere (neutral; a near-null pair of
-        # either sign on the mesh): its centre held at the pole (measured: at h/R = 0.05 the
-        # pair's eigenvalue crossed 0 at 17.5 h deep and the steps in depth stalled there)
+        # either sign on the mesh): its centre held at the pole, since at a fixed depth the
+        # corrector is singular where that pair's eigenvalue crosses 0 (docs/model.md, "The 1D
+        # model's closed sphere")
         phase = (run.model.pole_moments() if dimple and cfg.model == "surface" else [])
         sst = ContinuationSettings(ds=cfg.amplitude, ds_max=(4 * cfg.amplitude if dimple else
                                                              max(4 * cfg.amplitude,
@@ -487,14 +483,13 @@ def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], 
         # the 1D model follows its one axisymmetric mode without pins: the modes of the
         # neighbouring degrees that cross next to it are other branches, not an orbit of
         # symmetry, and a localised dimple holds every degree (pinning them fails at large
-        # amplitude, measured). The surface model pins the partner of a split pair (the
-        # pattern's orientation), see switch_branch
+        # amplitude). The surface model pins the partner of a split pair (the pattern's
+        # orientation), see switch_branch
         pinned = 1 if cfg.model == "axisym" else None
         deflate = DEFLATE if cfg.model == "axisym" else 0
         sides = {}
         # the 1D model's first corrector next to a cluster of bifurcations is sensitive to the
-        # amplitude (measured on the h/R = 0.01 sphere: 0.2 and 0.25 fell back onto the
-        # fundamental branch, 0.3 and 0.5 followed the dimple): a side that returns within
+        # amplitude (docs/design-notes.md, "Post-buckling runs"): a side that returns within
         # its first 3 points is retried with other amplitudes (its points are kept back until
         # then: from the third on, they stream); the surface model takes one amplitude and
         # streams its points
@@ -577,8 +572,8 @@ def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], 
                     elif n == 0 and "did not converge off the fundamental branch" in str(e):
                         # no first point at any of switch_branch's amplitudes: the next
                         # factor, and past the last the side is reported as failed, not the
-                        # run (measured: the h/R = 0.05 sphere's outward side, whose first
-                        # corrector diverges next to the cluster of bifurcations)
+                        # run (a first corrector next to a cluster of bifurcations can
+                        # diverge: docs/model.md, "The 1D model's closed sphere")
                         ended = f"switching failed: {e}"
                     else:
                         raise
@@ -607,7 +602,14 @@ def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], 
 
 
 def read_postbuckle(path: str | os.PathLike) -> tuple[dict[str, Any], list[dict[str, Any]]]:
-    """Header and records of a post-buckling file (a torn last line is ignored)."""
+    """Read a post-buckling file.
+
+    Args:
+        path: the ``postbuckle.jsonl`` file.
+
+    Returns:
+        (header, records); a torn last line is ignored.
+    """
     return read_with_header(path)
 
 
@@ -615,10 +617,20 @@ def run_postbuckle(cfg: PostbuckleConfig, outdir: str | os.PathLike | None = Non
                    comm: Any = None,
                    on_point: Callable[[Any, dict[str, Any]], None] | None = None
                    ) -> list[dict[str, Any]]:
-    """``postbuckle`` with its records appended to ``outdir/postbuckle.jsonl`` (rank 0) as
-    they are computed, and the critical point's checkpoint in ``outdir/critical_point/``; a
-    rerun of the same configuration reuses a complete file and resumes an incomplete one from
-    its critical point (see the module docstring)."""
+    """``postbuckle`` with its records stored as they are computed, and resumed on a rerun.
+
+    Args:
+        cfg: the run.
+        outdir: the folder of ``postbuckle.jsonl`` (written by rank 0), ``critical_point/``
+            and ``side_checkpoint/``; None: nothing is written or resumed.
+        comm: the communicator (default ``MPI.COMM_WORLD``).
+        on_point: as for ``postbuckle``.
+
+    Returns:
+        All records of the run, the kept ones of a resumed file first. A rerun of the same
+        configuration reuses a complete file and resumes an incomplete one from its critical
+        point (see the module docstring).
+    """
     from mpi4py import MPI
 
     comm = MPI.COMM_WORLD if comm is None else comm
@@ -767,9 +779,18 @@ def _load_critical(outdir: Path, comm: Any, header: dict[str, Any]) -> Any:
 
 def run(cfg: Any, outdir: str | os.PathLike | None = None,
                    fields: str = "none") -> dict[str, Any]:
-    """``run_postbuckle`` on ``cfg`` (a ``PostbuckleConfig``), the
-    bifurcated states written for ParaView (``fields``: none, last, all; needs ``outdir``); returns
-    the critical point, the points, the sides' summaries, the DOFs and the files written."""
+    """The post-buckling analysis of ``cfg``: ``run_postbuckle`` plus ParaView output.
+
+    Args:
+        cfg: a ``PostbuckleConfig``.
+        outdir: the output folder (None: nothing written).
+        fields: which bifurcated states to write for ParaView: "none", "last" or "all"
+            (needs ``outdir``).
+
+    Returns:
+        {"config", "critical_point", "points", "sides" (the sides' summaries), "dofs",
+        "branch_file", "files"}.
+    """
     from shells.analyses.writers import ShapeWriter
 
     out = Path(outdir) if outdir else None

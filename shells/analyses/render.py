@@ -52,10 +52,14 @@ def ensure_display() -> None:
 
 def gather_vtk_mesh(mesh: Any, values: np.ndarray | None = None
                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None] | None:
-    """(cells, cell types, points, point values) of the whole mesh on rank 0, None elsewhere.
+    """Gather the whole mesh's VTK arrays on rank 0 (collective).
 
-    ``mesh``: a dolfinx mesh, or a Lagrange function space (points: its DOF nodes).
-    ``values`` are per point (local, owned + ghost) as from ``dolfinx.plot.vtk_mesh``.
+    Args:
+        mesh: a dolfinx mesh, or a Lagrange function space (points: its DOF nodes).
+        values: per-point values (local, owned + ghost) as from ``dolfinx.plot.vtk_mesh``.
+
+    Returns:
+        (cells, cell types, points, point values or None) on rank 0, None elsewhere.
     """
     from dolfinx import plot
 
@@ -103,7 +107,13 @@ def _plotter(png: str | os.PathLike) -> Any:
 
 
 def render_mesh(sm: ShellMesh, png: str | os.PathLike, *, title: str | None = None) -> None:
-    """Render the surface with its edges to ``png`` (rank 0 writes)."""
+    """Render the surface with its edges (collective; rank 0 writes).
+
+    Args:
+        sm: the mesh.
+        png: the image file.
+        title: a title drawn on the image.
+    """
     data = gather_vtk_mesh(sm.mesh)
     if data is None:
         return
@@ -123,9 +133,17 @@ def render_mesh(sm: ShellMesh, png: str | os.PathLike, *, title: str | None = No
 def render_state(model: Any, png: str | os.PathLike | None, *, vtu: str | os.PathLike | None = None,
                  color_by: str = "bending_energy_density", title: str | None = None,
                  view: str = "xz") -> None:
-    """The surface model's current state, deformed, coloured by one of its fields
-    (``shells.surface.fields.FieldWriter``'s arrays) to ``png``; with ``vtu`` also the deformed
-    surface with every field as VTK XML (``.vtu``, ParaView's default reader). Rank 0 writes."""
+    """Render the surface model's current state, deformed (collective; rank 0 writes).
+
+    Args:
+        model: the surface model, holding the state.
+        png: the image file (None: no image).
+        vtu: also write the deformed surface with every field as VTK XML (``.vtu``,
+            ParaView's default reader).
+        color_by: the field that colours it (``shells.surface.fields.FieldWriter``'s arrays).
+        title: a title drawn on the image.
+        view: the camera's plane ("xz", ...).
+    """
     from shells.surface.fields import FieldWriter
 
     funcs = FieldWriter(model, None).update()

@@ -26,6 +26,15 @@ def default_kappa_range(shape: object, h_over_r: float, nu: float, direction: st
 
     Built from the paper's laws (sphere and any closed shell: κ_b h; caps: the snap line, the
     mirrored Eq. (4) and Eq. (4); disk: the plate limit), widened by 60 %; other shapes 8/R.
+
+    Args:
+        shape: the shell.
+        h_over_r: thickness over the shape's length scale.
+        nu: Poisson's ratio.
+        direction: "up" (κ > 0) or "down" (κ < 0).
+
+    Returns:
+        The signed end of the range, an absolute κ.
     """
     sign = 1.0 if direction == "up" else -1.0
     L = shape.characteristic_size()  # type: ignore[attr-defined]

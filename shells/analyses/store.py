@@ -33,9 +33,17 @@ log = logging.getLogger("shells")
 
 
 def read_meta(path: str | os.PathLike, comm: Any) -> dict[str, Any] | None:
-    """A checkpoint's ``meta.json`` (written last, so its presence marks a complete
-    checkpoint), read on rank 0 and broadcast: the dict, or None if it is missing or not
-    JSON."""
+    """Read a checkpoint's ``meta.json`` on rank 0 and broadcast it.
+
+    ``meta.json`` is written last, so its presence marks a complete checkpoint.
+
+    Args:
+        path: the ``meta.json`` file.
+        comm: the communicator.
+
+    Returns:
+        The dict, or None (on every rank) if it is missing or not JSON.
+    """
     meta = None
     path = Path(path)
     if comm.rank == 0 and path.exists():
@@ -52,12 +60,20 @@ CHECKPOINT_ERRORS = (OSError, ValueError, KeyError, TypeError, EOFError, zipfile
 
 def save_checkpoint(d: Path, comm: Any, index: int, arrays: dict[str, Any],
                     meta: dict[str, Any] | None = None) -> None:
-    """The checkpoint of point ``index`` in folder ``d``: this rank's ``arrays`` (and the
-    index) to ``state-RANK-of-SIZE.INDEX.npz`` (a temporary file renamed into place); rank 0
-    then writes ``meta.json`` ({"ranks": SIZE, "index": INDEX} and ``meta``'s entries), the
-    last file of a complete checkpoint, and only then are the earlier points' state files
-    removed: a kill at any moment leaves a complete checkpoint, this point's or the previous
-    one's. Collective on ``comm``."""
+    """Write the checkpoint of point ``index`` in folder ``d`` (collective on ``comm``).
+
+    This rank's arrays (and the index) go to ``state-RANK-of-SIZE.INDEX.npz`` (a temporary
+    file renamed into place); rank 0 then writes ``meta.json``, the last file of a complete
+    checkpoint, and only then are the earlier points' state files removed: a kill at any
+    moment leaves a complete checkpoint, this point's or the previous one's.
+
+    Args:
+        d: the checkpoint's folder (created if needed).
+        comm: the communicator.
+        index: the point's index.
+        arrays: this rank's arrays.
+        meta: entries added to ``meta.json`` beside {"ranks": SIZE, "index": INDEX}.
+    """
     if comm.rank == 0:
         d.mkdir(parents=True, exist_ok=True)
     comm.barrier()
@@ -86,11 +102,21 @@ def save_checkpoint(d: Path, comm: Any, index: int, arrays: dict[str, Any],
 def load_checkpoint(d: Path, comm: Any, *, every_rank: bool,
                     check: Callable[[Any], bool] | None = None
                     ) -> tuple[dict[str, Any], list[Any]] | None:
-    """The checkpoint ``save_checkpoint`` wrote in ``d``: (its meta, its state files, each read
-    whole into a dict of arrays): every rank's (``every_rank``: a checkpoint read on any
-    partition, which matches its values by what they hold) or this rank's only (a checkpoint of
-    this rank count only). None on every rank when it is missing or incomplete, a file cannot
-    be read, holds another point, or fails ``check`` (asked of each file)."""
+    """Read the checkpoint ``save_checkpoint`` wrote in ``d`` (collective).
+
+    Args:
+        d: the checkpoint's folder.
+        comm: the communicator.
+        every_rank: read every rank's file (a checkpoint read on any partition, which matches
+            its values by what they hold); False: this rank's only (a checkpoint of this rank
+            count only).
+        check: asked of each file's dict of arrays; False rejects the checkpoint.
+
+    Returns:
+        (its meta, its state files, each read whole into a dict of arrays); None on every
+        rank when it is missing or incomplete, a file cannot be read, holds another point,
+        or fails ``check``.
+    """
     from mpi4py import MPI
 
     meta = read_meta(d / "meta.json", comm)
@@ -123,11 +149,21 @@ def _owned_nodes(model: Any) -> tuple[np.ndarray, int]:
 def save_state_checkpoint(d: Path, model: Any, index: int, states: dict[str, np.ndarray],
                           scalars: dict[str, float] | None = None,
                           meta: dict[str, Any] | None = None) -> None:
-    """``save_checkpoint`` of point ``index`` for the surface model ``model``: each of ``states``
-    (this rank's owned values, or the whole local array: its owned part is taken) with the
-    coordinates of its owned DOF nodes (``x``), so ``load_state_checkpoint`` can read it back on
-    any partition of the same mesh (another rank count, or another partition of the same rank
-    count); ``scalars`` are stored beside them, ``meta`` in ``meta.json``. Collective."""
+    """``save_checkpoint`` of point ``index`` for the surface model, readable on any partition.
+
+    Each state is stored with the coordinates of its owned DOF nodes (``x``), so
+    ``load_state_checkpoint`` can read it back on any partition of the same mesh (another rank
+    count, or another partition of the same rank count). Collective.
+
+    Args:
+        d: the checkpoint's folder.
+        model: the surface model.
+        index: the point's index.
+        states: {name: this rank's owned values, or the whole local array (its owned part is
+            taken)}.
+        scalars: stored beside the states.
+        meta: entries of ``meta.json``.
+    """
     x, bs = _owned_nodes(model)
     n = x.shape[0] * bs
     arrays: dict[str, Any] = {"x": x}
@@ -139,11 +175,20 @@ def save_state_checkpoint(d: Path, model: Any, index: int, states: dict[str, np.
 
 def load_state_checkpoint(d: Path, model: Any, names: Sequence[str]
                           ) -> tuple[dict[str, Any], dict[str, np.ndarray], dict[str, Any]] | None:
-    """The checkpoint ``save_state_checkpoint`` wrote in ``d``, on this rank's partition of
-    ``model``'s mesh: (its meta, {name: this rank's owned values} for each of its states, the
-    first file's other arrays: the scalars). Nodes are matched by their coordinates; None on
-    every rank when it is missing, incomplete, unreadable, lacks one of the states ``names``
-    or is of another mesh. Collective."""
+    """Read the checkpoint ``save_state_checkpoint`` wrote in ``d`` onto this rank's partition.
+
+    Nodes are matched by their coordinates. Collective.
+
+    Args:
+        d: the checkpoint's folder.
+        model: the surface model, on the checkpoint's mesh.
+        names: the states that must be there.
+
+    Returns:
+        (its meta, {name: this rank's owned values} for each of its states, the first file's
+        other arrays: the scalars); None on every rank when it is missing, incomplete,
+        unreadable, lacks one of ``names`` or is of another mesh.
+    """
     from mpi4py import MPI
     from scipy.spatial import cKDTree
 
@@ -170,10 +215,24 @@ def load_state_checkpoint(d: Path, model: Any, names: Sequence[str]
 
 def resumable(path: Path, header: dict[str, Any], comm: Any, *, resume: bool = True,
               ignore: Sequence[str] = ("dofs",)) -> tuple[str | None, list[dict[str, Any]]]:
-    """What a rerun finds in its file ``path``: (None, its records) when it is this run's (its
-    header equals ``header``, ``ignore``'s keys aside) and holds records, else (why not, []).
-    Rank 0 reads it and tells the others; a file with a corrupt line is an ``InputError`` on
-    every rank. ``resume`` False: ("--restart", []) without reading it."""
+    """What a rerun finds in its JSON-lines file: its records, if they are this run's.
+
+    Rank 0 reads the file and tells the others.
+
+    Args:
+        path: the run's file.
+        header: this run's header.
+        comm: the communicator.
+        resume: False: ("--restart", []) without reading the file.
+        ignore: header keys not compared.
+
+    Returns:
+        (None, its records) when the file is this run's (its header equals ``header``,
+        ``ignore``'s keys aside) and holds records, else (why not, []).
+
+    Raises:
+        InputError: on every rank, if the file has a corrupt line.
+    """
     if not resume:
         return "--restart", []
     old: Any = None

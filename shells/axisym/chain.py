@@ -4,48 +4,38 @@ matrices, condensed on the meridian's chain of cells (problem layer: ``ModeForms
 ``block_inertia``, ``block_factor`` and ``condensed_hessian``; and the Jacobian assembled
 from its element matrices, ``AxisymModel.assemble_jacobian``).
 
-Why. A stability check of the 1D model tests every Fourier block H_m (m = 0..12) at every point
-of a branch. Assembled, each block is a sparse matrix of 3000 rows and half-bandwidth 20, and
-the test was: assemble the five coefficient matrices C_k of H_m = Σ m^k C_k through PETSc,
-combine their values per m, and factor each block by LAPACK's banded Cholesky (21 ms a point
-on the θ̄ = 8 cap, of which the kernels are 1.8 ms). Here the same test works on element
-matrices:
+A stability check of the 1D model tests every Fourier block H_m at every point of a branch.
+Assembling each block (sparse, half-bandwidth 20) through PETSc from the five coefficient
+matrices C_k of H_m = Σ m^k C_k and factoring it costs far more than the FFCx kernels
+themselves, so the test works on element matrices instead (the costs: docs/model.md,
+"Stability and critical points"):
 
 1. ``CellTabulator``: one C loop (compiled once with cffi, cached like FFCx's own modules)
    calls the forms' FFCx kernels cell by cell into an array of element matrices: no sparse
-   insertion, no copies out of PETSc (1.8 ms for the five C_k against 4.7 ms; H_0's element
-   matrices follow from C_0's by a change of unknowns, ``sum_difference``).
-2. ``ChainCholesky``: the nine interior DOFs of a cell (its P3 and P2 interior nodes) couple to
-   nothing outside it, so they are eliminated cell by cell (a 9 x 9 Cholesky factor in a second
-   C loop, which also forms each block's element matrix Σ m^k C_k on the fly: cells outer,
-   blocks inner, four or eight blocks in lockstep, one per SIMD lane (eight where the CPU has
-   AVX-512: ``_lanes_for``), each lane with the arithmetic of its block alone), and what
-   remains is the Schur complement on the vertex DOFs, a block
-   tridiagonal matrix of 6 x 6 blocks (half-bandwidth 11, 1200 rows), factored by a banded
-   Cholesky in C (as ``dpbtrf``, the lanes' bands interleaved: ``definite_chain``):
-   1.2 ms for m = 0..12 all told in two passes of eight lanes (1.45 ms in four of four),
-   against 2.8 ms one block after another. Boundary
-   conditions (on vertex DOFs only) are applied to that complement: a constrained DOF's row and
-   column are zeroed and its diagonal is one, which is what the complement of the constrained
-   matrix is.
-3. The exact count of a block that is not definite, from that complement without the margin:
-   its inertia is the block's but for one positive eigenvalue per eliminated DOF
-   (Haynsworth), at 1200 rows instead of 3000. ``ChainCholesky.inertia`` counts it by an LDLᵀ
-   without pivoting that vouches for its count within a growth bound; ``ChainCholesky.schur``
-   hands it to MUMPS as CSR values where it does not.
-4. ``ChainCholesky.factor`` (``ChainLU``): the block for solves, the interior factors kept and
-   the complement factored by LAPACK's banded LU (the shift-invert eigensolves' operator).
-   ``ElementAssembler``: a form's matrix from element matrices, written in place.
+   insertion, no copies out of PETSc (H_0's element matrices follow from C_0's by a change
+   of unknowns, ``sum_difference``).
+2. ``ChainCholesky``: the nine interior DOFs of a cell couple to nothing outside it, so they
+   are eliminated cell by cell (a 9 x 9 Cholesky in a second C loop, which also forms each
+   block's element matrix Σ m^k C_k on the fly, four or eight blocks in lockstep, one per
+   SIMD lane, each lane with the arithmetic of its block alone); what remains is the Schur
+   complement on the vertex DOFs, block tridiagonal (half-bandwidth 11), factored by a
+   banded Cholesky in C (``definite_chain``). Boundary conditions (on vertex DOFs only) are
+   applied to that complement: a constrained DOF's row and column zeroed and its diagonal
+   one, which is what the complement of the constrained matrix is.
+3. The exact count of a block that is not definite, from that complement without the
+   margin: its inertia is the block's but for one positive eigenvalue per eliminated DOF
+   (Haynsworth). ``ChainCholesky.inertia`` counts it by an LDLᵀ without pivoting that
+   vouches for its count within a growth bound; ``ChainCholesky.schur`` hands it to MUMPS.
+4. ``ChainCholesky.factor`` (``ChainLU``): the block for solves (the shift-invert
+   eigensolves' operator). ``ElementAssembler``: a form's matrix from element matrices.
 
-The answer is the same as the banded Cholesky's of the assembled block: H - τ diag(H) is
-positive definite iff its interior blocks are and the Schur complement is (Haynsworth), and
-both factorisations are backward stable, so they can differ only for a block within round-off
-of the margin τ (``shells.algorithms.stability.DEFINITE_MARGIN``), where either answer is a correct
-one. A block that fails gets its exact count (3.).
-
-One process only (the caller asks only then); a mesh whose cells do not form one chain, or a
-constrained interior DOF, makes ``ChainCholesky`` refuse at construction (``ValueError``) and
-the caller keeps the assembled path.
+The answer is the banded Cholesky's of the assembled block: H - τ diag(H) is positive
+definite iff its interior blocks are and the Schur complement is (Haynsworth), and both
+factorisations are backward stable, so they can differ only for a block within round-off of
+the margin τ (``shells.algorithms.stability.DEFINITE_MARGIN``), where either answer is
+correct. One process only; a mesh whose cells do not form one chain, or a constrained
+interior DOF, makes ``ChainCholesky`` refuse at construction (``ValueError``) and the caller
+keeps the assembled path.
 """
 
 from __future__ import annotations
@@ -103,10 +93,9 @@ def _cpu_flags() -> set[str]:
 # it (its four double lanes are definite_chain's), named in the module's hash: no -march=native,
 # as the cache folder may serve another machine
 _CFLAGS = ["-O3", "-ffp-contract=off"] + (["-mavx2"] if "avx2" in _cpu_flags() else [])
-#: the lane widths built: 8 too where the CPU has AVX-512 (on this machine's AMD EPYC, whose
-#: AVX-512 units are 256 bits wide, a pass of eight blocks costs less than two of four: the 13
-#: blocks of the θ̄ = 8 cap's check 1.2 instead of 1.45 ms), and ``_lanes_for`` picks one per
-#: call. Each lane's
+#: the lane widths built: 8 too where the CPU has AVX-512 (a pass of eight blocks costs less
+#: than two of four, even where the AVX-512 units are 256 bits wide: docs/model.md,
+#: "Stability and critical points"), and ``_lanes_for`` picks one per call. Each lane's
 #: arithmetic is its block's alone, in the same order (no fused multiply-adds): the values do
 #: not depend on the width
 _WIDTHS = (4, 8) if "avx512f" in _cpu_flags() else (4,)
@@ -192,7 +181,13 @@ def sum_difference(C: np.ndarray, s: np.ndarray, d: np.ndarray, out: np.ndarray)
     """out[c] = 2 Tᵀ C[c] T for each of the matrices C (cells x n x n, C-contiguous, as
     ``out``), T the change of unknowns x'_s = (x_s + x_d)/2, x'_d = (x_s - x_d)/2 of the index
     pairs (s[k], d[k]) (the identity elsewhere); the arithmetic of numpy's
-    ``0.5 * (a + b)``, ``0.5 * (a - b)`` on columns, then rows."""
+    ``0.5 * (a + b)``, ``0.5 * (a - b)`` on columns, then rows.
+
+    Args:
+        C: the element matrices (cells x n x n).
+        s, d: the index pairs (int arrays of equal length).
+        out: receives the result (the shape of ``C``).
+    """
     if C.shape != out.shape or C.ndim != 3 or not (C.flags.c_contiguous
                                                    and out.flags.c_contiguous):
         raise ValueError("C and out: C-contiguous arrays of one shape (cells, n, n)")
@@ -331,8 +326,8 @@ class ElementAssembler:
 
     def create_matrix(self) -> Any:
         """A sequential AIJ matrix of the form's pattern whose value array is a numpy array
-        ``set`` writes in place (``setValuesCSR`` costs 0.35 ms on the θ̄ = 8 cap's 2000
-        rows, the write 0.01 ms), with identity local-to-global maps (dolfinx's assembler can
+        ``set`` writes in place (``setValuesCSR`` costs many times the write; docs/design-notes.md,
+        "The 1D model's assembly"), with identity local-to-global maps (dolfinx's assembler can
         still assemble into it)."""
         from petsc4py import PETSc
 
@@ -587,7 +582,7 @@ class ChainCholesky:
                  ) -> list[tuple[int, int, int] | None]:
         """``inertia`` of several blocks (``powers`` one row per block), their condensations in
         one C call, four or eight blocks in lockstep with the arithmetic each has alone (the
-        same counts as one at a time, at less than half the cost for four)."""
+        same counts as one at a time, at a fraction of the cost)."""
         if len(powers) != len(own) or len(own) != len(constrained):
             raise ValueError("inconsistent blocks")
         if not own:
@@ -647,9 +642,10 @@ class ChainCholesky:
 class ChainLU:
     """Solves with one block factored on the chain (``ChainCholesky.factor``): each cell's
     interior DOFs by their Cholesky factor, the vertex Schur complement by LAPACK's banded LU
-    with partial pivoting (``dgbtrf``, half-bandwidth 11 on 1200 rows for the 1D model's
-    Fourier blocks): H x = b to the accuracy of a backward stable factorisation, in about a
-    third of MUMPS' time per solve (the shift-invert eigensolves' operator)."""
+    with partial pivoting (``dgbtrf``, half-bandwidth 11 for the 1D model's Fourier blocks):
+    H x = b to the accuracy of a backward stable factorisation, faster than MUMPS on the
+    assembled block (the shift-invert eigensolves' operator; docs/model.md, "Stability and
+    critical points")."""
 
     def __init__(self, chain: ChainCholesky, ab: np.ndarray,
                  keep: tuple[np.ndarray, np.ndarray], fixed: np.ndarray) -> None:
@@ -657,7 +653,8 @@ class ChainLU:
         lower = ab.reshape(size, kd + 1).T  # lower[i - j, j] = A[i, j], i >= j
         # general band storage for dgbtrf, column-major (column j = row j of g here): A[i, j]
         # at row 2 kd + i - j (kl = ku = kd, plus kd rows of fill-in above). Not scipy's
-        # wrapper: importing scipy.linalg costs 0.2 s, a tenth of a θ̄ = 8 run
+        # wrapper: importing scipy.linalg is a noticeable share of a short 1D run
+        # (docs/design-notes.md, "The 1D model's assembly")
         g = np.zeros((size, 3 * kd + 1))
         for d in range(kd + 1):
             g[: size - d, 2 * kd + d] = lower[d, : size - d]  # below the diagonal: A[j + d, j]

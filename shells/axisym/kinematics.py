@@ -23,8 +23,9 @@ __all__ = ["JIT_OPTIONS", "Jet", "cross", "dirichlet", "dot", "is_sphere", "meri
 
 #: the mode Hessian's kernel is long to compile (the second variation of the whole density at
 #: two phases); the 1D model's forms go to a cache folder of their own (``~/.cache/shells/ffcx``):
-#: FFCx lists its cache folder at every lookup of a compiled form (2.4 ms a form in a shared
-#: folder of 3900 files, 0.1 ms in one of 84: the 21 forms of a run, 50 ms of its set-up)
+#: FFCx lists its cache folder at every lookup of a compiled form, whose cost grows with the
+#: folder's size (docs/model.md, "Stability and critical points"; docs/design-notes.md, "The
+#: 1D model's assembly")
 JIT_OPTIONS: dict[str, Any] = {"timeout": 300, "cache_dir": str(cache_root() / "ffcx")}
 @dataclass
 class Jet:
@@ -52,9 +53,20 @@ class Jet:
 
 
 def meridian_ufl(shape: Shape, t: Any, mesh: Any = None) -> tuple:
-    """r°, z° and their first and second t-derivatives as UFL expressions of t. An imperfect
-    sphere's amplitude is a ``fem.Constant`` on ``mesh``: one compiled kernel for every
-    amplitude of a knock-down curve."""
+    """The reference meridian and its derivatives as UFL expressions of t.
+
+    An imperfect sphere's amplitude is a ``fem.Constant`` on ``mesh``: one compiled kernel for
+    every amplitude of a knock-down curve.
+
+    Args:
+        shape: a shape the 1D model supports (or one with its own ``meridian_ufl``).
+        t: the meridian coordinate (a UFL expression).
+        mesh: the meridian mesh: it holds an imperfect sphere's amplitude Constant and a
+            meridian table's interpolated spline.
+
+    Returns:
+        (r°, z°, r°_t, z°_t, r°_tt, z°_tt).
+    """
     import ufl
 
     if isinstance(shape, Disk):
@@ -87,30 +99,69 @@ def meridian_ufl(shape: Shape, t: Any, mesh: Any = None) -> tuple:
 
 
 def dot(a: tuple, b: tuple) -> Any:
-    """The dot product of two 3-tuples (UFL)."""
+    """The dot product of two 3-tuples of UFL expressions.
+
+    Args:
+        a, b: the 3-tuples.
+
+    Returns:
+        Σ a_i b_i.
+    """
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
 def cross(a: tuple, b: tuple) -> tuple:
-    """The cross product of two 3-tuples (UFL)."""
+    """The cross product of two 3-tuples of UFL expressions.
+
+    Args:
+        a, b: the 3-tuples.
+
+    Returns:
+        a × b, a 3-tuple.
+    """
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
 def read_inputs(coefficients: Any, constants: Any, mesh: Any) -> list[np.ndarray]:
-    """Everything compiled forms read (views, not copies): each coefficient's local array
-    (ghosts included), each Constant's value, the mesh geometry."""
+    """Everything compiled forms read, to tell whether a matrix assembled from them is stale.
+
+    Args:
+        coefficients: the forms' coefficients (``fem.Function``).
+        constants: the forms' ``fem.Constant``.
+        mesh: the mesh (its geometry).
+
+    Returns:
+        Views (not copies): each coefficient's local array (ghosts included), each Constant's
+        value, the mesh geometry.
+    """
     return ([w.x.array for w in coefficients] + [np.atleast_1d(k.value) for k in constants]
             + [mesh.geometry.x])
 
 
 def same_inputs(old: list[np.ndarray] | None, new: list[np.ndarray]) -> bool:
-    """Whether ``read_inputs`` are those of ``old`` (a copy of earlier ones), exactly."""
+    """Whether the inputs ``new`` (``read_inputs``) equal ``old`` (a copy of earlier ones).
+
+    Args:
+        old: the earlier inputs, or None (never the same).
+        new: the current inputs.
+
+    Returns:
+        True if every array is equal exactly.
+    """
     return old is not None and len(old) == len(new) and all(
         np.array_equal(a, b) for a, b in zip(old, new, strict=True))
 
 
 def dirichlet(V: Any, vertices: np.ndarray) -> list[Any]:
-    """Homogeneous Dirichlet conditions on the DOFs of ``V`` at ``vertices`` (none if empty)."""
+    """Homogeneous Dirichlet conditions on the DOFs of ``V`` at ``vertices``.
+
+    Args:
+        V: a (sub)space.
+        vertices: the mesh vertices.
+
+    Returns:
+        The conditions (none if ``vertices`` is empty).
+    """
     from dolfinx import default_scalar_type, fem
 
     if len(vertices) == 0:
@@ -120,5 +171,12 @@ def dirichlet(V: Any, vertices: np.ndarray) -> list[Any]:
 
 
 def is_sphere(shape: Shape) -> bool:
-    """Whether ``shape`` is a closed sphere (the 1D model's two poles)."""
+    """Whether ``shape`` is a closed sphere (for the 1D model: two poles, no rim).
+
+    Args:
+        shape: the shape.
+
+    Returns:
+        True for a closed sphere (imperfect ones included).
+    """
     return isinstance(shape, SphericalCap) and shape.closed

@@ -26,8 +26,15 @@ __all__ = ["MeridianMesh", "check_supported", "make_meridian_nodes"]
 
 
 def check_supported(shape: Any) -> None:
-    """Refuse (``InputError``) a shape the 1D model cannot take: one that is not a surface of
-    revolution with a pole, or not one of its shapes."""
+    """Refuse a shape the 1D model cannot take.
+
+    Args:
+        shape: the shape.
+
+    Raises:
+        InputError: if it is not a surface of revolution with a pole, or not one of the
+            1D model's shapes.
+    """
     if not getattr(shape, "of_revolution", True):
         raise InputError("the mesh is not a surface of revolution about the z axis (nor a "
                          "torus): the 1D model needs one; the surface model takes it "
@@ -56,6 +63,16 @@ def make_meridian_nodes(shape: Shape, h: float, cells: int, layer_cells: float,
     Closed shapes: uniform in arclength. A free rim: from the rim inwards, cells of arclength
     ``sqrt(R h) / layer_cells`` growing by ``grading`` up to the bulk size S / cells (S: the
     meridian's length), then uniform; the nodes are mapped back to t through s(t).
+
+    Args:
+        shape: the shell of revolution.
+        h: the thickness.
+        cells: the bulk cells.
+        layer_cells: cells per sqrt(R h) at a free rim.
+        grading: the growth factor of the cells away from the rim.
+
+    Returns:
+        The nodes, ascending.
     """
     # an imperfect sphere is meshed as its perfect sphere (nodes uniform in the angle from the
     # pole): every amplitude of a knock-down curve shares one mesh, so that states, residuals

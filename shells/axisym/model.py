@@ -203,6 +203,7 @@ class AxisymModel(FormProblem):
 
     # -- kinematics ------------------------------------------------------------------------------
     def base_jet(self, w: Any) -> Jet:
+        """The jet of an axisymmetric state ``w`` (u_r, u_z; p_r, p_z): no φ-dependence."""
         import ufl
 
         u, p = ufl.split(w)
@@ -212,6 +213,7 @@ class AxisymModel(FormProblem):
                    pt=(p[0].dx(0), z, p[1].dx(0)), pph=(z, z, z))
 
     def zero_jet(self) -> Jet:
+        """The jet of the reference state (every component zero)."""
         z = (0.0 * self.t,) * 3
         return Jet(z, z, z, z, z, z, z, z)
 
@@ -363,7 +365,7 @@ class AxisymModel(FormProblem):
         sf["nz_integral"] = n0z * ad * self.dx
         sf["area"] = ad * self.dx
         # compiled on first use (``assemble``): a run that only locates critical points asks
-        # for none of them, and each form costs its signature and a cache lookup (~2 ms)
+        # for none of them, and each form costs its signature and a cache lookup
         self._scalar_ufl = sf
         self._scalar_forms: dict[str, Any] = {}
 
@@ -376,6 +378,7 @@ class AxisymModel(FormProblem):
         return (dirichlet(ur, poles) + dirichlet(pz, poles) + dirichlet(uz, top))
 
     def axis_vertices(self) -> np.ndarray:
+        """The mesh vertices on the axis: the top pole, and the bottom one if closed."""
         pts = [0.0] + ([self.shape.t_max] if self.shape.closed else [])
         return np.concatenate([self.vertices_at(t) for t in pts])
 
@@ -386,6 +389,7 @@ class AxisymModel(FormProblem):
         return self.vertices_at(float(x[np.argmax(r0)]))
 
     def vertices_at(self, t: float) -> np.ndarray:
+        """The local mesh vertices at meridian coordinate ``t``."""
         from dolfinx import mesh as dmesh
 
         tol = 1e-10 * max(1.0, self.shape.t_max)
@@ -393,6 +397,10 @@ class AxisymModel(FormProblem):
 
     # -- scalars ---------------------------------------------------------------------------------
     def assemble(self, name: str) -> float:
+        """The scalar functional ``name`` (energy parts, integrals) at the current state.
+
+        Its form is compiled on first use.
+        """
         from dolfinx import fem
 
         if name not in self._scalar_forms:
@@ -491,6 +499,7 @@ class AxisymModel(FormProblem):
         return np.array([vals[np.argmin(np.abs(x - ti))] for ti in np.atleast_1d(t)])
 
     def num_dofs(self) -> int:
+        """The global number of unknowns of the axisymmetric state."""
         im = self.W.dofmap.index_map
         return int(im.size_global * self.W.dofmap.index_map_bs)
 
@@ -505,9 +514,9 @@ class AxisymModel(FormProblem):
     def assemble_jacobian(self, A: Any) -> None:
         """The Jacobian (``FormProblem``'s), on one process from its element matrices
         (``chain.CellTabulator``, ``chain.ElementAssembler``): the same values, added in the
-        same order, without dolfinx's per-cell insertion (0.55 against 0.85 ms on the θ̄ = 8
-        cap's 200 cells, into a matrix of ``create_jacobian``; Newton assembles it at every
-        iteration)."""
+        same order, without dolfinx's per-cell insertion, into a matrix of
+        ``create_jacobian`` (Newton assembles it at every iteration; docs/model.md,
+        "Stability and critical points")."""
         fast = self.jacobian_elements()
         if fast is None:
             FormProblem.assemble_jacobian(self, A)
@@ -517,9 +526,8 @@ class AxisymModel(FormProblem):
 
     def assemble_residual(self, b: Any) -> None:
         """R (``FormProblem``'s); on one process R and dR/dκ in one pass of one kernel
-        (``_paired``: 0.12 ms against 0.10 + 0.11 for the two forms' kernels on the θ̄ = 8
-        cap), dR/dκ kept for ``assemble_dkappa`` at the same state (the corrector asks for
-        both at every iterate)."""
+        (``_paired``, cheaper than the two forms' kernels), dR/dκ kept for ``assemble_dkappa``
+        at the same state (the corrector asks for both at every iterate)."""
         pair = self._paired()
         if pair is None:
             FormProblem.assemble_residual(self, b)
@@ -623,12 +631,11 @@ class AxisymModel(FormProblem):
     @property
     def factor_options(self) -> dict[str, Any]:
         """The Jacobian's factorisation (``shells.problem.interface``): on one process PETSc's own
-        LU in reverse Cuthill-McKee order. The meridian's matrices are banded (half-bandwidth about
-        20 after the ordering), where MUMPS' per-factorisation overhead dominates: 0.16 ms
-        against 1.1 ms per factorisation of the θ̄ = 8 cap's 2004 unknowns, solves 0.02
-        against 0.13 ms (benchmarks/axisym_speed.py). That LU does not pivot: a zero pivot
-        makes ``shells.algorithms.newton`` fall back to MUMPS for the rest of the run. In parallel:
-        MUMPS (the default)."""
+        LU in reverse Cuthill-McKee order. The meridian's matrices are banded (half-bandwidth
+        about 20 after the ordering), where MUMPS' per-factorisation overhead dominates
+        (docs/model.md, "Solvers"; benchmarks/axisym_speed.py). That LU does not pivot: a zero
+        pivot makes ``shells.algorithms.newton`` fall back to MUMPS for the rest of the run. In
+        parallel: MUMPS (the default)."""
         if self.comm.size > 1:
             return {}
         return {"pc_factor_mat_solver_type": "petsc", "pc_factor_mat_ordering_type": "rcm"}
@@ -637,6 +644,7 @@ class AxisymModel(FormProblem):
     # ---------------------------
     @property
     def mode_forms(self) -> ModeForms:
+        """The Fourier-mode Hessians (``ModeForms``), built on first use."""
         from shells.axisym.modes import ModeForms
 
         if not hasattr(self, "_mode_forms"):
@@ -647,17 +655,21 @@ class AxisymModel(FormProblem):
     # without the torsion D (the stability within rotational symmetry: folds and axisymmetric
     # bifurcations, the block branch switching on the 1D model uses).
     def stability_blocks(self) -> tuple[int, ...]:
+        """The Fourier modes m of ``modes`` (``Problem.stability_blocks``)."""
         return tuple(self.modes)
 
     def block_layout(self, block: Any) -> str:
+        """One layout for every H_m, another for the Jacobian (``Problem.block_layout``)."""
         return "axisymmetric" if block is None else "modes"  # one form for every m
 
     def create_hessian(self, block: Any) -> Any:
+        """A matrix for ``block``: the Jacobian's, or one of every H_m's pattern."""
         if block is None:
             return self.create_jacobian()
         return self.mode_forms.create_matrix()
 
     def assemble_hessian(self, block: Any, H: Any) -> None:
+        """The Jacobian (block None) or H_m at the current state into ``H``."""
         if block is None:
             assemble_symmetric(H, self.hessian, self.bcs)
             return
@@ -713,6 +725,7 @@ class AxisymModel(FormProblem):
         return None if block is None else self.mode_forms.condensed_hessian(block)
 
     def assemble_mass(self, block: Any) -> Any:
+        """The block's mass matrix (``Problem.assemble_mass``)."""
         if block is None:
             return self._assemble_mass(self.mass, self.bcs)
         return self._assemble_mass(self.mode_forms.mass, self.mode_forms.conditions(block))

@@ -2,49 +2,36 @@
 mode Hessians H_m of ``AxisymModel``, one compiled form for all m and, for m ≥ 1, H_m as a
 polynomial in m whose matrix coefficients are assembled once per base state.
 
-Stability. Perturbations U(t) cos mφ e_r + V(t) sin mφ e_φ + W(t) cos mφ e_z about the base
-state. For an axisymmetric base state the φ-integral of the second-variation density Q equals
-π [Q(mφ = 0) + Q(mφ = π/2)] for m ≥ 1 and 2π Q for m = 0, so one UFL form (the second derivative
-of the density at base + perturbation, at two phases) with m and the phases as Constants gives
-every Hessian H_m: one compilation, no recompiles. The unknowns are (S, D, W) with U = S + D,
-V = S - D for m ≥ 1 (U = S, V = D for m = 0), which turns the axis conditions into Dirichlet
-conditions on each pole (∂: the slope field): m = 0: S = D = 0, ∂W = 0; m = 1: S = 0, W = 0,
-∂S = ∂D = 0; m = 2: S = D = W = 0, ∂S = ∂W = 0; m ≥ 3: all values and slopes zero. A free
-rim needs no condition. Rigid motions are exact null vectors of the continuum Hessians and
-are removed by value constraints that they violate (restriction to such a hyperplane keeps the
-inertia): m = 0: W = 0 at the top pole (z-translation), D = 0 on the widest parallel (rotation
-about z); m = 1: D = 0 at the top pole (translation) and W = 0 on the widest parallel (tilt). A
-slope constraint at the pole would do for the tilt in principle, but a point has no capacity
-for slopes in 2D: it leaves a spurious near-zero eigenvalue. Inertia per m: a Cholesky test
-where H_m is definite by a margin (on one process from element matrices, ``definite`` and
-``shells.axisym.chain``; else the banded Cholesky of the assembled H_m), else MUMPS LDLᵀ
-(``shells.algorithms.stability``).
+Perturbations U(t) cos mφ e_r + V(t) sin mφ e_φ + W(t) cos mφ e_z about the base state. For an
+axisymmetric base state the φ-integral of the second-variation density Q equals
+π [Q(mφ = 0) + Q(mφ = π/2)] for m ≥ 1 and 2π Q for m = 0, so one UFL form (the second
+derivative of the density at base + perturbation, at two phases) with m and the phases as
+Constants gives every Hessian H_m: one compilation, no recompiles. The unknowns are (S, D, W)
+with U = S + D, V = S - D for m ≥ 1 (U = S, V = D for m = 0), which turns the axis conditions
+into Dirichlet conditions on each pole (``ModeForms.conditions``). Inertia per m: a Cholesky
+test where H_m is definite by a margin, else an exact count (``shells.algorithms.stability``).
 
-Assembly (on one process the C_k and H_0 are not assembled at all: their element matrices are
-tabulated once per state by a C loop over the FFCx kernels, every H_m's definiteness and exact
-count come from them, ``shells.axisym.chain``, and a PETSc H_m is summed from them where a
-solver needs one). m = 0 from that form with its own phases and m = 0 put in as numbers
-(``axisymmetric_form``: the direct form's values, bit for bit on the θ̄ = 8 cap and the
-sphere, at a quarter of its cost); on one process its element matrices come from C_0's
-instead, by a change of unknowns (``_axisymmetric_elements``: to 5e-16 of the direct
-assembly, no kernel). For m ≥ 1 the phases
-are fixed and m enters the perturbation's jet linearly (φ-derivatives ∝ m, ∂_φφ ∝ m²) while
-the second variation is quadratic in the jet, so H_m = Σ_{k=0..4} m^k C_k before the boundary
-conditions. The C_k are exact forms: the Hessian's UFL with the m ≥ 1 phases put in as numbers,
-the (zero) perturbation as 0 and m as a coefficient, differentiated k times in m by
-``ufl.derivative``, at m = 0, over k! (no sampling of m, so no round-off amplified by m^k); one
-compiled kernel each. They are assembled without conditions, once per base state: the matrices
-remember the inputs they were assembled from (every coefficient array, Constant value and the
-mesh geometry the forms read) and are reassembled as soon as any of them differs, so no
-state change (Newton, ``set_kappa``, a vector written directly) can be served a stale C_k. Each
-H_m is then C_0 + Σ m^k C_k (MatAXPY, one nonzero pattern: that of the direct form) with mode
-m's conditions applied as direct assembly does (rows and columns zeroed, 1 on the diagonal:
-MatZeroRowsColumns), flagged symmetric. It equals the direct assembly to round-off (relative
-Frobenius difference ≤ 7e-16 measured for m ≤ 62, constrained rows identical:
-tests/test_axisym_modes.py) at five assemblies per state instead of one per m: on the closed
-sphere at h/R = 0.002 (m = 0..62) 0.65 ms per block instead of 6.1 ms (the C_k: 10 ms per
-state), a stability check over all blocks 0.32 s instead of 0.64 s; with the element-matrix
-path 0.034 s (benchmarks/axisym_mode_assembly.py, docs/model.md).
+Assembly:
+
+1. m = 0 from its own form, m and its phases put in as numbers (``axisymmetric_form``: the
+   direct form's values at a fraction of its cost).
+2. m ≥ 1: with the phases fixed, m enters the perturbation's jet linearly (φ-derivatives ∝ m,
+   ∂_φφ ∝ m²) and the second variation is quadratic in the jet, so H_m = Σ_{k=0..4} m^k C_k
+   before the boundary conditions. The C_k are exact forms: the Hessian's UFL differentiated
+   k times in m by ``ufl.derivative`` at m = 0, over k! (no sampling of m, so no round-off
+   amplified by m^k); one compiled kernel each.
+3. The C_k are assembled without conditions once per base state, and again as soon as any
+   input their forms read (coefficient arrays, Constant values, mesh geometry) differs, so no
+   state change can be served a stale C_k. H_m = Σ m^k C_k has one nonzero pattern (the
+   direct form's) and mode m's conditions applied as direct assembly does
+   (MatZeroRowsColumns): the direct assembly to round-off (tests/test_axisym_modes.py).
+4. On one process the C_k and H_0 are not assembled at all: their element matrices are
+   tabulated once per state (H_0's from C_0's by a change of unknowns), every H_m's
+   definiteness and exact count come from them (``shells.axisym.chain``), and a PETSc H_m is
+   summed from them where a solver needs one.
+
+The costs: docs/model.md (the section on the assembly of the 1D model's mode Hessians) and
+docs/design-notes.md, "The 1D model's assembly".
 """
 
 from __future__ import annotations
@@ -177,7 +164,7 @@ class ModeForms:
         elif m_as is not None:
             rep[c["m"]] = m_as
         rep[self.pert] = ufl.zero(*self.pert.ufl_shape)
-        if self._expanded is None:  # once: every use expands the same Hessian (0.1 s each)
+        if self._expanded is None:  # once: every use expands the same (costly) Hessian
             self._expanded = expand_derivatives(self.hessian_ufl)
         return ufl.replace(self._expanded, rep)
 
@@ -193,11 +180,12 @@ class ModeForms:
 
     @property
     def axisymmetric_form(self) -> Any:
-        """The compiled form of H_0 with m = 0 and its phases put in as numbers (compiled on
-        first use): the direct form's values to round-off at a quarter of its cost (it
-        evaluates the density at two general phases: 3.6 ms against 0.9 ms per assembly on
-        the θ̄ = 8 cap's 200 cells), so the stability check's one direct assembly per state
-        no longer costs as much as the five coefficient matrices together."""
+        """The compiled form of H_0 with m = 0 and its phases put in as numbers.
+
+        Compiled on first use. Its values are the direct form's to round-off, at a fraction
+        of its cost (the direct form evaluates the density at two general phases), so the
+        stability check's one direct assembly per state costs less than the five coefficient
+        matrices together (docs/design-notes.md, "The 1D model's assembly")."""
 
         if self._axisymmetric_form is None:
             forms, reads = compiled_derived(self.hessian_ufl, f"{_DERIVATION} H_0",
@@ -209,8 +197,7 @@ class ModeForms:
     @property
     def coefficient_forms(self) -> list[Any]:
         """The compiled forms of C_0..C_4 (``coefficient_ufl``), one kernel each; after the
-        first run on a machine without their UFL work (``shells.problem.formcache``: 0.1 s a
-        model)."""
+        first run on a machine, without their UFL work (``shells.problem.formcache``)."""
         if self._coefficient_forms is None:
             forms, reads = compiled_derived(self.hessian_ufl, f"{_DERIVATION} C_k",
                                             self.coefficient_ufl, JIT_OPTIONS)
@@ -286,8 +273,14 @@ class ModeForms:
         from ``form``; m = 0: from ``axisymmetric_form``; m ≥ 1: Σ m^k C_k
         (``coefficient_matrices``). On one process both come from the element matrices
         (``element_matrices``): Σ m^k of theirs, summed into H's values by their positions,
-        the conditions applied to those values (the same matrix to round-off, 0.7 ms a block
-        instead of five assemblies of the C_k after each change of state)."""
+        the conditions applied to those values (the same matrix to round-off, without five
+        assemblies of the C_k after each change of state).
+
+        Args:
+            m: the mode.
+            H: the matrix.
+            direct: assemble from ``form`` itself (the reference).
+        """
         from petsc4py import PETSc
 
         from shells.problem.forms import assemble_symmetric
@@ -365,9 +358,8 @@ class ModeForms:
         m = 0 with the m ≥ 1 phases) is π [q_UW(S + D, W) + q_V(S - D)]: the quadratic forms
         of the meridional and of the azimuthal displacement, which do not couple at m = 0
         about an axisymmetric state (the base state has no azimuthal component); H_0 is
-        2π [q_UW(S, W) + q_V(D)]. Equal to the second derivative of its own form to round-off
-        (1e-14 of each entry, 6e-16 of the largest, measured on the θ̄ = 8 cap), at no
-        kernel's cost (0.07 against 0.4 ms a state there)."""
+        2π [q_UW(S, W) + q_V(D)]. Equal to the second derivative of its own form to round-off,
+        at no kernel's cost (docs/model.md, "Stability and critical points")."""
         from shells.axisym.chain import sum_difference
 
         sum_difference(C0, pairs[0], pairs[1], out)
@@ -423,7 +415,7 @@ class ModeForms:
     def create_matrix(self) -> Any:
         """A matrix of the pattern of every H_m: on one process one whose value array
         ``assemble_hessian`` writes in place (``chain.ElementAssembler.create_matrix``: no
-        ``setValuesCSR``, 0.75 ms a block on the θ̄ = 8 cap), else dolfinx's."""
+        ``setValuesCSR``), else dolfinx's."""
         from dolfinx.fem.petsc import create_matrix
 
         if self.chain_setup() is not None:
@@ -533,7 +525,24 @@ class ModeForms:
         return [bc for sub, verts in pairs for bc in dirichlet(sub, verts)]
 
     def conditions(self, m: int) -> list[Any]:
-        """The Dirichlet conditions of mode m (axis conditions and rigid-motion gauges)."""
+        """The Dirichlet conditions of mode m (axis conditions and rigid-motion gauges).
+
+        On each pole (∂: the slope field): m = 0: S = D = 0, ∂W = 0; m = 1: S = 0, W = 0,
+        ∂S = ∂D = 0; m = 2: S = D = W = 0, ∂S = ∂W = 0; m ≥ 3: all values and slopes zero. A
+        free rim needs no condition. Rigid motions are exact null vectors of the continuum
+        Hessians and are removed by value constraints that they violate (restriction to such
+        a hyperplane keeps the inertia): m = 0: W = 0 at the top pole (z-translation), D = 0
+        on the widest parallel (rotation about z); m = 1: D = 0 at the top pole (translation)
+        and W = 0 on the widest parallel (tilt). A slope constraint at the pole would do for
+        the tilt in principle, but a point has no capacity for slopes in 2D: it leaves a
+        spurious near-zero eigenvalue.
+
+        Args:
+            m: the mode.
+
+        Returns:
+            The conditions (shared by every m ≥ 3).
+        """
         return self._bcs[min(int(m), 3)]
 
     def set_mode(self, m: int) -> list[Any]:

@@ -24,9 +24,17 @@ __all__ = ["revolve", "write_profile_csv", "write_vts"]
 
 def revolve(profile: dict[str, np.ndarray], n_phi: int = 97, mode: dict[str, Any] | None = None
             ) -> Any:
-    """The deformed surface of revolution of ``profile`` (keys t, r0, z0, ur, uz), closed in φ
-    (the first and last φ coincide). ``mode``: {"m", "ur", "uz", "amplitude"} superposes
-    amplitude (u_r, u_z)(t) cos(mφ) (same meridian nodes)."""
+    """The deformed surface of revolution of a meridian profile.
+
+    Args:
+        profile: arrays with keys t, r0, z0, ur, uz (one entry per meridian node).
+        n_phi: the number of azimuths; the first and last φ coincide (closed in φ).
+        mode: {"m", "ur", "uz", "amplitude"}: superposes amplitude (u_r, u_z)(t) cos(mφ)
+            (on the same meridian nodes).
+
+    Returns:
+        A pyvista structured grid.
+    """
     import pyvista as pv
 
     phi = np.linspace(0.0, 2.0 * np.pi, n_phi)
@@ -61,7 +69,15 @@ def revolve(profile: dict[str, np.ndarray], n_phi: int = 97, mode: dict[str, Any
 
 
 def write_vts(grid: Any, path: str | os.PathLike) -> str:
-    """Write ``grid`` as ``.vts`` (VTK XML structured grid) and return the path."""
+    """Write ``grid`` as ``.vts`` (VTK XML structured grid).
+
+    Args:
+        grid: the grid (``revolve``'s).
+        path: the file.
+
+    Returns:
+        The path written.
+    """
     path = os.fspath(path)
     if not path.endswith(".vts"):
         path += ".vts"
@@ -72,7 +88,13 @@ def write_vts(grid: Any, path: str | os.PathLike) -> str:
 
 def write_profile_csv(profile: dict[str, np.ndarray], path: str | os.PathLike,
                       h: float) -> None:
-    """The meridian: t, r°, z°, r, z (deformed), u_r/h, u_z/h, one row per node."""
+    """Write the meridian as CSV: t, r°, z°, r, z (deformed), u_r/h, u_z/h, one row per node.
+
+    Args:
+        profile: as for ``revolve``.
+        path: the file.
+        h: the thickness (the displacements' unit).
+    """
     with open(path, "w", newline="") as f:
         w = csv.writer(f)
         w.writerow(["t", "r0", "z0", "r", "z", "ur_over_h", "uz_over_h"])

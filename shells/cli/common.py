@@ -88,8 +88,8 @@ def positive_float(name: str) -> Callable[[str], float]:
 #: Accepted --radius (and --r3 up to the upper bound). Every result is dimensionless (kappa R,
 #: kappa h, h/R): the radius only sets the unit. The mesher's test that drops a cap's flat base
 #: (height < 1e-6 R, shells.surface.mesh) fails against OCC's absolute bounding-box slack (~2e-7)
-#: below R = 0.25 (measured: R = 0.2 and 0.1 mesh a closed lens, twice the area, no rim; 0.25 and
-#: 0.3 are right), and R = 1e200 fails in OCC ("Could not fix wire"); 1e6 .. 1e20 mesh correctly.
+#: below R = 0.25, and OCC fails on huge radii; the range keeps a margin from both
+#: (docs/design-notes.md, "Meshes").
 RADIUS_RANGE = (0.5, 1.0e6)
 
 

@@ -54,7 +54,14 @@ def _text(path: str | os.PathLike[str], what: str) -> str:
 
 
 def host_prefixes(environ: Mapping[str, str] | None = None) -> tuple[str, ...] | None:
-    """The resolved directories shared with the host, or None when no list is set (no check)."""
+    """The resolved directories shared with the host (see the module docstring).
+
+    Args:
+        environ: the environment to read the list from (default ``os.environ``).
+
+    Returns:
+        The resolved prefixes, or None when no list is set (no check).
+    """
     env = os.environ if environ is None else environ
     value = env.get(HOST_PATHS_VAR)
     if value is None:
@@ -74,8 +81,19 @@ def _under(path: str, prefix: str) -> bool:
 
 def check_shared(path: str | os.PathLike[str], what: str,
                  environ: Mapping[str, str] | None = None) -> Path:
-    """Refuse ``path`` if it resolves inside the environment's private root (see the module
-    docstring); returns the path as given. Relative paths are taken from the current folder."""
+    """Refuse a path that resolves inside the environment's private root (module docstring).
+
+    Args:
+        path: the path (relative paths are taken from the current folder).
+        what: what it is, for messages (e.g. "--output").
+        environ: as for ``host_prefixes``.
+
+    Returns:
+        The path as given.
+
+    Raises:
+        InputError: if it is not shared with the host, or not a valid path.
+    """
     p = _text(path, what)
     prefixes = host_prefixes(environ)
     if prefixes is None:
@@ -91,8 +109,20 @@ def check_shared(path: str | os.PathLike[str], what: str,
 
 
 def check_input_file(path: str | os.PathLike[str], what: str) -> Path:
-    """An input file: shared with the host. (Existence and format are checked by its reader,
-    which says what is wrong with it.)"""
+    """Check an input file: shared with the host.
+
+    Existence and format are checked by its reader, which says what is wrong with it.
+
+    Args:
+        path: the file.
+        what: what it is, for messages.
+
+    Returns:
+        The path.
+
+    Raises:
+        InputError: as ``check_shared``.
+    """
     return check_shared(path, what)
 
 
@@ -136,7 +166,18 @@ def _usable_folder(folder: Path, what: str, shown: str) -> None:
 
 
 def check_output_dir(path: str | os.PathLike[str], what: str) -> Path:
-    """An output folder: an existing writable folder, or creatable; shared with the host."""
+    """Check an output folder: an existing writable folder, or creatable; shared with the host.
+
+    Args:
+        path: the folder.
+        what: what it is, for messages.
+
+    Returns:
+        The path.
+
+    Raises:
+        InputError: if it cannot be used.
+    """
     p = check_shared(path, what)
     _usable_folder(p, what, repr(str(path)))
     return p
@@ -144,8 +185,19 @@ def check_output_dir(path: str | os.PathLike[str], what: str) -> Path:
 
 def check_output_file(path: str | os.PathLike[str], what: str,
                       suffixes: tuple[str, ...] | None = None) -> Path:
-    """An output file: not a folder, in a usable folder (see ``check_output_dir``), shared with
-    the host, and (if ``suffixes`` is given) with one of these suffixes (case-insensitive)."""
+    """Check an output file: not a folder, in a usable folder, shared with the host.
+
+    Args:
+        path: the file.
+        what: what it is, for messages.
+        suffixes: the allowed suffixes (case-insensitive); None: any.
+
+    Returns:
+        The path.
+
+    Raises:
+        InputError: if it cannot be used or has another suffix.
+    """
     p = Path(_text(path, what))
     shown = repr(str(path))
     if suffixes and p.suffix.lower() not in suffixes:

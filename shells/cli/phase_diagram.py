@@ -13,7 +13,14 @@ __all__ = ["add_subcommand"]
 
 
 def add_subcommand(subparsers: Any) -> argparse.ArgumentParser:
-    """Register ``shells phase-diagram`` on the CLI's subparsers; returns its parser."""
+    """Register ``shells phase-diagram`` on the command line's subparsers.
+
+    Args:
+        subparsers: the subparsers (``add_subparsers``' result).
+
+    Returns:
+        The subcommand's parser.
+    """
     p = subparsers.add_parser(
         "phase-diagram", help="phase diagram of open caps: snap, loss of symmetry, fits",
         description="For each h/R and theta-bar = theta/sqrt(h/R): the first instability going up "

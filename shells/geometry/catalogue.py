@@ -28,8 +28,17 @@ __all__ = ["SHAPES", "make_shape", "mesh_reference", "onto_shape", "perfect_shap
 
 
 def perfect_shape(shape: Shape) -> Shape:
-    """An imperfect sphere's perfect sphere (or cap); any other shape itself. Meshes of an
-    imperfect sphere are those of its perfect shape (the surface mesh then moved onto it)."""
+    """An imperfect sphere's perfect sphere (or cap); any other shape itself.
+
+    Meshes of an imperfect sphere are those of its perfect shape (the surface mesh then moved
+    onto it).
+
+    Args:
+        shape: the shape.
+
+    Returns:
+        Its perfect shape.
+    """
     if isinstance(shape, ImperfectSphere):
         return Sphere(shape.radius) if shape.closed else SphericalCap(shape.radius, shape.theta)
     if isinstance(shape, HarmonicImperfectSphere):
@@ -38,8 +47,15 @@ def perfect_shape(shape: Shape) -> Shape:
 
 
 def mesh_reference(shape: Shape) -> Shape:
-    """The shape whose gmsh mesh ``onto_shape`` moves onto ``shape``: an imperfect sphere's
-    perfect one, a meridian table's ``reference_shape``; any other shape itself."""
+    """The shape whose gmsh mesh ``onto_shape`` moves onto ``shape``.
+
+    Args:
+        shape: the shape.
+
+    Returns:
+        An imperfect sphere's perfect one, a meridian table's ``reference_shape``; any other
+        shape itself.
+    """
     if isinstance(shape, MeridianTable):
         return shape.reference_shape()
     return perfect_shape(shape)
@@ -49,7 +65,15 @@ def onto_shape(shape: Shape, x: np.ndarray) -> np.ndarray:
     """Points x (N, 3) of a mesh of ``mesh_reference(shape)`` moved onto ``shape``: radially
     onto an imperfect sphere ρ(β) = R - δ f(β) (a harmonic one's ρ(θ, φ)), along the meridian
     onto a meridian table; every geometry node, the edges' midpoints too, so that a
-    second-order mesh interpolates the surface. Other shapes: x itself."""
+    second-order mesh interpolates the surface.
+
+    Args:
+        shape: the shape.
+        x: the points, (N, 3).
+
+    Returns:
+        The moved points (other shapes: x itself).
+    """
     if isinstance(shape, MeridianTable):
         return shape.from_reference(x)
     if isinstance(shape, ImperfectSphere):
@@ -67,7 +91,22 @@ SHAPES = ("sphere", "cap", "ellipsoid", "disk", "torus")
 
 def make_shape(kind: str, *, radius: float = 1.0, theta: float | None = None,
                r3: float | None = None, ring: float | None = None) -> Shape:
-    """Build a shape from its name and parameters (the CLI and the mesh sidecar use this)."""
+    """Build a shape from its name and parameters (the CLI and the mesh sidecar use this).
+
+    Args:
+        kind: one of ``SHAPES``.
+        radius: the pole radius R (the disk's radius, the torus' tube radius).
+        theta: a cap's half opening angle in radians (an ellipsoid's: default π/2).
+        r3: the ellipsoid's axial semi-axis (default 1.5 R).
+        ring: the distance of the torus' tube from the axis (default 3 R).
+
+    Returns:
+        The shape.
+
+    Raises:
+        InputError: for an unknown kind, a cap without ``theta``, a cap so deep it is a
+            closed sphere, or parameters the shape refuses.
+    """
     if kind == "sphere":
         return Sphere(radius=radius)
     if kind == "cap":
@@ -90,7 +129,18 @@ def make_shape(kind: str, *, radius: float = 1.0, theta: float | None = None,
 
 
 def shape_from_description(d: dict[str, Any]) -> Shape:
-    """Inverse of ``Shape.describe``."""
+    """The shape of a description: the inverse of ``Shape.describe``.
+
+    Args:
+        d: the description.
+
+    Returns:
+        The shape.
+
+    Raises:
+        InputError: for an unknown kind, or a surface known only by its mesh (read from the
+            mesh file instead).
+    """
     kind = d.get("shape")
     if kind == "disk":
         return Disk(radius=float(d["radius"]))

@@ -20,7 +20,14 @@ __all__ = ["HARMONIC_DEGREE_MAX", "harmonic_parts", "HarmonicImperfectSphere", "
 
 def legendre_cosine_series(n: int) -> list[tuple[int, float]]:
     """P_n(cos t) = Σ_j a_j cos(j t): the pairs (j, a_j), from P_n(cos t) = Σ_k g_k g_(n-k)
-    cos((n - 2k) t), g_k = C(2k, k) / 4^k (the terms of k and n - k merged)."""
+    cos((n - 2k) t), g_k = C(2k, k) / 4^k (the terms of k and n - k merged).
+
+    Args:
+        n: the degree.
+
+    Returns:
+        The pairs (j, a_j), j ascending (of n's parity).
+    """
     g = [math.comb(2 * k, k) / 4.0**k for k in range(n + 1)]
     out: dict[int, float] = {}
     for k in range(n + 1):
@@ -147,7 +154,16 @@ def harmonic_parts(n: int, m: int, ux: Any, uy: Any, uz: Any) -> tuple[Any, Any]
     C_m = Re((u_x + i u_y)^m) (= sin^m θ cos mφ) and Q_n^m = d^m P_n / dc^m (c = u_z), both by
     their stable recurrences, NumPy arrays or UFL expressions alike (no Condon-Shortley phase:
     Q_n^m(1) > 0). Q_m^m = (2m-1)!!, Q_(m+1)^m = (2m+1) c Q_m^m,
-    (l - m) Q_l^m = (2l-1) c Q_(l-1)^m - (l+m-1) Q_(l-2)^m."""
+    (l - m) Q_l^m = (2l-1) c Q_(l-1)^m - (l+m-1) Q_(l-2)^m.
+
+    Args:
+        n: the degree.
+        m: the order (0 <= m <= n).
+        ux, uy, uz: the components of the unit vector u (arrays or UFL expressions).
+
+    Returns:
+        (C_m, Q_n^m), of the inputs' kind.
+    """
     cm, sm = 1.0 + 0.0 * ux, 0.0 * ux
     for _ in range(m):
         cm, sm = cm * ux - sm * uy, sm * ux + cm * uy
@@ -186,12 +202,12 @@ class HarmonicImperfectSphere(Shape):
     ``ImperfectSphere``). The exact normal is the normalised gradient of F(x) = |x| - ρ(x/|x|),
     f a polynomial in u = x/|x| (``harmonic_parts``): ``normal`` (NumPy) and ``normal_ufl``.
     The surface model interpolates ``normal`` (``has_ufl_normal`` False: Lagrange of one degree
-    above the state's, b° = -∇n° from it): the UFL normal in its Jacobian took FFCx 140 s to
-    compile for n = 2 (P2) and 600 s for n = 4, once per amplitude (the interpolated one: the
-    forms of every sphere, cached). On the default mesh (P3, size 0.21) the interpolated b°
-    differs from the exact one by 1.1e-3 (RMS) of the imperfection's own b° - b°_sphere at
-    n = 9, m = 2 (P5: 7.8e-5). ``meridian`` is the one at φ = 0 (its poles are the surface's:
-    the rigid-motion gauge and the apex read them)."""
+    above the state's, b° = -∇n° from it): the UFL normal in its Jacobian takes FFCx minutes
+    to compile, once per amplitude, while the interpolated one's forms are those of every
+    sphere, cached; its error and cost: docs/imperfections.md, the harmonic imperfection, and
+    docs/design-notes.md, "The harmonic imperfection's normal".
+    ``meridian`` is the one at φ = 0 (its poles are the surface's: the rigid-motion gauge and
+    the apex read them)."""
 
     radius: float = 1.0
     amplitude: float = 0.0

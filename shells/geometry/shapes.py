@@ -32,7 +32,15 @@ __all__ = ["CAP_THETA_MAX_DEG", "THETA_MIN_DEG", "Disk", "EllipsoidalCap", "RunS
 
 
 def check_positive(name: str, value: float) -> None:
-    """Refuse (``InputError``) a ``value`` that is not a finite positive number."""
+    """Refuse a value that is not a finite positive number.
+
+    Args:
+        name: the value's name, for the message.
+        value: the value.
+
+    Raises:
+        InputError: if it is not a finite positive number.
+    """
     if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
         raise InputError(f"{name} must be a positive number, got {value!r}")
 
@@ -40,8 +48,8 @@ def check_positive(name: str, value: float) -> None:
 #: Smallest half opening angle of a cap (degrees). Below it a cap is degenerate for the mesher:
 #: ``shells.surface.mesh`` tells the cap's surface from the flat base of its OCC ball sector by the
 #: height of its bounding box, flat meaning < 1e-6 R, and a cap's height is its sagitta
-#: R (1 - cos theta), which falls below 1e-6 R at theta = 0.081 deg (measured: 0.05 deg fails
-#: with an IndexError in gmsh, 0.09 deg meshes); 0.1 deg (sagitta 1.5e-6 R) keeps a margin.
+#: R (1 - cos theta), which falls below 1e-6 R at theta = 0.081 deg (docs/design-notes.md,
+#: "Meshes"); 0.1 deg (sagitta 1.5e-6 R) keeps a margin.
 #: The plate limit (theta-bar = theta / sqrt(h/R) -> 0) stays reachable: at h/R = 0.01, 0.1 deg
 #: is theta-bar = 0.017. Every cap in tests/, benchmarks/ and demos/ has theta >= 2 deg.
 THETA_MIN_DEG = 0.1
@@ -54,8 +62,14 @@ CAP_THETA_MAX_DEG = 180.0 - THETA_MIN_DEG
 
 
 def check_theta(theta: float) -> None:
-    """Refuse (``InputError``) a cap's half opening angle outside [``THETA_MIN_DEG``, 180°]
-    (radians)."""
+    """Refuse a cap's half opening angle outside [``THETA_MIN_DEG``, 180°].
+
+    Args:
+        theta: the angle, in radians.
+
+    Raises:
+        InputError: if it is out of range or not a number.
+    """
     if not (isinstance(theta, (int, float)) and math.isfinite(theta)):
         raise InputError(f"theta must be a number, got {theta!r}")
     if not 0.0 < theta <= math.pi * (1 + 1e-12):
@@ -102,7 +116,7 @@ class Shape:
 
     def area(self) -> float:
         """Exact area: 2 pi int r(t) |x'(t)| dt (closed form where one exists)."""
-        from scipy import integrate  # here: importing it costs 0.3-0.5 s, paid by every CLI run
+        from scipy import integrate  # here: a slow import every CLI run would pay
 
         def integrand(t: float) -> float:
             r, _ = self.meridian(np.array(t))
@@ -487,8 +501,15 @@ class RunScales:
 
 
 def kappa_length(shape: Shape) -> float:
-    """The length of κR: the pole radius of curvature R of spheres and caps; the ellipsoid's
-    equatorial radius r1 (the paper's R = r1 = r2); the disk's radius."""
+    """The length R of κR.
+
+    Args:
+        shape: the shape.
+
+    Returns:
+        The pole radius of curvature R of spheres and caps; the ellipsoid's equatorial radius
+        r1 (the paper's R = r1 = r2); the disk's radius.
+    """
     if isinstance(shape, EllipsoidalCap):
         return shape.radius
     return shape.R if math.isfinite(shape.R) else shape.characteristic_size()

@@ -202,7 +202,7 @@ class CurvatureField:
 
     def header_entry(self) -> dict[str, Any]:
         """A run header's entry for the field: {"field": ``describe()``}, none for the uniform
-        stimulus (the headers of uniform runs are those written before fields existed)."""
+        stimulus (so that the headers of uniform runs match those of files without fields)."""
         return {} if self.uniform else {"field": self.describe()}
 
     @classmethod
@@ -343,7 +343,14 @@ TABLE_SUFFIXES = (".csv", ".txt", ".dat", ".tsv")
 
 
 def names_table(text: str) -> bool:
-    """A --kappa-field text that names a table file (``TABLE_SUFFIXES``), not an expression."""
+    """Whether a --kappa-field text names a table file (``TABLE_SUFFIXES``), not an expression.
+
+    Args:
+        text: the option's text.
+
+    Returns:
+        True for a table file's name.
+    """
     return text.strip().lower().endswith(TABLE_SUFFIXES)
 #: most rows a table may have
 MAX_TABLE_ROWS = 200000
@@ -372,7 +379,14 @@ def _check_table(table: Any, name: str) -> tuple[tuple[float, ...], ...]:
 
 
 def field_radius(shape: Any) -> float:
-    """The value of the field's constant ``R``: the shape's pole radius (the disk's radius)."""
+    """The value of the field's constant ``R``.
+
+    Args:
+        shape: the shape.
+
+    Returns:
+        The shape's pole radius (the disk's radius).
+    """
     return float(shape.R) if math.isfinite(shape.R) else float(shape.characteristic_size())
 
 

@@ -5,12 +5,13 @@ Some forms are not written by hand but derived from another: the 1D model's mode
 are the mode Hessian differentiated k times in m by ``ufl.derivative``, its derivatives expanded
 and m replaced by 0 (``shells.axisym.modes``); both models' dR/dκ is R(κ=1) - R(κ=0), whose
 ``ufl.replace`` expands R's derivatives (``shells.problem.forms``). FFCx finds a compiled form in
-its cache by the form's signature, but only after that UFL work is done: 0.10-0.15 s of a 1.6 s
-run on the θ̄ = 8 cap, and again in each of the phase diagram's 128 runs, for kernels that were
-compiled long ago. ``compiled_derived`` remembers, under a key made of the source form's
-signature and a tag naming the derivation, which compiled modules the derived forms were, and
-where their coefficients and constants sit among the source form's: a later call with the same
-key loads those modules and binds the source's own coefficients, with no UFL work at all.
+its cache by the form's signature, but only after that UFL work is done: a noticeable share of
+a short 1D run, paid again in every run of a phase diagram, for kernels that were compiled long
+ago (docs/design-notes.md, "Form cache"). ``compiled_derived`` remembers, under a key made of
+the source form's signature and a tag naming the derivation, which compiled modules the derived
+forms were, and where their coefficients and constants sit among the source form's: a later
+call with the same key loads those modules and binds the source's own coefficients, with no UFL
+work at all.
 
 The forms are the same compiled kernels bound to the same objects, so everything computed
 with them is identical to the last bit (tests/test_formcache.py). The key holds everything
@@ -43,11 +44,10 @@ def _cmp_constant(a: Any, b: Any) -> int:
     repr(b)), but with their counts, the reprs' last numbers, compared as numbers. UFL sorts the
     operands of sums and products canonically, and compares Constants by their reprs as
     strings, so "..., 100)" sorts before "..., 99)": a form whose Constants' counts straddle a
-    power of ten (they grow through a process) got another operand order, another expression and
-    so another signature than the same form built elsewhere, and its record was not found
-    (measured: the test of tests/test_formcache.py after tests/test_chain.py and
-    tests/test_stability.py, whose models' Constants were counted 93 to 105). Counts of the
-    same number of digits compare as before: only those orders change."""
+    power of ten (they grow through a process) gets another operand order, another expression
+    and so another signature than the same form built elsewhere, and its record is not found
+    (docs/design-notes.md, "Form cache"). Counts of the same number of digits compare as in
+    UFL's own order: only those orders change."""
     x, y = repr(a), repr(b)
     if x == y:
         return 0
@@ -92,7 +92,14 @@ def cache_folder() -> Path:
 
 def file_tag(path: str | os.PathLike) -> str:
     """A tag naming a derivation by the source file that holds it (``compiled_derived``'s
-    ``tag``): any change of the file derives the forms again."""
+    ``tag``): any change of the file derives the forms again.
+
+    Args:
+        path: the source file.
+
+    Returns:
+        A hash of the file's contents (16 hex digits).
+    """
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()[:16]
 
 
@@ -215,18 +222,26 @@ def compiled_derived(source: Any, tag: str, derive: Callable[[], list[Any]],
                      jit_options: dict[str, Any] | None = None,
                      extra: tuple[Any, ...] = (), spaces: tuple[Any, ...] | None = None
                      ) -> tuple[list[Any], list[tuple[list, list]]]:
-    """The compiled forms of ``derive()`` (UFL forms derived from the UFL form ``source``, on
-    its first arguments (all, or fewer: a functional ``action(action(a, f), f)``), or on
-    arguments in the function spaces ``spaces`` (of the same mesh: a form on a product of the
-    source's spaces, say), and with coefficients among its own and ``extra``, constants among
-    its own), and each one's
-    (coefficients, constants): from the record of an earlier call with the same source,
-    ``tag`` and elements of ``extra`` where there is one, else derived and compiled
-    (``dolfinx.fem.form``) and recorded.
+    """The compiled forms of ``derive()``, from the record of an earlier call where there is one.
 
-    ``tag`` must change whenever the derivation does (the caller's source code, say): the
-    record is found by the source's signature and the tag alone. Collective on the mesh's
-    communicator: the forms come from the records only where every rank has them.
+    Otherwise they are derived, compiled (``dolfinx.fem.form``) and recorded. Collective on
+    the mesh's communicator: the forms come from the records only where every rank has them.
+
+    Args:
+        source: the UFL form the others derive from.
+        tag: names the derivation; it must change whenever the derivation does (the
+            caller's source code, say): the record is found by the source's signature, the
+            tag and the elements of ``extra`` alone.
+        derive: returns the derived UFL forms: on the source's first arguments (all, or
+            fewer: a functional ``action(action(a, f), f)``), or on arguments in ``spaces``,
+            with coefficients among the source's own and ``extra``, constants among its own.
+        jit_options: FFCx options of the compilation (part of the key).
+        extra: coefficients the derived forms may read beyond the source's.
+        spaces: the function spaces of the derived forms' arguments (of the same mesh: a
+            form on a product of the source's spaces, say); None: the source's.
+
+    Returns:
+        (the compiled forms, each one's (coefficients, constants) that it reads).
     """
     from dolfinx import fem
 

@@ -27,8 +27,18 @@ _DERIVATION = file_tag(__file__)
 
 
 def dkappa_ufl(residual: Any, kappa: Any) -> Any:
-    """dR/dκ of a residual affine in the Constant κ: R(κ=1) - R(κ=0) (``ufl.replace`` expands
-    R's derivatives: 0.02-0.04 s)."""
+    """dR/dκ of a residual affine in the Constant κ: R(κ=1) - R(κ=0).
+
+    ``ufl.replace`` expands R's derivatives, which takes time: the models derive this form
+    through the form cache (``shells.problem.formcache``).
+
+    Args:
+        residual: the UFL residual form.
+        kappa: the ``fem.Constant`` κ it is affine in.
+
+    Returns:
+        The UFL form of dR/dκ.
+    """
     import ufl
 
     return (ufl.replace(residual, {kappa: ufl.as_ufl(1.0)})
@@ -160,8 +170,8 @@ class FormProblem:
         cache = self.__dict__.setdefault("_quadratics", {})
         if key not in cache:
             f = fem.Function(bilinear.arguments()[0].ufl_function_space())
-            # through the form cache: the action's UFL work and signature cost 0.3 s a model
-            # on the 1D model's mode Hessian, for a kernel compiled long ago
+            # through the form cache: the action's UFL work and signature are costly on the
+            # 1D model's mode Hessian, for a kernel compiled long ago
             tag, derive = derived if derived is not None else ("", lambda: bilinear)
             forms, _ = compiled_derived(
                 bilinear, f"{_DERIVATION}{' ' + tag if tag else ''} quadratic",

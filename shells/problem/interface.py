@@ -61,7 +61,18 @@ def orbit_cosine(cross: np.ndarray, gram: np.ndarray, v2: float, s2: float,
     motion). From the inner products of v and of the basis b_i, the ``tangents`` orbit
     tangents first, then the rigid motions: ``cross`` = (v·b_i), ``gram`` = (b_i·b_j) for
     i ≤ j row by row, ``v2`` = v·v; ``s2`` the state's own squared norm (the scale below which
-    a tangent counts as zero). 0 when every tangent vanishes (a state with no orbit)."""
+    a tangent counts as zero).
+
+    Args:
+        cross: (v·b_i), the ``tangents`` orbit tangents first, then the rigid motions.
+        gram: (b_i·b_j) for i ≤ j, row by row.
+        v2: v·v.
+        s2: the state's own squared norm.
+        tangents: how many of the b_i are orbit tangents.
+
+    Returns:
+        The |cos| in [0, 1]; 0 when every tangent vanishes (a state with no orbit).
+    """
     cross = np.asarray(cross, dtype=float)
     n = len(cross)
     G = np.zeros((n, n))
@@ -250,12 +261,24 @@ class FactorOptions(Protocol):
 
 
 def get_state(problem: Problem) -> np.ndarray:
-    """A copy of this rank's owned state values."""
+    """A copy of this rank's owned state values.
+
+    Args:
+        problem: the problem.
+
+    Returns:
+        The owned values (a numpy array).
+    """
     return problem.state.array_r.copy()
 
 
 def set_state(problem: Problem, values: np.ndarray) -> None:
-    """Set the owned state values (the first ``local size`` of ``values``) and sync."""
+    """Set the owned state values and sync the ghosts.
+
+    Args:
+        problem: the problem.
+        values: at least this rank's owned values (the first ``local size`` are taken).
+    """
     v = problem.state
     v.array_w[:] = values[: v.getLocalSize()]
     problem.sync()

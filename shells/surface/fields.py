@@ -71,10 +71,12 @@ class FieldWriter:
         return {f.name: f for f, _ in self._exprs}
 
     def write(self, t: float) -> None:
+        """Write the fields of the model's current state as the time step ``t``."""
         self.update()
         self.writer.write(t)
 
     def close(self) -> None:
+        """Close the file."""
         if self.writer is not None:
             self.writer.close()
 

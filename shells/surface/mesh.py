@@ -10,10 +10,9 @@ the mesh is exactly invariant under the rotation by 2π/sectors. The axisymmetri
 stays exactly C_k-symmetric, and a loss of symmetry into a mode m that is not a multiple of k is
 a perfect bifurcation of the discrete problem, as it is of the shell: on a one-piece mesh the
 mesh's own asymmetry makes every such bifurcation imperfect, and a continuation in small steps
-turns smoothly onto the buckled branch without any eigenvalue crossing (measured: the 30° cap,
-h/R = 0.04, P2, size 0.2: no negative eigenvalue down to κR = -0.8, past the m = 2 bifurcation
-at -0.66). For k = 8 (the default) the pairs m = 1, 2, 3, 5, 6, 7 are exactly double, m = 4
-splits into two perfect pitchforks, m = 8 is imperfect.
+turns smoothly onto the buckled branch without any eigenvalue crossing (docs/model.md,
+"Symmetric meshes: perfect bifurcations"). For k = 8 (the default) the pairs m = 1, 2, 3, 5,
+6, 7 are exactly double, m = 4 splits into two perfect pitchforks, m = 8 is imperfect.
 
 Element size: ``size`` (bulk, relative to the shape's size) away from the rim, and
 ``sqrt(R h) / layer_elements`` within ``layer_widths * sqrt(R h)`` of the rim, where the boundary
@@ -118,9 +117,17 @@ class MeshSpec:
 
     @classmethod
     def from_description(cls, d: dict[str, Any], sectors_if_missing: int = 8) -> MeshSpec:
-        """The spec of a description (``describe``); a sidecar written before meshes had
-        sectors describes a one-piece mesh (``sectors_if_missing=1``), a spec file without
-        the key asks for the default."""
+        """The spec of a description (``describe``).
+
+        Args:
+            d: the description.
+            sectors_if_missing: the sectors of a description without the key: 1 for a mesh
+                sidecar (a mesh written without sectors is one piece), the default for a spec
+                file.
+
+        Returns:
+            The ``MeshSpec``.
+        """
         kw = {k: d[k] for k in ("h", "size", "layer_elements", "layer_widths", "order") if k in d}
         return cls(shape=shape_from_description(d["shape"]),
                    sectors=d.get("sectors", sectors_if_missing), **kw)
@@ -313,9 +320,9 @@ def _set_periodic(gmsh: Any, faces: list[int]) -> None:
                                     [c, -s, 0, 0, s, c, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1])
 
 
-#: OCC pads bounding boxes by an absolute tolerance (~1e-7 model units on each side): a bound
-#: relative to R alone missed the flat base and the rim of caps with R < 0.25 (their meshes had
-#: area errors of 93 %); the base is now told by its surface type
+#: OCC pads bounding boxes by an absolute tolerance (~1e-7 model units on each side), so a
+#: bound relative to R alone misses the flat base and the rim of small caps (R < 0.25); the
+#: base is told by its surface type (docs/design-notes.md, "Meshes")
 _BOX_PAD = 1e-6
 
 
@@ -470,26 +477,29 @@ def _build_model(gmsh: Any, spec: MeshSpec) -> None:
 # cell-count and memory estimate, checked before meshing
 # --------------------------------------------------------------------------------------------
 #: Triangles per unit area at element size s: 2.5 / s^2. An equilateral triangle of side s has
-#: area (sqrt 3 / 4) s^2, i.e. 2.31 / s^2; gmsh's frontal-Delaunay meshes (algorithm 6) of the
-#: 30-degree cap have 2.37 / s^2 (size 0.01: 19 919 cells, size 0.0018: 609 094). With the rim
-#: layer (caps of 30 and 150 deg, h/R 1e-2 to 1e-4, sphere, disk, ellipsoids) the estimate was
-#: 0.95 to 1.22 times the count (tests/test_validation.py checks two of them).
+#: area (sqrt 3 / 4) s^2, i.e. 2.31 / s^2; gmsh's frontal-Delaunay meshes come slightly above
+#: (docs/design-notes.md, "Meshes"; tests/test_validation.py checks two estimates).
 CELLS_PER_SIZE2 = 2.5
-#: Peak resident memory of ``shells mesh`` per cell, bytes. Measured (ru_maxrss of one
-#: ``python3 -m shells mesh cap --theta-deg 30 --size S`` process, order 2; the imports alone
-#: 200 MiB): S = 0.01: 19 919 cells, 213 MiB; 0.005: 79 229 cells, 289 MiB; 0.0025: 315 099
-#: cells, 605 MiB (639 MiB with -o: written and read back); 0.0018: 609 094 cells, 1086 MiB.
-#: 1350-1525 B per cell on average, 1713 B marginal; on 2 ranks (0.0025) 563 + 244 MiB. 2048 B
-#: is conservative: on 24 GiB the limit is about 12 million cells (size 4e-4 for that cap).
+#: Peak resident memory of ``shells mesh`` per cell, bytes: above the per-cell peak of the
+#: meshing, reading and distribution, with a margin (docs/design-notes.md, "Meshes").
 MESH_BYTES_PER_CELL = 2048
-#: Resident memory of one process before meshing (dolfinx, gmsh, PETSc imported): 200 MiB
-#: measured, rounded up.
+#: Resident memory of one process before meshing (dolfinx, gmsh, PETSc imported), rounded up
+#: (docs/design-notes.md, "Meshes").
 PROCESS_BASE_BYTES = 256 * 2**20
 
 
 def estimate_cells(spec: MeshSpec) -> float:
-    """An upper estimate of the number of triangles gmsh makes for ``spec`` (from the size field
-    of ``_set_sizes``: bulk size, the rim band at the layer size, the graded transition)."""
+    """An upper estimate of the number of triangles gmsh makes for ``spec``.
+
+    From the size field of ``_set_sizes``: bulk size, the rim band at the layer size, the
+    graded transition.
+
+    Args:
+        spec: the mesh.
+
+    Returns:
+        The estimate (inf where the sizes overflow).
+    """
     try:
         return _estimate_cells(spec)
     except (ZeroDivisionError, OverflowError):  # a size of 5e-324 squared, a radius of 1e300
@@ -537,8 +547,18 @@ def memory_limit() -> int | None:
 
 
 def check_mesh_size(spec: MeshSpec, comm: MPI.Comm | None = None) -> float:
-    """Refuse (InputError, on every rank of ``comm``) a mesh whose estimated memory, over all
-    ranks, exceeds the machine's memory; returns the estimated number of cells."""
+    """Refuse a mesh whose estimated memory, over all ranks, exceeds the machine's memory.
+
+    Args:
+        spec: the mesh.
+        comm: the ranks that will hold it (default ``MPI.COMM_WORLD``).
+
+    Returns:
+        The estimated number of cells.
+
+    Raises:
+        InputError: on every rank of ``comm``, if the mesh is too large.
+    """
     from mpi4py import MPI as _MPI
 
     comm = _MPI.COMM_WORLD if comm is None else comm
@@ -564,8 +584,18 @@ def generate(spec: MeshSpec, comm: MPI.Comm | None = None, msh_path: str | os.Pa
              ) -> ShellMesh:
     """Mesh ``spec`` with gmsh on rank 0 of ``comm`` and distribute it over ``comm``.
 
-    If ``msh_path`` is given, rank 0 also writes the gmsh file and its JSON sidecar. A mesh too
-    large for the machine's memory is refused first (``check_mesh_size``).
+    A mesh too large for the machine's memory is refused first (``check_mesh_size``).
+
+    Args:
+        spec: the mesh.
+        comm: the communicator (default ``MPI.COMM_WORLD``).
+        msh_path: rank 0 also writes the gmsh file there, with its JSON sidecar.
+
+    Returns:
+        The distributed mesh.
+
+    Raises:
+        InputError: if the mesh is too large.
     """
     from dolfinx.io import gmshio
     from mpi4py import MPI as _MPI
@@ -594,7 +624,16 @@ def _write_current(gmsh: Any, spec: MeshSpec, path: Path) -> None:
 
 
 def write_msh(spec: MeshSpec, path: str | os.PathLike, comm: MPI.Comm | None = None) -> None:
-    """Mesh ``spec`` on rank 0 of ``comm`` and write ``path`` (.msh) plus ``path``.json."""
+    """Mesh ``spec`` on rank 0 of ``comm`` and write it.
+
+    Args:
+        spec: the mesh.
+        path: the ``.msh`` file; its JSON sidecar is ``path``.json.
+        comm: the communicator (default ``MPI.COMM_WORLD``).
+
+    Raises:
+        InputError: if the mesh is too large.
+    """
     from mpi4py import MPI as _MPI
 
     comm = _MPI.COMM_WORLD if comm is None else comm
@@ -693,8 +732,21 @@ def read_mesh_shape(path: str | os.PathLike, comm: MPI.Comm | None = None) -> Sh
 
 
 def load_mesh(path: str | os.PathLike, comm: MPI.Comm | None = None) -> ShellMesh:
-    """Read a gmsh ``.msh`` surface mesh in parallel; the shape comes from its JSON sidecar, or,
-    for a mesh made elsewhere, from its nodes (a surface of revolution about z)."""
+    """Read a gmsh ``.msh`` surface mesh in parallel.
+
+    The shape comes from its JSON sidecar, or, for a mesh made elsewhere, from its nodes (a
+    surface of revolution about z).
+
+    Args:
+        path: the ``.msh`` file.
+        comm: the communicator (default ``MPI.COMM_WORLD``).
+
+    Returns:
+        The distributed mesh.
+
+    Raises:
+        InputError: if the file is missing, unreadable or not a surface mesh.
+    """
     from dolfinx.io import gmshio
     from mpi4py import MPI as _MPI
 

@@ -11,28 +11,21 @@ Energy (dimensionless as in the paper: Young's modulus scaled out, per reference
 Up to the constant (h²/3) 2(1+ν) κ² A this is U_s^K + (h²/3) U_b^K + P_κ with the curvature
 potential P_κ = -(2(1+ν)/3) h² κ ∫ tr(b - b°), the paper's Eq. (1).
 
-Discretisation (frame-free, valid on closed surfaces): the unknown is w = (u, θ) in a blocked P2⁶
-Lagrange space on the (second-order) surface mesh: u the Cartesian displacement, θ a Cartesian
-director increment. Deformation gradient F = P° + ∇u (P° = J J⁺ the tangential projector), metric
-a = Fᵀ F, director d = v/|v| with v = A n° + θ (n° the analytic outward normal, A a constant
-matrix, the identity but on the everted branch), curvature b = -sym(Fᵀ ∇d P°), shear γ = Fᵀ d.
-The director is any unit vector: it can rotate by any angle (a snapped cap turns its rim by twice
-its opening angle), and only |v| → 0 is singular, which the unit-weight term ∫ ((|v|² - 1)/2)²
-keeps away while it removes the null direction of θ (the length of v, which d does not see).
-Reference quantities (a°, b°, γ°) use the same formulas at w = 0, so the reference state is
-exactly stress-free. ``ModelParameters.director = "tangent"`` is the earlier chart d =
-normalize(n° + (I - n°⊗n°) θ) with the gauge ∫ (θ·n°)², limited to rotations below 90°; both
-charts give the same stability answer at an equilibrium (docs/model.md, "Director charts").
+Discretisation (frame-free, valid on closed surfaces; docs/model.md, "Discretisation"): the
+unknown is w = (u, θ) in a blocked P2⁶ (or P3⁶) Lagrange space on the second-order surface mesh:
+u the Cartesian displacement, θ a Cartesian director increment; d = v/|v| with v = A n° + θ (A
+the identity but on the everted branch), so the director can rotate by any angle, and the term
+∫ ((|v|² - 1)/2)² removes the null direction of θ. Reference quantities (a°, b°, γ°) use the
+same formulas at w = 0, so the reference state is exactly stress-free.
+``ModelParameters.director = "tangent"`` is the alternative chart d = normalize(n° + (I -
+n°⊗n°) θ), limited to rotations below 90°; both charts give the same stability answer at an
+equilibrium (docs/model.md, "Director charts").
 
-Kirchhoff-Love limit: the shear term is c_s = shear_penalty · (10/3)(1-ν), i.e. ``shear_penalty``
-times the natural Naghdi shear stiffness (shear factor 5/6). A shear-flexible Naghdi model with
-natural curvature loses ellipticity at κh = √3 (1-ν)/(1+ν); a stiff penalty pushes this far
-beyond the closed sphere's buckling at κh ≈ 1.5 (see docs/model.md and tests/test_model.py).
-
-Rigid motions are removed by a statically determinate 3-2-1 point support (6 scalar constraints on
-three mesh nodes, chosen to make the rigid-mode matrix well conditioned). Under self-equilibrated
-loads (natural curvature, pressure on a closed surface) its reactions vanish, so it constrains no
-deformation. Every reported scalar is invariant to rigid motions.
+Kirchhoff-Love limit: c_s = shear_penalty · (10/3)(1-ν), ``shear_penalty`` times the natural
+Naghdi shear stiffness, since a shear-flexible model with natural curvature loses ellipticity
+at κh = √3 (1-ν)/(1+ν), below the closed sphere's buckling (docs/model.md). Rigid motions are
+removed by a statically determinate 3-2-1 point support whose reactions vanish under
+self-equilibrated loads (docs/model.md, "Rigid motions").
 
 Residual and Hessian are ``ufl.derivative`` of this one energy; κ, h, ν, p are ``fem.Constant``
 so continuation never recompiles a form.
@@ -65,23 +58,27 @@ P2_THETABAR_MAX = 3.0
 def default_discretisation(shape: Shape, h_over_r: float | None = None,
                            degree: int | None = None, size: float | None = None,
                            kappa_field: CurvatureField | None = None) -> tuple[int, float]:
-    """(degree, bulk mesh size / R) of the surface model that give right answers on ``shape``.
+    """The element degree and bulk mesh size / R that give right answers on ``shape``.
 
-    P2 with the stiff Kirchhoff-Love penalty locks on deep shells (bending-dominated states of a
-    curved surface). Closed spheres: P3 at size 0.21: κ_b h of the h/R = 0.05 sphere is 1.4901
-    (+0.4 % of the converged 1.484) where P2 gives 1.71 / 1.61 / 1.56 on refining meshes
-    (docs/model.md, benchmarks/results/sphere_buckling.json); an explicit degree 2 is refused.
-    Caps of θ̄ ≤ 3 and the flat disk: P2 at size 0.1 (the 30° cap at h/R = 0.04, θ̄ = 2.6: its
-    fold within 0.1 % of the converged value). Deeper caps and ellipsoids: P3 at size 0.2 (the
-    ellipsoid r3 = 1.5 R at h/R = 0.04: m = 2 buckling at κR = -0.57382 against the 1D model's
-    -0.57386, where P2 gives -0.6226, +8.5 %, measured with `shells critical`; the θ̄ = 5
-    cap's fold +5.1 % with P2, issue 13's measurement; P3 runs of both: benchmarks/shapes_3d.py).
-    A non-uniform ``kappa_field`` gets P3 on every shape: the ring-patterned 30° cap at h/R =
-    0.04 (f = step(θ - 0.2, 0.05) step(0.4 - θ, 0.05)) has its fold 3.6 % late with P2 at the
-    default mesh (1.3 % and 0.5 % with 6 and 8 rim-layer elements), 9e-5 with P3, against the
-    1D model's κR = 2.288494 (benchmarks/kappa_fields.py). A meridian table is taken as the
-    deep caps (P3, size 0.2), or a sphere when closed; a torus and a surface known only by its
-    mesh as the deep caps.
+    P2 with the stiff Kirchhoff-Love penalty locks on deep shells (bending-dominated states of
+    a curved surface), so: closed spheres P3 at size 0.21 (an explicit degree 2 is refused);
+    caps of θ̄ ≤ 3 and the flat disk P2 at size 0.1; deeper caps, ellipsoids, tori, meridian
+    tables and surfaces known only by their mesh P3 at size 0.2 (a closed meridian table as a
+    sphere); a non-uniform ``kappa_field`` P3 on every shape. The errors of each choice against
+    the 1D model: docs/design-notes.md, "Surface model defaults".
+
+    Args:
+        shape: the shell.
+        h_over_r: thickness over the shape's length scale (decides θ̄ of a spherical cap).
+        degree: a degree the caller chose (None: the default).
+        size: a size the caller chose (None: the default).
+        kappa_field: the stimulus (None: uniform).
+
+    Returns:
+        (degree, size).
+
+    Raises:
+        InputError: for degree 2 on a closed sphere.
     """
     from shells.geometry.meridian import MeridianTable
     from shells.geometry.shapes import EllipsoidalCap, SphericalCap, Torus
@@ -112,7 +109,7 @@ class ModelParameters:
         degree: polynomial degree of u and θ.
         quadrature_degree: quadrature degree of the energy (full integration).
         director: ``"free"`` (d = v/|v|, v = A n° + θ: rotations of any size) or ``"tangent"``
-            (d = normalize(n° + (I - n°⊗n°) θ): rotations below 90°, the earlier chart).
+            (d = normalize(n° + (I - n°⊗n°) θ): rotations below 90°).
         kappa_field: the natural-curvature stimulus K of b̄ = b° + κ K
             (``shells.geometry.stimulus``; the default is the paper's K = a°).
     """
@@ -219,6 +216,7 @@ class ShellModel(FormProblem):
     # ------------------------------------------------------------------------------------------
     @staticmethod
     def split(w: Any) -> tuple[Any, Any]:
+        """(u, θ) of a state ``w`` in the blocked space, as UFL vectors."""
         import ufl
 
         return ufl.as_vector([w[0], w[1], w[2]]), ufl.as_vector([w[3], w[4], w[5]])
@@ -502,6 +500,7 @@ class ShellModel(FormProblem):
     # scalars
     # ------------------------------------------------------------------------------------------
     def assemble(self, name: str) -> float:
+        """The scalar functional ``name`` (energy parts, integrals) at the current state."""
         from dolfinx import fem
         from mpi4py import MPI
 
@@ -661,6 +660,7 @@ class ShellModel(FormProblem):
         self.w.x.scatter_forward()
 
     def num_dofs(self) -> int:
+        """The global number of unknowns."""
         im = self.W.dofmap.index_map
         return int(im.size_global * self.W.dofmap.index_map_bs)
 
@@ -668,25 +668,30 @@ class ShellModel(FormProblem):
     # stability blocks and modes (shells.problem.interface.Problem)
     # ------------------------------------------------------------------------------------------
     def stability_blocks(self) -> tuple[None]:
+        """One block, ``None``: the Hessian (``Problem.stability_blocks``)."""
         return (None,)
 
     def block_layout(self, block: Any) -> None:
+        """The one layout (``Problem.block_layout``)."""
         return None
 
     def create_hessian(self, block: Any) -> Any:
+        """A matrix of the Hessian's pattern (the Jacobian's)."""
         return self.create_jacobian()
 
     def assemble_hessian(self, block: Any, H: Any) -> None:
+        """The Hessian at the current state into ``H``, the gauge's rows as unit rows."""
         assemble_symmetric(H, self.hessian, self.bcs)
 
     def assemble_mass(self, block: Any) -> Any:
+        """The L² mass of u and θ (``Problem.assemble_mass``)."""
         return self._assemble_mass(self.mass, self.bcs)
 
     def hessian_quadratic(self, block: Any, v: Any) -> float:
         """vᵀ H v at the current state by quadrature of the second variation d²E(v, v)
         (``FormProblem._quadratic``; the gauge's DOFs of v taken as zero), for
-        ``shells.algorithms.stability``'s Rayleigh quotients. Its functional compiles in 0.6 s (the
-        60° cap, P2), the bilinear Hessian in 13 s."""
+        ``shells.algorithms.stability``'s Rayleigh quotients. Its functional compiles far
+        faster than the bilinear Hessian (docs/model.md, "Stability and critical points")."""
         return self._quadratic(None, self.hessian_ufl, self.bcs, v)
 
     def mode_rayleigh(self, vec: Any) -> dict[str, float]:

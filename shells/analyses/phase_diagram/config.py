@@ -163,8 +163,8 @@ class PhaseDiagramConfig:
             return {"model": "axisym", "nu": self.nu, "m_max": self.m_max,
                     "rel_tol": self.rel_tol, "cells": d.cells,
                     "layer_cells": d.layer_cells, "ds_max": d.ds_max,
-                    # the inertia is computed at every branch point (the key stays in the
-                    # records: it was a setting, 2, of earlier runs)
+                    # the inertia is computed at every branch point (the key stays, so that
+                    # the points files already written keep their key)
                     "check_every": 1, "locator": "critical.follow"}
         return {"model": "surface", "nu": self.nu, "rel_tol": self.rel_tol, "size": d.size,
                 "layer_elements": d.layer_elements}
@@ -206,7 +206,15 @@ class Task:
 
 
 def tasks_of(cfg: PhaseDiagramConfig) -> tuple[list[Task], list[dict[str, float]]]:
-    """The grid's tasks (most expensive first) and the skipped (h/R, θ̄) (θ > 0.9 π)."""
+    """The grid's tasks.
+
+    Args:
+        cfg: the diagram.
+
+    Returns:
+        (the tasks, most expensive first, an up and a down branch per point; the skipped
+        points {"h_over_R", "thetabar"}, those with θ > 0.9 π).
+    """
     tasks, skipped = [], []
     for h in cfg.h_over_r:
         for tb in cfg.thetabars():

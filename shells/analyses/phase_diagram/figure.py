@@ -58,9 +58,19 @@ def _shade_computed(ax: Any, pts: list[dict[str, Any]], ylo: float, yhi: float) 
 
 
 def make_figure(result: dict[str, Any], stem: Path) -> list[str]:
-    """The phase diagram in the paper's style: θ̄ horizontal, κR vertical, phases shaded from
-    the computed transitions (``_shade_computed``, the smallest h/R), computed points, the
-    fitted lines solid and the paper's dashed."""
+    """Draw the phase diagram in the paper's style.
+
+    θ̄ horizontal, κR vertical, phases shaded from the computed transitions
+    (``_shade_computed``, the smallest h/R), computed points, the fitted lines solid and the
+    paper's dashed.
+
+    Args:
+        result: the diagram's result (``run``'s).
+        stem: the path without suffix.
+
+    Returns:
+        The files written (``stem``.png and .pdf).
+    """
     import matplotlib
 
     matplotlib.use("Agg")

@@ -29,6 +29,12 @@ def merge_points(recs: list[dict[str, Any]]) -> list[dict[str, Any]]:
     "none"; ``kappa_everted_R`` = 2 - ``kappa_down_R`` (mirror symmetry), the loss of symmetry of
     the everted branch; ``everted_symmetric``: the snap lands on a stable symmetric everted
     shell (κ_s < κ_e).
+
+    Args:
+        recs: the points file's task records.
+
+    Returns:
+        The merged points, ordered by (h/R, θ̄).
     """
     by: dict[tuple[float, float], dict[str, Any]] = {}
     for r in recs:
@@ -135,6 +141,15 @@ def fit_all(points: list[dict[str, Any]], nu: float = 0.5) -> dict[str, Any]:
     points; θ̄_s: per h/R the bracket between the last no-snap and the first snap θ̄, its midpoint
     (error: half its width), pooled: mean over h/R; θ̄_c: per h/R where the computed fold crosses
     the computed everted loss of symmetry 2 - κ_b, pooled: mean.
+
+    Args:
+        points: the merged points (``merge_points``).
+        nu: Poisson's ratio (for the paper's reference lines).
+
+    Returns:
+        {"fits": {"alpha", "beta", "b", "c", "thetabar_s", "thetabar_c"} (None where there
+        are too few points), "fits_error": their standard errors, "extra": the fits' details,
+        per h/R values and checks}.
     """
     fits: dict[str, Any] = {k: None for k in ("alpha", "beta", "b", "c", "thetabar_s",
                                               "thetabar_c")}

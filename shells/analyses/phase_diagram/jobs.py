@@ -112,23 +112,33 @@ def _progress_line(r: dict[str, Any], k: int, n: int) -> str:
 def run(cfg: PhaseDiagramConfig, outdir: str | Path, comm: Any = None,
                       limit: int | None = None, figure: bool = True,
                       progress: Callable[[str], None] | None = None) -> dict[str, Any]:
-    """Compute (or complete) a phase diagram in ``outdir``; returns the result on every rank.
+    """Compute (or complete) a phase diagram in ``outdir``.
 
-    ``limit``: each rank computes at most this many new tasks in the grid phase (an interrupted
-    run, for tests); the result then covers what exists. ``result["stats"]`` says how many tasks
-    this run computed (summed over ranks).
+    Args:
+        cfg: the diagram.
+        outdir: the folder of ``points.jsonl``, ``phase_diagram.json`` and the figure; the
+            tasks already in ``points.jsonl`` (same numerics) are not computed again.
+        comm: the communicator whose ranks share the tasks (default ``MPI.COMM_WORLD``).
+        limit: each rank computes at most this many new tasks in the grid phase (an
+            interrupted run, for tests); the result then covers what exists.
+        figure: also draw the figure.
+        progress: called with one line per finished task (rank 0; default: the log).
+
+    Returns:
+        The result, on every rank; ``result["stats"]`` says how many tasks this run computed
+        (summed over ranks).
     """
     from mpi4py import MPI
 
     comm = comm or MPI.COMM_WORLD
     # PETSc's and SLEPc's initialisations (the first imports of dolfinx and slepc4py) and
     # finalisations are collective on MPI_COMM_WORLD: both are imported here by every rank,
-    # not inside the first task a rank computes. A rerun with fewer tasks left than ranks hung
-    # otherwise: in PetscInitialize (the rank with a task) against the barrier after the tasks,
-    # and, with dolfinx imported here, at exit: SLEPc, initialised on the ranks that computed
-    # a task only, finalised there with an MPI_Comm_dup on COMM_WORLD that the rank without a
-    # task never joined (it waited in MPI_Finalize). Reproduced by creating one EPS on rank 0
-    # of two.
+    # not inside the first task a rank computes. Otherwise a rerun with fewer tasks left than
+    # ranks hangs: in PetscInitialize (the rank with a task) against the barrier after the
+    # tasks, and, with dolfinx imported here, at exit: SLEPc, initialised on the ranks that
+    # computed a task only, is finalised there with an MPI_Comm_dup on COMM_WORLD that the
+    # rank without a task never joins (it waits in MPI_Finalize); one EPS created on rank 0 of
+    # two reproduces it.
     import dolfinx  # noqa: F401
     from slepc4py import SLEPc  # noqa: F401
 

@@ -206,7 +206,16 @@ def _trace_surface(task: Task, cfg: PhaseDiagramConfig) -> dict[str, Any]:
 
 
 def compute_task(task: Task, cfg: PhaseDiagramConfig) -> dict[str, Any]:
-    """Follow one branch and return its JSON record (``status`` "ok" or "failed")."""
+    """Follow one branch of the diagram.
+
+    Args:
+        task: the branch: (h/R, θ̄, direction).
+        cfg: the diagram.
+
+    Returns:
+        Its JSON record, with ``status`` "ok" or "failed" (and the ``error``: a failure is
+        recorded, not raised, so the diagram goes on without the point).
+    """
     t0 = time.perf_counter()
     rec: dict[str, Any] = {"h_over_R": task.h_over_r, "thetabar": task.thetabar,
                            "theta_deg": math.degrees(task.theta), "direction": task.direction,
@@ -223,9 +232,22 @@ def compute_task(task: Task, cfg: PhaseDiagramConfig) -> dict[str, Any]:
 
 def everted_check(h_over_r: float, thetabar: float, cfg: PhaseDiagramConfig,
                   kappa_max: float | None = None) -> dict[str, Any]:
-    """Follow the up-branch through the snap fold and its second fold onto the everted branch and
-    locate the loss of symmetry there (first count change after the branch is stable again):
-    checks κ_e R = 2 - κ_b R (mirror symmetry) directly. Costly for deep caps."""
+    """Check κ_e R = 2 - κ_b R (mirror symmetry) on the everted branch directly.
+
+    Follows the up-branch through the snap fold and its second fold onto the everted branch
+    and locates the loss of symmetry there (the first count change after the branch is stable
+    again). Costly for deep caps.
+
+    Args:
+        h_over_r: the cap's h/R.
+        thetabar: its θ̄.
+        cfg: the diagram (its numerics).
+        kappa_max: the end of the range in κR (default from Eq. (4)'s mirror, with a margin).
+
+    Returns:
+        {"h_over_R", "thetabar", "folds" (κR of the folds passed), "everted_bifurcation"
+        (None if not found), ...}.
+    """
     from shells.algorithms.settings import CriticalSettings
 
     task = Task(h_over_r, thetabar, "up", tag="everted")

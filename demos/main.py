@@ -41,7 +41,9 @@ def say(msg: str) -> None:
 
 
 def _f(v: float | None) -> str:
-    return f"{v:7.3f}" if v is not None else "   none"
+    """A κR, or "not computed" where the run did not compute it (the θ̄_s refinement points
+    go up only): never "none", which reads as "no instability"."""
+    return f"{v:7.3f}" if v is not None else "not computed"
 
 
 def snapped_shape(cap: SphericalCap, h_over_r: float, kappa_r: float, size: float,

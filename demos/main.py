@@ -40,10 +40,12 @@ def say(msg: str) -> None:
         print(msg, flush=True)
 
 
-def _f(v: float | None) -> str:
-    """A κR, or "not computed" where the run did not compute it (the θ̄_s refinement points
-    go up only): never "none", which reads as "no instability"."""
-    return f"{v:7.3f}" if v is not None else "not computed"
+def _f(p: dict, key: str) -> str:
+    """The point's κR ``key``: "not computed" where the run did not compute that direction
+    (the θ̄_s refinement points go up only), "none in range" where it found no instability."""
+    if key not in p:
+        return "not computed"
+    return f"{p[key]:7.3f}" if p[key] is not None else "none in range"
 
 
 def snapped_shape(cap: SphericalCap, h_over_r: float, kappa_r: float, size: float,
@@ -97,9 +99,9 @@ def run(outdir: str | Path = "results/demo", quick: bool = False) -> dict:
     say("phase diagram, h/R = 0.04 (kappa R of the first instability; paper's lines beside):")
     for p in pd["points"]:
         tb = p["thetabar"]
-        say(f"  thetabar {tb:5.2f}: up {p.get('up_kind', '?'):>11} at {_f(p.get('kappa_up_R'))} "
+        say(f"  thetabar {tb:5.2f}: up {p.get('up_kind', '?'):>11} at {_f(p, 'kappa_up_R')} "
             f"(m = {p.get('mode_up')}; snap line {theory.snap_kappa_R(tb):6.3f}) | down at "
-            f"{_f(p.get('kappa_down_R'))} (m = {p.get('mode_down')}; Eq. (4) "
+            f"{_f(p, 'kappa_down_R')} (m = {p.get('mode_down')}; Eq. (4) "
             f"{theory.buckling_kappa_R(tb, 0.04):6.3f})")
 
     # 3. shapes for ParaView

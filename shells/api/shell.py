@@ -61,6 +61,16 @@ def _scale(radius: Any, what: str = "the radius") -> tuple[float, float | None]:
     return float(radius), None
 
 
+def _second_length(value: Any, name: str, default: float, unit: float | None) -> float:
+    """A shape's second length (an ellipsoid's r3, a torus's ring) in the shape's numbers:
+    ``default`` if None; with units only when the radius has them (then over its length)."""
+    if value is None:
+        return default
+    if is_quantity(value) != (unit is not None):
+        raise InputError(f"give radius and {name} both with units or both as numbers")
+    return length(value, name) / unit if unit is not None else float(value)
+
+
 def _angle(theta_deg: Any, theta: Any) -> float | None:
     if theta_deg is not None and theta is not None:
         raise InputError("give the opening angle once: theta_deg or theta (radians)")
@@ -114,12 +124,7 @@ def ellipsoid(radius: Any = 1.0, r3: Any = None, theta_deg: float | None = 90.0,
     from shells.geometry.shapes import EllipsoidalCap
 
     r, unit = _scale(radius)
-    if r3 is None:
-        c = 1.5 * r
-    elif is_quantity(r3) != (unit is not None):
-        raise InputError("give radius and r3 both with units or both as numbers")
-    else:
-        c = (length(r3, "r3") / unit) if unit is not None else float(r3)
+    c = _second_length(r3, "r3", 1.5 * r, unit)
     t = _angle(theta_deg if theta is None else None, theta)
     return Geometry(EllipsoidalCap(radius=r, r3=c, theta=math.pi / 2 if t is None else t), unit)
 
@@ -137,12 +142,7 @@ def torus(radius: Any = 1.0, ring: Any = None) -> Geometry:
     from shells.geometry.shapes import Torus
 
     r, unit = _scale(radius)
-    if ring is None:
-        c = 3.0 * r
-    elif is_quantity(ring) != (unit is not None):
-        raise InputError("give radius and ring both with units or both as numbers")
-    else:
-        c = (length(ring, "ring") / unit) if unit is not None else float(ring)
+    c = _second_length(ring, "ring", 3.0 * r, unit)
     return Geometry(Torus(radius=r, ring=c), unit)
 
 

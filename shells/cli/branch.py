@@ -24,14 +24,7 @@ from shells.errors import InputError
 
 
 def add_subcommand(sub: Any) -> argparse.ArgumentParser:
-    """Register ``shells branch`` on the command line's subparsers.
-
-    Args:
-        sub: the subparsers (``add_subparsers``' result).
-
-    Returns:
-        The subcommand's parser.
-    """
+    """Add ``shells branch`` to ``sub`` (the CLI's subparsers); returns its parser."""
     b = sub.add_parser("branch", help="follow the equilibrium branch in kappa (continuation)",
                        description="Follow a shell from kappa = 0 to a final natural curvature "
                        "with pseudo-arclength (through folds) or natural continuation; each point "

@@ -11,14 +11,7 @@ from shells.cli import common
 
 
 def add_subcommand(sub: Any) -> argparse.ArgumentParser:
-    """Register ``shells critical`` on the command line's subparsers.
-
-    Args:
-        sub: the subparsers (``add_subparsers``' result).
-
-    Returns:
-        The subcommand's parser.
-    """
+    """Add ``shells critical`` to ``sub`` (the CLI's subparsers); returns its parser."""
     c = sub.add_parser("critical", help="first critical point (fold or bifurcation) along the "
                        "fundamental branch", description="Follow the fundamental branch from "
                        "kappa = 0 with the Hessian inertia at every point; locate every critical "

@@ -14,14 +14,7 @@ __all__ = ["add_subcommand"]
 
 
 def add_subcommand(sub: Any) -> argparse.ArgumentParser:
-    """Register ``shells knockdown`` on the command line's subparsers.
-
-    Args:
-        sub: the subparsers (``add_subparsers``' result).
-
-    Returns:
-        The subcommand's parser.
-    """
+    """Add ``shells knockdown`` to ``sub`` (the CLI's subparsers); returns its parser."""
     p = sub.add_parser("knockdown", help="knock-down of a closed sphere's buckling curvature by "
                        "an imperfection", description="For each imperfection amplitude delta/h: "
                        "follow the imperfect sphere (rotational symmetry enforced) from kappa = 0 "

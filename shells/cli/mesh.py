@@ -13,14 +13,7 @@ from shells.errors import InputError
 
 
 def add_mesh(sub: Any) -> argparse.ArgumentParser:
-    """Register ``shells mesh`` on the command line's subparsers.
-
-    Args:
-        sub: the subparsers (``add_subparsers``' result).
-
-    Returns:
-        The subcommand's parser.
-    """
+    """Add ``shells mesh`` to ``sub`` (the CLI's subparsers); returns its parser."""
     m = sub.add_parser("mesh", help="mesh a sphere, cap, ellipsoidal cap, disk or torus with gmsh",
                        description="Mesh a shape with gmsh (second-order geometry, refined in the "
                        "rim boundary layer of width sqrt(R h)) and report area and rim errors.")
@@ -64,27 +57,13 @@ def _add_reader(sub: Any, name: str, help_: str, func: Any, png: bool
 
 
 def add_info(sub: Any) -> argparse.ArgumentParser:
-    """Register ``shells info`` on the command line's subparsers.
-
-    Args:
-        sub: the subparsers (``add_subparsers``' result).
-
-    Returns:
-        The subcommand's parser.
-    """
+    """Add ``shells info`` to ``sub`` (the CLI's subparsers); returns its parser."""
     return _add_reader(sub, "info", "read a .msh file and report its size, area, rim",
                        _cmd_info, png=False)
 
 
 def add_render(sub: Any) -> argparse.ArgumentParser:
-    """Register ``shells render`` on the command line's subparsers.
-
-    Args:
-        sub: the subparsers (``add_subparsers``' result).
-
-    Returns:
-        The subcommand's parser.
-    """
+    """Add ``shells render`` to ``sub`` (the CLI's subparsers); returns its parser."""
     return _add_reader(sub, "render", "render a .msh surface to PNG (off-screen)", _cmd_render,
                        png=True)
 

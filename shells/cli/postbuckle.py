@@ -46,14 +46,7 @@ __all__ = ["add_subcommand"]
 
 
 def add_subcommand(sub: Any) -> argparse.ArgumentParser:
-    """Register ``shells postbuckle`` on the command line's subparsers.
-
-    Args:
-        sub: the subparsers (``add_subparsers``' result).
-
-    Returns:
-        The subcommand's parser.
-    """
+    """Add ``shells postbuckle`` to ``sub`` (the CLI's subparsers); returns its parser."""
     p = sub.add_parser("postbuckle", help="follow the branch that bifurcates from the "
                        "fundamental one (post-buckling), both sides",
                        description="Follow the fundamental branch from kappa = 0, locate its "

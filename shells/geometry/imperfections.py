@@ -14,8 +14,17 @@ import numpy as np
 from shells.errors import InputError
 from shells.geometry.shapes import Shape, SphericalCap, check_positive
 
-__all__ = ["HARMONIC_DEGREE_MAX", "harmonic_parts", "HarmonicImperfectSphere", "ImperfectSphere",
-           "legendre_cosine_series"]
+__all__ = ["HARMONIC_DEGREE_MAX", "HarmonicImperfectSphere", "ImperfectSphere", "check_amplitude",
+           "harmonic_parts", "legendre_cosine_series"]
+
+
+def check_amplitude(amplitude: float, radius: float) -> None:
+    """Refuse (``InputError``) an imperfection amplitude that is not a number below R/10 in
+    size (a larger one is no imperfection of the sphere)."""
+    if not (isinstance(amplitude, (int, float)) and math.isfinite(amplitude)
+            and abs(amplitude) < 0.1 * radius):
+        raise InputError(f"the imperfection amplitude must be a number below R/10 in size, "
+                         f"got {amplitude!r}")
 
 
 def legendre_cosine_series(n: int) -> list[tuple[int, float]]:
@@ -63,10 +72,7 @@ class ImperfectSphere(SphericalCap):
         if self.profile not in ("dimple", "mode"):
             raise InputError(f"imperfection profile must be 'dimple' or 'mode', got "
                              f"{self.profile!r}")
-        if not (isinstance(self.amplitude, (int, float)) and math.isfinite(self.amplitude)
-                and abs(self.amplitude) < 0.1 * self.radius):
-            raise InputError(f"the imperfection amplitude must be a number below R/10 in size, "
-                             f"got {self.amplitude!r}")
+        check_amplitude(self.amplitude, self.radius)
         check_positive("width", self.width)
         if not (isinstance(self.degree, int) and 0 <= self.degree <= 1000):
             raise InputError(f"the mode degree must be an integer in [0, 1000], got "
@@ -226,10 +232,7 @@ class HarmonicImperfectSphere(Shape):
         if self.order > self.degree:
             raise InputError(f"the harmonic's order m must not exceed its degree n (0 <= m <= "
                              f"n), got n = {self.degree}, m = {self.order}")
-        if not (isinstance(self.amplitude, (int, float)) and math.isfinite(self.amplitude)
-                and abs(self.amplitude) < 0.1 * self.radius):
-            raise InputError(f"the imperfection amplitude must be a number below R/10 in size, "
-                             f"got {self.amplitude!r}")
+        check_amplitude(self.amplitude, self.radius)
         object.__setattr__(self, "f_max", self._max_abs())
 
     def _max_abs(self) -> float:

@@ -22,6 +22,7 @@ import fcntl
 import json
 import logging
 import os
+import re
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -221,32 +222,67 @@ def write_atomic(path: str | os.PathLike, text: str) -> None:
     os.replace(tmp, path)
 
 
-def read_number_rows(path: str | os.PathLike, what: str, rows: str
-                     ) -> tuple[tuple[float, ...], ...]:
-    """The rows of numbers of a text table (spaces or commas).
+def read_number_rows(path: str | os.PathLike, what: str, rows: str,
+                     columns: Sequence[Sequence[str]] = ()) -> tuple[tuple[float, ...], ...]:
+    """The rows of numbers of a text table, as people and spreadsheets write them.
 
-    Blank lines and lines starting with # are skipped.
+    Values are separated by spaces, tabs, commas or semicolons; blank lines and lines
+    starting with # are skipped. A first row that holds no number is a header: its names
+    (case, quotes and a unit in brackets, ``r (mm)``, ignored) pick the columns, in the order
+    of the first set of ``columns`` they all name (``("r", "z")``: a header ``z,r`` reads
+    its columns swapped); other columns are dropped.
 
     Args:
         path: the file.
         what: what the file is, for messages (e.g. "the meridian file").
         rows: what a row should hold, for messages (e.g. "'r z'").
+        columns: the column sets a header may name, e.g. ``(("theta", "f"), ("x", "y", "z",
+            "f"))``; empty: a header row is skipped and the columns taken as they stand.
 
     Returns:
         The rows, as tuples of floats.
 
     Raises:
-        InputError: if the file cannot be read or holds anything else.
+        InputError: if the file cannot be read, its header names none of ``columns``, or it
+            holds anything but numbers.
     """
     try:
-        with open(path, encoding="utf-8") as fh:
-            lines = [ln.replace(",", " ").split() for ln in fh
-                     if ln.strip() and not ln.lstrip().startswith("#")]
+        with open(path, encoding="utf-8-sig") as fh:
+            text = [ln.strip() for ln in fh if ln.strip() and not ln.lstrip().startswith("#")]
+        # a comma, semicolon or tab separates the values where the file uses one (then a
+        # header's names may hold spaces: "r (mm)"), else spaces do
+        sep = r"\s*[,;\t]\s*" if text and re.search(r"[,;\t]", text[0]) else r"\s+"
+        lines = [re.split(sep, ln) for ln in text]
     except (OSError, UnicodeError) as e:
         raise InputError(f"cannot read {what} {str(path)!r}: "
                          f"{getattr(e, 'strerror', None) or e}") from None
+    order = None
+    if lines and not any(_is_number(v) for v in lines[0]):
+        names = [re.sub(r"\s*[\[(].*$", "", v.strip("\"'")).strip().lower() for v in lines[0]]
+        lines = lines[1:]
+        for cols in columns:
+            if all(c in names for c in cols):
+                order = [names.index(c) for c in cols]
+                break
+        if columns and order is None:
+            raise InputError(f"{what} {str(path)!r} has the header {', '.join(names)}"
+                             f" but needs the columns {' or '.join(' '.join(c) for c in columns)}")
     try:
-        return tuple(tuple(float(v) for v in ln) for ln in lines)
+        table = [tuple(float(v) for v in ln) for ln in lines]
     except ValueError:
         raise InputError(f"{what} {str(path)!r} holds something other than numbers (rows "
                          f"{rows})") from None
+    if order is not None:
+        try:
+            table = [tuple(row[i] for i in order) for row in table]
+        except IndexError:
+            raise InputError(f"{what} {str(path)!r}: a row is shorter than its header") from None
+    return tuple(table)
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True

@@ -199,3 +199,32 @@ def test_units_on_the_command_line_are_checked(extra, message, capsys):
     err = capsys.readouterr().err
     if MPI.COMM_WORLD.rank == 0:
         assert message in err and len(err.strip().splitlines()) == 1
+
+
+def test_tables_with_a_header_row_read_as_spreadsheets_write_them(shared_tmp):
+    """A meridian written by pandas (an index column, a header ``r,z``), one with its columns
+    swapped and units in the header, and a field table ``theta;f``: the numbers the header
+    names, in the order the reader needs; a header that names no needed column is refused."""
+    import numpy as np
+    import pandas as pd
+
+    from shells.geometry.meridian import MeridianTable
+    from shells.geometry.stimulus import CurvatureField
+
+    t = np.linspace(0.0, math.radians(30), 40)
+    r, z = np.sin(t), np.cos(t)
+    d = shared_tmp
+    if MPI.COMM_WORLD.rank == 0:
+        pd.DataFrame({"r": r, "z": z}).to_csv(d / "pandas.csv")
+        pd.DataFrame({"Z (mm)": z, "R (mm)": r}).to_csv(d / "swapped.csv", index=False)
+        (d / "field.csv").write_text("theta;f\n0;1\n0.5;2\n")
+        (d / "wrong.csv").write_text("a,b\n0,1\n")
+    MPI.COMM_WORLD.barrier()
+    plain = MeridianTable(tuple(zip(r.tolist(), z.tolist(), strict=True)))
+    for name in ("pandas.csv", "swapped.csv"):
+        tab = MeridianTable.from_file(str(d / name))
+        assert np.allclose(np.array(tab.points), np.array(plain.points), rtol=0, atol=1e-15)
+    field = CurvatureField.from_file(str(d / "field.csv"))
+    assert field.table == ((0.0, 1.0), (0.5, 2.0))
+    with pytest.raises(InputError, match="needs the columns r z"):
+        MeridianTable.from_file(str(d / "wrong.csv"))

@@ -233,7 +233,8 @@ class MeridianTable(Shape):
 
     @classmethod
     def from_file(cls, path: str) -> MeridianTable:
-        """Rows "r z" (spaces or commas; # comments), from the pole to the rim."""
+        """Rows "r z" from the pole to the rim (spaces, tabs, commas or semicolons; # comments;
+        a header row such as ``r,z`` names the columns, as pandas and spreadsheets write it)."""
         from shells.files import read_number_rows
 
-        return cls(read_number_rows(path, "the meridian file", "'r z'"))
+        return cls(read_number_rows(path, "the meridian file", "'r z'", columns=(("r", "z"),)))

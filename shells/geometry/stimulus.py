@@ -218,10 +218,12 @@ class CurvatureField:
     def from_file(cls, path: str, anisotropy: tuple[float, float] = (1.0, 1.0)
                   ) -> CurvatureField:
         """A table of f from a text file (``TABLE_SUFFIXES``): rows "θ f" or "x y z f",
-        separated by spaces or commas, lines starting with # ignored."""
+        separated by spaces, tabs, commas or semicolons, lines starting with # ignored; a header
+        row names the columns (``theta,f`` or ``x,y,z,f``, in any order)."""
         from shells.files import read_number_rows
 
-        rows = read_number_rows(path, "the kappa field file", "'theta f' or 'x y z f'")
+        rows = read_number_rows(path, "the kappa field file", "'theta f' or 'x y z f'",
+                                columns=(("x", "y", "z", "f"), ("theta", "f")))
         return cls(path, anisotropy, rows)
 
     # -- evaluation ----------------------------------------------------------------------------

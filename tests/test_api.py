@@ -228,3 +228,31 @@ def test_tables_with_a_header_row_read_as_spreadsheets_write_them(shared_tmp):
     assert field.table == ((0.0, 1.0), (0.5, 2.0))
     with pytest.raises(InputError, match="needs the columns r z"):
         MeridianTable.from_file(str(d / "wrong.csv"))
+
+
+def test_plots_and_tables_of_runs_and_run_folders(shared_tmp, capsys):
+    """``--plot`` and ``--csv`` beside a run, ``shells plot DIR`` on its folder: a picture
+    that is not blank, and the table of the branch's points (the JSON lines as one table)."""
+    import numpy as np
+    import pandas as pd
+
+    from shells.cli import main
+
+    out = shared_tmp / "branch"
+    argv = ["branch", "--shape", "cap", "--theta-deg", "30", "--h-over-r", "0.04", "--model",
+            "axisym", "--kappa-r-max", "1.2", "-o", str(out), "--plot", str(shared_tmp / "b.png"),
+            "--csv", str(shared_tmp / "b.csv")]
+    assert main(argv) == 0
+    assert main(["plot", str(out), "-o", str(shared_tmp / "again.png")]) == 0
+    capsys.readouterr()
+    if MPI.COMM_WORLD.rank == 0:
+        table = pd.read_csv(shared_tmp / "b.csv")
+        back = shells.load(out)
+        assert back.analysis == "branch" and len(back.rows()) == len(table)
+        assert table["kappa_R"].iloc[-1] == pytest.approx(1.2, rel=1e-12)  # lands on the end
+        assert np.all(np.diff(table["kappa_R"]) > 0)  # below the fold: κ rises
+        import matplotlib.image as mpimg
+
+        for png in ("b.png", "again.png"):
+            img = mpimg.imread(shared_tmp / png)
+            assert img.shape[0] > 300 and float(img[..., :3].std()) > 0.05  # not blank

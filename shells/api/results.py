@@ -38,7 +38,8 @@ class Result(Mapping):
     def __init__(self, analysis: str, data: dict[str, Any],
                  shell: dict[str, Any] | None = None) -> None:
         self.analysis = analysis
-        self.data = data
+        # plain JSON values (numpy scalars become floats, exactly): what --json prints
+        self.data = json.loads(json.dumps(data, default=json_default))
         self.shell = shell
 
     # -- the mapping: the command's JSON keys -------------------------------------------------
@@ -140,15 +141,24 @@ class Result(Mapping):
         elif "points" in self.data and rows and x in rows[0]:
             y = y or next((k for k in ("psi3_pole_over_h", "psi3_over_h") if k in rows[0]),
                           "energy")
-            stable = [p.get("stable") for p in rows]
-            xs, ys = [p[x] for p in rows], [p.get(y) for p in rows]
-            if any(s is not None for s in stable):
+            groups: dict[tuple, list[dict[str, Any]]] = {}
+            for p in rows:  # a post-buckling run's fundamental branch and each side apart
+                groups.setdefault((p.get("branch"), p.get("side")), []).append(p)
+            labelled = set()
+            for pts in groups.values():
+                stable = [p.get("stable") for p in pts]
+                xs, ys = [p[x] for p in pts], [p.get(y) for p in pts]
+                if all(s is None for s in stable):
+                    ax.plot(xs, ys, "-", color="C0")
+                    continue
                 for want, style, label in ((True, "-", "stable"), (False, "--", "unstable")):
-                    ax.plot([a if s == want else math.nan for a, s in zip(xs, stable, strict=True)],
-                            ys, style, label=label)
+                    ax.plot([a if s == want else math.nan
+                             for a, s in zip(xs, stable, strict=True)], ys, style,
+                            color="C0" if want else "C1",
+                            label=None if label in labelled else label)
+                    labelled.add(label)
+            if labelled:
                 ax.legend()
-            else:
-                ax.plot(xs, ys, "-")
             for c in self._critical_markers():
                 ax.axvline(c, color="grey", lw=0.8, ls=":")
             ax.set_xlabel(x.replace("kappa_R", "κR").replace("kappa_h", "κh"))
@@ -176,18 +186,56 @@ class Result(Mapping):
 
 
 def load(folder: str | Path) -> Result:
-    """A result saved by ``Result.save`` (``folder/result.json``).
+    """The result in a folder: one ``Result.save`` wrote, or the run folder of a command
+    (``-o DIR`` of ``shells critical``, ``branch``, ``postbuckle``, ``knockdown``,
+    ``phase-diagram``), read from its files without computing anything.
 
     Raises:
-        InputError: the folder holds no readable result.
+        InputError: the folder holds no result that can be read.
     """
-    path = Path(folder) / RESULT_FILE
-    try:
-        d = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError) as e:
-        raise InputError(f"no result in {str(folder)!r}: cannot read {path.name} "
-                         f"({getattr(e, 'strerror', None) or e})") from None
-    if not isinstance(d, dict) or "analysis" not in d:
-        raise InputError(f"{str(path)!r} is not a saved result")
-    analysis, shell = d.pop("analysis"), d.pop("shell", None)
-    return Result(analysis, d, shell)
+    from shells.files import read_with_header
+
+    folder = Path(folder)
+
+    def read_json(name: str) -> dict[str, Any]:
+        try:
+            d = json.loads((folder / name).read_text(encoding="utf-8"))
+        except (OSError, ValueError) as e:
+            raise InputError(f"cannot read {str(folder / name)!r}: "
+                             f"{getattr(e, 'strerror', None) or e}") from None
+        if not isinstance(d, dict):
+            raise InputError(f"{str(folder / name)!r} is not a result")
+        return d
+
+    if (folder / RESULT_FILE).exists():
+        d = read_json(RESULT_FILE)
+        if "analysis" not in d:
+            raise InputError(f"{str(folder / RESULT_FILE)!r} is not a saved result")
+        analysis, shell = d.pop("analysis"), d.pop("shell", None)
+        return Result(analysis, d, shell)
+    if (folder / "critical.json").exists():
+        return Result("critical", read_json("critical.json"))
+    if (folder / "phase_diagram.json").exists():
+        return Result("phase_diagram", read_json("phase_diagram.json"))
+    if (folder / "postbuckle.jsonl").exists():
+        header, recs = read_with_header(folder / "postbuckle.jsonl")
+        cp = next((r["critical_point"] for r in recs if "critical_point" in r), None)
+        summary = next((r["summary"] for r in recs if "summary" in r), {})
+        return Result("postbuckle", {"config": header, "critical_point": cp,
+                                     "points": [r for r in recs if "branch" in r],
+                                     "sides": summary.get("sides")})
+    if (folder / "branch.jsonl").exists():
+        header, recs = read_with_header(folder / "branch.jsonl")
+        points = [r for r in recs if "index" in r and "kappa_R" in r]
+        turns = [{"kappa_R": p["kappa_R"], "kappa_h": p["kappa_h"], "index": p["index"]}
+                 for a, p in zip(points, points[1:], strict=False)
+                 if a.get("dkappa_ds", 0) * p.get("dkappa_ds", 0) < 0]
+        return Result("branch", {"config": header, "points": points, "folds": turns})
+    if (folder / "points.jsonl").exists():
+        header, recs = read_with_header(folder / "points.jsonl")
+        points = [r for r in recs if "delta_over_h" in r]
+        if points:
+            return Result("knockdown", {"config": header.get("config", header),
+                                        "points": points})
+    raise InputError(f"no result in {str(folder)!r}: none of {RESULT_FILE}, critical.json, "
+                     "phase_diagram.json, postbuckle.jsonl, branch.jsonl, points.jsonl")

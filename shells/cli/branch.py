@@ -14,6 +14,7 @@ from shells.cli.common import (
     add_kappa_range,
     add_shape_args,
     add_shell_args,
+    add_table_args,
     emit,
     field_from_args,
     kappa_end,
@@ -53,6 +54,7 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
                    help="write VTX fields (DIR/fields.bp) for ParaView")
     b.add_argument("--restart", action="store_true", help="ignore an existing branch file")
     b.add_argument("-o", "--output", default=None, help="output directory (results/branch)")
+    add_table_args(b)
     add_json(b)
     b.set_defaults(func=_cmd_branch)
     return b

@@ -63,10 +63,28 @@ def emit(result: dict[str, Any], args: argparse.Namespace, human: Callable[[], N
     """Print a result on rank 0: the human summary, then (with --json) the JSON last line."""
     if rank() != 0:
         return
+    full = with_units(result, args)
+    if getattr(args, "plot", None) or getattr(args, "csv", None):
+        from shells.api.results import Result
+
+        res = Result(args.command.replace("-", "_"), full)
+        if args.plot:
+            res.plot(args.plot)
+        if args.csv:
+            res.to_csv(args.csv)
     if not getattr(args, "json", False):
         human()
     else:
-        print(json.dumps(with_units(result, args), default=json_default), flush=True)
+        print(json.dumps(full, default=json_default), flush=True)
+
+
+def add_table_args(p: argparse.ArgumentParser) -> None:
+    """--plot FILE.png and --csv FILE.csv: the run's figure and table."""
+    p.add_argument("--plot", default=None, metavar="FILE.png",
+                   help="a figure of the result (a branch's Psi3/h against kappa R, stable and "
+                   "unstable parts, critical points marked)")
+    p.add_argument("--csv", default=None, metavar="FILE.csv",
+                   help="the result's table (its points, or its critical points) as CSV")
 
 
 # --------------------------------------------------------------------------------------------
@@ -322,13 +340,17 @@ PATH_ARGS: dict[str, list[tuple[str, str, str, str | None]]] = {
              ("png", "--png", "png", None), ("meridian", "--meridian", "in", None)],
     "info": [("mesh", "mesh file", "in", None)],
     "render": [("mesh", "mesh file", "in", None), ("output", "-o", "png", None)],
-    "branch": [("output", "-o", "dir", "results/branch"),
+    "branch": [("plot", "--plot", "png", None), ("csv", "--csv", "csv", None),
+               ("output", "-o", "dir", "results/branch"),
                ("kappa_field", "--kappa-field", "field", None),
                ("meridian", "--meridian", "in", None), ("mesh", "--mesh", "in", None)],
-    "critical": [("output", "-o", "dir", None), ("kappa_field", "--kappa-field", "field", None),
+    "plot": [("folder", "run folder", "shared", None), ("output", "-o", "png", None)],
+    "critical": [("plot", "--plot", "png", None), ("csv", "--csv", "csv", None),
+                 ("output", "-o", "dir", None), ("kappa_field", "--kappa-field", "field", None),
                  ("meridian", "--meridian", "in", None), ("mesh", "--mesh", "in", None)],
     "phase-diagram": [("output", "-o", "dir", None)],
-    "postbuckle": [("output", "-o", "dir", None),
+    "postbuckle": [("plot", "--plot", "png", None), ("csv", "--csv", "csv", None),
+                   ("output", "-o", "dir", None),
                    ("kappa_field", "--kappa-field", "field", None),
                    ("meridian", "--meridian", "in", None), ("mesh", "--mesh", "in", None)],
 }

@@ -42,6 +42,7 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
     c.add_argument("--restart", action="store_true",
                    help="ignore an existing branch file (surface model; the 1D model always "
                    "computes again)")
+    common.add_table_args(c)
     common.add_json(c)
     c.set_defaults(func=_cmd_critical)
     return c

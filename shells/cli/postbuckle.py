@@ -34,6 +34,7 @@ from shells.cli.common import (
     add_kappa_range,
     add_physics_args,
     add_shape_args,
+    add_table_args,
     emit,
     field_from_args,
     kappa_end,
@@ -79,6 +80,7 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
                         "pitchfork's are mirror images)")
     p.add_argument("-o", "--output", default=None,
                    help="directory: postbuckle.jsonl (points as computed) and shapes")
+    add_table_args(p)
     add_json(p)
     p.set_defaults(func=_cmd_postbuckle)
     return p

@@ -256,3 +256,38 @@ def test_plots_and_tables_of_runs_and_run_folders(shared_tmp, capsys):
         for png in ("b.png", "again.png"):
             img = mpimg.imread(shared_tmp / png)
             assert img.shape[0] > 300 and float(img[..., :3].std()) > 0.05  # not blank
+
+
+def test_progress_is_a_bar_on_a_terminal_and_quiet_under_json(monkeypatch, caplog):
+    """On a terminal: a tqdm bar with the share of the κ range, points and critical points;
+    under ``--json`` nothing; elsewhere a log line (every 10 s: the first at once)."""
+    import io
+    import logging
+
+    from shells import progress
+
+    class Terminal(io.StringIO):
+        def isatty(self) -> bool:
+            return True
+
+    term = Terminal()
+    monkeypatch.setattr("sys.stderr", term)
+    progress.quiet(False)
+    bar = progress.Progress("branch", 2.0)
+    for k in (0.5, 1.0, 1.5):
+        bar.update(k, critical=int(k == 1.0))
+    bar.close()
+    shown = term.getvalue()
+    assert "75%" in shown and "point 3" in shown and "critical 1" in shown
+    progress.quiet(True)
+    term.seek(0), term.truncate()
+    silent = progress.Progress("branch", 2.0)
+    silent.update(1.0)
+    silent.close()
+    progress.quiet(False)
+    assert term.getvalue() == ""
+    monkeypatch.setattr("sys.stderr", io.StringIO())  # not a terminal
+    with caplog.at_level(logging.INFO, logger="shells"):
+        lines = progress.Progress("critical", 4.0)
+        lines.update(1.0)
+    assert "critical: 25 % of the range, point 1" in caplog.text

@@ -24,7 +24,7 @@ PACKAGE = ROOT / "shells"
 
 #: the layers from the bottom up: a module's layer is the first whose prefix names it
 LAYERS: list[tuple[str, tuple[str, ...]]] = [
-    ("leaves", ("shells.errors", "shells.files", "shells.parameters",
+    ("leaves", ("shells.errors", "shells.files", "shells.parameters", "shells.progress",
                 "shells.layers", "shells.theory", "shells.units")),
     ("problem", ("shells.problem",)),
     ("geometry", ("shells.geometry",)),

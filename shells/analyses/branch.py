@@ -17,7 +17,6 @@ from __future__ import annotations
 import logging
 import math
 import os
-import sys
 import time
 from collections.abc import Iterator
 from dataclasses import asdict, dataclass, field
@@ -35,6 +34,7 @@ from shells.geometry.catalogue import shape_from_description
 from shells.geometry.shapes import RunScales, Shape, kappa_length
 from shells.geometry.stimulus import UNIFORM, CurvatureField
 from shells.parameters import check_h_over_r, check_model, check_nu
+from shells.progress import Progress
 from shells.surface.fields import FieldWriter
 from shells.surface.mesh import MeshSpec, ShellMesh, generate, load_mesh
 
@@ -140,34 +140,6 @@ def point_record(p: Point, cfg: BranchConfig) -> dict[str, Any]:
     d["kappa_R"] = p.kappa * cfg.R
     d["kappa_h"] = p.kappa * cfg.h
     return d
-
-
-class _Progress:
-    """One status line on rank 0: rewritten in place on a terminal, else a line every 10 s."""
-
-    def __init__(self, comm: Any, label: str) -> None:
-        self.on = comm.rank == 0
-        self.tty = self.on and sys.stderr.isatty()
-        self.label = label
-        self.last = 0.0
-
-    def update(self, rec: dict[str, Any]) -> None:
-        if not self.on:
-            return
-        msg = (f"{self.label}: point {rec['index']}  kappa R = {rec['kappa_R']:+.4f}  "
-               f"kappa h = {rec['kappa_h']:+.4f}  Psi3/h = {rec['psi3_over_h']:+.4e}  "
-               f"Newton {rec['newton_its']}  {rec['wall_time']:.0f} s")
-        now = time.monotonic()
-        if self.tty:
-            sys.stderr.write("\r" + msg[:150].ljust(150))
-            sys.stderr.flush()
-        elif now - self.last > 10.0:
-            log.info(msg)
-            self.last = now
-
-    def done(self) -> None:
-        if self.tty:
-            sys.stderr.write("\n")
 
 
 def read_branch(path: str | os.PathLike) -> tuple[dict[str, Any], list[dict[str, Any]]]:
@@ -311,7 +283,7 @@ def run_branch(cfg: BranchConfig, outdir: str | os.PathLike, *, comm: Any = None
 
     writer = FieldWriter(model, outdir / "fields.bp") if fields != "none" else None
     ns = NewtonSolver(model)
-    progress = _Progress(comm, label)
+    progress = Progress(label, cfg.kappa_end * cfg.R, comm)
     kappa0, index0 = (0.0, 0) if start is None else (start[0], start[1] + 1)
     if start is not None and abs(kappa0 - cfg.kappa_end) < 1e-14 * abs(cfg.kappa_end):
         return
@@ -352,11 +324,11 @@ def run_branch(cfg: BranchConfig, outdir: str | os.PathLike, *, comm: Any = None
             prev = (model.w.x.array.copy(), float(model.kappa.value))
             if writer is not None and fields == "all":
                 writer.write(float(rec["index"]))
-            progress.update(rec)
+            progress.update(rec["kappa_R"], psi3_over_h=rec["psi3_over_h"])
             last = rec
             yield rec
     finally:
-        progress.done()
+        progress.close()
         if writer is not None:
             if fields == "last" and last is not None:
                 writer.write(float(last["index"]))

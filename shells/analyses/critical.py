@@ -18,6 +18,7 @@ from shells.errors import InputError
 from shells.files import append_record, json_default, write_atomic, write_header
 from shells.geometry.shapes import kappa_length
 from shells.parameters import check_model
+from shells.progress import Progress
 
 __all__ = ["CRITICAL_CHECKPOINT", "REUSE_SURFACE", "run", "run_surface"]
 
@@ -235,6 +236,7 @@ def run_surface(shape: Any, h_over_r: float, nu: float, kappa_end: float, *,
     tracked: list[FollowResume] = []
     t0 = time.perf_counter()
     last_kappa = None if start is None else start.kappa
+    progress = Progress("critical", kappa_end * R_or_L, comm)
     for p, res, found in follow(model, st, kappa_end, crit, resume=start,
                                 track=None if out is None else tracked.append):
         last_kappa = p.kappa
@@ -243,8 +245,9 @@ def run_surface(shape: Any, h_over_r: float, nu: float, kappa_end: float, *,
                "newton_its": p.newton_its, **p.scalars}
         if bfile is not None and comm.rank == 0:
             append_record(bfile, rec)  # one whole line, fsync'ed
-        log.info("  kappa R = %+.5f  kappa h = %+.5f  negative = %d  (%.0f s)", rec["kappa_R"],
-                 rec["kappa_h"], res.negative_count, time.perf_counter() - t0)
+        log.debug("  kappa R = %+.5f  kappa h = %+.5f  negative = %d  (%.0f s)",
+                  rec["kappa_R"], rec["kappa_h"], res.negative_count, time.perf_counter() - t0)
+        progress.update(rec["kappa_R"], critical=len(found), negative=res.negative_count)
         for c in found:
             if first_arrays is None:
                 first_arrays = (c.state, c.mode)
@@ -268,6 +271,7 @@ def run_surface(shape: Any, h_over_r: float, nu: float, kappa_end: float, *,
                     arrays["cp_mode"] = first_arrays[1]
             save_state_checkpoint(out / CRITICAL_CHECKPOINT, model, r.index, arrays,
                                   meta={"follow": r.scalars(), "header": same_run})
+    progress.close()
     stopped = bool(cps) and (crit.stop_at_first or (crit.stop_at_fold and any(
         c["kind"] == "fold" for c in cps)))
     if not stopped and (last_kappa is None

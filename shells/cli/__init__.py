@@ -145,6 +145,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             if rank() == 0:
                 parser.print_help()
             return 0
+        from shells.progress import quiet
+
+        quiet(bool(getattr(args, "json", False)))  # --json: for a program, no bar
         common.check_ranges(args)
         common.check_paths(args)
         return int(args.func(args) or 0)

@@ -9,12 +9,12 @@ from collections.abc import Callable
 from typing import Any
 
 from shells.cli.common import (
+    add_degree_arg,
     add_field_args,
-    add_json,
     add_kappa_range,
+    add_outputs,
     add_shape_args,
     add_shell_args,
-    add_table_args,
     emit,
     field_from_args,
     kappa_end,
@@ -42,10 +42,7 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
     b.add_argument("--size", type=positive_float("size"), default=None,
                    help="bulk element size / R (default 0.1; caps deeper than thetabar = 3 and "
                    "ellipsoids 0.2; closed spheres 0.21)")
-    b.add_argument("--degree", type=int, choices=(2, 3), default=None,
-                   help="polynomial degree (default 2; closed spheres, caps deeper than "
-                   "thetabar = 3, ellipsoids and any --kappa-field or --anisotropy 3: P2 "
-                   "locks there, docs/model.md)")
+    add_degree_arg(b)
     b.add_argument("--layer-elements", type=positive_float("layer-elements"), default=4.0,
                    help="elements across sqrt(R h) at the rim (default 4)")
     b.add_argument("--shear-penalty", type=positive_float("shear-penalty"), default=1.0e3,
@@ -54,18 +51,15 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
                    help="write VTX fields (DIR/fields.bp) for ParaView")
     b.add_argument("--restart", action="store_true", help="ignore an existing branch file")
     b.add_argument("-o", "--output", default=None, help="output directory (results/branch)")
-    add_table_args(b)
-    add_json(b)
-    b.set_defaults(func=_cmd_branch)
-    return b
+    return add_outputs(b, _cmd_branch)
 
 
 def _cmd_branch(args: argparse.Namespace) -> int:
     from shells.analyses import branch
 
-    shape = shape_from_args(args)
     if (args.kappa_h_max is None) == (args.kappa_r_max is None):
         raise InputError("give exactly one of --kappa-h-max, --kappa-r-max and --kappa-max")
+    shape = shape_from_args(args)
     outdir = args.output or "results/branch"
     fld = field_from_args(args, shape, args.model)
     k_end = kappa_end(shape, args.h_over_r, args.kappa_h_max, args.kappa_r_max)  # checked

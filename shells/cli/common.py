@@ -78,6 +78,30 @@ def emit(result: dict[str, Any], args: argparse.Namespace, human: Callable[[], N
         print(json.dumps(full, default=json_default), flush=True)
 
 
+def add_outputs(p: argparse.ArgumentParser, func: Callable[[argparse.Namespace], int]
+                ) -> argparse.ArgumentParser:
+    """--plot, --csv and --json on an analysis's parser, ``func`` its command; returns ``p``."""
+    add_table_args(p)
+    add_json(p)
+    p.set_defaults(func=func)
+    return p
+
+
+def shape_and_field(args: argparse.Namespace) -> tuple[Any, Any]:
+    """The shape of the arguments and its natural-curvature field (``--kappa-field``, checked
+    for the model)."""
+    shape = shape_from_args(args)
+    return shape, field_from_args(args, shape, args.model)
+
+
+def add_degree_arg(p: argparse.ArgumentParser) -> None:
+    """--degree: the surface model's polynomial degree (None: its default)."""
+    p.add_argument("--degree", type=int, choices=(2, 3), default=None,
+                   help="surface model: polynomial degree, full quadrature 2 x degree (default "
+                   "2; closed spheres, caps deeper than thetabar = 3, ellipsoids and any "
+                   "--kappa-field or --anisotropy 3: P2 locks there, docs/model.md)")
+
+
 def add_table_args(p: argparse.ArgumentParser) -> None:
     """--plot FILE.png and --csv FILE.csv: the run's figure and table."""
     p.add_argument("--plot", default=None, metavar="FILE.png",

@@ -215,12 +215,12 @@ class HarmonicImperfectSphere(Shape):
     ``meridian`` is the one at φ = 0 (its poles are the surface's: the rigid-motion gauge and
     the apex read them)."""
 
+    kind = "harmonic-sphere"
+    has_ufl_normal = False
     radius: float = 1.0
     amplitude: float = 0.0
     degree: int = 2
     order: int = 0
-    kind = "harmonic-sphere"
-    has_ufl_normal = False
 
     def __post_init__(self) -> None:
         check_positive("radius", self.radius)
@@ -290,10 +290,6 @@ class HarmonicImperfectSphere(Shape):
     @property
     def t_max(self) -> float:
         return math.pi
-
-    @property
-    def R(self) -> float:  # noqa: N802
-        return self.radius
 
     @property
     def theta(self) -> float:

@@ -103,8 +103,9 @@ class Shape:
 
     @property
     def R(self) -> float:  # noqa: N802 - the paper's symbol
-        """Reference radius of curvature at the pole (the length scale of kappa R)."""
-        raise NotImplementedError
+        """Reference radius of curvature at the pole (the length scale of kappa R): the
+        shape's ``radius`` unless a shape says otherwise."""
+        return self.radius  # type: ignore[attr-defined]
 
     def meridian(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Distance from the axis r(t) and height z(t) of the meridian."""
@@ -210,10 +211,6 @@ class SphericalCap(_AngleShape):
     def __post_init__(self) -> None:
         check_positive("radius", self.radius)
         check_theta(self.theta)
-
-    @property
-    def R(self) -> float:  # noqa: N802
-        return self.radius
 
     def meridian(self, t):
         return self.radius * np.sin(t), self.radius * np.cos(t)
@@ -355,10 +352,6 @@ class Torus(Shape):
     @property
     def t_max(self) -> float:
         return 2 * math.pi
-
-    @property
-    def R(self) -> float:  # noqa: N802
-        return self.radius
 
     def meridian(self, t):
         t = np.asarray(t, dtype=float)

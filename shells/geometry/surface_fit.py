@@ -247,10 +247,6 @@ class MeshSurface(Shape):
     def closed(self) -> bool:
         return self.closed_surface
 
-    @property
-    def R(self) -> float:  # noqa: N802
-        return self.radius
-
     def area(self) -> float:
         """The area of the mesh's straight-sided triangles (the second-order mesh's own area
         is ``ShellMesh.area``)."""

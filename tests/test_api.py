@@ -260,7 +260,7 @@ def test_plots_and_tables_of_runs_and_run_folders(shared_tmp, capsys):
 
 def test_progress_is_a_bar_on_a_terminal_and_quiet_under_json(monkeypatch, caplog):
     """On a terminal: a tqdm bar with the share of the κ range, points and critical points;
-    under ``--json`` nothing; elsewhere a log line (every 10 s: the first at once)."""
+    under ``--json`` no bar; elsewhere a log line (every 10 s: the first at once)."""
     import io
     import logging
 
@@ -285,7 +285,7 @@ def test_progress_is_a_bar_on_a_terminal_and_quiet_under_json(monkeypatch, caplo
     silent.update(1.0)
     silent.close()
     progress.quiet(False)
-    assert term.getvalue() == ""
+    assert "|" not in term.getvalue()  # no bar (a log line may go to the log's handler)
     monkeypatch.setattr("sys.stderr", io.StringIO())  # not a terminal
     with caplog.at_level(logging.INFO, logger="shells"):
         lines = progress.Progress("critical", 4.0)

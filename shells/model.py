@@ -54,17 +54,36 @@ from shells.mesh import RIM_TAG, ShellMesh
 from shells.problem import ModeInfo
 from shells.stimulus import UNIFORM, CurvatureField, field_radius
 
-__all__ = ["ModelParameters", "ShellModel", "default_discretisation"]
+__all__ = ["ModelParameters", "ShellModel", "default_discretisation", "sphere_default_size"]
 
 
 #: caps deeper than this θ̄ = θ/√(h/R) get P3 by default (P2 locks on deep shells)
 P2_THETABAR_MAX = 3.0
+#: a closed sphere's default P3 mesh has at least this many elements per wavelength 2πR/n of
+#: its critical degree n (``shells.theory.sphere_mode_n``): the h/R = 0.05 sphere's 0.21
+#: (3.55 per wavelength) gives κ_b h within 0.45 % of the converged value, 0.15 (5.0) within
+#: 0.1 %, 0.21 at h/R = 0.01 (1.54) 5.8 % high (docs/model.md)
+SPHERE_ELEMENTS_PER_WAVELENGTH = 3.5
+#: the error of a sphere's default discretisation, relative in κ_b (as measured at h/R = 0.05,
+#: assumed to hold at the same elements per wavelength)
+SPHERE_DEFAULT_ERROR = 5.0e-3
+#: P3 DOFs of the sphere mesh per 1/size² (20,748 at size 0.21)
+SPHERE_P3_DOFS = 20748 * 0.21**2
+#: a default surface mesh above this many DOFs is refused (``default_discretisation``)
+MAX_DEFAULT_DOFS = 150_000
 
 
 def default_discretisation(shape: Shape, h_over_r: float | None = None,
                            degree: int | None = None, size: float | None = None,
-                           kappa_field: CurvatureField | None = None) -> tuple[int, float]:
+                           kappa_field: CurvatureField | None = None,
+                           nu: float = 0.5) -> tuple[int, float]:
     """(degree, bulk mesh size / R) of the surface model that give right answers on ``shape``.
+
+    Closed spheres with a given h/R: the size follows the critical degree n(h/R, ν) of
+    ``shells.theory.sphere_mode_n``, at most 0.21 and at least ``SPHERE_ELEMENTS_PER_WAVELENGTH``
+    elements per wavelength 2πR/n (κ_b within ``SPHERE_DEFAULT_ERROR``, as measured at h/R =
+    0.05); where that needs more than ``MAX_DEFAULT_DOFS`` (h/R below about 0.007) the default
+    is refused (``InputError``) with the 1D model and the explicit options as the ways on.
 
     P2 with the stiff Kirchhoff-Love penalty locks on deep shells (bending-dominated states of a
     curved surface). Closed spheres: P3 at size 0.21: κ_b h of the h/R = 0.05 sphere is 1.4901
@@ -96,7 +115,31 @@ def default_discretisation(shape: Shape, h_over_r: float | None = None,
         degree = 3 if sphere or deep or patterned else 2
     if size is None:
         size = 0.21 if sphere else 0.2 if deep else 0.1
+        if sphere and h_over_r is not None:
+            size = min(size, sphere_default_size(h_over_r, nu))
+            dofs = SPHERE_P3_DOFS / size**2 * (degree / 3.0) ** 2
+            if dofs > MAX_DEFAULT_DOFS:
+                raise InputError(
+                    f"the surface model's default mesh for a closed sphere of h/R = "
+                    f"{h_over_r:g} needs about {dofs:,.0f} DOFs (P{degree} at size {size:.3f}, "
+                    f"{SPHERE_ELEMENTS_PER_WAVELENGTH:g} elements per wavelength of the "
+                    f"critical degree n = {sphere_mode_n(h_over_r, nu):.0f}), above "
+                    f"{MAX_DEFAULT_DOFS:,}: use --model axisym (the 1D model), or give "
+                    f"--size {size:.3f} --degree 3 to run it anyway")
     return degree, size
+
+
+def sphere_mode_n(h_over_r: float, nu: float) -> float:
+    """The closed sphere's critical degree (``shells.theory.sphere_mode_n``)."""
+    from shells.theory import sphere_mode_n as n
+
+    return n(h_over_r, nu)
+
+
+def sphere_default_size(h_over_r: float, nu: float = 0.5) -> float:
+    """The bulk size / R that puts ``SPHERE_ELEMENTS_PER_WAVELENGTH`` elements on the
+    wavelength 2πR/n of the closed sphere's critical degree n(h/R, ν)."""
+    return 2.0 * math.pi / (sphere_mode_n(h_over_r, nu) * SPHERE_ELEMENTS_PER_WAVELENGTH)
 
 
 @dataclass(frozen=True)

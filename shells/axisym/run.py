@@ -417,7 +417,8 @@ def critical(shape: Shape, h_over_r: float, nu: float = 0.5, direction: str = "u
     pts = [{"kind": c.kind, "kappa_R": c.kappa * R, "kappa_h": c.kappa * h,
             "mode_m": 0 if c.kind == "fold" else c.mode_m,
             "mode_n": c.mode_n if c.kind != "fold" else None,
-            "kappa_R_bracket": [c.kappa_lo * R, c.kappa_hi * R], "accuracy": c.accuracy}
+            "kappa_R_bracket": [c.kappa_lo * R, c.kappa_hi * R], "accuracy": c.accuracy,
+            "locator_accuracy": c.accuracy}
            for c in found]
     first = pts[0] if pts else {"kind": "none", "kappa_R": None, "kappa_h": None,
                                 "mode_m": None, "mode_n": None}

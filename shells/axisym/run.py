@@ -51,8 +51,8 @@ PENALTY_FLOOR = 1.0e4
 #: eigenvalue nearest 0 at κ = 0 is at most this fraction of it
 ROUNDOFF_TARGET = 1.0e-2
 #: ... and refuses a discretisation whose round-off stays above this fraction: its counts would
-#: be decided by round-off well away from any crossing (measured at 5e-2 and below: counts
-#: right at every point of the θ̄ = 10-40 caps of h/R = 1e-4 on 200 to 3200 cells)
+#: be decided by round-off well away from any crossing (the worst case accepted in
+#: benchmarks/thin_end.py: 2e-2, the θ̄ = 40 cap of h/R = 1e-4 on 3200 cells at penalty 1)
 ROUNDOFF_LIMIT = 5.0e-2
 
 
@@ -115,7 +115,7 @@ def resolve_penalty(model: AxisymModel, cfg: RunConfig) -> tuple[float, float]:
     The penalty's weight multiplies the largest entries of every block, and with them the
     round-off of their factorisations, while a thin shell's softest eigenvalues fall as h²:
     with the fixed 1e4 a cap of h/R = 1e-4 on 800 cells has its m = 2 eigenvalue at κ = 0
-    wrong by 70 % (θ̄ = 10) to 430 % (θ̄ = 40), and counted negative. ``cfg.penalty`` None:
+    wrong by 70 % (θ̄ = 10) to 430 % (θ̄ = 40, counted negative). ``cfg.penalty`` None:
     ``PENALTY``, or where its round-off exceeds ``ROUNDOFF_TARGET`` a tenth of it, and so on,
     down to ``PENALTY_FLOOR`` h/R (the consistency error that allows). An explicit penalty is
     kept.

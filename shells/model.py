@@ -60,12 +60,13 @@ __all__ = ["ModelParameters", "ShellModel", "default_discretisation", "sphere_de
 #: caps deeper than this θ̄ = θ/√(h/R) get P3 by default (P2 locks on deep shells)
 P2_THETABAR_MAX = 3.0
 #: a closed sphere's default P3 mesh has at least this many elements per wavelength 2πR/n of
-#: its critical degree n (``shells.theory.sphere_mode_n``): the h/R = 0.05 sphere's 0.21
-#: (3.55 per wavelength) gives κ_b h within 0.45 % of the converged value, 0.15 (5.0) within
-#: 0.1 %, 0.21 at h/R = 0.01 (1.54) 5.8 % high (docs/model.md)
-SPHERE_ELEMENTS_PER_WAVELENGTH = 3.5
-#: the error of a sphere's default discretisation, relative in κ_b (as measured at h/R = 0.05,
-#: assumed to hold at the same elements per wavelength)
+#: its critical degree n (``shells.theory.sphere_mode_n``). κ_b against the 1D model's: h/R =
+#: 0.05 at size 0.21 (3.55 per wavelength) +0.57 %, at 0.15 (4.97) +0.22 %; h/R = 0.02 at
+#: 0.132 (3.5) +0.67 %; h/R = 0.01 at 0.21 (1.54) +5.8 % (benchmarks/surface_defaults.py,
+#: docs/model.md). The error falls as the elements per wavelength to the power 2.8: 4.25 keeps
+#: it near 0.4 %
+SPHERE_ELEMENTS_PER_WAVELENGTH = 4.25
+#: the error a sphere's default discretisation is meant to stay within, relative in κ_b
 SPHERE_DEFAULT_ERROR = 5.0e-3
 #: P3 DOFs of the sphere mesh per 1/size² (20,748 at size 0.21)
 SPHERE_P3_DOFS = 20748 * 0.21**2
@@ -81,9 +82,9 @@ def default_discretisation(shape: Shape, h_over_r: float | None = None,
 
     Closed spheres with a given h/R: the size follows the critical degree n(h/R, ν) of
     ``shells.theory.sphere_mode_n``, at most 0.21 and at least ``SPHERE_ELEMENTS_PER_WAVELENGTH``
-    elements per wavelength 2πR/n (κ_b within ``SPHERE_DEFAULT_ERROR``, as measured at h/R =
-    0.05); where that needs more than ``MAX_DEFAULT_DOFS`` (h/R below about 0.007) the default
-    is refused (``InputError``) with the 1D model and the explicit options as the ways on.
+    elements per wavelength 2πR/n (κ_b meant within ``SPHERE_DEFAULT_ERROR``); where that needs
+    more than ``MAX_DEFAULT_DOFS`` (h/R below about 0.011 at ν = 1/2) the default is refused
+    (``InputError``) with the 1D model and the explicit options as the ways on.
 
     P2 with the stiff Kirchhoff-Love penalty locks on deep shells (bending-dominated states of a
     curved surface). Closed spheres: P3 at size 0.21: κ_b h of the h/R = 0.05 sphere is 1.4901
@@ -130,10 +131,11 @@ def default_discretisation(shape: Shape, h_over_r: float | None = None,
 
 
 def sphere_mode_n(h_over_r: float, nu: float) -> float:
-    """The closed sphere's critical degree (``shells.theory.sphere_mode_n``)."""
+    """The closed sphere's critical degree (``shells.theory.sphere_mode_n``); for ν < 0, where
+    its formula loses meaning at ν ≤ -1/2, that of ν = 0 (an estimate only)."""
     from shells.theory import sphere_mode_n as n
 
-    return n(h_over_r, nu)
+    return n(h_over_r, max(nu, 0.0))
 
 
 def sphere_default_size(h_over_r: float, nu: float = 0.5) -> float:

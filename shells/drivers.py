@@ -368,7 +368,7 @@ def _discretisation_note(shape: Any, defaults: bool) -> str:
     return ("accuracy / locator_accuracy: the locator's bracket on this mesh only, not the "
             "discretisation error; " + (
                 f"the default sphere mesh keeps kappa within about {known:.1%} of the converged "
-                "value (3.5 elements per wavelength of the critical degree)" if known else
+                "value (4.25 elements per wavelength of the critical degree)" if known else
                 "that is not estimated here: refine --size, or compare with --model axisym"
                 " on a shell of revolution"))
 

@@ -729,7 +729,11 @@ def _locate_crossing(loc: Locator, p0: Point, w0: np.ndarray, lo: _Eval, hi: _Ev
         inertia's sign within about ε ||H|| of 0, large on the 1D model's stiff blocks (a
         bracket decided by it would exclude the root that its eigenvalue samples give)."""
         b = moved_at(hi)[0]
-        if not refined or abs(c1[b] - c0[b]) != 1 or b not in e.counts:
+        # the trial at most one count past c0: the crossing eigenvalue is the first to cross
+        # (a closed sphere's m = 0 block gains 148 in one step at h/R = 1e-4: its first
+        # crossing decides the side as well, and its count one past c0 can be round-off)
+        if not refined or c1[b] == c0[b] or b not in e.counts \
+                or abs(e.counts[b] - c0[b]) > 1:
             return
         f = crossing(e, b)
         if not math.isfinite(f):
@@ -739,7 +743,7 @@ def _locate_crossing(loc: Locator, p0: Point, w0: np.ndarray, lo: _Eval, hi: _Ev
         if crossed != (e.counts[b] != c0[b]):
             log.debug("locate: the crossing eigenvalue %.3e of block %s decides the side, "
                       "not the inertia (count %d)", f, b, e.counts[b])
-            e.counts[b] = c1[b] if crossed else c0[b]
+            e.counts[b] = (c0[b] + (1 if rising else -1)) if crossed else c0[b]
 
     def is_low(e: _Eval) -> bool:
         return all(e.counts[b] == c0[b] for b in e.counts)

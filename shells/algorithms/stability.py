@@ -61,7 +61,7 @@ from shells.problem.interface import (
     HessianQuadratic,
 )
 
-__all__ = ["StabilityResult", "Stability"]
+__all__ = ["Stability", "StabilityResult", "rayleigh_quotient"]
 
 log = logging.getLogger("shells")
 
@@ -188,7 +188,7 @@ def _band_ordering(n: int, rows: np.ndarray, ai: np.ndarray, aj: np.ndarray) -> 
     return best
 
 
-def _rayleigh(q: float | None, M: Any, v: Any, mu: float) -> float:
+def rayleigh_quotient(q: float | None, M: Any, v: Any, mu: float) -> float:
     """The Rayleigh quotient q / vᵀ M v (q = vᵀ H v); ``mu`` where q is None or the quotient
     is not finite. M's tiny diagonal on constrained DOFs, where the eigenvector vanishes to
     round-off, adds at most 1e-12 of their squares."""
@@ -604,7 +604,7 @@ class Stability:
                 v = H.createVecRight()
                 eps.getEigenvector(i, v)
                 if quadratic is not None:
-                    mu = _rayleigh(quadratic(block, v), M, v, mu)
+                    mu = rayleigh_quotient(quadratic(block, v), M, v, mu)
                 if modes:
                     vecs.append(v)
                 else:

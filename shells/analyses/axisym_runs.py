@@ -36,6 +36,22 @@ __all__ = ["RunConfig", "branch", "critical", "default_cells",
 #: (docs/design-notes.md, "Chord steps")
 REUSE_CRITICAL = 1.0e-4
 
+#: the C1 penalty of a run that sets none (``RunConfig.penalty`` None): the weight of
+#: benchmarks/axisym_convergence.py, kept wherever its round-off allows (``resolve_penalty``)
+PENALTY = 1.0e4
+#: the lowest penalty ``resolve_penalty`` goes to, over h/R: the penalty's consistency error, a
+#: relative C (h/R)/penalty independent of the mesh (measured C: 0.13 on the 30° cap's fold at
+#: h/R = 0.04, 2e-3 to 2e-2 on the m = 2 eigenvalue of caps of θ̄ = 10-40 at h/R = 1e-4 and
+#: 3e-4), is then at most 1.3e-5
+PENALTY_FLOOR = 1.0e4
+#: ``resolve_penalty`` lowers the penalty until the round-off of every Fourier block's
+#: eigenvalue nearest 0 at κ = 0 is at most this fraction of it
+ROUNDOFF_TARGET = 1.0e-2
+#: ... and refuses a discretisation whose round-off stays above this fraction: its counts would
+#: be decided by round-off well away from any crossing (the worst case accepted in
+#: benchmarks/thin_end.py: 2e-2, the θ̄ = 40 cap of h/R = 1e-4 on 3200 cells at penalty 1)
+ROUNDOFF_LIMIT = 5.0e-2
+
 
 def default_cells(shape: Shape, h_over_r: float) -> int:
     """The default number of bulk cells of the 1D mesh.
@@ -73,6 +89,79 @@ def default_settings(shape: Shape, h_over_r: float, **overrides: Any) -> Any:
     return ContinuationSettings(**base)
 
 
+def unloaded_roundoff(model: AxisymModel, blocks: list[int]) -> float:
+    """The relative round-off of the Fourier blocks ``blocks`` at the model's current state
+    (meant for the unloaded reference, κ = 0 and no displacement, where every block is positive
+    definite): the largest |μ - q| / q over the blocks that are not positive definite by the
+    stability test's margin (``shells.algorithms.stability.DEFINITE_MARGIN``; a block that is
+    has its lowest eigenvalue far above its round-off), μ the block's eigenvalue nearest 0 from its
+    factorisation (what its inertia sees), q that eigenvector's Rayleigh quotient by
+    quadrature (``hessian_quadratic``: the stiff terms' cancellation is not in it). Infinite
+    where a q is not positive or an eigenpair did not converge."""
+    from shells.algorithms.stability import DEFINITE_MARGIN, Stability, rayleigh_quotient
+
+    tested = model.definite_blocks(list(blocks), DEFINITE_MARGIN) or {}
+    todo = [m for m in blocks if not tested.get(m, False)]
+    if not todo:
+        return 0.0
+    st = Stability(model)
+    worst = 0.0
+    try:
+        for m in todo:
+            vals, vecs = st.eigenpairs(1, modes=True, block=m, refine=False)
+            if not vals:
+                return math.inf
+            q = rayleigh_quotient(model.hessian_quadratic(m, vecs[0]), st.mass(m), vecs[0],
+                                  math.nan)
+            for v in vecs:
+                v.destroy()
+            if not q > 0:
+                return math.inf
+            worst = max(worst, abs(vals[0] - q) / q)
+    finally:
+        st.destroy()
+    return worst
+
+
+def resolve_penalty(model: AxisymModel, cfg: RunConfig) -> tuple[float, float]:
+    """The C1 penalty of a run, set on ``model`` (its state the unloaded reference), and the
+    round-off of its blocks there (``unloaded_roundoff``, over m ≤ 12).
+
+    The penalty's weight multiplies the largest entries of every block, and with them the
+    round-off of their factorisations, while a thin shell's softest eigenvalues fall as h²:
+    with the fixed 1e4 a cap of h/R = 1e-4 on 800 cells has its m = 2 eigenvalue at κ = 0
+    wrong by 70 % (θ̄ = 10) to 430 % (θ̄ = 40, counted negative). ``cfg.penalty`` None:
+    ``PENALTY``, or where its round-off exceeds ``ROUNDOFF_TARGET`` a tenth of it, and so on,
+    down to ``PENALTY_FLOOR`` h/R (the consistency error that allows). An explicit penalty is
+    kept.
+
+    Raises:
+        InputError: the round-off stays above ``ROUNDOFF_LIMIT``: the discretisation cannot be
+            trusted (too many cells for double precision at this h/R).
+    """
+    blocks = [m for m in model.modes if m <= 12]
+    if cfg.penalty is not None:
+        rungs = [float(cfg.penalty)]
+    else:
+        floor = PENALTY_FLOOR * cfg.h_over_r
+        rungs = [p for p in (PENALTY / 10.0**k for k in range(20)) if p > floor] or [PENALTY]
+        if rungs[-1] > floor and floor < PENALTY:
+            rungs.append(floor)
+    for pen in rungs:
+        model.pen.value = pen
+        rho = unloaded_roundoff(model, blocks)
+        if rho <= ROUNDOFF_TARGET:
+            break
+    if rho > ROUNDOFF_LIMIT:
+        raise InputError(f"the 1D model cannot be trusted on {cfg.n_cells} cells at h/R = "
+                         f"{cfg.h_over_r:g}: at kappa = 0 the round-off of its Fourier blocks is "
+                         f"{rho:.2g} of their lowest eigenvalue (C1 penalty {pen:g}), above "
+                         f"{ROUNDOFF_LIMIT:g}; use fewer cells"
+                         + ("" if cfg.penalty is None else " or the default penalty"))
+    model.params = replace(model.params, penalty=pen)
+    return pen, rho
+
+
 def _check_common(shape: Any, h_over_r: Any, nu: Any) -> None:
     if not isinstance(shape, Shape):
         raise InputError(f"shape must be a shells.geometry.shapes shape, got {shape!r}")
@@ -95,7 +184,8 @@ class RunConfig(RunScales):
         direction: "up" (κ > 0) or "down" (κ < 0).
         m_max: Fourier modes 0..m_max are checked at every point.
         kappa_max: end of the range, |κ| R (R: pole radius; the disk's radius).
-        cells, layer_cells, grading, penalty: discretisation (``AxisymParameters``).
+        cells, layer_cells, grading, penalty: discretisation (``AxisymParameters``); penalty
+            None: ``PENALTY``, lowered where its round-off requires (``resolve_penalty``).
         rel_tol: location accuracy of critical points, relative in κ.
         max_critical: stop after this many critical points (None: up to the first fold or the
             end of range).
@@ -116,7 +206,7 @@ class RunConfig(RunScales):
     cells: int | None = None
     layer_cells: float = 8.0
     grading: float = 1.1
-    penalty: float = 1.0e4
+    penalty: float | None = None
     rel_tol: float = 1.0e-4
     max_critical: int | None = None
     settings: Any = None
@@ -142,8 +232,7 @@ class RunConfig(RunScales):
         if self.max_critical is not None and not (isinstance(self.max_critical, int)
                                                   and self.max_critical >= 1):
             raise InputError(f"max_critical must be a positive integer, got {self.max_critical!r}")
-        AxisymParameters(h=self.h, nu=self.nu, cells=self.n_cells, layer_cells=self.layer_cells,
-                         grading=self.grading, penalty=self.penalty, kappa_field=self.kappa_field)
+        self.params()  # validates the discretisation
 
     @property
     def n_cells(self) -> int:
@@ -175,7 +264,8 @@ class RunConfig(RunScales):
         """The 1D model's parameters of this run."""
         return AxisymParameters(h=self.h, nu=self.nu, cells=self.n_cells,
                                 layer_cells=self.layer_cells, grading=self.grading,
-                                penalty=self.penalty, kappa_field=self.kappa_field)
+                                penalty=PENALTY if self.penalty is None else self.penalty,
+                                kappa_field=self.kappa_field)
 
 
 @dataclass
@@ -190,6 +280,8 @@ class _Run:
 
         self.model = AxisymModel(self.cfg.shape, self.cfg.params())
         self.model.modes = tuple(self.cfg.modes)
+        # on the unloaded reference state, before any solve
+        self.penalty, self.roundoff = resolve_penalty(self.model, self.cfg)
         self.ns = NewtonSolver(self.model, options=SNES_OPTIONS)
         # the residual bound is the continuation's own (relative to the κ-load, plus the
         # round-off floor of the penalty-stiff Jacobian): no model-specific tolerance here
@@ -293,7 +385,8 @@ def critical(shape: Shape, h_over_r: float, nu: float = 0.5, direction: str = "u
         top-level values describe the first critical point (None if there is none);
         ``mode_m`` is the block whose count changes, ``mode_n`` the degree on a sphere (None
         for non-spheres and folds); ``theta_deg`` is None for a sphere or a disk; ``dofs``
-        counts the base-state unknowns.
+        counts the base-state unknowns; ``penalty`` is the C1 penalty used
+        (``resolve_penalty``).
 
     Raises:
         InputError: bad parameters.
@@ -338,13 +431,15 @@ def critical(shape: Shape, h_over_r: float, nu: float = 0.5, direction: str = "u
                                f"{cfg.kappa_end * cfg.R:.6g}; critical points beyond it are "
                                "not known")
         dofs = run.model.num_dofs()
+        penalty = run.penalty
     finally:
         run.destroy()
     R, h = cfg.R, cfg.h
     pts = [{"kind": c.kind, "kappa_R": c.kappa * R, "kappa_h": c.kappa * h,
             "mode_m": 0 if c.kind == "fold" else c.mode_m,
             "mode_n": c.mode_n if c.kind != "fold" else None,
-            "kappa_R_bracket": [c.kappa_lo * R, c.kappa_hi * R], "accuracy": c.accuracy}
+            "kappa_R_bracket": [c.kappa_lo * R, c.kappa_hi * R], "accuracy": c.accuracy,
+            "locator_accuracy": c.accuracy}
            for c in found]
     first = pts[0] if pts else {"kind": "none", "kappa_R": None, "kappa_h": None,
                                 "mode_m": None, "mode_n": None}
@@ -353,4 +448,4 @@ def critical(shape: Shape, h_over_r: float, nu: float = 0.5, direction: str = "u
             "mode_m": first["mode_m"], "mode_n": first["mode_n"], "h_over_R": cfg.h_over_r,
             "nu": cfg.nu, "theta_deg": (None if theta is None or is_sphere(cfg.shape)
                                         else math.degrees(theta)),
-            "model": "axisym", "dofs": dofs, "critical_points": pts}
+            "model": "axisym", "dofs": dofs, "penalty": penalty, "critical_points": pts}

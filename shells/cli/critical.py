@@ -24,7 +24,9 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
     common.add_field_args(c)
     c.add_argument("--first-only", action="store_true", help="stop at the first critical point")
     common.add_mesh_size_args(c, None, "bulk element size / R (default 0.1; caps deeper than "
-                              "thetabar = 3 and ellipsoids 0.2; closed spheres 0.21)")
+                              "thetabar = 3 and ellipsoids 0.2; closed spheres: 4.25 elements per "
+                              "wavelength of the critical degree n, at most 0.21, refused above "
+                              "150k DOFs)")
     c.add_argument("--shear-penalty", type=common.positive_float("shear-penalty"), default=1.0e3,
                    help="Kirchhoff-Love penalty, times the Naghdi shear stiffness (default 1e3)")
     common.add_degree_arg(c)

@@ -48,20 +48,40 @@ from shells.problem.forms import FormProblem, assemble_symmetric
 from shells.problem.interface import ModeInfo
 from shells.surface.mesh import RIM_TAG, ShellMesh
 
-__all__ = ["ModelParameters", "ShellModel", "default_discretisation"]
+__all__ = ["ModelParameters", "ShellModel", "default_discretisation", "sphere_default_size"]
 
 
 #: caps deeper than this θ̄ = θ/√(h/R) get P3 by default (P2 locks on deep shells)
 P2_THETABAR_MAX = 3.0
+#: a closed sphere's default P3 mesh has at least this many elements per wavelength 2πR/n of
+#: its critical degree n (``shells.theory.sphere_mode_n``). κ_b against the 1D model's: h/R =
+#: 0.05 at size 0.21 (3.55 per wavelength) +0.57 %, at 0.15 (4.97) +0.22 %; h/R = 0.02 at
+#: 0.132 (3.5) +0.67 %; h/R = 0.01 at 0.21 (1.54) +5.8 % (benchmarks/surface_defaults.py,
+#: docs/model.md). The error falls as the elements per wavelength to the power 2.8: 4.25 keeps
+#: it near 0.4 %
+SPHERE_ELEMENTS_PER_WAVELENGTH = 4.25
+#: the error a sphere's default discretisation is meant to stay within, relative in κ_b
+SPHERE_DEFAULT_ERROR = 5.0e-3
+#: P3 DOFs of the sphere mesh per 1/size² (20,748 at size 0.21)
+SPHERE_P3_DOFS = 20748 * 0.21**2
+#: a default surface mesh above this many DOFs is refused (``default_discretisation``)
+MAX_DEFAULT_DOFS = 150_000
 
 
 def default_discretisation(shape: Shape, h_over_r: float | None = None,
                            degree: int | None = None, size: float | None = None,
-                           kappa_field: CurvatureField | None = None) -> tuple[int, float]:
+                           kappa_field: CurvatureField | None = None,
+                           nu: float = 0.5) -> tuple[int, float]:
     """The element degree and bulk mesh size / R that give right answers on ``shape``.
 
+    Closed spheres with a given h/R: P3, the size following the critical degree n(h/R, ν) of
+    ``shells.theory.sphere_mode_n``, at most 0.21 and at least ``SPHERE_ELEMENTS_PER_WAVELENGTH``
+    elements per wavelength 2πR/n (κ_b meant within ``SPHERE_DEFAULT_ERROR``); where that needs
+    more than ``MAX_DEFAULT_DOFS`` (h/R below about 0.011 at ν = 1/2) the default is refused
+    with the 1D model and the explicit options as the ways on.
+
     P2 with the stiff Kirchhoff-Love penalty locks on deep shells (bending-dominated states of
-    a curved surface), so: closed spheres P3 at size 0.21 (an explicit degree 2 is refused);
+    a curved surface), so: closed spheres P3 (an explicit degree 2 is refused);
     caps of θ̄ ≤ 3 and the flat disk P2 at size 0.1; deeper caps, ellipsoids, tori, meridian
     tables and surfaces known only by their mesh P3 at size 0.2 (a closed meridian table as a
     sphere); a non-uniform ``kappa_field`` P3 on every shape. The errors of each choice against
@@ -73,12 +93,14 @@ def default_discretisation(shape: Shape, h_over_r: float | None = None,
         degree: a degree the caller chose (None: the default).
         size: a size the caller chose (None: the default).
         kappa_field: the stimulus (None: uniform).
+        nu: Poisson's ratio (the sphere's critical degree).
 
     Returns:
         (degree, size).
 
     Raises:
-        InputError: for degree 2 on a closed sphere.
+        InputError: for degree 2 on a closed sphere, or a default sphere mesh beyond
+            ``MAX_DEFAULT_DOFS``.
     """
     from shells.geometry.meridian import MeridianTable
     from shells.geometry.shapes import EllipsoidalCap, SphericalCap, Torus
@@ -95,7 +117,32 @@ def default_discretisation(shape: Shape, h_over_r: float | None = None,
         degree = 3 if sphere or deep or patterned else 2
     if size is None:
         size = 0.21 if sphere else 0.2 if deep else 0.1
+        if sphere and h_over_r is not None:
+            size = min(size, sphere_default_size(h_over_r, nu))
+            dofs = SPHERE_P3_DOFS / size**2 * (degree / 3.0) ** 2
+            if dofs > MAX_DEFAULT_DOFS:
+                raise InputError(
+                    f"the surface model's default mesh for a closed sphere of h/R = "
+                    f"{h_over_r:g} needs about {dofs:,.0f} DOFs (P{degree} at size {size:.3f}, "
+                    f"{SPHERE_ELEMENTS_PER_WAVELENGTH:g} elements per wavelength of the "
+                    f"critical degree n = {sphere_mode_n(h_over_r, nu):.0f}), above "
+                    f"{MAX_DEFAULT_DOFS:,}: use --model axisym (the 1D model), or give "
+                    f"--size {size:.3f} --degree 3 to run it anyway")
     return degree, size
+
+
+def sphere_mode_n(h_over_r: float, nu: float) -> float:
+    """The closed sphere's critical degree (``shells.theory.sphere_mode_n``); for ν < 0, where
+    its formula loses meaning at ν ≤ -1/2, that of ν = 0 (an estimate only)."""
+    from shells.theory import sphere_mode_n as n
+
+    return n(h_over_r, max(nu, 0.0))
+
+
+def sphere_default_size(h_over_r: float, nu: float = 0.5) -> float:
+    """The bulk size / R that puts ``SPHERE_ELEMENTS_PER_WAVELENGTH`` elements on the
+    wavelength 2πR/n of the closed sphere's critical degree n(h/R, ν)."""
+    return 2.0 * math.pi / (sphere_mode_n(h_over_r, nu) * SPHERE_ELEMENTS_PER_WAVELENGTH)
 
 
 @dataclass(frozen=True)

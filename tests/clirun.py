@@ -9,6 +9,7 @@ import json
 import os
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 from mpi4py import MPI
@@ -41,4 +42,8 @@ def shells(*args: str, timeout: float = 240.0) -> dict:
         if p.returncode == 0 and "--json" in args:
             parsed = json.loads(p.stdout.strip().splitlines()[-1])
         out = {"rc": p.returncode, "stdout": p.stdout, "stderr": p.stderr, "json": parsed}
+    # the other ranks wait asleep, not spinning in a blocking collective: the child needs the core
+    req = comm.Ibarrier()
+    while not req.Test():
+        time.sleep(0.05)
     return comm.bcast(out, root=0)

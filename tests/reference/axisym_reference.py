@@ -146,14 +146,17 @@ class CapReference:
         raise RuntimeError(f"Newton did not converge at height {height} (|r| = "
                            f"{np.linalg.norm(r):.2e})")
 
-    def fold(self, step: float = 0.02, xtol: float = 1e-10) -> dict:
+    def fold(self, step: float = 0.02, xtol: float = 1e-10, which: int = 1) -> dict:
         """Follow the fundamental branch from kappa = 0 by decreasing the height in steps of
-        ``step`` times the initial height, until kappa decreases; then the maximum of kappa(H)
-        by Brent's method: {"kappa_R", "height", "min_eig"} (min_eig: the smallest eigenvalue
-        of the Hessian at fixed kappa there, relative to the largest, ~0 at a fold)."""
+        ``step`` times the initial height, to its ``which``-th turning point in kappa (1: the
+        snap-through fold, a maximum of kappa(H); 2: the next, a minimum, where the everted
+        branch turns back), located by Brent's method: {"kappa_R", "height", "min_eig"}
+        (min_eig: the smallest |eigenvalue| of the Hessian at fixed kappa there over the
+        largest, ~0 at a fold)."""
         x = np.zeros(2 * (self.n + 1))
         kappa, H = 0.0, self.height0
         hist = [(H, kappa, x)]
+        sign, found = 1.0, 0  # +1: looking for a maximum, -1: a minimum
         while True:
             Hn = H - step * self.height0
             if len(hist) >= 2:  # secant predictor
@@ -165,19 +168,22 @@ class CapReference:
             x, kappa = self.solve_at_height(Hn, xg, kg)
             H = Hn
             hist.append((H, kappa, x))
-            if len(hist) >= 3 and hist[-1][1] < hist[-2][1]:
-                break
+            if len(hist) >= 3 and sign * (hist[-1][1] - hist[-2][1]) < 0:
+                found += 1
+                if found == which:
+                    break
+                sign = -sign
             if H < -self.height0:
-                raise RuntimeError("no fold on the fundamental branch")
-        (Ha, _, _), (Hb, _, xb), (Hc, _, _) = hist[-3], hist[-2], hist[-1]
-        cache = {"x": xb, "k": hist[-2][1]}
+                raise RuntimeError(f"no turning point {which} on the fundamental branch")
+        (Ha, _, _), (Hb, kb, xb), (Hc, _, _) = hist[-3], hist[-2], hist[-1]
+        cache = {"x": xb, "k": kb}
 
-        def neg_kappa(Hq):
+        def objective(Hq):
             xq, kq = self.solve_at_height(Hq, cache["x"], cache["k"])
             cache.update(x=xq, k=kq)
-            return -kq
+            return -sign * kq
 
-        res = minimize_scalar(neg_kappa, bracket=(Ha, Hb, Hc), method="brent",
+        res = minimize_scalar(objective, bracket=(Ha, Hb, Hc), method="brent",
                               options={"xtol": xtol})
         xf, kf = self.solve_at_height(res.x, cache["x"], cache["k"])
         ev = np.linalg.eigvalsh(self.hessian(xf, kf))
@@ -186,11 +192,13 @@ class CapReference:
 
 
 def fold_kappa(theta: float, h: float, nu: float = 0.5, n: int = 40,
-               field: Callable[[np.ndarray], np.ndarray] | None = None) -> tuple[float, float]:
-    """The fold's kappa R at polynomial degree ``n`` and its accuracy, estimated as the
-    difference from degree ``n - 10``: (kappa_R, |kappa_R(n) - kappa_R(n - 10)|)."""
-    k = CapReference(theta, h, nu, n, field).fold()["kappa_R"]
-    k_low = CapReference(theta, h, nu, n - 10, field).fold()["kappa_R"]
+               field: Callable[[np.ndarray], np.ndarray] | None = None,
+               which: int = 1) -> tuple[float, float]:
+    """The ``which``-th fold's kappa R (``CapReference.fold``) at polynomial degree ``n`` and
+    its accuracy, estimated as the difference from degree ``n - 10``:
+    (kappa_R, |kappa_R(n) - kappa_R(n - 10)|)."""
+    k = CapReference(theta, h, nu, n, field).fold(which=which)["kappa_R"]
+    k_low = CapReference(theta, h, nu, n - 10, field).fold(which=which)["kappa_R"]
     return k, abs(k - k_low)
 
 

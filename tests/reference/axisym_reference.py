@@ -28,6 +28,12 @@ branch is parametrised by the cap's height H = psi(0) - psi(theta) (one more equ
 more unknown), and the fold is the maximum of kappa(H), located by Brent's method. Its accuracy is
 measured by the difference between two polynomial degrees (``fold_kappa`` returns both).
 
+Bifurcations (``ModeStability``, ``bifurcation_kappa``): the block m of the Hessian of the full
+2D energy at an axisymmetric state, for the perturbation a(u) cos(mv) e_r + b(u) sin(mv) e_v +
+c(u) cos(mv) e_z (a, b ~ u^(m-1), c ~ u^m at the pole, times Chebyshev polynomials), the
+azimuth integrated exactly; the bifurcation into m is where its smallest eigenvalue (against
+the displacements' L2 metric) crosses zero along the branch, located by Brent's root finder.
+
 Run as a script for the 30° cap at h/R = 0.04: ``python3 tests/reference/axisym_reference.py``.
 """
 
@@ -211,3 +217,182 @@ if __name__ == "__main__":
         print(f"30° cap, h/R = 0.04, n = {n}: fold kappa R = {r['kappa_R']:.9f} (height "
               f"{r['height']:.6f}, min |eig|/max {r['min_eig']:.1e}), "
               f"{time.perf_counter() - t0:.1f} s")
+
+
+# ------------------------------------------------------------------------------------------------
+# Stability of the axisymmetric state against a Fourier mode m: the second variation of the full
+# 2D energy, X(u, v) = X0(u, v) + a(u) cos(mv) e_r + b(u) sin(mv) e_v + c(u) cos(mv) e_z
+# ------------------------------------------------------------------------------------------------
+def _density_2d(y, s, nat, h, nu):
+    """The energy density over sin u du dv of the surface whose local derivatives are
+    y = (X_u, X_v, X_uu, X_uv, X_vv) (each (3, ...)), on the cap's reference a° = diag(1, s²),
+    b̄ = nat a° (complex-safe)."""
+    Xu, Xv, Xuu, Xuv, Xvv = y[0:3], y[3:6], y[6:9], y[9:12], y[12:15]
+
+    def dot(p, q):
+        return p[0] * q[0] + p[1] * q[1] + p[2] * q[2]
+
+    N = np.stack([Xu[1] * Xv[2] - Xu[2] * Xv[1], Xu[2] * Xv[0] - Xu[0] * Xv[2],
+                  Xu[0] * Xv[1] - Xu[1] * Xv[0]])
+    n = N / np.sqrt(dot(N, N))
+    a11, a12, a22 = dot(Xu, Xu), dot(Xu, Xv), dot(Xv, Xv)
+    b11, b12, b22 = dot(Xuu, n), dot(Xuv, n), dot(Xvv, n)
+    s2 = s * s
+    E11, E12, E21, E22 = a11 - 1.0, a12, a12 / s2, a22 / s2 - 1.0
+    K11, K12, K21, K22 = b11 - nat, b12, b12 / s2, b22 / s2 - nat
+    trE2 = E11 * E11 + 2 * E12 * E21 + E22 * E22
+    trK2 = K11 * K11 + 2 * K12 * K21 + K22 * K22
+    return ((1 - nu) * trE2 + nu * (E11 + E22) ** 2
+            + h * h / 3.0 * ((1 - nu) * trK2 + nu * (K11 + K22) ** 2))
+
+
+class ModeStability:
+    """The block m of the Hessian of the 2D energy at an axisymmetric state of ``cap``
+    (a ``CapReference``): Ritz basis a = u^p T_k, b = u^p T_k (m > 0), c = u^q T_k (p = m - 1,
+    q = m; m = 0: p = 1, q = 2, which removes the rigid translation), degree ``n``; the
+    azimuth integrated exactly by ``4 m + 12`` equispaced points. m = 1 (rigid motions) is
+    not handled."""
+
+    def __init__(self, cap: CapReference, m: int, n: int = 24) -> None:
+        if m == 1:
+            raise ValueError("m = 1 holds rigid motions: not handled")
+        self.cap, self.m = cap, m
+        u, theta = cap.u, cap.theta
+        nv = 4 * m + 12
+        self.v = 2 * np.pi * np.arange(nv) / nv
+        self.wv = 2 * np.pi / nv
+        tt = 2.0 * u / theta - 1.0
+        eye = np.eye(n + 1)
+        T = [np.stack([cheb.chebval(tt, cheb.chebder(eye[k], d)) * (2.0 / theta) ** d
+                       for k in range(n + 1)]) for d in (0, 1, 2)]  # (n+1, nq)
+
+        def times_power(p):  # u^p T_k and its first two derivatives
+            g = [u**p, p * u ** max(p - 1, 0), p * (p - 1) * u ** max(p - 2, 0)]
+            return [g[0] * T[0], g[1] * T[0] + g[0] * T[1],
+                    g[2] * T[0] + 2 * g[1] * T[1] + g[0] * T[2]]
+
+        p, q = (1, 2) if m == 0 else (m - 1, m)
+        comps = ["a", "c"] if m == 0 else ["a", "b", "c"]
+        self.basis = [(comp, f) for comp in comps
+                      for f in zip(*times_power(q if comp == "c" else p), strict=True)]
+        # the L2 Gram matrix of the displacements (the metric of the eigenvalue problem)
+        vals = np.array([f[0] for _, f in self.basis])
+        same = np.array([[ci == cj for cj, _ in self.basis] for ci, _ in self.basis])
+        self.M = (vals * cap.w) @ vals.T * same
+
+    def _base(self, x):
+        """The axisymmetric state's local derivatives, (15, nq, nv)."""
+        cap = self.cap
+        P, dP, ddP, Q, dQ = cap._y(x)
+        s, c = np.sin(cap.u), np.cos(cap.u)
+        phi = s * (1 + P)
+        phi_u = c * (1 + P) + s * dP
+        phi_uu = -s * (1 + P) + 2 * c * dP + s * ddP
+        psi_u = -s * (1 + Q)
+        psi_uu = -c * (1 + Q) - s * dQ
+        cv, sv = np.cos(self.v), np.sin(self.v)
+        er = np.stack([cv, sv, 0 * cv])[:, None, :]
+        et = np.stack([-sv, cv, 0 * cv])[:, None, :]
+        ez = np.array([0.0, 0.0, 1.0])[:, None, None]
+
+        def col(f):
+            return f[None, :, None]
+
+        return np.concatenate([col(phi_u) * er + col(psi_u) * ez, col(phi) * et,
+                               col(phi_uu) * er + col(psi_uu) * ez, col(phi_u) * et,
+                               -col(phi) * er])
+
+    def _variations(self):
+        """Each basis function's local derivatives, (nbasis, 15, nq, nv)."""
+        m = self.m
+        cv, sv = np.cos(self.v), np.sin(self.v)
+        cm, sm = np.cos(m * self.v), np.sin(m * self.v)
+        er = np.stack([cv, sv, 0 * cv])[:, None, :]
+        et = np.stack([-sv, cv, 0 * cv])[:, None, :]
+        ez = np.array([0.0, 0.0, 1.0])[:, None, None]
+        out = []
+        for comp, (f, df, ddf) in self.basis:
+            F, dF, ddF = (g[None, :, None] for g in (f, df, ddf))
+            if comp == "a":
+                d_v = -m * sm * er + cm * et
+                parts = [dF * cm * er, F * d_v, ddF * cm * er, dF * d_v,
+                         F * (-(m * m + 1) * cm * er - 2 * m * sm * et)]
+            elif comp == "b":
+                d_v = m * cm * et - sm * er
+                parts = [dF * sm * et, F * d_v, ddF * sm * et, dF * d_v,
+                         F * (-(m * m + 1) * sm * et - 2 * m * cm * er)]
+            else:
+                parts = [dF * cm * ez, -m * F * sm * ez, ddF * cm * ez, -m * dF * sm * ez,
+                         -m * m * F * cm * ez]
+            out.append(np.concatenate(parts))
+        return np.stack(out)
+
+    def hessian(self, x, kappa):
+        """The block's Hessian at the state x (a ``CapReference`` solution) and kappa."""
+        cap = self.cap
+        y0 = self._base(x)
+        s = np.sin(cap.u)[:, None]
+        nat = (kappa * cap.f - 1.0)[:, None]
+
+        def grad(y):  # pointwise gradient in y, exact (complex steps)
+            out = np.empty_like(y)
+            for k in range(15):
+                yc = y.astype(complex)
+                yc[k] += 1e-30j
+                out[k] = _density_2d(yc, s, nat, cap.h, cap.nu).imag / 1e-30
+            return out
+
+        W2 = np.empty((15, 15) + y0.shape[1:])
+        for ell in range(15):
+            eps = 1e-6 * max(1.0, float(np.max(np.abs(y0[ell]))))
+            yp, ym = y0.copy(), y0.copy()
+            yp[ell] += eps
+            ym[ell] -= eps
+            W2[:, ell] = (grad(yp) - grad(ym)) / (2 * eps)
+        W2 = 0.5 * (W2 + W2.transpose(1, 0, 2, 3))
+        weight = cap.w[:, None] * self.wv  # sin u du dv
+        D = self._variations()
+        T = np.einsum("klqv,jlqv->jkqv", W2 * weight, D)
+        H = np.einsum("ikqv,jkqv->ij", D, T)
+        return 0.5 * (H + H.T)
+
+    def lowest(self, x, kappa) -> float:
+        """The smallest eigenvalue of H v = lambda M v (M: the L2 Gram matrix)."""
+        from scipy.linalg import eigh
+
+        return float(eigh(self.hessian(x, kappa), self.M, eigvals_only=True,
+                          subset_by_index=[0, 0])[0])
+
+
+def solve_at_kappa(cap: CapReference, kappa: float, x0, tol: float = 1e-12, maxit: int = 30):
+    """The axisymmetric equilibrium at ``kappa`` by Newton's method from ``x0``."""
+    x = np.array(x0, float)
+    for _ in range(maxit):
+        g = cap.gradient(x, kappa)
+        if np.linalg.norm(g) < tol:
+            return x
+        x = x - np.linalg.solve(cap.hessian(x, kappa), g)
+    raise RuntimeError(f"Newton did not converge at kappa {kappa}")
+
+
+def bifurcation_kappa(cap: CapReference, m: int, kappas, n_mode: int = 24,
+                      xtol: float = 1e-10) -> float:
+    """Follow the axisymmetric branch from kappa = 0 through the values ``kappas`` (natural
+    continuation: they must stay short of any fold) to where the block m first loses positive
+    definiteness; that kappa R by Brent's root finder on its smallest eigenvalue."""
+    from scipy.optimize import brentq
+
+    block = ModeStability(cap, m, n_mode)
+    x = np.zeros(2 * (cap.n + 1))
+    k_prev, lam_prev, x_prev = 0.0, block.lowest(x, 0.0), x
+    for k in kappas:
+        x = solve_at_kappa(cap, k, x_prev)
+        lam = block.lowest(x, k)
+        if lam < 0 < lam_prev:
+            def f(kq, cache={"x": x_prev}):  # noqa: B006 (the last state, the next guess)
+                cache["x"] = solve_at_kappa(cap, kq, cache["x"])
+                return block.lowest(cache["x"], kq)
+
+            return float(brentq(f, k_prev, k, xtol=xtol))
+        k_prev, lam_prev, x_prev = k, lam, x
+    raise RuntimeError(f"block m = {m} stays positive definite up to kappa R = {k_prev}")

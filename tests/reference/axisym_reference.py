@@ -49,16 +49,27 @@ from scipy.optimize import minimize_scalar
 
 class CapReference:
     """The discrete energy of one cap (R = 1) and Newton's method on the height-constrained
-    equilibrium. ``field``: f(u) of the natural curvature (None: 1)."""
+    equilibrium. ``field``: f(u) of the natural curvature (None: 1). ``disk=True``: the flat
+    disk of radius 1 instead (u in [0, 1] the radius, ``theta`` ignored: a° = diag(1, u^2),
+    b° = 0, phi = u (1 + P), psi_u = u Q)."""
 
     def __init__(self, theta: float, h: float, nu: float = 0.5, n: int = 40,
                  field: Callable[[np.ndarray], np.ndarray] | None = None,
-                 quad: int | None = None) -> None:
-        self.theta, self.h, self.nu, self.n = theta, h, nu, n
+                 quad: int | None = None, disk: bool = False) -> None:
+        theta = 1.0 if disk else theta
+        self.theta, self.h, self.nu, self.n, self.disk = theta, h, nu, n, disk
         nq = quad or 3 * n + 20
         t, w = np.polynomial.legendre.leggauss(nq)
         self.u = 0.5 * theta * (t + 1.0)
-        self.w = 0.5 * theta * w * np.sin(self.u)  # area element sin u du
+        # the reference meridian's radius rho0 and its derivatives, psi_u = rho0 (q0 + Q), and
+        # b° = b0 a° (the sphere of radius 1: b0 = -1; the plane: 0)
+        if disk:
+            self.rho = [self.u, np.ones_like(self.u), np.zeros_like(self.u)]
+            self.q0, self.b0 = 0.0, 0.0
+        else:
+            self.rho = [np.sin(self.u), np.cos(self.u), -np.sin(self.u)]
+            self.q0, self.b0 = -1.0, -1.0
+        self.w = 0.5 * theta * w * self.rho[0]  # the area element rho0 du
         self.f = np.ones_like(self.u) if field is None else np.asarray(field(self.u), float)
         # Chebyshev basis on [0, theta]: values, first and second derivatives in u
         tt = 2.0 * self.u / theta - 1.0
@@ -70,26 +81,34 @@ class CapReference:
         self.B = [np.hstack([self.V[0], z]), np.hstack([self.V[1], z]),
                   np.hstack([self.V[2], z]), np.hstack([z, self.V[0]]),
                   np.hstack([z, self.V[1]])]
-        # the height H = -int psi_u du = int sin u (1 + Q) du: affine in x
+        # the height H = -int psi_u du = -int rho0 (q0 + Q) du: affine in x
         self.height_row = np.concatenate([np.zeros(n + 1),
-                                          (0.5 * theta * w * np.sin(self.u)) @ self.V[0]])
-        self.height0 = float(np.sum(0.5 * theta * w * np.sin(self.u)))  # 1 - cos(theta)
+                                          -(0.5 * theta * w * self.rho[0]) @ self.V[0]])
+        self.height0 = float(-self.q0 * np.sum(0.5 * theta * w * self.rho[0]))  # 1 - cos(theta)
+
+    def meridian(self, y):
+        """phi, phi_u, phi_uu, psi_u, psi_uu at the quadrature points from y = (P, P', P'',
+        Q, Q')."""
+        P, dP, ddP, Q, dQ = y
+        r, dr, ddr = self.rho
+        phi = r * (1 + P)
+        phi_u = dr * (1 + P) + r * dP
+        phi_uu = ddr * (1 + P) + 2 * dr * dP + r * ddP
+        psi_u = r * (self.q0 + Q)
+        psi_uu = dr * (self.q0 + Q) + r * dQ
+        return phi, phi_u, phi_uu, psi_u, psi_uu
 
     # -- the energy density and its derivatives ------------------------------------------------
     def density(self, y, kappa):
         """The integrand over sin u du at the quadrature points (complex-safe)."""
-        P, dP, ddP, Q, dQ = y
-        s, c = np.sin(self.u), np.cos(self.u)
-        phi_u = c * (1 + P) + s * dP
-        phi_uu = -s * (1 + P) + 2 * c * dP + s * ddP
-        psi_u = -s * (1 + Q)
-        psi_uu = -c * (1 + Q) - s * dQ
+        P, Q = y[0], y[3]
+        _, phi_u, phi_uu, psi_u, psi_uu = self.meridian(y)
         L2 = phi_u**2 + psi_u**2
         L = np.sqrt(L2)
         E1, E2 = L2 - 1.0, (1 + P) ** 2 - 1.0
-        nat = kappa * self.f - 1.0  # b̄ in mixed components
+        nat = kappa * self.f + self.b0  # b̄ in mixed components
         K1 = (psi_uu * phi_u - phi_uu * psi_u) / L - nat
-        K2 = -(1 + P) * (1 + Q) / L - nat  # phi psi_u / (L sin^2 u)
+        K2 = (1 + P) * (self.q0 + Q) / L - nat  # phi psi_u / (L rho0^2)
         nu = self.nu
         stretch = (1 - nu) * (E1**2 + E2**2) + nu * (E1 + E2) ** 2
         bend = (1 - nu) * (K1**2 + K2**2) + nu * (K1 + K2) ** 2
@@ -224,8 +243,8 @@ if __name__ == "__main__":
 # 2D energy, X(u, v) = X0(u, v) + a(u) cos(mv) e_r + b(u) sin(mv) e_v + c(u) cos(mv) e_z
 # ------------------------------------------------------------------------------------------------
 def _density_2d(y, s, nat, h, nu):
-    """The energy density over sin u du dv of the surface whose local derivatives are
-    y = (X_u, X_v, X_uu, X_uv, X_vv) (each (3, ...)), on the cap's reference a° = diag(1, s²),
+    """The energy density over s du dv of the surface whose local derivatives are
+    y = (X_u, X_v, X_uu, X_uv, X_vv) (each (3, ...)), on the reference a° = diag(1, s²),
     b̄ = nat a° (complex-safe)."""
     Xu, Xv, Xuu, Xuv, Xvv = y[0:3], y[3:6], y[6:9], y[9:12], y[12:15]
 
@@ -283,13 +302,7 @@ class ModeStability:
     def _base(self, x):
         """The axisymmetric state's local derivatives, (15, nq, nv)."""
         cap = self.cap
-        P, dP, ddP, Q, dQ = cap._y(x)
-        s, c = np.sin(cap.u), np.cos(cap.u)
-        phi = s * (1 + P)
-        phi_u = c * (1 + P) + s * dP
-        phi_uu = -s * (1 + P) + 2 * c * dP + s * ddP
-        psi_u = -s * (1 + Q)
-        psi_uu = -c * (1 + Q) - s * dQ
+        phi, phi_u, phi_uu, psi_u, psi_uu = cap.meridian(cap._y(x))
         cv, sv = np.cos(self.v), np.sin(self.v)
         er = np.stack([cv, sv, 0 * cv])[:, None, :]
         et = np.stack([-sv, cv, 0 * cv])[:, None, :]
@@ -331,8 +344,8 @@ class ModeStability:
         """The block's Hessian at the state x (a ``CapReference`` solution) and kappa."""
         cap = self.cap
         y0 = self._base(x)
-        s = np.sin(cap.u)[:, None]
-        nat = (kappa * cap.f - 1.0)[:, None]
+        s = cap.rho[0][:, None]
+        nat = (kappa * cap.f + cap.b0)[:, None]
 
         def grad(y):  # pointwise gradient in y, exact (complex steps)
             out = np.empty_like(y)

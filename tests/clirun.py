@@ -1,33 +1,20 @@
 """Run the `shells` command line as a user does, in a child process: ``python3 -m shells ...``
 (module paths inside the package do not matter), on rank 0 only, its outcome broadcast so that
 every rank asserts the same. The child gets the environment less the variables of a running MPI
-job (under mpirun they would make it join the job)."""
+job (under mpirun they would make it join the job): ``conftest.child_env``."""
 
 from __future__ import annotations
 
 import json
-import os
 import subprocess
 import sys
 import time
 from pathlib import Path
 
+from conftest import child_env
 from mpi4py import MPI
 
 REPO = Path(__file__).resolve().parent.parent
-
-#: Open MPI settings of scripts/in-env that a child may keep; every other OMPI_/PMIX_/PRTE_
-#: variable belongs to the running job
-_KEEP = {"OMPI_ALLOW_RUN_AS_ROOT", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "OMPI_MCA_btl",
-         "OMPI_MCA_btl_vader_single_copy_mechanism", "OMPI_MCA_rmaps_base_oversubscribe",
-         "OMPI_MCA_btl_base_warn_component_unused"}
-
-
-def child_env() -> dict[str, str]:
-    env = {k: v for k, v in os.environ.items()
-           if k in _KEEP or not k.startswith(("OMPI_", "PMIX_", "PRTE_"))}
-    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(REPO), env.get("PYTHONPATH")]))
-    return env
 
 
 def shells(*args: str, timeout: float = 240.0) -> dict:

@@ -253,4 +253,7 @@ def test_without_the_compiled_loop_the_assembled_path_finds_the_same_point(monke
     a, b = fast["critical_points"][0], slow["critical_points"][0]
     assert (a["kind"], a["mode_m"]) == (b["kind"], b["mode_m"]) == ("bifurcation", 2)
     assert abs(a["kappa_R"] - b["kappa_R"]) <= max(a["accuracy"], b["accuracy"], 1e-9)
-    assert abs(a["kappa_R"] / -0.6622 - 1) < 1e-3
+    # source: the spectral reference's m = 2 block (tests/reference), κR = -0.6622066; the
+    # 1D model's discretisation error there is 6.6e-6 (test_reference_axisym.py): rel 2e-5.
+    # (The peer code, ../shared/peers/ngsolve-hhj: -0.66221/-0.66220 on its finest meshes.)
+    assert abs(a["kappa_R"] / -0.6622066 - 1) < 2e-5

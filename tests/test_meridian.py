@@ -168,7 +168,9 @@ def test_cli_takes_a_meridian_file(capsys, shared_tmp):
     out = capsys.readouterr().out
     d = MPI.COMM_WORLD.bcast(json.loads(out.strip().splitlines()[-1])
                              if MPI.COMM_WORLD.rank == 0 else None)
-    assert d["kind"] == "fold" and abs(d["kappa_R"] - 1.39343) < 2e-5
+    # source: the spectral reference of the exact cap (tests/reference), κR = 1.3934264; the
+    # 40-point table's spline differs from the exact meridian: 2e-5 (docstring: within 1e-5)
+    assert d["kind"] == "fold" and abs(d["kappa_R"] - 1.3934264) < 2e-5
     assert d["shape"]["shape"] == "meridian" and len(d["shape"]["points"]) == 40
     assert main(["mesh", "meridian", "--meridian", str(path), "--h-over-r", "0.04",
                  "--json"]) == 0

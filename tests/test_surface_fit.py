@@ -175,4 +175,7 @@ def test_a_mesh_not_of_revolution_runs_with_a_fixed_gauge(meshes):
     st = ContinuationSettings(method="natural", ds=0.5, ds_max=0.5)
     last = list(continuation(m, st, kappa_end=1.0 / sm.shape.R))[-1]
     assert last.scalars["apex_uz_over_h"] < 0
-    assert abs(last.scalars["energy"] / 6.81e-4 - 1) < 0.05, last.scalars["energy"]
+    # source: the unstretched cap's energy at κR = 1 (h/R = 0.04), 6.7612e-4 by the spectral
+    # reference (tests/reference: 2π times its energy per radian); the 5 % stretch changes it
+    # by less than 5 % (measured +0.7 %)
+    assert abs(last.scalars["energy"] / 6.7612e-4 - 1) < 0.05, last.scalars["energy"]

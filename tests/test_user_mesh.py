@@ -98,7 +98,10 @@ def test_cli_critical_on_a_user_mesh_axisym(user_cap, capsys):
     out = capsys.readouterr().out
     d = MPI.COMM_WORLD.bcast(json.loads(out.strip().splitlines()[-1])
                              if MPI.COMM_WORLD.rank == 0 else None)
-    assert d["kind"] == "fold" and abs(d["kappa_R"] / 1.39343 - 1) < 1e-4
+    # source: the spectral reference of the exact cap (tests/reference), κR = 1.3934264; the
+    # meridian recovered from the mesh's nodes differs from the exact one by the mesh's
+    # geometric error, which the 1e-4 allows (the 1D model on the exact cap: 3.6e-7)
+    assert d["kind"] == "fold" and abs(d["kappa_R"] / 1.3934264 - 1) < 1e-4
 
 
 def test_cli_branch_on_a_user_mesh(user_cap, shared_tmp, capsys):

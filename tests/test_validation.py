@@ -356,14 +356,15 @@ def test_mesh_parameter_files_of_any_content(no_work, ex):
 # the memory estimate behind --size (shells.surface.mesh.check_mesh_size)
 # ------------------------------------------------------------------------------------------
 def test_cell_estimate_against_gmsh():
-    """Two cheap meshes with and without the rim layer: the estimate is within -20 %/+50 %."""
+    """Two cheap meshes with and without the rim layer: the estimate is within the README's
+    claim, -5 %/+22 % of gmsh's count (measured: +10.8 % on the cap, -4.1 % on the sphere)."""
     from shells.geometry.shapes import Sphere, SphericalCap
     from shells.surface.mesh import MeshSpec, estimate_cells, generate
 
     for spec in (MeshSpec(SphericalCap(1.0, math.radians(30)), h=0.01, size=0.1),
                  MeshSpec(Sphere(1.0), size=0.15)):
         n = generate(spec).num_cells()
-        assert 0.8 * n < estimate_cells(spec) < 1.5 * n, (spec, n, estimate_cells(spec))
+        assert 0.95 * n < estimate_cells(spec) < 1.22 * n, (spec, n, estimate_cells(spec))
 
 
 def test_memory_check_reads_the_machine(no_work, monkeypatch):

@@ -48,6 +48,8 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
     p.add_argument("--model", default="axisym", choices=("axisym", "surface"),
                    help="axisym (1D, rotational symmetry enforced; default) or surface (2D, "
                    "any mode; minutes per amplitude on a laptop)")
+    p.add_argument("--size", type=common.positive_float("size"), default=0.21,
+                   help="surface model: bulk element size / R (default 0.21, P3)")
     p.add_argument("--no-figure", action="store_true", help="skip the figure")
     p.add_argument("-o", "--output", default=None, help="output directory (points, figure)")
     common.add_json(p)
@@ -65,7 +67,8 @@ def _cmd_knockdown(args: argparse.Namespace) -> int:
                          "the dimple")
     cfg = KnockdownConfig(args.h_over_r, tuple(args.amplitudes), nu=args.nu,
                           imperfection=args.imperfection, width=args.width, load=args.load,
-                          model=args.model, degree=args.mode_n, order=args.mode_m)
+                          model=args.model, degree=args.mode_n, order=args.mode_m,
+                          size=args.size)
     # the 1D model is serial: rank 0 computes and writes, the others compute without files;
     # the surface model computes on all ranks, rank 0 writes
     outdir = args.output if common.rank() == 0 else None

@@ -7,11 +7,14 @@ with ParaView's ADIOS2VTXReader, asserts the time step, point and cell counts, t
 component counts, per-component and magnitude ranges (relative tolerance 1e-9 of the array's
 largest magnitude: the file holds float64, so only rounding may differ), then renders the
 displacement-warped shell coloured by mean_curvature_change to DIR/fields.png and checks that the
-picture is not blank. Any mismatch is an exception: pvbatch exits non-zero.
+picture is not blank. Any mismatch or error exits with status 1 (the script's own ``os._exit``,
+after printing the traceback), whatever pvbatch does with an uncaught exception.
 """
 
 import json
+import os
 import sys
+import traceback
 from pathlib import Path
 
 from paraview import servermanager  # noqa: F401 (initialises the server manager)
@@ -164,7 +167,24 @@ def check_shape(exp):
     print("pv_check: ParaView opens the 1D post-buckled sphere; names and ranges match")
 
 
+def main(argv) -> int:
+    """Run the checks; 0 when all pass, 1 (with the traceback printed) on any failure."""
+    if len(argv) != 2:
+        print("usage: pvbatch pv_check.py DIR", file=sys.stderr)
+        return 2
+    try:
+        check(Path(argv[1]).resolve())
+    except BaseException:  # any failure, whatever its type, is the check's
+        traceback.print_exc()
+        print("pv_check: FAILED", file=sys.stderr)
+        return 1
+    return 0
+
+
 if __name__ == "__main__":
-    if len(sys.argv) != 2:
-        raise SystemExit("usage: pvbatch pv_check.py DIR")
-    check(Path(sys.argv[1]).resolve())
+    # The exit status is this script's own, not pvbatch's handling of an uncaught exception:
+    # os._exit after flushing, so nothing in ParaView's shutdown can turn a failure into 0.
+    status = main(sys.argv)
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(status)

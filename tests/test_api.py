@@ -291,3 +291,16 @@ def test_progress_is_a_bar_on_a_terminal_and_quiet_under_json(monkeypatch, caplo
         lines = progress.Progress("critical", 4.0)
         lines.update(1.0)
     assert "critical: 25 % of the range, point 1" in caplog.text
+
+
+def test_one_kappa_b_for_the_sphere_from_every_command():
+    """The closed sphere at h/R = 0.01, ν = ½ on the 1D model: ``critical``, ``postbuckle``
+    and ``knockdown`` (δ = 0) report κ_b h within 1e-4 of the converged 1.5062 (the 1D model
+    with the penalty's pole imperfection out of reach, penalty 1e6, benchmarks/
+    sphere_knockdown.py; the thin-shell theory's 4/√7 = 1.5119 is O(h/R) above it)."""
+    sphere = shells.Shell(shells.sphere(), h_over_r=0.01)
+    crit = shells.critical(sphere).kappa_h
+    post = shells.postbuckle(sphere, max_points=2, sides=(-1,)).critical_point["kappa_h"]
+    knock = shells.knockdown(sphere, amplitudes=(0.0,)).kappa_b * 0.01
+    for value in (crit, post, knock):
+        assert value == pytest.approx(1.5062, rel=1e-4)

@@ -39,6 +39,11 @@ REUSE_CRITICAL = 1.0e-4
 #: the C1 penalty of a run that sets none (``RunConfig.penalty`` None): the weight of
 #: benchmarks/axisym_convergence.py, kept wherever its round-off allows (``resolve_penalty``)
 PENALTY = 1.0e4
+#: the same on a closed shell: the penalty ties the slopes to the displacement to O(1/penalty),
+#: which on a closed sphere is an imperfection at its poles that lowers κ_b by ∝ 1/penalty
+#: (3e-4 at 1e4, h/R = 0.01); at 1e5 κ_b h is within 3e-5 of the converged value, so
+#: ``critical``, ``postbuckle`` and ``knockdown`` (1e6) report one κ_b for the same sphere
+CLOSED_PENALTY = 1.0e5
 #: the lowest penalty ``resolve_penalty`` goes to, over h/R: the penalty's consistency error, a
 #: relative C (h/R)/penalty independent of the mesh (measured C: 0.13 on the 30° cap's fold at
 #: h/R = 0.04, 2e-3 to 2e-2 on the m = 2 eigenvalue of caps of θ̄ = 10-40 at h/R = 1e-4 and
@@ -123,6 +128,12 @@ def unloaded_roundoff(model: AxisymModel, blocks: list[int]) -> float:
     return worst
 
 
+def default_penalty(shape: Shape) -> float:
+    """The C1 penalty a run starts from: ``CLOSED_PENALTY`` on a closed shell, else
+    ``PENALTY``."""
+    return CLOSED_PENALTY if shape.closed else PENALTY
+
+
 def resolve_penalty(model: AxisymModel, cfg: RunConfig) -> tuple[float, float]:
     """The C1 penalty of a run, set on ``model`` (its state the unloaded reference), and the
     round-off of its blocks there (``unloaded_roundoff``, over m ≤ 12).
@@ -131,8 +142,8 @@ def resolve_penalty(model: AxisymModel, cfg: RunConfig) -> tuple[float, float]:
     round-off of their factorisations, while a thin shell's softest eigenvalues fall as h²:
     with the fixed 1e4 a cap of h/R = 1e-4 on 800 cells has its m = 2 eigenvalue at κ = 0
     wrong by 70 % (θ̄ = 10) to 430 % (θ̄ = 40, counted negative). ``cfg.penalty`` None:
-    ``PENALTY``, or where its round-off exceeds ``ROUNDOFF_TARGET`` a tenth of it, and so on,
-    down to ``PENALTY_FLOOR`` h/R (the consistency error that allows). An explicit penalty is
+    ``default_penalty``, or where its round-off exceeds ``ROUNDOFF_TARGET`` a tenth of it, and so
+    on, down to ``PENALTY_FLOOR`` h/R (the consistency error that allows). An explicit penalty is
     kept.
 
     Raises:
@@ -143,9 +154,10 @@ def resolve_penalty(model: AxisymModel, cfg: RunConfig) -> tuple[float, float]:
     if cfg.penalty is not None:
         rungs = [float(cfg.penalty)]
     else:
+        top = default_penalty(cfg.shape)
         floor = PENALTY_FLOOR * cfg.h_over_r
-        rungs = [p for p in (PENALTY / 10.0**k for k in range(20)) if p > floor] or [PENALTY]
-        if rungs[-1] > floor and floor < PENALTY:
+        rungs = [p for p in (top / 10.0**k for k in range(20)) if p > floor] or [top]
+        if rungs[-1] > floor and floor < top:
             rungs.append(floor)
     for pen in rungs:
         model.pen.value = pen
@@ -185,7 +197,8 @@ class RunConfig(RunScales):
         m_max: Fourier modes 0..m_max are checked at every point.
         kappa_max: end of the range, |κ| R (R: pole radius; the disk's radius).
         cells, layer_cells, grading, penalty: discretisation (``AxisymParameters``); penalty
-            None: ``PENALTY``, lowered where its round-off requires (``resolve_penalty``).
+            None: ``default_penalty``, lowered where its round-off requires
+            (``resolve_penalty``).
         rel_tol: location accuracy of critical points, relative in κ.
         max_critical: stop after this many critical points (None: up to the first fold or the
             end of range).
@@ -264,7 +277,8 @@ class RunConfig(RunScales):
         """The 1D model's parameters of this run."""
         return AxisymParameters(h=self.h, nu=self.nu, cells=self.n_cells,
                                 layer_cells=self.layer_cells, grading=self.grading,
-                                penalty=PENALTY if self.penalty is None else self.penalty,
+                                penalty=default_penalty(self.shape) if self.penalty is None
+                                else self.penalty,
                                 kappa_field=self.kappa_field)
 
 

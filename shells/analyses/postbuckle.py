@@ -47,6 +47,7 @@ from typing import Any
 
 import numpy as np
 
+from shells.analyses.axisym_runs import CLOSED_PENALTY
 from shells.analyses.store import load_checkpoint, save_checkpoint
 from shells.errors import InputError
 from shells.files import append_record, json_default, read_with_header, write_header
@@ -177,8 +178,6 @@ ROUNDOFF = 10.0
 #: docs/model.md, "The 1D model's closed sphere"), and followed with the depth Ψ3(pole)/h as the
 #: parameter (``switch_branch``'s ``control``)
 CLUSTER = 6
-#: the 1D model's C1 penalty on closed shells (see ``_Run``)
-CLOSED_PENALTY = 1.0e5
 
 
 class _Run:

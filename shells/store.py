@@ -12,6 +12,8 @@ instead of using it. A file may start with a header record ``{"header": {...}}``
 (``read_with_header``); ``write_header`` replaces a file by a new one holding only the header,
 and ``write_atomic`` any file by new text, atomically (temporary file, fsync, then rename).
 ``read_number_rows`` reads the plain-text tables a user gives (a meridian, a curvature field).
+``hold_output_folder`` gives a run its output folder to itself: a second run into a folder in
+use is refused (``InputError``), not interleaved with the first.
 
 Checkpoints (a run's state at its last point, to resume from): ``save_checkpoint`` writes one
 ``.npz`` per MPI rank and then ``meta.json``, ``load_checkpoint`` reads them back (branch files'
@@ -29,8 +31,10 @@ import json
 import logging
 import os
 import re
+import socket
 import zipfile
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -41,7 +45,7 @@ from shells.errors import InputError
 __all__ = ["CHECKPOINT_ERRORS", "append_record", "drop_torn_tail", "json_default",
            "load_checkpoint", "load_state_checkpoint", "read_meta", "read_number_rows",
            "read_records", "read_with_header", "resumable", "save_checkpoint",
-           "save_state_checkpoint", "write_atomic", "write_header"]
+           "save_state_checkpoint", "write_atomic", "write_header", "hold_output_folder"]
 
 log = logging.getLogger("shells")
 
@@ -357,3 +361,86 @@ def read_number_rows(path: str | os.PathLike, what: str, rows: str
     except ValueError:
         raise InputError(f"{what} {str(path)!r} holds something other than numbers (rows "
                          f"{rows})") from None
+
+
+#: the lock file of a run's output folder, there while the run holds the folder
+RUN_LOCK = ".shells-run.lock"
+
+
+def _take_folder(folder: Path, label: str) -> tuple[int | None, list[Path]]:
+    """(descriptor holding ``folder/RUN_LOCK`` locked, the folders made for it, innermost
+    first); descriptor None where the file system has no locks. ``InputError`` if another run
+    holds it."""
+    while True:
+        made, p = [], folder
+        while not p.exists():
+            made.append(p)
+            p = p.parent
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+            fd = os.open(folder / RUN_LOCK, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o644)
+        except FileNotFoundError:  # the folder was removed meanwhile by a run that ended
+            continue
+        except OSError as e:
+            raise InputError(f"{label} {str(folder)!r} cannot be written: "
+                             f"{e.strerror or e}") from None
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.pread(fd, 200, 0).decode(errors="replace").strip() or "starting"
+            os.close(fd)
+            raise InputError(f"{label} {str(folder)!r} is the output folder of a run in progress "
+                             f"({holder}): wait for it to end, or give another folder") from None
+        except OSError:  # no locks here (Lustre mounted without flock): the run goes unlocked
+            os.close(fd)
+            return None, made
+        try:
+            st = os.stat(folder / RUN_LOCK)
+            same = (st.st_dev, st.st_ino) == (os.fstat(fd).st_dev, os.fstat(fd).st_ino)
+        except FileNotFoundError:
+            same = False
+        if same:
+            os.ftruncate(fd, 0)
+            os.pwrite(fd, f"pid {os.getpid()} on {socket.gethostname()}\n".encode(), 0)
+            return fd, made
+        os.close(fd)  # unlinked by the run that held it as it ended: take the file there now
+
+
+@contextmanager
+def hold_output_folder(folder: str | os.PathLike, comm: Any, label: str = "-o") -> Iterator[None]:
+    """The output folder ``folder`` held by this run for the ``with`` block: an exclusive
+    ``flock`` on ``folder/RUN_LOCK`` (made with the folder if missing), taken without waiting by
+    rank 0 of ``comm``, which tells the others the outcome. If another run holds it, every rank
+    raises ``InputError`` naming that run (the CLI's one line, exit 2). The lock file is removed
+    at the end, and so are the folders made for it if the run left them empty; the lock goes
+    with the process however it ends. Where the file system has no locks the run goes on
+    unlocked. Collective on ``comm``."""
+    folder = Path(folder)
+    fd, made, err = None, [], None
+    if comm.rank == 0:
+        try:
+            fd, made = _take_folder(folder, label)
+        except InputError as e:
+            err = str(e)
+        except Exception as e:  # never leave the other ranks waiting in the broadcast
+            err = f"cannot hold the output folder {str(folder)!r}: {type(e).__name__}: {e}"
+    if comm.size > 1:
+        err = comm.bcast(err, root=0)
+    if err:
+        raise InputError(err)
+    try:
+        yield
+    finally:
+        if fd is not None:
+            # unlinked while held: a run that opened it meanwhile finds another file at the
+            # path (or none) once it has the lock, and takes that one
+            try:
+                os.unlink(folder / RUN_LOCK)
+            except OSError:
+                pass
+            os.close(fd)
+            for p in made:  # innermost first; a folder with anything in it stays
+                try:
+                    p.rmdir()
+                except OSError:
+                    break

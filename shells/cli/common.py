@@ -11,11 +11,12 @@ import logging
 import math
 import sys
 from collections.abc import Callable
+from contextlib import AbstractContextManager, nullcontext
 from typing import Any
 
 from shells import paths
 from shells.errors import InputError
-from shells.store import json_default
+from shells.store import hold_output_folder, json_default
 
 log = logging.getLogger("shells")
 
@@ -308,6 +309,7 @@ PATH_ARGS: dict[str, list[tuple[str, str, str, str | None]]] = {
     "postbuckle": [("output", "-o", "dir", None),
                    ("kappa_field", "--kappa-field", "field", None),
                    ("meridian", "--meridian", "in", None), ("mesh", "--mesh", "in", None)],
+    "knockdown": [("output", "-o", "dir", None)],
 }
 
 
@@ -337,6 +339,19 @@ def check_ranges(args: argparse.Namespace) -> None:
         if theta_deg < THETA_MIN_DEG:
             raise InputError(f"theta-bar {min(rng):g} at h/R = {min(hs):g} is a cap of theta = "
                              f"{theta_deg:.3g} deg, below the {THETA_MIN_DEG:g} deg minimum")
+
+
+def hold_output(args: argparse.Namespace) -> AbstractContextManager[None]:
+    """The run's hold on its output folder (its "dir" entry in ``PATH_ARGS``, if it has one):
+    ``shells.store.hold_output_folder`` on all ranks; nothing to hold otherwise."""
+    from mpi4py import MPI
+
+    for attr, label, kind, default in PATH_ARGS.get(args.command, []):
+        value = getattr(args, attr, None)
+        value = default if value is None else value
+        if kind == "dir" and value is not None:
+            return hold_output_folder(value, MPI.COMM_WORLD, label)
+    return nullcontext()
 
 
 def check_paths(args: argparse.Namespace) -> None:

@@ -387,10 +387,11 @@ def _take_folder(folder: Path, label: str) -> tuple[int | None, list[Path]]:
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
-            holder = os.pread(fd, 200, 0).decode(errors="replace").strip() or "starting"
+            holder = os.pread(fd, 200, 0).decode(errors="replace").strip()
             os.close(fd)
-            raise InputError(f"{label} {str(folder)!r} is the output folder of a run in progress "
-                             f"({holder}): wait for it to end, or give another folder") from None
+            holder = f" ({holder})" if holder else ""
+            raise InputError(f"{label} {str(folder)!r} is the output folder of a run in progress"
+                             f"{holder}: wait for it to end, or give another folder") from None
         except OSError:  # no locks here (Lustre mounted without flock): the run goes unlocked
             os.close(fd)
             return None, made

@@ -14,7 +14,8 @@
   end with the results of a run alone.
 
 Subprocesses are started by rank 0 only (with the environment of no MPI job), the others wait
-for its verdict, so every test is valid on any number of ranks.
+for its verdict, so every test is valid on any number of ranks. The runs' tests start their own
+1- and 2-rank runs, whatever this process's rank count: they run in the serial pass only.
 """
 
 from __future__ import annotations
@@ -41,6 +42,8 @@ REPO = Path(__file__).resolve().parent.parent
 IN_ENV = REPO / "scripts" / "in-env"
 WORLD = MPI.COMM_WORLD
 DAY = 86400.0
+#: the runs' tests start their own 1- and 2-rank runs: once, in the serial pass
+serial_only = pytest.mark.skipif(WORLD.size > 1, reason="starts its own 1- and 2-rank runs")
 
 #: the fast 1D case of the issue: a fold at kappa R = 1.3934 in a few seconds
 CRITICAL = ["critical", "--shape", "cap", "--theta-deg", "30", "--h-over-r", "0.04", "--model",
@@ -264,6 +267,7 @@ def json_result(stdout: str) -> dict[str, Any]:
     return {k: v for k, v in res.items() if "time" not in k and not k.endswith("_file")}
 
 
+@serial_only
 def test_a_second_run_into_a_folder_in_use_is_refused(shared_tmp):
     """A run is stopped (SIGSTOP) while it holds its folder; a second run into that folder, on
     1 and on 2 ranks, is refused with one line and exit 2; the first, continued, ends with the
@@ -301,6 +305,7 @@ def test_a_second_run_into_a_folder_in_use_is_refused(shared_tmp):
     on_rank0(check)
 
 
+@serial_only
 def test_runs_at_once_end_with_the_results_of_a_run_alone(shared_tmp):
     """Two ``shells critical`` processes started at once (one with an output folder, one
     without) into an empty form and FFCx cache, where both compile the same forms, and then two

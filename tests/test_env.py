@@ -24,6 +24,7 @@ import fcntl
 import json
 import os
 import re
+import shutil
 import signal
 import subprocess
 import sys
@@ -195,6 +196,37 @@ def test_list_shows_each_root_and_the_total(tmp_path):
                             r.stdout.splitlines()[-1]), r.stdout
         r = in_env(tmp_path / "none", "--list")
         assert r.returncode == 0 and "does not exist" in r.stdout, r
+
+    on_rank0(check)
+
+
+def test_a_process_chrooted_in_a_root_keeps_it(tmp_path):
+    """A process chrooted in a root that took no lock (as one started by an older in-env) makes
+    the root in use: kept by --gc, its last use set to now."""
+
+    def check() -> None:
+        cache = tmp_path / "cache"
+        root = fake_root(cache, "a" * 16, days_ago=10)
+        ldd = subprocess.run(["ldd", "/bin/sleep"], capture_output=True, text=True).stdout
+        for f in ["/bin/sleep", *re.findall(r"(/\S+) \(0x", ldd)]:
+            (root / f[1:]).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(f, root / f[1:])
+        p = subprocess.Popen(["chroot", str(root), "/bin/sleep", "60"])
+        try:
+            t0 = time.monotonic()
+            while os.readlink(f"/proc/{p.pid}/root") != str(root):
+                assert p.poll() is None and time.monotonic() - t0 < 10, "not chrooted"
+                time.sleep(0.01)
+            r = in_env(cache, "--list")
+            assert r.stdout.splitlines()[1].endswith(" in use"), r.stdout
+            r = in_env(cache, "--gc", "--max-age-days", "0")
+            assert f"kept the main env's root {root.name}: in use" in r.stdout and root.is_dir()
+            assert time.time() - os.stat(f"{root}.lock").st_mtime < 60
+        finally:
+            p.kill()
+            p.wait()
+        r = in_env(cache, "--gc", "--max-age-days", "0")
+        assert removed(r.stdout) == [root.name], r.stdout
 
     on_rank0(check)
 

@@ -3,10 +3,11 @@
 * ``scripts/in-env --gc`` and ``--list`` on a cache of fake roots (folders with a root's name
   and completeness marker; no debootstrap): a root is removed only when unused for the maximum
   age (``--max-age-days``, ``SHELLS_ENV_MAX_AGE_DAYS``) and not in use (its lock held shared,
-  as every in-env call holds it for its command), one line per removed folder with the space
-  freed; what interrupted builds left goes too; nothing is removed while a build holds the
-  folder's build lock; ``--list`` shows each root's env, key, size, last use and use, and the
-  cache's total. The real roots, built and used side by side: ``scripts/test-env-coexist``.
+  as every in-env call holds it for its command, or a process chrooted in it), one line per
+  removed folder with the space freed; what interrupted builds left goes too; nothing is
+  removed while a build holds the folder's build lock; ``--list`` shows each root's env, key,
+  size, last use and use, and the cache's total. The real roots, built and used side by side:
+  ``scripts/test-env-coexist``.
 * An output folder is held by one run: a second run into it (1 or 2 ranks) is refused with one
   line, exit 2, and the first ends with the uninterrupted run's records; the folders made for a
   run that leaves them empty are removed.

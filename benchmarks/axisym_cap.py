@@ -15,8 +15,8 @@ import sys
 import time
 from pathlib import Path
 
-from shells.axisym import branch, critical
-from shells.geometry import SphericalCap
+from shells.analyses.axisym_runs import branch, critical
+from shells.geometry.shapes import SphericalCap
 
 
 def paper_line(theta_deg: float, h_over_r: float, direction: str) -> float:

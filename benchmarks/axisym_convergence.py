@@ -15,8 +15,8 @@ import sys
 import time
 from pathlib import Path
 
-from shells.axisym import critical
-from shells.geometry import Sphere, SphericalCap
+from shells.analyses.axisym_runs import critical
+from shells.geometry.shapes import Sphere, SphericalCap
 
 
 def main(out: str = "benchmarks/results/axisym_convergence.json") -> None:

@@ -26,10 +26,13 @@ import time
 from pathlib import Path
 from typing import Any
 
-from shells.axisym import SNES_OPTIONS, AxisymModel, RunConfig, critical, sphere_kappa_b_h
-from shells.geometry import Sphere
-from shells.solvers import NewtonSolver
-from shells.stability import Stability
+from shells.algorithms.newton import NewtonSolver
+from shells.algorithms.stability import Stability
+from shells.analyses.axisym_runs import RunConfig, critical
+from shells.axisym import SNES_OPTIONS, AxisymModel
+from shells.geometry.shapes import Sphere
+from shells.problem.forms import assemble_symmetric
+from shells.theory import sphere_kappa_b_h
 
 H_OVER_R, NU = 0.002, 0.5
 
@@ -37,7 +40,7 @@ H_OVER_R, NU = 0.002, 0.5
 def _direct(self: AxisymModel, block: Any, H: Any) -> None:
     """``AxisymModel.assemble_hessian`` as before: every block from its form."""
     if block is None:
-        self._assemble_symmetric(H, self.hessian, self.bcs)
+        assemble_symmetric(H, self.hessian, self.bcs)
     else:
         self.mode_forms.assemble_hessian(block, H, direct=True)
 
@@ -69,8 +72,8 @@ def main(out: str = "benchmarks/results/axisym_mode_assembly.json", repeats: int
     H, D = model.create_hessian(1), model.create_hessian(1)
 
     def new_state() -> None:  # what a new continuation point does to the C_k's caches
-        mf._C_inputs = None
-        mf._E_inputs = None  # the element matrices (one process, ``shells.axisym.chain``)
+        mf.coefficient_inputs = None
+        mf.element_inputs = None  # the element matrices (one process, ``shells.axisym.chain``)
 
     def poly_all() -> None:
         new_state()

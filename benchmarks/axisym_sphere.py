@@ -15,8 +15,9 @@ import sys
 import time
 from pathlib import Path
 
-from shells.axisym import critical, sphere_kappa_b_h, sphere_mode_n
-from shells.geometry import Sphere
+from shells.analyses.axisym_runs import critical
+from shells.geometry.shapes import Sphere
+from shells.theory import sphere_kappa_b_h, sphere_mode_n
 
 CASES = [(0.05, 0.5), (0.05, 0.3), (0.01, 0.5), (0.01, 0.3), (0.002, 0.5), (0.002, 0.3),
          (0.001, 0.5)]

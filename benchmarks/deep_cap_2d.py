@@ -18,9 +18,9 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from shells import axisym
-from shells.drivers import critical_surface
-from shells.geometry import SphericalCap
+from shells.analyses import axisym_runs
+from shells.analyses.critical import run_surface
+from shells.geometry.shapes import SphericalCap
 
 CAP = SphericalCap(1.0, math.radians(46.2))
 H_OVER_R = 0.01
@@ -33,14 +33,14 @@ def main() -> None:
     comm = MPI.COMM_WORLD
     one = []
     for cells in (200, 400, 800):
-        d = axisym.critical(CAP, H_OVER_R, 0.5, direction="up", cells=cells, max_critical=1)
+        d = axisym_runs.critical(CAP, H_OVER_R, 0.5, direction="up", cells=cells, max_critical=1)
         one.append({"cells": cells, "kind": d["kind"], "kappa_R": d["kappa_R"],
                     "mode_m": d["mode_m"]})
     ref = one[-1]["kappa_R"]
     rows = []
     for size, layer in MESHES:
         t0 = time.perf_counter()
-        d = critical_surface(CAP, H_OVER_R, 0.5, 10.0 / CAP.R, first_only=True, size=size,
+        d = run_surface(CAP, H_OVER_R, 0.5, 10.0 / CAP.R, first_only=True, size=size,
                              layer_elements=layer)
         first = d["critical_points"][0]
         rows.append({"size": size, "layer_elements": layer, "degree": 3, "dofs": d["dofs"],

@@ -1,6 +1,7 @@
 """The closed sphere's dimple branch on both models: the surface model (2D, no symmetry imposed
-on the mesh) against the 1D axisymmetric model, both through ``shells.postbuckle`` (the dimple
-at the pole, its depth Ψ3(pole)/h the branch's parameter), h/R = 0.05, ν = ½, the inward side.
+on the mesh) against the 1D axisymmetric model, both through ``shells.analyses.postbuckle`` (the
+dimple at the pole, its depth Ψ3(pole)/h the branch's parameter), h/R = 0.05, ν = ½, the inward
+side.
 
 Each model's κ is divided by its own κ_b (the 2D mesh's is 0.4 % above the 1D one at the
 default discretisation, benchmarks/sphere_buckling.py); κ/κ_b is interpolated linearly at the
@@ -25,8 +26,8 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
-from shells.geometry import Sphere
-from shells.postbuckle import PostbuckleConfig, postbuckle
+from shells.analyses.postbuckle import PostbuckleConfig, postbuckle
+from shells.geometry.shapes import Sphere
 
 REPO = Path(__file__).resolve().parent.parent
 H = 0.05

@@ -1,9 +1,9 @@
 """A non-axisymmetric imperfection on the surface model, read from a mesh file (issue 15): a
 closed sphere with a dimple w0 = -δ h exp(-(β/β0)²) centred on its equator (β the angle from
 (R, 0, 0), β0 = width √(h/R)), meshed and dented with gmsh's own API as a user would (no
-sidecar), run with `--mesh` (the surface known only by its mesh, ``shells.surface_fit``), against
-the 1D model's sphere with the same dimple at its pole. A sphere has no preferred axis: the two
-must give the same limit point.
+sidecar), run with `--mesh` (the surface known only by its mesh, ``shells.geometry.surface_fit``),
+against the 1D model's sphere with the same dimple at its pole. A sphere has no preferred axis: the
+two must give the same limit point.
 
     scripts/in-env mpirun -n 2 python3 benchmarks/dimple_off_pole.py [--h-over-r 0.05]
         [--delta 0.1] [--width 1]
@@ -24,13 +24,13 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
-from shells.drivers import critical_run
-from shells.knockdown import KnockdownConfig, run_knockdown
-from shells.mesh import read_mesh_shape
+from shells.analyses import critical, knockdown
+from shells.analyses.knockdown import KnockdownConfig
+from shells.surface.mesh import read_mesh_shape
 
 HERE = Path(__file__).parent
 JSON = HERE / "results" / "dimple_off_pole.json"
-#: elements across β0 near the dimple (as shells.mesh.DIMPLE_ELEMENTS) and the bulk size
+#: elements across β0 near the dimple (as shells.surface.mesh.DIMPLE_ELEMENTS) and the bulk size
 FINE_PER_WIDTH, BULK = 4.0, 0.21
 
 
@@ -90,12 +90,12 @@ def main() -> int:
     shape = read_mesh_shape(path, comm)
     out["fitted_R"] = shape.R
     # h itself fixed (the fitted R of the dented sphere is not 1): κh is the comparison
-    r = critical_run(shape, h / shape.R, 0.5, direction="up", model="surface",
+    r = critical.run(shape, h / shape.R, 0.5, direction="up", model="surface",
                      first_only=True, mesh_file=str(path))
     out["surface"] = {"kind": r["kind"], "kappa_h": r["kappa_h"], "dofs": r["dofs"],
                       "wall_s": time.perf_counter() - t0}
     t1 = time.perf_counter()
-    kd = run_knockdown(KnockdownConfig(h_over_r=h, nu=0.5, amplitudes=(a.delta,),
+    kd = knockdown.run(KnockdownConfig(h_over_r=h, nu=0.5, amplitudes=(a.delta,),
                                        imperfection="dimple", width=a.width), None,
                        figure=False)
     p = kd["points"][0]

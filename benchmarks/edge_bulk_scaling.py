@@ -19,10 +19,10 @@ import time
 import numpy as np
 from mpi4py import MPI
 
-from shells.geometry import SphericalCap
-from shells.mesh import MeshSpec, generate
-from shells.model import ModelParameters, ShellModel
-from shells.solvers import NewtonSolver
+from shells.algorithms.newton import NewtonSolver
+from shells.geometry.shapes import SphericalCap
+from shells.surface.mesh import MeshSpec, generate
+from shells.surface.model import ModelParameters, ShellModel
 
 
 def works(h: float, theta_deg: float, layer_elements: float, size: float, kappa_R: float = 0.05):

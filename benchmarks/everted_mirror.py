@@ -18,10 +18,10 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from shells.geometry import SphericalCap
-from shells.mesh import MeshSpec, generate
-from shells.model import ModelParameters, ShellModel
-from shells.solvers import NewtonSolver
+from shells.algorithms.newton import NewtonSolver
+from shells.geometry.shapes import SphericalCap
+from shells.surface.mesh import MeshSpec, generate
+from shells.surface.model import ModelParameters, ShellModel
 
 H = 0.04
 #: (opening angle, κR of the everted cap, bulk size, elements across the rim layer)

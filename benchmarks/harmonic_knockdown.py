@@ -1,9 +1,9 @@
 """Knock-down of the closed sphere's curvature buckling by a non-axisymmetric imperfection on the
 surface model (issue 15): the reference surface displaced along the radius by w0 = -δ h
-P_n^m(cos θ) cos(mφ) / max|P_n^m| (``shells.geometry.HarmonicImperfectSphere``), n the
+P_n^m(cos θ) cos(mφ) / max|P_n^m| (``shells.geometry.imperfections.HarmonicImperfectSphere``), n the
 perfect sphere's critical degree, against the axisymmetric m = 0 (the mode's shape P_n) at the
-same amplitudes, on the same mesh and code path (``shells.knockdown.surface_first``: the first
-critical point of any kind, with the full Hessian's inertia), and the 1D model's knock-down by
+same amplitudes, on the same mesh and code path (``shells.analyses.knockdown.surface_first``: the
+first critical point of any kind, with the full Hessian's inertia), and the 1D model's knock-down by
 the axisymmetric mode (rotational symmetry enforced) beside them.
 
     OMP_NUM_THREADS=1 scripts/in-env python3 benchmarks/harmonic_knockdown.py
@@ -26,7 +26,8 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from shells.knockdown import KnockdownConfig, run_knockdown, surface_first
+from shells.analyses import knockdown
+from shells.analyses.knockdown import KnockdownConfig, surface_first
 
 JSON = Path(__file__).parent / "results" / "harmonic_knockdown.json"
 
@@ -80,7 +81,7 @@ def main() -> int:
             r = point(f"m{m}_delta{d:g}", cfg, d)
             r["knockdown"] = r["kappa_h"] / kb
     # the 1D model's axisymmetric mode P_n (its own κ_b), for reference (seconds)
-    oned = run_knockdown(KnockdownConfig(a.h_over_r, tuple(a.amplitudes), nu=a.nu,
+    oned = knockdown.run(KnockdownConfig(a.h_over_r, tuple(a.amplitudes), nu=a.nu,
                                          imperfection="mode", degree=n), None, figure=False)
     run["axisym_mode"] = {"kappa_b_h": oned["kappa_b_h"],
                           "points": {f"{p['delta_over_h']:g}": p["knockdown"]

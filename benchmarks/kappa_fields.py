@@ -16,9 +16,9 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from shells.drivers import critical_run
-from shells.geometry import SphericalCap
-from shells.stimulus import CurvatureField
+from shells.analyses import critical
+from shells.geometry.shapes import SphericalCap
+from shells.geometry.stimulus import CurvatureField
 
 CAP = SphericalCap(1.0, math.radians(30))
 H_OVER_R = 0.04
@@ -42,14 +42,14 @@ def main() -> None:
     rows = []
     for name, fld, direction, meshes in CASES:
         t0 = time.perf_counter()
-        one = first(critical_run(CAP, H_OVER_R, 0.5, direction=direction, model="axisym",
+        one = first(critical.run(CAP, H_OVER_R, 0.5, direction=direction, model="axisym",
                                  kappa_field=fld))
         one.update(model="axisym", seconds=time.perf_counter() - t0)
         ref = one["kappa_R"]
         rows.append({"case": name, "field": fld.describe(), "direction": direction, **one})
         for degree, layer in meshes:
             t0 = time.perf_counter()
-            s = first(critical_run(CAP, H_OVER_R, 0.5, direction=direction, model="surface",
+            s = first(critical.run(CAP, H_OVER_R, 0.5, direction=direction, model="surface",
                                    kappa_field=fld, first_only=True, degree=degree,
                                    layer_elements=float(layer)))
             s.update(model="surface", degree=degree, layer_elements=layer,

@@ -3,7 +3,7 @@ pressure, the dimple at δ/h = 0.1 and the mode at δ/h = 0.01, where every atte
 knock-down's search once found a "bifurcation" first).
 
 1. Attempts: each step of the search's ladder (0.02, 0.005, 0.00125 in κh; norm of state weight
-   1 and balanced), as the search without its window ran them (``_first_critical(window=False)``:
+   1 and balanced), as the search without its window ran them (``first_critical(window=False)``:
    the first critical point ends the attempt): the first critical point's kind, κh, eigenvalue,
    block, Rayleigh degree n, where its mode peaks (angle from the pole) and its load overlap
    |φᵀ ∂R/∂κ| / (|φ|_M |∂R/∂κ|).
@@ -40,7 +40,7 @@ class Probe:
     modes look like."""
 
     def __init__(self, model) -> None:
-        from shells.stability import Stability
+        from shells.algorithms.stability import Stability
 
         self.model = model
         self.stab = Stability(model)
@@ -109,16 +109,16 @@ class Probe:
 
 
 def attempts(kind: str, cells: int | None) -> list[dict]:
-    import shells.knockdown as kd
+    import shells.analyses.knockdown as kd
+    from shells.algorithms.newton import NewtonSolver
     from shells.axisym import SNES_OPTIONS
-    from shells.solvers import NewtonSolver
 
     cfg = kd.KnockdownConfig(H, (CASES[kind],), nu=NU, imperfection=kind, load="pressure",
                              cells=cells)
-    model, run = kd._model(cfg, CASES[kind], DEGREE)
+    model, run = kd.imperfect_model(cfg, CASES[kind], DEGREE)
     ns = NewtonSolver(model, options=SNES_OPTIONS)
     probe = Probe(model)
-    end = 1.25 * kd._kappa_scale(cfg) / run.h
+    end = 1.25 * kd.kappa_scale(cfg) / run.h
     rows = []
     for ds_h in (0.02, 0.005, 0.00125):
         for balanced in (False, True):
@@ -127,7 +127,7 @@ def attempts(kind: str, cells: int | None) -> list[dict]:
             t0 = time.perf_counter()
             row = {"ds_h": ds_h, "balanced": balanced}
             try:
-                found, n = kd._first_critical(model, ns, cfg, end, ds_h, 0.0, balanced,
+                found, n = kd.first_critical(model, ns, cfg, end, ds_h, 0.0, balanced,
                                               window=False)
             except RuntimeError as e:
                 found, n, row["error"] = [], 0, str(e)
@@ -153,25 +153,26 @@ def attempts(kind: str, cells: int | None) -> list[dict]:
 
 
 def scan(kind: str, cells: int | None, scan_from: float) -> list[dict]:
-    import shells.knockdown as kd
-    from shells.axisym import SNES_OPTIONS, default_settings
-    from shells.continuation import continuation
-    from shells.geometry import Sphere
-    from shells.solvers import NewtonSolver
+    import shells.analyses.knockdown as kd
+    from shells.algorithms.continuation import continuation
+    from shells.algorithms.newton import NewtonSolver
+    from shells.analyses.axisym_runs import default_settings
+    from shells.axisym import SNES_OPTIONS
+    from shells.geometry.shapes import Sphere
 
     cfg = kd.KnockdownConfig(H, (CASES[kind],), nu=NU, imperfection=kind, load="pressure",
                              cells=cells)
-    model, run = kd._model(cfg, CASES[kind], DEGREE)
+    model, run = kd.imperfect_model(cfg, CASES[kind], DEGREE)
     ns = NewtonSolver(model, options=SNES_OPTIONS)
     probe = Probe(model)
     model.w.x.array[:] = 0.0
     model.set_kappa(0.0)
     ns.solve()
-    xi = kd._balanced_weight(model, ns)
+    xi = kd.balanced_weight(model, ns)
     st = default_settings(Sphere(1.0), H, ds=0.005 / H, ds_max=0.005 / H, ds_unit="kappa",
                           state_weight=xi)
     rows, past = [], 0
-    for p in continuation(model, st, kappa_start=0.0, kappa_end=1.25 * kd._kappa_scale(cfg) / H,
+    for p in continuation(model, st, kappa_start=0.0, kappa_end=1.25 * kd.kappa_scale(cfg) / H,
                           solver=ns):
         past += p.dkappa_ds < 0
         if p.kappa * H < scan_from and not past:

@@ -16,7 +16,7 @@ locates it. Three measurements:
    the 1-ulp perturbations w (1 ± ε) of that state move μ (the round-off of the assembled
    Hessian, whose Frobenius norm is also reported), and how far the state solved again at
    κ (1 ± 1e-10 .. 1e-9) moves it (a new sequence of round-off in the state itself, which the
-   locator's reported accuracy measures: ``shells.critical.eigenvalue_roundoff``);
+   locator's reported accuracy measures: ``shells.algorithms.locate.eigenvalue_roundoff``);
 4. where that round-off is: the same state's μ by the two factorisations the eigensolve can
    use (the 1D model's chain LU, ``ChainLU``, and MUMPS), and the spread of μ over 13 states
    solved again at κ (1 + k 1e-10), k = -6..6 (each state moves by ~1e-10 relative, which
@@ -48,8 +48,8 @@ KAPPA_FIXED = -0.4231  # κR near the crossing, for measurement 3
 
 
 def _task(rel_tol: float):  # noqa: ANN202 - (config, task)
-    from shells.phase_diagram import PhaseDiagramConfig
-    from shells.phase_diagram.config import tasks_of
+    from shells.analyses.phase_diagram import PhaseDiagramConfig
+    from shells.analyses.phase_diagram.config import tasks_of
 
     cfg = PhaseDiagramConfig(h_over_r=(0.01, 0.04), thetabar_range=(1.0, 20.0), points=36,
                              refine=3, rel_tol=rel_tol)
@@ -61,13 +61,13 @@ def _task(rel_tol: float):  # noqa: ANN202 - (config, task)
 def located(scale: float, rel_tol: float) -> dict:
     """The task located with the first continuation step scaled by ``scale``; the crossing
     eigenvalue samples of block 2 at the locator's trials."""
-    import shells.critical as critical
-    import shells.phase_diagram.tracing as tracing
-    from shells.phase_diagram import compute_task
+    import shells.analyses.phase_diagram.tracing as tracing
+    from shells.algorithms import locate
+    from shells.analyses.phase_diagram import compute_task
 
     cfg, task = _task(rel_tol)
     samples: list[tuple[float, float]] = []
-    init, eigs_at = tracing._Branch.__init__, critical._Locator.eigs_at
+    init, eigs_at = tracing.BranchTracer.__init__, locate.Locator.eigs_at
 
     def scaled_init(self, *a, **k):  # noqa: ANN001, ANN002, ANN003, ANN202
         init(self, *a, **k)
@@ -79,11 +79,11 @@ def located(scale: float, rel_tol: float) -> dict:
             samples.append((e.lam, out[2][0]))
         return out
 
-    tracing._Branch.__init__, critical._Locator.eigs_at = scaled_init, recorded
+    tracing.BranchTracer.__init__, locate.Locator.eigs_at = scaled_init, recorded
     try:
         rec = compute_task(task, cfg)
     finally:
-        tracing._Branch.__init__, critical._Locator.eigs_at = init, eigs_at
+        tracing.BranchTracer.__init__, locate.Locator.eigs_at = init, eigs_at
     bif = rec["bifurcation"]
     return {"first_step_scale": scale, "kappa_R": bif["kappa_R"], "mode_m": bif["mode_m"],
             "reported_accuracy": bif["accuracy"], "dofs": rec["dofs"],
@@ -93,14 +93,14 @@ def located(scale: float, rel_tol: float) -> dict:
 def fixed_kappa() -> dict:
     """μ of block 2 at κR = KAPPA_FIXED after natural Newton steps, and under 1-ulp
     perturbations of the state."""
-    from shells.phase_diagram.tracing import _Branch
-    from shells.problem import get_state, set_state
-    from shells.stability import Stability
+    from shells.algorithms.stability import Stability
+    from shells.analyses.phase_diagram.tracing import BranchTracer
+    from shells.problem.interface import get_state, set_state
 
     cfg, task = _task(1e-5)
     runs, states = [], []
     for n in (9, 12, 17):
-        br = _Branch(task.theta, task.h_over_r, cfg.nu, cfg)
+        br = BranchTracer(task.theta, task.h_over_r, cfg.nu, cfg)
         m = br.model
         for k in np.linspace(0.0, KAPPA_FIXED, n)[1:]:
             _solve_at(br, k)
@@ -120,7 +120,7 @@ def fixed_kappa() -> dict:
             H = st.assemble(2)
             hnorm = float(H.norm())
             # the same state solved again at κ (1 ± η), η ~ 1e-10 (the locator's round-off
-            # measure, ``shells.critical.ROUNDOFF_SHIFT``): a new sequence of round-off
+            # measure, ``shells.algorithms.locate.ROUNDOFF_SHIFT``): a new sequence of round-off
             resolved = _resolved(br, st, w0, (1e-10, -1e-10, 2e-10, -2e-10, 1e-9), nev=2)
             factorisations = _two_factorisations(m, st)
             spread = _resolved(br, st, w0, [k * 1e-10 for k in range(-6, 7)], nev=1)
@@ -145,11 +145,11 @@ def _solve_at(br, kappa: float) -> None:  # noqa: ANN001 - a phase-diagram branc
 def scan() -> dict:
     """Block 2's negative count and μ at 41 κ across the crossing, one natural Newton step each
     from the last."""
-    from shells.phase_diagram.tracing import _Branch
-    from shells.stability import Stability
+    from shells.algorithms.stability import Stability
+    from shells.analyses.phase_diagram.tracing import BranchTracer
 
     cfg, task = _task(1e-5)
-    br = _Branch(task.theta, task.h_over_r, cfg.nu, cfg)
+    br = BranchTracer(task.theta, task.h_over_r, cfg.nu, cfg)
     m = br.model
     st = Stability(m)
     rows = []
@@ -169,7 +169,7 @@ def scan() -> dict:
 def _resolved(br, st, w0: np.ndarray, etas, nev: int) -> list[float]:  # noqa: ANN001
     """μ_2 (the first of ``nev`` nearest 0) of the state solved again from ``w0`` at
     κ (1 + η) for each η; the model left at w0 and κ."""
-    from shells.problem import set_state
+    from shells.problem.interface import set_state
 
     m, out = br.model, []
     for eta in etas:
@@ -184,7 +184,7 @@ def _resolved(br, st, w0: np.ndarray, etas, nev: int) -> list[float]:  # noqa: A
 def _two_factorisations(m, st) -> dict:  # noqa: ANN001 - the model and its Stability
     """μ of block 2 at the model's state by the chain LU and by MUMPS; ε ||H||_F and
     ε |v|ᵀ|H||v| / vᵀMv (v its eigenvector)."""
-    from shells.stability import Stability
+    from shells.algorithms.stability import Stability
 
     vals, vecs = st.eigenpairs(2, block=2, modes=True)
     mumps = Stability(m)

@@ -11,7 +11,7 @@ and over the whole run the LU factorisations of the locator's trials, SNES's, an
 factorisations of the inertia (``stability.setup_factor``). Each case runs twice in one
 process, alternating, on the same machine: with the corrector's factorisation reuse switched off
 (``ContinuationSettings.factor_reuse = 0``: a factorisation per corrector iteration and one
-for the tangent, as before issue 14) and with the driver's (``drivers.REUSE_SURFACE``); the
+for the tangent, as before issue 14) and with the driver's (``critical.REUSE_SURFACE``); the
 located point of both is
 compared. Factorisations are counted where they happen (``solvers.setup_factor``), not where
 they are asked for. Prints a table, writes JSON.
@@ -26,9 +26,10 @@ import time
 from collections import Counter
 from pathlib import Path
 
-from shells import continuation, solvers, stability
-from shells.drivers import critical_surface
-from shells.geometry import SphericalCap
+from shells.algorithms import continuation, settings, stability, switching
+from shells.algorithms import newton as solvers
+from shells.analyses.critical import run_surface
+from shells.geometry.shapes import SphericalCap
 
 CASES = {"cap30 up": (30.0, 3.0), "thetabar5 up": (math.degrees(1.0), 5.0)}
 
@@ -38,7 +39,7 @@ def count_run(theta_deg: float, kappa_r_end: float, factor_reuse: float | None) 
     per_step: list[int] = []
     real_lu, real_solve = solvers.setup_factor, solvers.NewtonSolver.solve
     real_setup, real_steps = stability.setup_factor, continuation.arclength_steps
-    real_settings = continuation.ContinuationSettings
+    real_settings = settings.ContinuationSettings
 
     def lu(ksp, A, options):
         count["lu"] += 1
@@ -64,7 +65,6 @@ def count_run(theta_deg: float, kappa_r_end: float, factor_reuse: float | None) 
             per_step.append(count["lu"] - c0)
             yield s
 
-    from shells import critical
 
     solvers.setup_factor, solvers.NewtonSolver.solve = lu, solve
     stability.setup_factor, continuation.arclength_steps = setup, steps
@@ -72,19 +72,19 @@ def count_run(theta_deg: float, kappa_r_end: float, factor_reuse: float | None) 
         def forced(**kw):  # noqa: ANN003, ANN202 - overrides the driver's own value
             return real_settings(**{**kw, "factor_reuse": factor_reuse})
 
-        continuation.ContinuationSettings = forced
-    critical_steps = critical.arclength_steps
-    critical.arclength_steps = steps
+        settings.ContinuationSettings = forced
+    switching_steps = switching.arclength_steps
+    switching.arclength_steps = steps
     try:
         t0 = time.perf_counter()
-        r = critical_surface(SphericalCap(1.0, math.radians(theta_deg)), 0.04, 0.5,
+        r = run_surface(SphericalCap(1.0, math.radians(theta_deg)), 0.04, 0.5,
                              kappa_r_end, first_only=True)
         wall = time.perf_counter() - t0
     finally:
         solvers.setup_factor, solvers.NewtonSolver.solve = real_lu, real_solve
         stability.setup_factor, continuation.arclength_steps = real_setup, real_steps
-        continuation.ContinuationSettings = real_settings
-        critical.arclength_steps = critical_steps
+        settings.ContinuationSettings = real_settings
+        switching.arclength_steps = switching_steps
     in_steps = sum(per_step)
     return {"theta_deg": theta_deg, "dofs": r["dofs"], "kind": r["kind"],
             "kappa_R": r["kappa_R"], "steps": len(per_step), "lu_per_step": per_step,

@@ -26,11 +26,11 @@ from pathlib import Path
 
 import numpy as np
 
+from shells.algorithms.newton import NewtonSolver
 from shells.axisym import SNES_OPTIONS
 from shells.axisym.model import AxisymModel, AxisymParameters
-from shells.geometry import Sphere
-from shells.solvers import NewtonSolver
-from shells.stimulus import CurvatureField
+from shells.geometry.shapes import Sphere
+from shells.geometry.stimulus import CurvatureField
 
 SPHERE = Sphere(1.0)
 NU = 0.5

@@ -67,8 +67,8 @@ CASES = {
 
 REF_CODE = """
 import json, math, sys
-from shells.axisym import critical
-from shells.geometry import SphericalCap
+from shells.analyses.axisym_runs import critical
+from shells.geometry.shapes import SphericalCap
 theta, h, direction, cells = float(sys.argv[1]), float(sys.argv[2]), sys.argv[3], int(sys.argv[4])
 d = critical(SphericalCap(1.0, math.radians(theta)), h, 0.5, direction=direction, cells=cells,
              layer_cells=8.0 * cells / 200, rel_tol=1e-6, max_critical=1)

@@ -3,8 +3,8 @@
     scripts/in-env mpirun -n 2 python3 benchmarks/phase_diagram.py [--points 36] [-o DIR]
     scripts/in-env python3 benchmarks/phase_diagram.py --doc-only      # rewrite the doc only
 
-1. The phase diagram (``shells.phase_diagram``, axisymmetric model) for h/R = 0.01 and 0.04 over
-   θ̄ in [1, 20] (caps with θ > 0.9 π left out), both ranks computing points; its wall time.
+1. The phase diagram (``shells.analyses.phase_diagram``, axisymmetric model) for h/R = 0.01 and 0.04
+   over θ̄ in [1, 20] (caps with θ > 0.9 π left out), both ranks computing points; its wall time.
 2. Checks, split over the ranks: the closed sphere's κ_b h and the Ψ3 law on the axisymmetric
    model; the everted branch followed through the snap (κ_e = 2 - κ_b R, directly); mesh
    convergence of a few points (cells and rim layer doubled); the plate limit (surface-model
@@ -25,13 +25,13 @@ from typing import Any
 
 from mpi4py import MPI
 
-from shells.phase_diagram import (
+from shells.analyses import phase_diagram
+from shells.analyses.phase_diagram import (
     Discretisation,
     PhaseDiagramConfig,
     Task,
     compute_task,
     everted_check,
-    run_phase_diagram,
 )
 from shells.theory import PAPER, plate_a, sphere_kappa_b_h, sphere_psi3_linear
 
@@ -40,18 +40,18 @@ RESULTS = Path("benchmarks/results")
 
 def sphere_checks(h_over_r: float, rel_tol: float) -> dict[str, Any]:
     """Closed sphere on the axisymmetric model: first critical κh and Ψ3/h against -κh/12."""
-    from shells import axisym
-    from shells.geometry import Sphere
+    from shells.analyses import axisym_runs
+    from shells.geometry.shapes import Sphere
 
     t0 = time.perf_counter()
-    crit = axisym.critical(Sphere(1.0), h_over_r, 0.5, direction="down", rel_tol=rel_tol)
+    crit = axisym_runs.critical(Sphere(1.0), h_over_r, 0.5, direction="down", rel_tol=rel_tol)
     psi = []
-    for p in axisym.branch(Sphere(1.0), h_over_r, 0.5, direction="up", m_max=0,
-                           kappa_max=0.9 * sphere_kappa_b_h(0.5) / h_over_r):
+    for p in axisym_runs.branch(Sphere(1.0), h_over_r, 0.5, direction="up", m_max=0,
+                                kappa_max=0.9 * sphere_kappa_b_h(0.5) / h_over_r):
         if p["kappa_h"] != 0:
             psi.append({"kappa_h": p["kappa_h"], "psi3_over_h": p["psi3_over_h"],
                         "law": sphere_psi3_linear(p["kappa_h"], h_over_r)})
-    crit_up = axisym.critical(Sphere(1.0), h_over_r, 0.5, direction="up", rel_tol=rel_tol)
+    crit_up = axisym_runs.critical(Sphere(1.0), h_over_r, 0.5, direction="up", rel_tol=rel_tol)
     return {"h_over_R": h_over_r, "kappa_b_h_down": crit["kappa_h"], "mode_n_down":
             crit["mode_n"], "kappa_b_h_up": crit_up["kappa_h"], "mode_n_up": crit_up["mode_n"],
             "dofs": crit["dofs"], "psi3": psi, "wall_time": time.perf_counter() - t0}
@@ -103,16 +103,17 @@ def crosscheck(cfg: PhaseDiagramConfig) -> list[dict[str, Any]]:
     """Our tracing against ``shells.axisym.critical`` (bisection on the sign of dκ/ds at folds,
     chord-parametrised bisection at bifurcations, to the diagram's ``rel_tol``) on two
     caps."""
-    from shells import axisym
-    from shells.geometry import SphericalCap
+    from shells.analyses import axisym_runs
+    from shells.geometry.shapes import SphericalCap
 
     rows = []
     for h, tb in ((0.04, 3.0), (0.01, 8.0)):
         shape = SphericalCap(1.0, tb * math.sqrt(h))
-        ref = axisym.critical(shape, h, cfg.nu, direction="up", m_max=cfg.m_max,
-                              kappa_max=1.6 * (0.85 * tb - 0.67) + 0.5,
-                              settings=axisym.default_settings(shape, h, residual_tol=1e-6),
-                              rel_tol=cfg.rel_tol)
+        ref = axisym_runs.critical(shape, h, cfg.nu, direction="up", m_max=cfg.m_max,
+                                   kappa_max=1.6 * (0.85 * tb - 0.67) + 0.5,
+                                   settings=axisym_runs.default_settings(shape, h,
+                                                                         residual_tol=1e-6),
+                                   rel_tol=cfg.rel_tol)
         ours = compute_task(Task(h, tb, "up", tag="crosscheck"), cfg)
         rows.append({"h_over_R": h, "thetabar": tb,
                      "critical": [(c["kind"], c["kappa_R"], c["mode_m"])
@@ -134,13 +135,13 @@ def plate_check(rel_tol: float) -> dict[str, Any]:
         runs = json.loads(f.read_text()).get("runs", [])
         if runs:
             return {"source": str(f), "model": "surface", "runs": runs}
-    from shells import axisym
-    from shells.geometry import Disk
+    from shells.analyses import axisym_runs
+    from shells.geometry.shapes import Disk
 
     out = {"source": "axisym disk", "model": "axisym", "runs": []}
     for h in (0.01, 0.02):
-        c = axisym.critical(Disk(1.0), h, 0.5, direction="up", max_critical=1,
-                            rel_tol=rel_tol)
+        c = axisym_runs.critical(Disk(1.0), h, 0.5, direction="up", max_critical=1,
+                                 rel_tol=rel_tol)
         out["runs"].append({"h_over_r": h, "kappa_r2_over_h": c["kappa_h"] / h**2,
                             "mode_m": c["mode_m"], "kind": c["kind"]})
     return out
@@ -157,7 +158,7 @@ def compute(args: argparse.Namespace) -> None:
         load = old["load_average"]
     else:
         t0 = time.perf_counter()
-        res = run_phase_diagram(cfg, args.output)
+        res = phase_diagram.run(cfg, args.output)
         t_diagram = time.perf_counter() - t0
         load = list(os.getloadavg())
     checks: dict[str, Any] = {}
@@ -259,7 +260,7 @@ def _postbuckling_rows(d: dict) -> list[str]:
             f"{r['slope_psi3_vs_kappa_h']:.5f} | {_rel(r['slope_psi3_vs_kappa_h'], -1 / 12)} | "
             f"κ_b h = {cp['kappa_h']:.5f} (n = {cp['mode_n']}; thin limit 1.5119, "
             f"{_rel(cp['kappa_h'], r['kappa_b_h_thin_limit'])}), located by the common "
-            "algorithm layer (`shells.postbuckle`, penalty 1e5) |")
+            "algorithm layer (`shells.analyses.postbuckle`, penalty 1e5) |")
         # side -1: the dimple at the pole, followed with its depth as the parameter while
         # the depth grows (``control_parameter`` 1), then by arclength past a fold of it
         down = [p for p in r["points"] if p["branch"] == "bifurcated" and p["side"] == -1]
@@ -364,8 +365,8 @@ def _sphere_exact(h: float, nu: float = 0.5) -> tuple[float, int]:
 
 def render(data: dict[str, Any]) -> str:
     """The comparison document from the benchmark's JSON (fits recomputed from the points)."""
-    from shells.phase_diagram import fit_all
-    from shells.phase_diagram.fits import _fit_snap
+    from shells.analyses.phase_diagram import fit_all
+    from shells.analyses.phase_diagram.fits import fit_snap
 
     d = data["diagram"]
     pts = d["points"]
@@ -492,11 +493,11 @@ def render(data: dict[str, Any]) -> str:
                ("θ ≤ 60°", lambda p: p["theta_deg"] <= 60.0)]
     for h in sorted({p["h_over_R"] for p in pts}):
         subsets += [(f"h/R = {h:g}, θ ≤ 90°", (lambda hh: lambda p: p["h_over_R"] == hh
-                                                and p["theta_deg"] <= 90.0)(h)),
+                                               and p["theta_deg"] <= 90.0)(h)),
                     (f"h/R = {h:g}, θ̄ ≤ 10", (lambda hh: lambda p: p["h_over_R"] == hh
                                                and p["thetabar"] <= 10.0)(h))]
     for lab, cond in subsets:
-        s2 = _fit_snap([p for p in pts if cond(p)])
+        s2 = fit_snap([p for p in pts if cond(p)])
         if s2:
             w(f"| {lab} | {s2['n']} | {_fmt(s2['beta'], s2['beta_err'])} | "
               f"{_fmt(s2['alpha'], s2['alpha_err'])} | {s2['rms']:.3f} |")
@@ -580,7 +581,7 @@ def render(data: dict[str, Any]) -> str:
     cc = (ck.get("crosscheck") or {}).get("result") or []
     if cc:
         w("## Cross-check of the location against `shells.axisym.critical`\n")
-        w("| h/R | θ̄ | ours: first | ours: fold | axisym.critical: critical points |")
+        w("| h/R | θ̄ | ours: first | ours: fold | axisym_runs.critical: critical points |")
         w("| --- | --- | --- | --- | --- |")
         for r in cc:
             fi = r["ours_first"] or {}
@@ -593,7 +594,7 @@ def render(data: dict[str, Any]) -> str:
     if sf_file.exists():
         w("## Surface-model (2D) spot checks\n")
         w("`benchmarks/phase_diagram.py --surface-check H THETABAR DIR` (2D surface model on "
-          "its gmsh mesh, `shells.critical.follow`; coarse meshes, not converged):\n")
+          "its gmsh mesh, `shells.algorithms.following.follow`; coarse meshes, not converged):\n")
         w("| h/R | θ̄ | dir | model | DOFs | first critical | fold κR | bifurcation κR (m) | "
           "time |")
         w("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
@@ -637,11 +638,11 @@ def _worst_convergence(conv: list[dict[str, Any]]) -> float:
 def explanations(pts: list[dict[str, Any]], fit: dict[str, Any],
                  conv: list[dict[str, Any]], rel_tol: float) -> str:
     """The evidence-backed explanations, with the measured numbers."""
-    from shells.phase_diagram.fits import _fit_snap
+    from shells.analyses.phase_diagram.fits import fit_snap
     from shells.theory import buckling_kappa_R
 
     f, x = fit["fits"], fit["extra"]
-    per = {h: _fit_snap([p for p in pts if p["h_over_R"] == h and p["thetabar"] <= 10])
+    per = {h: fit_snap([p for p in pts if p["h_over_R"] == h and p["thetabar"] <= 10])
            for h in sorted({p["h_over_R"] for p in pts})}
     mid = [p for p in pts if p.get("kappa_snap_R") is not None and 3 <= p["thetabar"] <= 6]
     below = [p["kappa_snap_R"] / (0.85 * p["thetabar"] - 0.67) - 1 for p in mid]
@@ -665,7 +666,7 @@ def explanations(pts: list[dict[str, Any]], fit: dict[str, Any],
         t.append("**How reproducible a located point is.** The crossing eigenvalues the "
                  "locator interpolates are Rayleigh quotients vᵀHv / vᵀMv of the "
                  "eigenvectors, vᵀHv the quadrature of the energy's second variation d²E(v, v) "
-                 "(`shells.stability.Stability.eigenpairs`), not the shift-invert's "
+                 "(`shells.algorithms.stability.Stability.eigenpairs`), not the shift-invert's "
                  "eigenvalues, which carry the round-off of the assembled block and of its "
                  "factorisation, of order ε ||H|| = "
                  f"{2.2e-16 * fx['hessian_2_frobenius']:.0e} on the Fourier blocks (Frobenius "
@@ -814,8 +815,8 @@ def write_doc(data: dict[str, Any], path: Path) -> None:
 
 
 def refresh(data: dict[str, Any], outdir: str) -> None:
-    """Fits and figure of the stored diagram with the current ``shells.phase_diagram``."""
-    from shells.phase_diagram import fit_all, make_figure
+    """Fits and figure of the stored diagram with the current ``shells.analyses.phase_diagram``."""
+    from shells.analyses.phase_diagram import fit_all, make_figure
 
     d = data["diagram"]
     fit = fit_all(d["points"], d["config"]["nu"])

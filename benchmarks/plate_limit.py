@@ -23,11 +23,11 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from shells.continuation import ContinuationSettings
-from shells.critical import CriticalSettings, follow
-from shells.geometry import Disk
-from shells.mesh import MeshSpec, generate
-from shells.model import ModelParameters, ShellModel
+from shells.algorithms.following import follow
+from shells.algorithms.settings import ContinuationSettings, CriticalSettings
+from shells.geometry.shapes import Disk
+from shells.surface.mesh import MeshSpec, generate
+from shells.surface.model import ModelParameters, ShellModel
 from shells.theory import plate_a, plate_a_uniform_curvature
 
 
@@ -51,13 +51,13 @@ def run(h: float, size: float, layer: float, sign: float) -> dict:
 
 def nu_study(out: Path) -> None:
     """a(ν) of the 1D model against the two reduced-model references."""
-    from shells import axisym
+    from shells.analyses import axisym_runs
 
     rows = []
     for h in (0.01, 0.005):
         for nu in (0.0, 0.25, 0.3, 0.4, 0.5):
             t0 = time.perf_counter()
-            r = axisym.critical(Disk(1.0), h, nu, direction="up", kappa_max=25 * h)
+            r = axisym_runs.critical(Disk(1.0), h, nu, direction="up", kappa_max=25 * h)
             a = r["kappa_R"] / h if r["kind"] != "none" else None
             rows.append({"h_over_r": h, "nu": nu, "a": a, "mode_m": r["mode_m"],
                          "kind": r["kind"], "pezzulla": plate_a(),

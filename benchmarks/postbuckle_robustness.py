@@ -1,6 +1,6 @@
 """Is the closed sphere's post-buckling branch one curve, whatever the numerics? (1D model,
-``shells.postbuckle``, the inward side: the dimple at the pole followed with its depth as the
-parameter.)
+``shells.analyses.postbuckle``, the inward side: the dimple at the pole followed with its depth as
+the parameter.)
 
 For h/R = 0.001 and 0.01 the branch is computed with first amplitudes 0.2, 0.25 and 0.35
 thicknesses and penalties 1e5 (the driver's) and 1e4, and compared at common pole depths:
@@ -21,8 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
-from shells.geometry import Sphere
-from shells.postbuckle import CLOSED_PENALTY, PostbuckleConfig, postbuckle
+from shells.analyses.postbuckle import CLOSED_PENALTY, PostbuckleConfig, postbuckle
+from shells.geometry.shapes import Sphere
 
 REPO = Path(__file__).resolve().parent.parent
 VARIANTS = [(0.25, CLOSED_PENALTY), (0.2, CLOSED_PENALTY), (0.35, CLOSED_PENALTY), (0.25, 1.0e4)]

@@ -86,8 +86,8 @@ def clean_env(**extra: str) -> dict[str, str]:
 #: 2.3e-10, the located κ 1.7e-12 (compared to ``RTOL``); the campaign's 4 resumed 2-rank runs
 #: (benchmarks/results/reliability.json): 6.0e-10, 3.4e-8, 6.3e-8, 9.4e-8, 1.6e-10, and every
 #: other number 5.8e-12. On one rank every run is the same to the last bit. A bifurcation's
-#: accuracy also holds a measured round-off (``shells.critical.EIGEN_ROUNDOFF``: the change of
-#: its eigenvalue when the point is solved again at κ (1 ± 1e-10)), itself a difference of
+#: accuracy also holds a measured round-off (``shells.algorithms.locate.EIGEN_ROUNDOFF``: the
+#: change of its eigenvalue when the point is solved again at κ (1 ± 1e-10)), itself a difference of
 #: round-offs:
 #: compared as an order of magnitude there (0.9: within a factor 10). The fold's mode is
 #: axisymmetric (m = 0, named by the state tangent): its m² quotient is the leakage into
@@ -255,7 +255,7 @@ def _remove_session_dirs(pid: int) -> None:
 
 def records(out: Path, case: Case) -> list[dict[str, Any]]:
     """The results on disk: the records of the case's files (a torn last line skipped)."""
-    from shells.store import read_records
+    from shells.files import read_records
 
     recs: list[dict[str, Any]] = []
     for name in case.files:
@@ -272,7 +272,7 @@ def records(out: Path, case: Case) -> list[dict[str, Any]]:
     return recs
 
 
-def _key(rec: dict[str, Any]) -> str:
+def record_key(rec: dict[str, Any]) -> str:
     if "critical_point" in rec and "number" in rec:
         return f"critical point {rec['number']}"
     if "index" in rec:
@@ -312,8 +312,8 @@ def compare(ref: list[dict[str, Any]], got: list[dict[str, Any]], rtol: float = 
     def tolerance(f: str) -> float | None:
         return next((t for k, t in field_rtol.items() if f.endswith("." + k)), None)
 
-    a = {_key(r): _leaves(r) for r in ref}
-    b = {_key(r): _leaves(r) for r in got}
+    a = {record_key(r): _leaves(r) for r in ref}
+    b = {record_key(r): _leaves(r) for r in got}
     scale: dict[str, float] = {}
     for leaves in a.values():
         for f, u in leaves.items():
@@ -393,7 +393,7 @@ def trial(case: Case, ranks: int, out: Path, ref: list[dict[str, Any]], t_ref: f
             t.killed += 1
         now = records(out, case)
         t.on_disk_after_kills.append(len(now))
-        seen.update((_key(r), r) for r in now if "unreadable" not in r)
+        seen.update((record_key(r), r) for r in now if "unreadable" not in r)
     if torn:
         t.torn = tear(out, case)
     final = run(case.argv, out, ranks)
@@ -481,10 +481,10 @@ def rank_identity(name: str, work: Path, rtol: float = 1e-8) -> dict[str, Any]:
 RANK_FAILURE = """
 import os, sys
 from mpi4py import MPI
-from shells import drivers
+from shells.analyses import branch
 from shells.cli import main
 
-real = drivers.branch_axisym
+real = branch.run_axisym
 
 def failing(*args, **kwargs):
     if MPI.COMM_WORLD.rank == int(os.environ["FAIL_RANK"]):
@@ -492,7 +492,7 @@ def failing(*args, **kwargs):
     MPI.COMM_WORLD.barrier()  # the healthy ranks wait for the failed one, as in a collective
     return real(*args, **kwargs)
 
-drivers.branch_axisym = failing
+branch.run_axisym = failing
 sys.exit(main(sys.argv[1:]))
 """
 
@@ -536,7 +536,7 @@ def _run_script(out: Path, name: str, text: str, case: str, ranks: int, timeout:
 def idle_rank(out: Path, ranks: int = 2, timeout: float = 60.0) -> dict[str, Any]:
     """``shells phase-diagram`` with every task on rank 0 and none on the others: all ranks
     must end (it hung at exit: SLEPc initialised on rank 0 only, ``phase_diagram.jobs``)."""
-    from shells.store import read_records
+    from shells.files import read_records
 
     p, err, hung, left, seconds = _run_script(out, "idle_rank.py", RANK_IDLE, "phase-diagram",
                                               ranks, timeout)

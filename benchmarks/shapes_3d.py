@@ -8,8 +8,8 @@ r3 = 1.5 R, h/R = 0.04, θ = π/2; κR with R = r1): buckled for κ < 0, snapped
 Cases: cap_buckled, cap_snap, ellipsoid_down, ellipsoid_up (default: all). Each case: the 1D
 model's first critical point (converged in seconds), the surface model's (P3, bulk size 0.2 R,
 3 elements across the rim layer: P2 locks on deep shells, docs/model.md), then the post-critical
-states: the m-branch by branch switching (``shells.postbuckle``), or the fundamental branch by
-pseudo-arclength through the snap fold to rim rotations above 90° and the snapped (everted)
+states: the m-branch by branch switching (``shells.analyses.postbuckle``), or the fundamental branch
+by pseudo-arclength through the snap fold to rim rotations above 90° and the snapped (everted)
 state just past the fold's κ, from the mirrored shell (the connected axisymmetric path winds
 through a dozen folds before it reaches the stable everted branch: the 1D model's branch of the
 θ̄ = 5 cap, ``shells branch --model axisym``). Renders (pyvista, off-screen, coloured by the
@@ -29,14 +29,14 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from shells import axisym
-from shells.continuation import ContinuationSettings
-from shells.critical import CriticalSettings, follow
-from shells.geometry import EllipsoidalCap, SphericalCap, kappa_length
-from shells.mesh import MeshSpec, generate
-from shells.model import ModelParameters, ShellModel
-from shells.postbuckle import PostbuckleConfig, postbuckle
-from shells.render import render_state
+from shells.algorithms.following import follow
+from shells.algorithms.settings import ContinuationSettings, CriticalSettings
+from shells.analyses import axisym_runs
+from shells.analyses.postbuckle import PostbuckleConfig, postbuckle
+from shells.analyses.render import render_state
+from shells.geometry.shapes import EllipsoidalCap, SphericalCap, kappa_length
+from shells.surface.mesh import MeshSpec, generate
+from shells.surface.model import ModelParameters, ShellModel
 
 HERE = Path(__file__).parent
 OUT = HERE / "results" / "shapes_3d"
@@ -68,7 +68,7 @@ def snap_case(name: str, shape, kappa_end: float, mesh: dict) -> dict:
     through its rim plane (the mirror chart), with its stability. The connected axisymmetric
     path would reach the stable everted branch only through many more folds (the 1D model's
     branch of the θ̄ = 5 cap turns a dozen times first); a snap jumps there at once."""
-    from shells.stability import Stability
+    from shells.algorithms.stability import Stability
 
     R = kappa_length(shape)
     h = H * shape.characteristic_size()
@@ -110,7 +110,7 @@ def snap_case(name: str, shape, kappa_end: float, mesh: dict) -> dict:
     # the snapped state: the mirror chart at 1.1 κ_fold, by natural continuation (steps of at
     # most 0.1 κ_fold, halved where Newton fails) from a κ where Newton converges from the
     # mirrored shell (a sphere cap's mirror is an equilibrium at 2/R; an ellipsoid's at none)
-    from shells.continuation import continuation
+    from shells.algorithms.continuation import continuation
 
     ev = ShellModel(sm, params)
     nat = ContinuationSettings(method="natural", ds=0.1 * fold.kappa_L, ds_max=0.1 * fold.kappa_L,
@@ -174,7 +174,7 @@ def branch_case(name: str, shape, kappa_end: float, mesh: dict) -> dict:
                                                    "mode_amplitude", "energy")})
     model = last.pop("model", None)
     if model is not None and name.startswith("ellipsoid"):
-        from shells.render import render_mesh  # the undeformed shell (Fig. S5 b)
+        from shells.analyses.render import render_mesh  # the undeformed shell (Fig. S5 b)
 
         render_mesh(model.shell, OUT / f"{name}_undeformed.png", title=f"{name}: undeformed")
     if model is not None:
@@ -200,7 +200,7 @@ def main(argv: list[str]) -> int:
         shape, direction, kend, kind = CASES[name]
         say(f"=== {name}: {shape.describe()}, h/R = {H}, {direction} to kappa R = {kend}")
         t0 = time.perf_counter()
-        one_d = axisym.critical(shape, H, 0.5, direction=direction, kappa_max=abs(kend))
+        one_d = axisym_runs.critical(shape, H, 0.5, direction=direction, kappa_max=abs(kend))
         t1 = time.perf_counter()
         two_d = (snap_case if kind == "snap" else branch_case)(name, shape, kend, mesh)
         t2 = time.perf_counter()

@@ -23,12 +23,13 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from shells.continuation import ContinuationSettings, continuation
-from shells.geometry import SphericalCap
-from shells.mesh import MeshSpec, generate
-from shells.model import ModelParameters, ShellModel
-from shells.solvers import NewtonSolver
-from shells.stability import Stability
+from shells.algorithms.continuation import continuation
+from shells.algorithms.newton import NewtonSolver
+from shells.algorithms.settings import ContinuationSettings
+from shells.algorithms.stability import Stability
+from shells.geometry.shapes import SphericalCap
+from shells.surface.mesh import MeshSpec, generate
+from shells.surface.model import ModelParameters, ShellModel
 
 
 def timed(comm, fn, repeat: int = 1) -> tuple[float, object]:

@@ -8,8 +8,8 @@ Degree 3 is the default: P2 with the stiff Kirchhoff-Love penalty locks (docs/mo
 sequence (kept in the JSON, ``--degree 2 --sizes 0.2 0.14 0.1``) converges slowly from above.
 
 For each (ν, mesh size): the fundamental branch from κ = 0 with inertia at every point, the first
-critical point located to 1e-4 (``shells.critical``), its degree n. Results are appended to the
-JSON file as they come (a rerun skips what is there). The table ends with a Richardson
+critical point located to 1e-4 (``shells.algorithms.locate``), its degree n. Results are appended
+to the JSON file as they come (a rerun skips what is there). The table ends with a Richardson
 extrapolation in the mesh size (rate fitted over the last three meshes) beside the thin-shell
 limit 4√(3(1-ν)/((1+ν)(5+4ν))) and the minimum of the supplement's dispersion relation at this h/R.
 """
@@ -26,12 +26,12 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
-from shells import axisym
-from shells.continuation import ContinuationSettings
-from shells.critical import CriticalSettings, follow
-from shells.geometry import Sphere
-from shells.mesh import MeshSpec, generate
-from shells.model import ModelParameters, ShellModel
+from shells.algorithms.following import follow
+from shells.algorithms.settings import ContinuationSettings, CriticalSettings
+from shells.analyses import axisym_runs
+from shells.geometry.shapes import Sphere
+from shells.surface.mesh import MeshSpec, generate
+from shells.surface.model import ModelParameters, ShellModel
 from shells.theory import dispersion_kappa_h, sphere_kappa_b_h, sphere_mode_n
 
 
@@ -41,7 +41,7 @@ def run(h: float, nu: float, size: float, degree: int) -> dict:
     shape = Sphere(1.0)
     sm = generate(MeshSpec(shape, h=h, size=size), comm)
     model = ShellModel(sm, ModelParameters(h=h, nu=nu, degree=degree,
-                                                quadrature_degree=2 * degree))
+                                           quadrature_degree=2 * degree))
     kb = sphere_kappa_b_h(nu)
     st = ContinuationSettings(ds=0.1 * kb / h, ds_max=0.1 * kb / h)
     crit = CriticalSettings(stop_at_first=True)
@@ -126,7 +126,7 @@ def main() -> None:
         x = np.arange(2, 80) * np.arange(3, 81)
         disp = float(np.nanmin(dispersion_kappa_h(x, a.h_over_r, nu)))
         thin = sphere_kappa_b_h(nu)
-        one_d = axisym.critical(Sphere(1.0), a.h_over_r, nu)
+        one_d = axisym_runs.critical(Sphere(1.0), a.h_over_r, nu)
         print(f"      extrapolated {v0:.5f} (rate {p:.2f});  1D model {one_d['kappa_h']:.5f} "
               f"(n = {one_d['mode_n']});  dispersion min at this h/R {disp:.5f};  thin limit "
               f"{thin:.5f};  asymptotic n {sphere_mode_n(a.h_over_r, nu):.2f}")

@@ -51,7 +51,7 @@ from typing import Any
 import numpy as np
 from mpi4py import MPI
 
-from shells.geometry import Sphere
+from shells.geometry.shapes import Sphere
 from shells.theory import dispersion_kappa_h, sphere_kappa_b_h, sphere_radius_ratio
 
 
@@ -62,8 +62,8 @@ class HomogeneousSphere:
     """The m = 0 Hessian of the axisymmetric model at the exact uniformly shrunk sphere."""
 
     def __init__(self, h: float, nu: float, cells: int, penalty: float = 1.0e4) -> None:
+        from shells.algorithms.stability import Stability
         from shells.axisym import AxisymModel, AxisymParameters
-        from shells.stability import Stability
 
         self.h, self.nu = h, nu
         self.model = AxisymModel(Sphere(1.0), AxisymParameters(h=h, nu=nu, cells=cells,
@@ -179,7 +179,7 @@ def crossings(hs: HomogeneousSphere, kh_lo: float, kh_hi: float, grid: int,
 
 def axisym_case(h: float, nu: float, spread: float, grid: int, refine: int,
                 cells: int | None) -> dict[str, Any]:
-    from shells.axisym import critical, default_cells
+    from shells.analyses.axisym_runs import critical, default_cells
 
     t0 = time.perf_counter()
     ns_det = np.arange(2, int(8 / math.sqrt(h)) + 10)
@@ -247,7 +247,7 @@ def axisym_route(a: argparse.Namespace) -> None:
         cm, dm, cb = c["computed_minimum"], c["det_minimum"], c["critical_on_branch"]
         print(f"minimum: computed {cm['kappa_h']:.5f} (n = {cm['n']}), determinant "
               f"{dm['kappa_h']:.5f} (n = {dm['n']}), thin limit {c['thin_limit']:.5f}; "
-              f"axisym.critical on the branch: {cb['kappa_h']:.5f} (n = {cb['mode_n']})")
+              f"axisym_runs.critical on the branch: {cb['kappa_h']:.5f} (n = {cb['mode_n']})")
     plot_axisym(cases, out)
 
 
@@ -297,10 +297,10 @@ def plot_axisym(cases: list[dict[str, Any]], out: Path) -> None:
 # ------------------------------------------------------------------------------------------------
 def surface_route(a: argparse.Namespace) -> None:
     """The surface model: SLEPc eigenpairs along the branch, degrees by Rayleigh quotient."""
-    from shells.mesh import MeshSpec, generate
-    from shells.model import ModelParameters, ShellModel
-    from shells.solvers import NewtonSolver
-    from shells.stability import Stability
+    from shells.algorithms.newton import NewtonSolver
+    from shells.algorithms.stability import Stability
+    from shells.surface.mesh import MeshSpec, generate
+    from shells.surface.model import ModelParameters, ShellModel
 
     comm = MPI.COMM_WORLD
     h = a.h_over_r[0] if a.h_over_r else 0.05

@@ -1,12 +1,12 @@
 """Knock-down of the closed sphere's buckling by axisymmetric imperfections (1D model, rotational
 symmetry enforced), under natural curvature and under a dead external pressure (the same code
-path: ``shells.knockdown`` with ``load``), and Koiter's small-δ law.
+path: ``shells.analyses.knockdown`` with ``load``), and Koiter's small-δ law.
 
 1. Curves: κ_max/κ_b against δ/h for a pole dimple (width sqrt(Rh)) and the buckling mode's
    shape, h/R = 0.01 and 0.002, ν = 1/2 and 0.3, curvature and pressure (the pressure as its
    equivalent curvature of Eq. (5); its δ = 0 point beside the classical p_c).
 2. Asymptotics: at the perfect sphere's bifurcation, Koiter's reduced equation
-   (``shells.asymptotics``); for even buckling degrees (asymmetric bifurcations) the law
+   (``shells.algorithms.asymptotics``); for even buckling degrees (asymmetric bifurcations) the law
    1 - κ_max/κ_b = C √δ against computed folds down to δ/h = 1e-5 (mode imperfection), for odd
    degrees (symmetric at that order) the measured exponent.
 
@@ -14,7 +14,7 @@ Writes benchmarks/results/sphere_knockdown.json (rewritten after every curve; th
 curve are also kept in results/knockdown/, so a rerun skips what is computed) and .png, and
 prints tables. ``--curves`` recomputes only the curves named (and ``--law`` the law's cases) and
 those missing from the stored JSON, and keeps every other curve of the stored JSON as it is;
-each computed curve records the method (``shells.knockdown.METHOD``) that computed it.
+each computed curve records the method (``shells.analyses.knockdown.METHOD``) that computed it.
 
     scripts/in-env python3 benchmarks/sphere_knockdown.py [--quick]
     scripts/in-env python3 benchmarks/sphere_knockdown.py --curves 0.002:0.3:pressure:dimple
@@ -30,7 +30,8 @@ from pathlib import Path
 
 import numpy as np
 
-from shells.knockdown import METHOD, KnockdownConfig, run_knockdown
+from shells.analyses import knockdown
+from shells.analyses.knockdown import METHOD, KnockdownConfig
 from shells.theory import sphere_pressure_kappa_h
 
 RESULTS = Path("benchmarks/results")
@@ -56,7 +57,7 @@ def _exponent(pts: list[dict], upto: float) -> float:
 def curve(h: float, nu: float, kind: str, load: str, amps: tuple[float, ...]) -> dict:
     t0 = time.perf_counter()
     cfg = KnockdownConfig(h, (0.0, *amps), nu=nu, imperfection=kind, width=1.0, load=load)
-    res = run_knockdown(cfg, Path("results/knockdown") / f"{load}-{kind}-{h}-{nu}",
+    res = knockdown.run(cfg, Path("results/knockdown") / f"{load}-{kind}-{h}-{nu}",
                         figure=False)
     pts = res["points"]
     return {"h_over_R": h, "nu": nu, "imperfection": kind, "load": load, "method": METHOD,
@@ -94,7 +95,7 @@ def main() -> None:
         if stored is None or any(sel(h, nu, load, kind) for sel in args.curves):
             return None
         return next((c for c in stored["curves"] if (c["h_over_R"], c["nu"], c["load"],
-                                                      c["imperfection"]) == (h, nu, load, kind)),
+                                                     c["imperfection"]) == (h, nu, load, kind)),
                     None)
 
     print("Koiter's law (curvature, mode imperfection): 1 - kappa_max/kappa_b against C sqrt(d)")

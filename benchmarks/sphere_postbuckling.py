@@ -1,5 +1,5 @@
 """The closed sphere's curvature buckling and its subcritical post-buckling branch (the paper's
-Fig. 3), on the 1D model through ``shells.postbuckle``: Ψ3(pole)/h against κ/κ_b for h/R =
+Fig. 3), on the 1D model through ``shells.analyses.postbuckle``: Ψ3(pole)/h against κ/κ_b for h/R =
 0.001, 0.01 and 0.1 (ν = ½), the theory line -κh/12, the located κ_b, the branch switched onto at
 it with rotational symmetry enforced (the inward-dimple side), axisymmetric profiles and a 3D
 render of a buckled sphere. Writes JSON, PNG/PDF figures and a VTK shape, and prints a table.
@@ -18,9 +18,9 @@ from pathlib import Path
 
 import numpy as np
 
-from shells.geometry import Sphere
-from shells.postbuckle import PostbuckleConfig, postbuckle
-from shells.revolve import revolve, write_profile_csv, write_vts
+from shells.analyses.postbuckle import PostbuckleConfig, postbuckle
+from shells.axisym.revolve import revolve, write_profile_csv, write_vts
+from shells.geometry.shapes import Sphere
 from shells.theory import sphere_kappa_b_h
 
 H_OVER_R = (0.001, 0.01, 0.1)
@@ -177,7 +177,7 @@ def render_3d(res: dict, out: Path) -> list[str]:
     """The buckled sphere at the deepest kept profile: VTK (.vts) and an off-screen render."""
     import pyvista as pv
 
-    from shells.render import ensure_display
+    from shells.analyses.render import ensure_display
 
     ensure_display()
     key = min(res["profiles"], key=float)
@@ -204,7 +204,7 @@ def main(outdir: str = "benchmarks/results", *flags: str) -> None:
         return
     results = [run_one(h, 80) for h in H_OVER_R]
     files = figure(results, out) + render_3d(next(r for r in results
-                                                 if r["h_over_R"] == 0.01), out)
+                                                  if r["h_over_R"] == 0.01), out)
     (out / "sphere_postbuckling.json").write_text(json.dumps(
         {"results": results, "files": files}, indent=1, default=float))
     print(f"{'h/R':>6} {'kappa_b h':>10} {'n':>3} {'slope':>9} {'theory':>9} "

@@ -22,9 +22,8 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from shells import axisym
-from shells.drivers import critical_run
-from shells.geometry import Sphere, Torus
+from shells.analyses import axisym_runs, critical
+from shells.geometry.shapes import Sphere, Torus
 
 HERE = Path(__file__).parent
 JSON = HERE / "results" / "torus.json"
@@ -40,7 +39,7 @@ def say(msg: str) -> None:
 
 def _run(shape: Torus, h: float, **kw) -> dict:
     t0 = time.perf_counter()
-    r = critical_run(shape, h, 0.5, direction="up", model="surface", first_only=True, **kw)
+    r = critical.run(shape, h, 0.5, direction="up", model="surface", first_only=True, **kw)
     return {"kind": r["kind"], "kappa_h": r["kappa_h"], "kappa_R": r["kappa_R"],
             "mode_m": r["mode_m"], "dofs": r["dofs"], "wall_s": time.perf_counter() - t0}
 
@@ -67,7 +66,7 @@ def main() -> int:
     r["size"] = USER_SIZE
     say(f"user mesh size {USER_SIZE}: {r['kind']} at kappa h = {r['kappa_h']:.6f} (m = "
         f"{r['mode_m']}), {r['dofs']} DOFs, {r['wall_s']:.0f} s")
-    sph = axisym.critical(Sphere(1.0), a.h_over_r, 0.5, direction="up")
+    sph = axisym_runs.critical(Sphere(1.0), a.h_over_r, 0.5, direction="up")
     out["sphere_kappa_b_h"] = sph["kappa_h"]
     ks = [out["built_in"][str(s)]["kappa_h"] for s in SIZES]
     ref = out["built_in"][str(USER_SIZE)]["kappa_h"]

@@ -26,13 +26,13 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from shells import axisym, theory
-from shells.branch import BranchConfig, run_branch
-from shells.continuation import ContinuationSettings
-from shells.drivers import postbuckle_run
-from shells.geometry import Sphere, SphericalCap
-from shells.phase_diagram import PhaseDiagramConfig, run_phase_diagram
-from shells.postbuckle import PostbuckleConfig
+from shells import theory
+from shells.algorithms.settings import ContinuationSettings
+from shells.analyses import axisym_runs, phase_diagram, postbuckle
+from shells.analyses.branch import BranchConfig, run_branch
+from shells.analyses.phase_diagram import PhaseDiagramConfig
+from shells.analyses.postbuckle import PostbuckleConfig
+from shells.geometry.shapes import Sphere, SphericalCap
 
 
 def say(msg: str) -> None:
@@ -40,18 +40,22 @@ def say(msg: str) -> None:
         print(msg, flush=True)
 
 
-def _f(v: float | None) -> str:
-    return f"{v:7.3f}" if v is not None else "   none"
+def _f(p: dict, key: str) -> str:
+    """The point's κR ``key``: "not computed" where the run did not compute that direction
+    (the θ̄_s refinement points go up only), "none in range" where it found no instability."""
+    if key not in p:
+        return "not computed"
+    return f"{p[key]:7.3f}" if p[key] is not None else "none in range"
 
 
 def snapped_shape(cap: SphericalCap, h_over_r: float, kappa_r: float, size: float,
                   layer: float, path: Path) -> dict:
     """The everted (snapped) cap at κR: Newton from the cap mirrored through its rim plane."""
-    from shells.fields import FieldWriter
-    from shells.mesh import MeshSpec, generate
-    from shells.model import ModelParameters, ShellModel
-    from shells.solvers import NewtonSolver
-    from shells.stability import Stability
+    from shells.algorithms.newton import NewtonSolver
+    from shells.algorithms.stability import Stability
+    from shells.surface.fields import FieldWriter
+    from shells.surface.mesh import MeshSpec, generate
+    from shells.surface.model import ModelParameters, ShellModel
 
     h = h_over_r * cap.R
     model = ShellModel(generate(MeshSpec(cap, h=h, size=size, layer_elements=layer),
@@ -79,7 +83,7 @@ def run(outdir: str | Path = "results/demo", quick: bool = False) -> dict:
 
     # 1. closed sphere
     h = 0.01
-    sph = axisym.critical(Sphere(1.0), h, 0.5, direction="up")
+    sph = axisym_runs.critical(Sphere(1.0), h, 0.5, direction="up")
     out["sphere_kappa_b_h"] = sph["kappa_h"]
     say(f"closed sphere, h/R = {h}: buckles at kappa h = {sph['kappa_h']:.4f} into degree "
         f"n = {sph['mode_n']} (paper, thin limit: 4/sqrt(7) = {theory.sphere_kappa_b_h():.4f}; "
@@ -89,15 +93,15 @@ def run(outdir: str | Path = "results/demo", quick: bool = False) -> dict:
     # m ≤ 8: the first instabilities of these caps have m ≤ 3 (the full diagram checks 0..12)
     cfg = PhaseDiagramConfig(h_over_r=(0.04,), thetabar_range=(1.5, 7.0),
                              points=3 if quick else 6, refine=0 if quick else 2, m_max=8)
-    pd = run_phase_diagram(cfg, outdir / "phase", comm=MPI.COMM_WORLD,
+    pd = phase_diagram.run(cfg, outdir / "phase", comm=MPI.COMM_WORLD,
                            progress=say if not quick else None)
     out["phase"] = pd
     say("phase diagram, h/R = 0.04 (kappa R of the first instability; paper's lines beside):")
     for p in pd["points"]:
         tb = p["thetabar"]
-        say(f"  thetabar {tb:5.2f}: up {p.get('up_kind', '?'):>11} at {_f(p.get('kappa_up_R'))} "
+        say(f"  thetabar {tb:5.2f}: up {p.get('up_kind', '?'):>11} at {_f(p, 'kappa_up_R')} "
             f"(m = {p.get('mode_up')}; snap line {theory.snap_kappa_R(tb):6.3f}) | down at "
-            f"{_f(p.get('kappa_down_R'))} (m = {p.get('mode_down')}; Eq. (4) "
+            f"{_f(p, 'kappa_down_R')} (m = {p.get('mode_down')}; Eq. (4) "
             f"{theory.buckling_kappa_R(tb, 0.04):6.3f})")
 
     # 3. shapes for ParaView
@@ -127,7 +131,7 @@ def run(outdir: str | Path = "results/demo", quick: bool = False) -> dict:
         say(f"{name}: kappa R = {pts[-1]['kappa_R']:+.3f}, apex displacement "
             f"{pts[-1]['apex_uz_over_h']:+.2f} h -> {outdir / name / 'fields.bp'}")
     # the buckled shell: the m = 2 branch switched onto at the located bifurcation
-    pb = postbuckle_run(PostbuckleConfig(cap, 0.04, model="surface", direction="down",
+    pb = postbuckle.run(PostbuckleConfig(cap, 0.04, model="surface", direction="down",
                                          kappa_end=kr_buckled, sides=(1,),
                                          size=size_b, layer_elements=layer_b,
                                          kappa_min_ratio=0.1),

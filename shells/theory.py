@@ -34,7 +34,6 @@ __all__ = [
     "snap_kappa_R",
     "buckling_kappa_R",
     "mirrored_buckling_kappa_R",
-    "default_kappa_range",
 ]
 
 #: The paper's numbers (ν = 1/2 unless stated).
@@ -52,7 +51,16 @@ PAPER = {
 
 
 def sphere_radius_ratio(kappa: float, h_over_r: float, R: float = 1.0) -> float:
-    """Radius ratio λ of the uniformly shrunk sphere: λ(λ² - 1) = (h²/6R)((1 - λ)/R - κ)."""
+    """Radius ratio λ of the uniformly shrunk sphere: λ(λ² - 1) = (h²/6R)((1 - λ)/R - κ).
+
+    Args:
+        kappa: the natural curvature κ (absolute).
+        h_over_r: thickness over radius.
+        R: the radius.
+
+    Returns:
+        The real root λ nearest 1.
+    """
     h = h_over_r * R
     c = h * h / (6.0 * R)
     # λ³ + (c/R - 1) λ - c (1/R - κ) = 0: the real root near 1
@@ -62,7 +70,15 @@ def sphere_radius_ratio(kappa: float, h_over_r: float, R: float = 1.0) -> float:
 
 
 def sphere_psi3_linear(kappa_h: float, h_over_r: float) -> float:
-    """Ψ3/h to first order in κ: -(κh/12)/(1 + (h/R)²/12)."""
+    """Ψ3/h of the closed sphere to first order in κ: -(κh/12)/(1 + (h/R)²/12).
+
+    Args:
+        kappa_h: κh.
+        h_over_r: thickness over radius.
+
+    Returns:
+        Ψ3/h.
+    """
     return -(kappa_h / 12.0) / (1.0 + h_over_r**2 / 12.0)
 
 
@@ -83,8 +99,16 @@ def dispersion_kappa_h(x: float | np.ndarray, h_over_r: float, nu: float = 0.5,
                        exact: bool = True) -> float | np.ndarray:
     """Critical κh at which the degree-n perturbation (x = n(n+1)) of the sphere is neutral.
 
-    ``exact``: smallest positive root of the full 2×2 determinant (quadratic in κh); otherwise the
-    paper's x ≫ 1 formula 2 (R/h) [-3(1+2ν) + √(3(15 + (h/R)²x² + 12ν))] / ((1+ν) x).
+    Args:
+        x: n(n+1), a number or an array.
+        h_over_r: thickness over radius.
+        nu: Poisson's ratio.
+        exact: the smallest positive root of the full 2×2 determinant (quadratic in κh);
+            False: the paper's x ≫ 1 formula
+            2 (R/h) [-3(1+2ν) + √(3(15 + (h/R)²x² + 12ν))] / ((1+ν) x).
+
+    Returns:
+        κh (of x's shape; NaN where there is no positive root).
     """
     xs = np.atleast_1d(np.asarray(x, dtype=float))
     out = np.empty_like(xs)
@@ -101,29 +125,63 @@ def dispersion_kappa_h(x: float | np.ndarray, h_over_r: float, nu: float = 0.5,
 
 
 def sphere_kappa_b_h(nu: float = 0.5) -> float:
-    """The thin-shell limit of the closed sphere's buckling: 4 √(3(1-ν)/((1+ν)(5+4ν)))."""
+    """The thin-shell limit of the closed sphere's buckling: 4 √(3(1-ν)/((1+ν)(5+4ν))).
+
+    Args:
+        nu: Poisson's ratio.
+
+    Returns:
+        κ_b h.
+    """
     return 4.0 * math.sqrt(3.0 * (1 - nu) / ((1 + nu) * (5 + 4 * nu)))
 
 
 def sphere_pressure_kappa_h(nu: float = 0.5) -> float:
     """The classical buckling pressure p_c = 2E/√(3(1-ν²)) (h/R)² of a sphere as its equivalent
-    curvature (the paper's Eq. (5), κh = 6 (1-ν) (R/h)² p/E): 12 (1-ν)/√(3(1-ν²))."""
+    curvature (the paper's Eq. (5), κh = 6 (1-ν) (R/h)² p/E).
+
+    Args:
+        nu: Poisson's ratio.
+
+    Returns:
+        κh = 12 (1-ν)/√(3(1-ν²)).
+    """
     return 12.0 * (1 - nu) / math.sqrt(3.0 * (1 - nu * nu))
 
 
 def sphere_mode_x(h_over_r: float, nu: float = 0.5) -> float:
-    """x = n(n+1) = 2/(1+2ν) (R/h) √(3(5+4ν)(1-ν²)) minimising the dispersion relation."""
+    """x = n(n+1) = 2/(1+2ν) (R/h) √(3(5+4ν)(1-ν²)) minimising the dispersion relation.
+
+    Args:
+        h_over_r: thickness over radius.
+        nu: Poisson's ratio.
+
+    Returns:
+        x.
+    """
     return 2.0 / (1 + 2 * nu) / h_over_r * math.sqrt(3 * (5 + 4 * nu) * (1 - nu * nu))
 
 
 def sphere_mode_n(h_over_r: float, nu: float = 0.5) -> float:
-    """The (real) degree n with n(n+1) = ``sphere_mode_x``."""
+    """The (real) degree n of the sphere's critical mode, n(n+1) = ``sphere_mode_x``.
+
+    Args:
+        h_over_r: thickness over radius.
+        nu: Poisson's ratio.
+
+    Returns:
+        n (not rounded).
+    """
     x = sphere_mode_x(h_over_r, nu)
     return (-1 + math.sqrt(1 + 4 * x)) / 2
 
 
 def plate_a() -> float:
-    """√(10 + 7√2) = 4.4609: a free disk bifurcates at |κ| r²/h = a (Pezzulla et al. 2016)."""
+    """The plate constant a = √(10 + 7√2) = 4.4609 (Pezzulla et al. 2016).
+
+    Returns:
+        a, the |κ| r²/h at which a free disk bifurcates.
+    """
     return math.sqrt(10 + 7 * math.sqrt(2))
 
 
@@ -137,50 +195,55 @@ def plate_a_uniform_curvature(nu: float = 0.5) -> float:
     D(1-ν) - Y c² r⁴/192, zero at c r²/h = 4/√(1+ν); equilibrium κ = c + c³r⁴(1-ν)/(16h²) then
     gives κ r²/h = 8/(1+ν)^{3/2} (4.354 at ν = 1/2, 5.397 at 0.3, 8 at 0). The ansatz is a
     restriction of the plate problem, so it is a reference for the trend in ν, not a bound.
+
+    Args:
+        nu: Poisson's ratio.
+
+    Returns:
+        8/(1+ν)^{3/2}.
     """
     return 8.0 / (1.0 + nu) ** 1.5
 
 
 def snap_kappa_R(thetabar: float, alpha: float = PAPER["alpha"], beta: float = PAPER["beta"]
                  ) -> float:
-    """The paper's snapping line κ_s R = β θ̄ - α (valid above θ̄_s)."""
+    """The paper's snapping line κ_s R = β θ̄ - α (valid above θ̄_s).
+
+    Args:
+        thetabar: θ̄ = θ/√(h/R).
+        alpha, beta: the line's coefficients (default: the paper's fit).
+
+    Returns:
+        κ_s R.
+    """
     return beta * thetabar - alpha
 
 
 def buckling_kappa_R(thetabar: float, h_over_r: float, b: float = PAPER["b"],
                      c: float = PAPER["c"]) -> float:
-    """Eq. (4): κ_b R = -a/θ̄² + 1 + b/(θ̄ - π √(R/h)) + c (κ < 0)."""
+    """The paper's Eq. (4): κ_b R = -a/θ̄² + 1 + b/(θ̄ - π √(R/h)) + c (κ < 0).
+
+    Args:
+        thetabar: θ̄ = θ/√(h/R).
+        h_over_r: thickness over radius.
+        b, c: the law's coefficients (default: the paper's fit).
+
+    Returns:
+        κ_b R of the cap's loss of symmetry going down.
+    """
     return -plate_a() / thetabar**2 + 1 + b / (thetabar - math.pi / math.sqrt(h_over_r)) + c
 
 
 def mirrored_buckling_kappa_R(thetabar: float, h_over_r: float, b: float = PAPER["b"],
                               c: float = PAPER["c"]) -> float:
-    """Eq. (4) mirrored about κR = 1: loss of symmetry of the everted branch (κ > 0)."""
-    return 2.0 - buckling_kappa_R(thetabar, h_over_r, b, c)
+    """Eq. (4) mirrored about κR = 1: the loss of symmetry of the everted branch (κ > 0).
 
+    Args:
+        thetabar: θ̄ = θ/√(h/R).
+        h_over_r: thickness over radius.
+        b, c: as for ``buckling_kappa_R``.
 
-def default_kappa_range(shape: object, h_over_r: float, nu: float, direction: str) -> float:
-    """A κ range (absolute, signed) that contains the first critical point with a margin.
-
-    Built from the paper's laws (sphere and any closed shell: κ_b h; caps: the snap line, the
-    mirrored Eq. (4) and Eq. (4); disk: the plate limit), widened by 60 %; other shapes 8/R.
+    Returns:
+        2 - ``buckling_kappa_R``.
     """
-    from shells.geometry import Disk, Sphere, SphericalCap
-
-    sign = 1.0 if direction == "up" else -1.0
-    L = shape.characteristic_size()  # type: ignore[attr-defined]
-    h = h_over_r * L
-    if isinstance(shape, Sphere) or getattr(shape, "closed", False):
-        # any closed shell (a spheroid, a closed meridian table): the sphere's buckling law
-        return sign * 1.6 * sphere_kappa_b_h(nu) / h
-    if isinstance(shape, Disk):
-        return sign * 1.6 * plate_a() * h / L**2
-    if isinstance(shape, SphericalCap):
-        tb = shape.theta / math.sqrt(h_over_r)
-        if direction == "up":
-            kr = max(snap_kappa_R(tb), mirrored_buckling_kappa_R(tb, h_over_r))
-            return (1.6 * max(kr, 1.0) + 0.5) / shape.R
-        return (1.6 * min(buckling_kappa_R(tb, h_over_r), -1.0) - 0.5) / shape.R
-    from shells.geometry import kappa_length
-
-    return sign * 8.0 / kappa_length(shape)  # type: ignore[arg-type]
+    return 2.0 - buckling_kappa_R(thetabar, h_over_r, b, c)

@@ -10,12 +10,13 @@ import math
 import pytest
 from mpi4py import MPI
 
-from shells import axisym
-from shells.continuation import ContinuationSettings
-from shells.critical import CriticalPoint, CriticalSettings, follow
-from shells.geometry import SphericalCap
-from shells.mesh import MeshSpec, generate
-from shells.model import ModelParameters, ShellModel
+from shells.algorithms.following import follow
+from shells.algorithms.records import CriticalPoint
+from shells.algorithms.settings import ContinuationSettings, CriticalSettings
+from shells.analyses import axisym_runs
+from shells.geometry.shapes import SphericalCap
+from shells.surface.mesh import MeshSpec, generate
+from shells.surface.model import ModelParameters, ShellModel
 
 H = 0.04
 END = {"up": 4.0, "down": 2.0}  # |κR| at the end of the range
@@ -40,8 +41,8 @@ def surface_first(theta_deg: float, direction: str) -> CriticalPoint | None:
 
 
 def check_cap(theta_deg: float, direction: str) -> None:
-    one_d = axisym.critical(SphericalCap(1.0, math.radians(theta_deg)), H, 0.5,
-                            direction=direction, m_max=6, kappa_max=END[direction])
+    one_d = axisym_runs.critical(SphericalCap(1.0, math.radians(theta_deg)), H, 0.5,
+                                 direction=direction, m_max=6, kappa_max=END[direction])
     two_d = surface_first(theta_deg, direction)
     assert two_d is not None
     assert two_d.kind == one_d["kind"]

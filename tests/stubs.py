@@ -19,17 +19,18 @@ def _stub(*args, **kwargs):
 def stub_computations(monkeypatch) -> None:
     """Replace the meshing, branch, critical-point, phase-diagram, post-buckling and knock-down
     entry points by stubs raising WorkStartedError."""
-    from shells import axisym, branch, drivers, knockdown, mesh, phase_diagram
+    from shells.analyses import axisym_runs, branch, knockdown, phase_diagram, postbuckle
+    from shells.surface import mesh
 
     @contextlib.contextmanager
     def no_gmsh(name):
         raise WorkStartedError
         yield  # pragma: no cover
 
-    monkeypatch.setattr(mesh, "_gmsh_model", no_gmsh)
+    monkeypatch.setattr(mesh, "gmsh_model", no_gmsh)
     monkeypatch.setattr(branch, "run_branch", _stub)
-    monkeypatch.setattr(axisym, "critical", _stub)
-    monkeypatch.setattr(axisym, "branch", _stub)
-    monkeypatch.setattr(phase_diagram, "run_phase_diagram", _stub)
-    monkeypatch.setattr(drivers, "postbuckle_run", _stub)
-    monkeypatch.setattr(knockdown, "run_knockdown", _stub)
+    monkeypatch.setattr(axisym_runs, "critical", _stub)
+    monkeypatch.setattr(axisym_runs, "branch", _stub)
+    monkeypatch.setattr(phase_diagram, "run", _stub)
+    monkeypatch.setattr(postbuckle, "run", _stub)
+    monkeypatch.setattr(knockdown, "run", _stub)

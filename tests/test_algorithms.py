@@ -1,6 +1,6 @@
 """The algorithm layer (continuation, stability, critical points, branch switching) on the tiny
-algebraic problems of ``shells.algebraic``, whose answers are known exactly: milliseconds per
-test. Each rank solves its own copy (MPI.COMM_SELF), so the tests are valid on any number of
+algebraic problems of ``shells.problem.algebraic``, whose answers are known exactly: milliseconds
+per test. Each rank solves its own copy (MPI.COMM_SELF), so the tests are valid on any number of
 ranks; one test distributes a problem over MPI.COMM_WORLD and checks that the answer is the
 same.
 """
@@ -12,18 +12,20 @@ import math
 import numpy as np
 import pytest
 
-from shells.algebraic import (
+from shells.algorithms.continuation import continuation
+from shells.algorithms.following import follow
+from shells.algorithms.settings import ContinuationSettings, CriticalSettings
+from shells.algorithms.stability import Stability
+from shells.algorithms.switching import switch_branch
+from shells.errors import InputError
+from shells.problem.algebraic import (
     AlgebraicProblem,
     FoldPitchforkProblem,
     FoldProblem,
     PitchforkProblem,
     SubcriticalPitchforkProblem,
 )
-from shells.continuation import ContinuationSettings, continuation
-from shells.critical import CriticalSettings, follow, switch_branch
-from shells.errors import InputError
-from shells.problem import Problem
-from shells.stability import Stability
+from shells.problem.interface import Problem
 
 STEPS = ContinuationSettings(ds=0.1, ds_max=0.2)
 
@@ -79,7 +81,8 @@ def test_natural_steps_down_mirror_the_steps_up():
     run up: the same points and Newton iterations (the secant predictor once pointed back
     along a downward run: more iterations, a 30° cap's run down took 28 points instead of
     10)."""
-    from shells.continuation import ContinuationSettings, continuation
+    from shells.algorithms.continuation import continuation
+    from shells.algorithms.settings import ContinuationSettings
 
     st = ContinuationSettings(method="natural", ds=0.1, ds_max=0.2)
     up = list(continuation(FoldProblem(1.0), st, kappa_end=0.9))
@@ -87,7 +90,7 @@ def test_natural_steps_down_mirror_the_steps_up():
     assert [p.newton_its for p in down] == [p.newton_its for p in up]
     assert [p.kappa for p in down] == pytest.approx([-p.kappa for p in up], abs=1e-14)
     assert [p.scalars["w0"] for p in down] == pytest.approx([p.scalars["w0"] for p in up],
-                                                             abs=1e-12)
+                                                            abs=1e-12)
 
 
 class _FoldWithFarRoot(FoldProblem):
@@ -119,7 +122,7 @@ def test_natural_steps_refuse_a_jump_to_another_solution(monkeypatch):
     converges to the far root x = 1000 (checked: without the jump test, points at κ = 1.2 and
     1.5 with x = 1000). The run must instead stop at the fold on its own branch. (A 30° cap on
     2 ranks once so jumped to Psi3/h = 1.4e4 just short of its snap-through fold.)"""
-    import shells.continuation as cont
+    import shells.algorithms.continuation as cont
 
     st = ContinuationSettings(method="natural", ds=0.3, ds_max=0.3, ds_min=1e-3,
                               max_newton_its=20)
@@ -183,12 +186,12 @@ def test_crossings_of_several_blocks_in_one_step_share_the_steps_trials(monkeypa
     block 0's own crossing then takes the same first trials, which the step computed already:
     fewer corrector solves and eigensolves than with each crossing located afresh, the same
     points to the last digit."""
-    import shells.critical as critical
+    from shells.algorithms import locate
 
     P = _ThreeBlocks(c=(0.96, 0.98))
     st = ContinuationSettings(ds=0.3, ds_max=0.3)
     calls = {"solves": 0, "eigs": 0}
-    newton, eigs = critical._bordered_newton, Stability.eigenpairs
+    newton, eigs = locate.bordered_newton, Stability.eigenpairs
 
     def counted_newton(*args, **kwargs):
         calls["solves"] += 1
@@ -198,7 +201,7 @@ def test_crossings_of_several_blocks_in_one_step_share_the_steps_trials(monkeypa
         calls["eigs"] += 1
         return eigs(self, *args, **kwargs)
 
-    monkeypatch.setattr(critical, "_bordered_newton", counted_newton)
+    monkeypatch.setattr(locate, "bordered_newton", counted_newton)
     monkeypatch.setattr(Stability, "eigenpairs", counted_eigs)
 
     def run() -> tuple[list, dict]:
@@ -211,13 +214,13 @@ def test_crossings_of_several_blocks_in_one_step_share_the_steps_trials(monkeypa
     assert len(steps) == 1  # one step holds the three crossings
     assert [c.kappa for c in steps[0]] == pytest.approx([0.96, 0.98, 1.0], rel=1e-8)
     assert [c.block for c in steps[0]] == [1, 2, 0]
-    start = critical._Locator.start
+    start = locate.Locator.start
 
     def forgetful_start(self, *args, **kwargs):  # every crossing located afresh
         start(self, *args, **kwargs)
         self._memo.clear()
 
-    monkeypatch.setattr(critical._Locator, "start", forgetful_start)
+    monkeypatch.setattr(locate.Locator, "start", forgetful_start)
     alone, afresh = run()
     assert [c.kappa for c in alone[0]] == [c.kappa for c in steps[0]]
     assert shared["solves"] < afresh["solves"] and shared["eigs"] < afresh["eigs"], \
@@ -461,7 +464,7 @@ def test_the_corrector_reuses_its_factorisation_near_the_solution(monkeypatch):
     the corrector's factorisation: the same points as a factorisation per iteration (to far
     below the Newton tolerance), the same iterations, and at most 3 factorisations per
     arclength step where Newton needs 4-5 (issue 14)."""
-    from shells import solvers
+    from shells.algorithms import newton as solvers
 
     real = solvers.setup_factor
     counts = []

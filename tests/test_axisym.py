@@ -14,21 +14,14 @@ import pytest
 from mpi4py import MPI
 from scipy.optimize import brentq
 
-from shells.axisym import (
-    SNES_OPTIONS,
-    AxisymModel,
-    AxisymParameters,
-    branch,
-    critical,
-    default_settings,
-    sphere_kappa_b_h,
-    sphere_mode_n,
-)
-from shells.continuation import ContinuationSettings
+from shells.algorithms.newton import NewtonSolver
+from shells.algorithms.settings import ContinuationSettings
+from shells.algorithms.stability import Stability
+from shells.analyses.axisym_runs import branch, critical, default_settings
+from shells.axisym import SNES_OPTIONS, AxisymModel, AxisymParameters
 from shells.errors import InputError
-from shells.geometry import Disk, EllipsoidalCap, Sphere, SphericalCap
-from shells.solvers import NewtonSolver
-from shells.stability import Stability
+from shells.geometry.shapes import Disk, EllipsoidalCap, Sphere, SphericalCap
+from shells.theory import sphere_kappa_b_h, sphere_mode_n
 
 
 def same_on_all_ranks(*values: float) -> None:
@@ -104,7 +97,7 @@ def test_sphere_prebuckling_is_the_exact_shrunk_sphere():
         k, h = rec["kappa_R"], h_over_r
         lam = brentq(lambda x, k=k, h=h: x * (x * x - 1) - h * h / 6 * ((1 - x) - k), 0.5, 1.5)
         assert rec["psi3_over_h"] == pytest.approx((lam - 1) / h, rel=1e-3)
-        # the energy of the paper's Eq. (1) with the κ² constant, as in shells.model
+        # the energy of the paper's Eq. (1) with the κ² constant, as in shells.surface.model
         e = 4 * math.pi * 2 * (1 + nu) * ((lam**2 - 1) ** 2 + h * h / 3 * ((1 - lam) - k) ** 2)
         assert rec["energy"] == pytest.approx(e, rel=1e-6)
         assert rec["negative_counts"] == [0]

@@ -15,10 +15,11 @@ import pytest
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from shells.axisym import SNES_OPTIONS, AxisymModel, AxisymParameters, sphere_kappa_b_h
-from shells.geometry import Sphere, SphericalCap
-from shells.solvers import NewtonSolver
-from shells.stability import Stability
+from shells.algorithms.newton import NewtonSolver
+from shells.algorithms.stability import Stability
+from shells.axisym import SNES_OPTIONS, AxisymModel, AxisymParameters
+from shells.geometry.shapes import Sphere, SphericalCap
+from shells.theory import sphere_kappa_b_h
 
 MODES = (0, 1, 2, 3, 5, 20, 60)
 
@@ -56,7 +57,7 @@ def differences(model: AxisymModel, m: int, H=None) -> dict[str, float]:
     E.axpy(-1.0, D)
     inf = PETSc.NormType.INFINITY
     rows_differ = 0
-    for r in mf._constrained_rows(m).getIndices():
+    for r in mf.constrained_rows(m).getIndices():
         (c1, v1), (c2, v2) = H.getRow(int(r)), D.getRow(int(r))
         rows_differ += not (np.array_equal(c1, c2) and np.array_equal(v1, v2))
     out = {"frobenius": E.norm() / D.norm(), "max": E.norm(inf) / D.norm(inf),
@@ -93,7 +94,7 @@ def test_coefficient_matrices_follow_the_state():
     the state vector written directly."""
     model = loaded(Sphere(1.0), 0.01, (50.0,))
     mf = model.mode_forms
-    key = "_C_inputs" if mf._chain_setup() is None else "_E_inputs"
+    key = "coefficient_inputs" if mf.chain_setup() is None else "element_inputs"
     assert world_max(differences(model, 5)["frobenius"]) <= 1e-10
     inputs = getattr(mf, key)
     assert inputs is not None
@@ -140,16 +141,16 @@ def test_inertia_is_that_of_the_direct_assembly():
 def test_definiteness_from_element_matrices_is_that_of_the_assembled_blocks(shape, h, kappas):
     """``ModeForms.definite`` (element matrices condensed on the chain of cells,
     ``shells.axisym.chain``) answers as the banded Cholesky of the assembled H_m
-    (``shells.stability``) for m = 0, 1, 2, 3, 5, 20, 60, at margins on both sides of each
-    block's own threshold: the largest margin τ* at which the assembled test still says
+    (``shells.algorithms.stability``) for m = 0, 1, 2, 3, 5, 20, 60, at margins on both sides of
+    each block's own threshold: the largest margin τ* at which the assembled test still says
     "definite" (bisection, to a factor 1.02) is found again within a factor 1.1 (both sides
     tested), so both test the same number, the lowest eigenvalue of the diagonally scaled
     block; an indefinite block is refused by both at every margin."""
-    from shells.stability import _Block
+    from shells.algorithms.stability import BlockSolvers
 
     model = loaded(shape, h, kappas)
     mf = model.mode_forms
-    block = _Block(model, 1, {})
+    block = BlockSolvers(model, 1, {})
 
     def assembled(m: int, tau: float) -> bool:
         model.assemble_hessian(m, block.H)
@@ -200,7 +201,8 @@ def test_eigenpairs_with_the_chain_factorisation_are_those_with_mumps(shape, h, 
         assert np.max(np.abs(np.array(a) - np.array(b))) < 1e-7, (m, a, b)
         negative += sum(mu < 0 for mu in b)
         # the fast path ran on one process (the model's COMM_SELF), the reference never
-        assert fast._block(m).shell_eps is not None and ref._block(m).shell_eps is None
+        assert fast.block_solvers(m).shell_eps is not None
+        assert ref.block_solvers(m).shell_eps is None
     assert negative >= (17 if shape.closed else 0)
     for s in (fast, ref):
         s.destroy()
@@ -211,7 +213,7 @@ def test_residual_and_dkappa_in_one_pass_are_the_separate_assemblies():
     both equal the separate assemblies of their own forms to the last bit, dR/dκ served from
     the last residual's pass only at the same state (after a change of κ or of the state it
     is assembled again: the same values as its own form's)."""
-    from shells.formproblem import FormProblem
+    from shells.problem.forms import FormProblem
 
     model = loaded(SphericalCap(1.0, math.radians(60)), 0.02, (1.0, 2.0))
     a, b = model.create_vector(), model.create_vector()
@@ -225,7 +227,7 @@ def test_residual_and_dkappa_in_one_pass_are_the_separate_assemblies():
     model.assemble_dkappa(a)
     FormProblem.assemble_dkappa(model, b)
     assert same(a, b)
-    assert model.comm.size > 1 or model._dkappa_kept is not None  # the pass's dR/dκ
+    assert model.comm.size > 1 or model.dkappa_kept is not None  # the pass's dR/dκ
     model.state.scale(1.01)  # another state: the kept dR/dκ is not that of this state
     model.sync()
     model.assemble_dkappa(a)
@@ -237,12 +239,12 @@ def test_jacobian_from_element_matrices_is_dolfinx_assembly():
     """The Jacobian assembled from its element matrices into a matrix whose values are written
     in place (one process) is dolfinx's assembly of the same form to the last bit, on a
     loaded cap and a loaded sphere; dolfinx can still assemble into that matrix."""
-    from shells.formproblem import FormProblem
+    from shells.problem.forms import FormProblem
 
     for shape, h, kappas in ((SphericalCap(1.0, math.radians(60)), 0.02, (1.0, 2.0)),
                              (Sphere(1.0), 0.01, (20.0, 60.0))):
         model = loaded(shape, h, kappas)
-        assert model._jacobian_elements() is not None  # one process (COMM_SELF): the fast path
+        assert model.jacobian_elements() is not None  # one process (COMM_SELF): the fast path
         A, B, C = model.create_jacobian(), FormProblem.create_jacobian(model), \
             model.create_jacobian()
         model.assemble_jacobian(A)

@@ -7,10 +7,10 @@ import json
 import pytest
 from mpi4py import MPI
 
-from shells.branch import BranchConfig, read_branch, run_branch
+from shells.algorithms.settings import ContinuationSettings
+from shells.analyses.branch import BranchConfig, read_branch, run_branch
 from shells.cli import main
-from shells.continuation import ContinuationSettings
-from shells.geometry import Sphere
+from shells.geometry.shapes import Sphere
 
 
 def _last_json(out):

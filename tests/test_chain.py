@@ -238,18 +238,18 @@ def test_without_the_compiled_loop_the_assembled_path_finds_the_same_point(monke
     import math
     from pathlib import Path
 
-    from shells import axisym
+    from shells.analyses import axisym_runs
     from shells.axisym import chain
-    from shells.geometry import SphericalCap
+    from shells.geometry.shapes import SphericalCap
 
     cap = SphericalCap(1.0, math.radians(30))
-    fast = axisym.critical(cap, 0.04, 0.5, direction="down", max_critical=1)
-    monkeypatch.setattr(chain, "_LIBRARY", None)
-    monkeypatch.setattr(chain, "_cache_dir", lambda: Path("/proc/no-such-folder/shells"))
+    fast = axisym_runs.critical(cap, 0.04, 0.5, direction="down", max_critical=1)
+    chain.unload()
+    monkeypatch.setattr(chain, "cache_dir", lambda: Path("/proc/no-such-folder/shells"))
     with pytest.raises(OSError):
-        chain._library()
-    slow = axisym.critical(cap, 0.04, 0.5, direction="down", max_critical=1)
-    assert chain._LIBRARY is None  # the run never had the loop: the assembled path
+        chain.library()
+    slow = axisym_runs.critical(cap, 0.04, 0.5, direction="down", max_critical=1)
+    assert not chain.loaded()  # the run never had the loop: the assembled path
     a, b = fast["critical_points"][0], slow["critical_points"][0]
     assert (a["kind"], a["mode_m"]) == (b["kind"], b["mode_m"]) == ("bifurcation", 2)
     assert abs(a["kappa_R"] - b["kappa_R"]) <= max(a["accuracy"], b["accuracy"], 1e-9)

@@ -9,13 +9,13 @@ import math
 import pytest
 from mpi4py import MPI
 
-from shells import axisym
+from shells.algorithms.following import follow
+from shells.algorithms.settings import ContinuationSettings, CriticalSettings
+from shells.analyses import axisym_runs
 from shells.cli import main
-from shells.continuation import ContinuationSettings
-from shells.critical import CriticalSettings, follow
-from shells.geometry import Disk, SphericalCap
-from shells.mesh import MeshSpec, generate
-from shells.model import ModelParameters, ShellModel
+from shells.geometry.shapes import Disk, SphericalCap
+from shells.surface.mesh import MeshSpec, generate
+from shells.surface.model import ModelParameters, ShellModel
 from shells.theory import plate_a
 
 
@@ -60,7 +60,7 @@ def test_fold_located_and_classified(cap_fold):
     assert all(r.stable for _, r in points[:-1])
     # cross-validation: the converged 1D axisymmetric model puts the fold at κR = 1.3934 (the
     # paper's fitted line β θ̄ - α = 1.555 lies 10 % above: docs/paper-comparison.md)
-    one_d = axisym.critical(SphericalCap(1.0, math.radians(30)), 0.04, 0.5, direction="up")
+    one_d = axisym_runs.critical(SphericalCap(1.0, math.radians(30)), 0.04, 0.5, direction="up")
     assert one_d["kind"] == "fold" and one_d["mode_m"] == 0
     assert c.kappa == pytest.approx(one_d["kappa_R"], rel=0.02)
 
@@ -78,7 +78,7 @@ def test_disk_plate_limit():
     docs/paper-comparison.md). The surface model's disk (4.664 at h/r = 0.02 on a coarse mesh,
     +1.3 % over the 1D value) takes minutes: benchmarks/plate_limit.py."""
     for h in (0.02,):
-        one_d = axisym.critical(Disk(1.0), h, 0.5, direction="up", kappa_max=0.5)
+        one_d = axisym_runs.critical(Disk(1.0), h, 0.5, direction="up", kappa_max=0.5)
         assert one_d["kind"] == "bifurcation" and one_d["mode_m"] == 2
         assert one_d["kappa_R"] / h == pytest.approx(plate_a(), rel=0.035)
         first = one_d["critical_points"][0]
@@ -156,26 +156,26 @@ def test_a_slow_crossing_is_located_reproducibly_and_its_accuracy_covers_it():
     they report, which are below 1e-7."""
     from dataclasses import replace
 
-    import shells.phase_diagram.tracing as tracing
-    from shells.phase_diagram import PhaseDiagramConfig, compute_task
-    from shells.phase_diagram.config import tasks_of
+    import shells.analyses.phase_diagram.tracing as tracing
+    from shells.analyses.phase_diagram import PhaseDiagramConfig, compute_task
+    from shells.analyses.phase_diagram.config import tasks_of
 
     cfg = PhaseDiagramConfig(h_over_r=(0.01, 0.04), thetabar_range=(1.0, 20.0), points=36,
                              refine=3, rel_tol=1e-5)
     task = next(t for t in tasks_of(cfg)[0] if t.h_over_r == 0.01 and t.direction == "down"
                 and abs(t.thetabar - 15.1142857) < 1e-6)
-    init = tracing._Branch.__init__
+    init = tracing.BranchTracer.__init__
     found = []
     for scale in (1.0, 1.0 + 1e-6, 1.0 - 1e-6):
         def scaled(self, *a, _s=scale, **k):
             init(self, *a, **k)
             self.settings = replace(self.settings, ds=self.settings.ds * _s)
 
-        tracing._Branch.__init__ = scaled
+        tracing.BranchTracer.__init__ = scaled
         try:
             bif = compute_task(task, cfg)["bifurcation"]
         finally:
-            tracing._Branch.__init__ = init
+            tracing.BranchTracer.__init__ = init
         assert bif["mode_m"] == 2
         found.append((bif["kappa_R"], bif["accuracy"] * abs(bif["kappa_R"])))
     for k1, a1 in found:

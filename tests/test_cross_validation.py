@@ -9,12 +9,13 @@ import pytest
 from crossval import check_cap
 from mpi4py import MPI
 
-from shells import axisym
-from shells.continuation import ContinuationSettings, continuation
-from shells.geometry import Sphere
-from shells.mesh import MeshSpec, generate
-from shells.model import ModelParameters, ShellModel
-from shells.stability import Stability
+from shells.algorithms.continuation import continuation
+from shells.algorithms.settings import ContinuationSettings
+from shells.algorithms.stability import Stability
+from shells.analyses import axisym_runs
+from shells.geometry.shapes import Sphere
+from shells.surface.mesh import MeshSpec, generate
+from shells.surface.model import ModelParameters, ShellModel
 from shells.theory import sphere_radius_ratio
 
 
@@ -34,7 +35,7 @@ def test_surface_and_axisym_agree_on_the_sphere():
     `benchmarks/sphere_buckling.py` locates it: 1.4900 here, 1.4857 at 37k DOFs.
     """
     h = 0.05
-    one_d = axisym.critical(Sphere(1.0), h, 0.5)
+    one_d = axisym_runs.critical(Sphere(1.0), h, 0.5)
     assert one_d["kind"] == "bifurcation"
     k1 = one_d["kappa_R"]
     sm = generate(MeshSpec(Sphere(1.0), h=h, size=0.21), MPI.COMM_WORLD)

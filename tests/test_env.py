@@ -38,7 +38,7 @@ import pytest
 from mpi4py import MPI
 
 from shells.errors import InputError
-from shells.store import RUN_LOCK, hold_output_folder, read_records
+from shells.files import RUN_LOCK, hold_output_folder, read_records
 
 REPO = Path(__file__).resolve().parent.parent
 IN_ENV = REPO / "scripts" / "in-env"

@@ -1,5 +1,5 @@
-"""The form cache (shells.formcache): the 1D model's mode forms and dR/dκ loaded from a record
-are the forms derived anew, bound to the new model's own data (its element matrices and dR/dκ
+"""The form cache (shells.problem.formcache): the 1D model's mode forms and dR/dκ loaded from a
+record are the forms derived anew, bound to the new model's own data (its element matrices and dR/dκ
 identical to the last bit, at another state and other parameters than the record's); a
 different derivation or a broken record derives them again; ranks that disagree about a
 record all derive. The Hessian functional of the Rayleigh quotients (a derived form of rank 0
@@ -17,10 +17,10 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from shells import formcache
+from shells.algorithms.newton import NewtonSolver
 from shells.axisym import SNES_OPTIONS, AxisymModel, AxisymParameters
-from shells.geometry import SphericalCap
-from shells.solvers import NewtonSolver
+from shells.geometry.shapes import SphericalCap
+from shells.problem import formcache
 
 
 def everywhere(flag: bool) -> bool:
@@ -97,11 +97,11 @@ def test_the_key_changes_with_anything_that_changes_the_kernels():
         dx = ufl.Measure("dx", domain=domain, metadata={"quadrature_degree": degree})
         return (number * f + c) * u.dx(0) * v.dx(0) * dx
 
-    key = lambda form: formcache._key(form, "a test", None)  # noqa: E731
+    key = lambda form: formcache.record_key(form, "a test", None)  # noqa: E731
     base = key(source())
     assert key(source(cells=12)) == base
     assert len({base, key(source(degree=6)), key(source(number=2.5)), key(source(p=3))}) == 4
-    assert formcache._key(source(), "another derivation", None) != base
+    assert formcache.record_key(source(), "another derivation", None) != base
 
 
 def test_a_changed_derivation_or_a_broken_record_derives_again(folder):
@@ -192,15 +192,15 @@ def test_the_hessian_functional_from_the_record_is_the_derived_one(folder, monke
 
     quadratic(loaded(0.01, 0.5, 3.0))  # derived and recorded
     assert any(folder.glob("*.json"))
-    import shells.formproblem
+    import shells.problem.forms
 
     derived = []
-    original = shells.formproblem.compiled_derived
+    original = shells.problem.forms.compiled_derived
 
     def counted(source, tag, derive, *args, **kwargs):
         return original(source, tag, lambda: derived.append(tag) or derive(), *args, **kwargs)
 
-    monkeypatch.setattr(shells.formproblem, "compiled_derived", counted)
+    monkeypatch.setattr(shells.problem.forms, "compiled_derived", counted)
     q_record, qm, scale = quadratic(loaded(0.01, 0.3, -2.0))
     from_record = not [t for t in derived if t.endswith("quadratic")]
     monkeypatch.setenv("SHELLS_FORM_CACHE", "0")
@@ -214,8 +214,8 @@ def test_a_signature_does_not_depend_on_how_many_constants_came_before():
     """UFL orders the operands of a sum canonically, and Constants by their reprs, whose last
     number is a count that grows through the process: as strings, "..., 100)" came before
     "..., 99)", so the same form got another signature when its Constants' counts straddled a
-    power of ten, and its record was not found. ``shells.formcache`` compares those counts as
-    numbers: the same signature either way."""
+    power of ten, and its record was not found. ``shells.problem.formcache`` compares those counts
+    as numbers: the same signature either way."""
     import ufl
     from dolfinx import mesh
 

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from shells.errors import InputError
-from shells.geometry import Disk, EllipsoidalCap, Shape, Sphere, SphericalCap, make_shape
+from shells.geometry.catalogue import make_shape
+from shells.geometry.shapes import Disk, EllipsoidalCap, Shape, Sphere, SphericalCap
 
 
 @pytest.mark.parametrize("theta_deg", [10, 45, 90, 150, 180])

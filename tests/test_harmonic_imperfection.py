@@ -1,5 +1,5 @@
 """The non-axisymmetric imperfection of the surface model (issue 15):
-``shells.geometry.HarmonicImperfectSphere``, the sphere displaced along the radius by
+``shells.geometry.imperfections.HarmonicImperfectSphere``, the sphere displaced along the radius by
 w0 = -δ P_n^m(cos θ) cos(mφ) / max|P_n^m|. Its profile is the spherical harmonic (against
 scipy's associated Legendre functions), its area the second-order law of a perturbed sphere,
 its meshes lie on it, its normal is the surface's, its Gauss-Bonnet and mean-curvature
@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from shells.errors import InputError
-from shells.geometry import HarmonicImperfectSphere, ImperfectSphere
+from shells.geometry.imperfections import HarmonicImperfectSphere, ImperfectSphere
 
 H = 0.05
 
@@ -39,7 +39,7 @@ def test_profile_is_the_spherical_harmonic_and_the_area_its_law(n, m):
     for phi in (0.0, 0.37, 2.0):
         u = _unit(theta, phi)
         # scipy's P_n^m carries the Condon-Shortley phase (-1)^m; ours does not
-        ref = (-1) ** m * lpmv(m, n, np.cos(theta)) * np.cos(m * phi) / s._fmax
+        ref = (-1) ** m * lpmv(m, n, np.cos(theta)) * np.cos(m * phi) / s.f_max
         assert np.allclose(s.profile(u), ref, rtol=0, atol=1e-12)
     # max |f| = 1, at φ = 0 (sampled: within the grid's resolution)
     f0 = s.profile(_unit(theta, 0.0))
@@ -48,7 +48,7 @@ def test_profile_is_the_spherical_harmonic_and_the_area_its_law(n, m):
     assert np.allclose(s.rho(_unit(theta, 0.37)), 1.0 - 1e-3 * s.profile(_unit(theta, 0.37)))
     # A = 4πR² - 2R a ∫f + a² (1 + n(n+1)/2) ∫f² + O(a⁴ n⁴): ∫f = 0 for n > 0 (measured
     # -5e-6 to -1e-5 of the a² term at a = 1e-3, n = 9)
-    law = 4 * math.pi + 1e-6 * (1 + n * (n + 1) / 2) * _f2(n, m, s._fmax)
+    law = 4 * math.pi + 1e-6 * (1 + n * (n + 1) / 2) * _f2(n, m, s.f_max)
     assert s.area() - 4 * math.pi == pytest.approx(law - 4 * math.pi, rel=1e-4)
     # the normal's numpy form against a finite-difference normal of the parametrisation
     # x(θ, φ) = ρ u(θ, φ), away from the poles
@@ -70,7 +70,7 @@ def test_profile_is_the_spherical_harmonic_and_the_area_its_law(n, m):
 
 def test_description_round_trip():
     """A mesh's sidecar holds ``describe()``; ``shape_from_description`` rebuilds the shape."""
-    from shells.geometry import shape_from_description
+    from shells.geometry.catalogue import shape_from_description
 
     for s in (HarmonicImperfectSphere(1.0, 0.005, 9, 2),
               ImperfectSphere(1.0, math.pi, 0.005, "dimple", 0.2, 3)):
@@ -94,7 +94,7 @@ def test_mesh_normal_and_curvature_integrals():
     from dolfinx import fem
     from mpi4py import MPI
 
-    from shells.mesh import MeshSpec, generate
+    from shells.surface.mesh import MeshSpec, generate
 
     comm = MPI.COMM_WORLD
     n, m, a = 4, 3, 0.002
@@ -125,7 +125,7 @@ def test_mesh_normal_and_curvature_integrals():
         v = expr.eval(mesh, cells).reshape(-1, 6)
         gap = float(np.max(np.abs(v[:, :3] - shape.normal(v[:, 3:].T).T), initial=0.0))
         assert comm.allreduce(gap, op=MPI.MAX) < 1e-13
-    fmax = HarmonicImperfectSphere(1.0, a, n, m)._fmax
+    fmax = HarmonicImperfectSphere(1.0, a, n, m).f_max
     f2 = _f2(n, m, fmax)
     dA, dH = out[a][0] - out[0.0][0], out[a][2] - out[0.0][2]
     assert dA == pytest.approx(a * a * (1 + n * (n + 1) / 2) * f2, rel=0.01)
@@ -136,26 +136,26 @@ def test_order_zero_is_the_mode_imperfection():
     """m = 0 is ``ImperfectSphere``'s "mode" profile P_n(cos β) with the same sign: the same
     radius on every meridian, the same mesh nodes, the same exact normal and b° = -P ∇n P on the
     surface (at the nodes of the second-order mesh, which lie on it: the two normals are
-    extended off the surface differently) to round-off, and ``shells.knockdown``'s two
+    extended off the surface differently) to round-off, and ``shells.analyses.knockdown``'s two
     configurations give these two shapes."""
     import ufl
     from dolfinx import fem
     from mpi4py import MPI
 
-    from shells.knockdown import KnockdownConfig, _shape
-    from shells.mesh import MeshSpec, generate
+    from shells.analyses.knockdown import KnockdownConfig, imperfect_shape
+    from shells.surface.mesh import MeshSpec, generate
 
     comm = MPI.COMM_WORLD
     n, delta = 5, 0.1
-    harm = _shape(KnockdownConfig(H, (delta,), imperfection="harmonic", model="surface",
+    harm = imperfect_shape(KnockdownConfig(H, (delta,), imperfection="harmonic", model="surface",
                                   degree=n), delta, n)
-    mode = _shape(KnockdownConfig(H, (delta,), imperfection="mode", degree=n), delta, n)
+    mode = imperfect_shape(KnockdownConfig(H, (delta,), imperfection="mode", degree=n), delta, n)
     assert isinstance(harm, HarmonicImperfectSphere) and (harm.degree, harm.order) == (n, 0)
     assert isinstance(mode, ImperfectSphere) and mode.profile == "mode"
     assert harm.amplitude == mode.amplitude == delta * H
     t = np.linspace(0.0, math.pi, 101)
     for phi in (0.0, 1.0, 4.0):
-        assert np.allclose(harm.rho(_unit(t, phi)), mode._rho(t), rtol=0, atol=1e-15)
+        assert np.allclose(harm.rho(_unit(t, phi)), mode.radius_at(t), rtol=0, atol=1e-15)
     # w0 = -δ h P_n(cos β): inward at the north pole, at the south pole for odd n outward
     assert harm.rho(np.array([0.0, 0.0, 1.0])) == pytest.approx(1 - delta * H, abs=1e-15)
     assert harm.rho(np.array([0.0, 0.0, -1.0])) == pytest.approx(1 + delta * H, abs=1e-15)
@@ -187,7 +187,7 @@ def test_order_zero_is_the_mode_imperfection():
     assert np.all(np.isfinite(vh))
     ok = np.all(np.isfinite(vm), axis=1)
     assert comm.allreduce(int(np.sum(ok)), op=MPI.SUM) > 0.9 * comm.allreduce(len(ok),
-                                                                               op=MPI.SUM)
+                                                                              op=MPI.SUM)
     vh, vm = vh[ok], vm[ok]
     dn = float(np.max(np.abs(vh[:, :3] - vm[:, :3]), initial=0.0))
     db = float(np.max(np.abs(vh[:, 3:] - vm[:, 3:]), initial=0.0))
@@ -210,12 +210,12 @@ def test_response_along_the_imperfection_same_for_every_m_and_in_1d():
     from dolfinx import fem
     from mpi4py import MPI
 
+    from shells.algorithms.newton import NewtonSolver
+    from shells.analyses.knockdown import KnockdownConfig, imperfect_model
     from shells.axisym import SNES_OPTIONS
-    from shells.geometry import _harmonic_parts
-    from shells.knockdown import KnockdownConfig, _model
-    from shells.mesh import MeshSpec, generate
-    from shells.model import ModelParameters, ShellModel
-    from shells.solvers import NewtonSolver
+    from shells.geometry.imperfections import harmonic_parts
+    from shells.surface.mesh import MeshSpec, generate
+    from shells.surface.model import ModelParameters, ShellModel
 
     comm = MPI.COMM_WORLD
     n, delta, kh = 4, 0.1, 0.5
@@ -243,8 +243,8 @@ def test_response_along_the_imperfection_same_for_every_m_and_in_1d():
         w = ufl.dot(u - mean, model.n0)
         w = w - integral(w) / area
         uu = x / ufl.sqrt(ufl.dot(x, x))
-        cm, q = _harmonic_parts(n, shape.order, uu[0], uu[1], uu[2])
-        f = cm * q / shape._fmax
+        cm, q = harmonic_parts(n, shape.order, uu[0], uu[1], uu[2])
+        f = cm * q / shape.f_max
         return integral(w * f), integral(f * f)
 
     G = []
@@ -259,7 +259,7 @@ def test_response_along_the_imperfection_same_for_every_m_and_in_1d():
     cfg = KnockdownConfig(H, (delta,), imperfection="mode", degree=n)
     proj = {}
     for s in (1, -1):
-        model, _ = _model(cfg, s * delta, n)
+        model, _ = imperfect_model(cfg, s * delta, n)
         ns = NewtonSolver(model, options=SNES_OPTIONS)
         try:
             model.set_kappa(kh / H)
@@ -278,8 +278,8 @@ def test_response_along_the_imperfection_same_for_every_m_and_in_1d():
 
 
 def test_knockdown_config_and_cli_refusals(capsys):
+    from shells.analyses.knockdown import KnockdownConfig
     from shells.cli import main
-    from shells.knockdown import KnockdownConfig
 
     cfg = KnockdownConfig(H, (0.1,), imperfection="harmonic", model="surface", degree=9, order=2)
     assert cfg.describe()["order"] == 2 and cfg.describe()["degree"] == 9
@@ -312,7 +312,7 @@ def test_surface_models_figure_and_summary(tmp_path, capsys, monkeypatch):
     CLI's run is stubbed with the record of a measured point (benchmarks/harmonic_knockdown.py)."""
     from mpi4py import MPI
 
-    import shells.knockdown as kd
+    import shells.analyses.knockdown as kd
     from shells.cli import main
 
     cfg = kd.KnockdownConfig(H, (0.03,), imperfection="harmonic", model="surface", degree=9,
@@ -323,9 +323,9 @@ def test_surface_models_figure_and_summary(tmp_path, capsys, monkeypatch):
            "points": [{"delta_over_h": 0.03, "kappa_max_h": 1.443040, "knockdown": 0.9686,
                        "kind": "bifurcation", "knockdown_asymptotic": None}]}
     if MPI.COMM_WORLD.rank == 0:
-        path = kd._figure(res, tmp_path / "knockdown.png")
+        path = kd.write_figure(res, tmp_path / "knockdown.png")
         assert (tmp_path / "knockdown.png").stat().st_size > 0 and path.endswith(".png")
-    monkeypatch.setattr(kd, "run_knockdown", lambda *a, **k: res)
+    monkeypatch.setattr(kd, "run", lambda *a, **k: res)
     assert main(["knockdown", "--h-over-r", "0.05", "--imperfection", "harmonic", "--model",
                  "surface", "--mode-n", "9", "--mode-m", "2", "--amplitudes", "0.03"]) == 0
     out = capsys.readouterr().out

@@ -1,9 +1,10 @@
-"""Imperfection sensitivity of the closed sphere (shells.knockdown, 1D model): δ = 0 is the
+"""Imperfection sensitivity of the closed sphere (shells.analyses.knockdown, 1D model): δ = 0 is the
 perfect sphere's bifurcation, an imperfection turns it into a fold below it, and a rerun reads
-the stored points back. Koiter's reduced equation at the bifurcation (shells.asymptotics): for
-an even buckling degree n the bifurcation is asymmetric and the computed knock-down approaches
-its law 1 - κ_max/κ_b = C √δ as δ → 0; for an odd n it is symmetric at that order (c2 ∝ ∫ P_n³
-= 0) and the knock-down grows faster than √δ. Each rank computes its own serial 1D problem."""
+the stored points back. Koiter's reduced equation at the bifurcation
+(shells.algorithms.asymptotics): for an even buckling degree n the bifurcation is asymmetric and the
+computed knock-down approaches its law 1 - κ_max/κ_b = C √δ as δ → 0; for an odd n it is symmetric
+at that order (c2 ∝ ∫ P_n³ = 0) and the knock-down grows faster than √δ. Each rank computes its own
+serial 1D problem."""
 
 from __future__ import annotations
 
@@ -12,9 +13,9 @@ import math
 import numpy as np
 import pytest
 
+from shells.analyses.knockdown import KnockdownConfig, knockdown
 from shells.errors import InputError
-from shells.geometry import ImperfectSphere
-from shells.knockdown import KnockdownConfig, knockdown
+from shells.geometry.imperfections import ImperfectSphere
 
 H = 0.05
 
@@ -27,8 +28,8 @@ def curve(tmp_path_factory):
 
 
 def test_perfect_sphere_and_the_fold_below_it(curve):
-    from shells.axisym import critical
-    from shells.geometry import Sphere
+    from shells.analyses.axisym_runs import critical
+    from shells.geometry.shapes import Sphere
 
     _, _, recs = curve
     perfect = recs[0]["perfect"]
@@ -77,17 +78,17 @@ def test_knockdown_approaches_koiters_law():
 
 
 def test_balanced_norm_retry_finds_the_same_fold(monkeypatch):
-    """The retry of an attempt in the balanced arclength norm (``_first_critical`` with
+    """The retry of an attempt in the balanced arclength norm (``first_critical`` with
     ``balanced``): with every attempt in the norm of state weight 1 made to find nothing, the
     retry must find the fold the weight-1 norm finds directly, to 1e-4 in κ, in a norm whose
     state weight is not 1 (the dimpled sphere at h/R = 0.05, δ/h = 0.04: ξ = 264, measured)."""
-    import shells.knockdown as kd
+    import shells.analyses.knockdown as kd
 
     cfg = KnockdownConfig(H, (0.04,), imperfection="dimple", width=1.0)
     direct = kd.fold_kappa(cfg, 0.04, 9)
     assert direct["kind"] == "fold"
     calls, weights = [], []
-    first_critical, balanced_weight = kd._first_critical, kd._balanced_weight
+    first_critical, balanced_weight = kd.first_critical, kd.balanced_weight
 
     def weight_one_finds_nothing(*a, **k):
         balanced = k.get("balanced", a[6] if len(a) > 6 else False)
@@ -98,8 +99,8 @@ def test_balanced_norm_retry_finds_the_same_fold(monkeypatch):
         weights.append(balanced_weight(*a, **k))
         return weights[-1]
 
-    monkeypatch.setattr(kd, "_first_critical", weight_one_finds_nothing)
-    monkeypatch.setattr(kd, "_balanced_weight", recorded_weight)
+    monkeypatch.setattr(kd, "first_critical", weight_one_finds_nothing)
+    monkeypatch.setattr(kd, "balanced_weight", recorded_weight)
     retried = kd.fold_kappa(cfg, 0.04, 9)
     assert calls == [(0.02, False), (0.02, True)]  # the first retry found it
     assert len(weights) == 1 and abs(weights[0] - 1.0) > 1.0
@@ -111,14 +112,14 @@ def test_balanced_norm_retry_finds_the_same_fold(monkeypatch):
 
 def test_a_crossing_just_before_a_fold_is_that_fold(monkeypatch):
     """Next to a fold the fold mode's eigenvalue may be counted negative a little before
-    dκ/ds changes sign (h/R = 0.002, pressure: 1e-5 below the fold in κ). ``_first_critical``
+    dκ/ds changes sign (h/R = 0.002, pressure: 1e-5 below the fold in κ). ``first_critical``
     follows the branch on after a crossing up to the location tolerance beyond it in κ, and
-    ``_first_of`` takes a fold within that window for the first critical point (the crossings
+    ``first_of`` takes a fold within that window for the first critical point (the crossings
     before it kept); a crossing with no fold within the window stays first."""
     from types import SimpleNamespace
 
-    import shells.critical as critical
-    import shells.knockdown as kd
+    import shells.analyses.knockdown as kd
+    from shells.algorithms import following
 
     def cp(kind, kappa):
         return SimpleNamespace(kind=kind, kappa=kappa)
@@ -132,27 +133,27 @@ def test_a_crossing_just_before_a_fold_is_that_fold(monkeypatch):
     cfg = KnockdownConfig(0.002, (0.1,), load="pressure")
     cross, fold = cp("bifurcation", 1000.0), cp("fold", 1000.05)
     # crossing, then a fold 5e-5 above it: followed on to the fold, which is first
-    monkeypatch.setattr(critical, "follow", fake_follow(
+    monkeypatch.setattr(following, "follow", fake_follow(
         [(990.0, []), (1000.01, [cross]), (1000.04, []), (1000.06, [fold]), (999.0, [])]))
-    found, n = kd._first_critical(None, None, cfg, 2000.0, None)
+    found, n = kd.first_critical(None, None, cfg, 2000.0, None)
     assert found == [cross, fold] and n == 4
-    first, before = kd._first_of(found, 1e-4)
+    first, before = kd.first_of(found, 1e-4)
     assert first is fold and before == [cross]
     # the branch passes 1e-4 beyond the crossing without a fold: the crossing stays first
-    monkeypatch.setattr(critical, "follow", fake_follow(
+    monkeypatch.setattr(following, "follow", fake_follow(
         [(1000.01, [cross]), (1000.09, []), (1000.11, []), (1000.3, [fold])]))
-    found, n = kd._first_critical(None, None, cfg, 2000.0, None)
+    found, n = kd.first_critical(None, None, cfg, 2000.0, None)
     assert found == [cross] and n == 3
-    assert kd._first_of(found, 1e-4) == (cross, [])
-    assert kd._first_of([cross, cp("fold", 1000.2)], 1e-4) == (cross, [])
-    assert kd._first_of([fold], 1e-4) == (fold, []) and kd._first_of([], 1e-4) == (None, [])
+    assert kd.first_of(found, 1e-4) == (cross, [])
+    assert kd.first_of([cross, cp("fold", 1000.2)], 1e-4) == (cross, [])
+    assert kd.first_of([fold], 1e-4) == (fold, []) and kd.first_of([], 1e-4) == (None, [])
     # without the window (the perfect sphere) the first critical point ends the search
-    monkeypatch.setattr(critical, "follow", fake_follow([(1000.01, [cross]), (1000.06, [fold])]))
-    assert kd._first_critical(None, None, cfg, 2000.0, None, window=False) == ([cross], 1)
+    monkeypatch.setattr(following, "follow", fake_follow([(1000.01, [cross]), (1000.06, [fold])]))
+    assert kd.first_critical(None, None, cfg, 2000.0, None, window=False) == ([cross], 1)
 
 
 def test_rerun_reads_the_points_back(curve, monkeypatch):
-    import shells.knockdown as kd
+    import shells.analyses.knockdown as kd
 
     cfg, out, recs = curve
 
@@ -180,12 +181,12 @@ def test_imperfect_meridian_and_bad_input():
     assert np.allclose(dz, (z1 - z0) / (2 * eps), atol=1e-8)
     # the UFL path's cosine series of P_n(cos t) against the recurrence, up to a thin
     # sphere's degree
-    from shells.geometry import legendre_cosine_series
+    from shells.geometry.imperfections import legendre_cosine_series
 
     for n in (0, 3, 10, 44):
         s = ImperfectSphere(1.0, math.pi, 0.01, "mode", 0.1, n)
         series = sum(a * np.cos(j * t) for j, a in legendre_cosine_series(n))
-        assert np.allclose(series, s._profile(np.cos(t), t, np.exp), rtol=0, atol=1e-12)
+        assert np.allclose(series, s.profile_expression(np.cos(t), t, np.exp), rtol=0, atol=1e-12)
     for bad in ({"profile": "bump"}, {"amplitude": 0.5}, {"width": -1.0}):
         with pytest.raises(InputError):
             ImperfectSphere(**{"amplitude": 0.01, **bad})
@@ -250,7 +251,7 @@ def test_imperfect_sphere_surface_mesh_and_normal():
     from dolfinx import fem
     from mpi4py import MPI
 
-    from shells.mesh import MeshSpec, generate
+    from shells.surface.mesh import MeshSpec, generate
 
     comm = MPI.COMM_WORLD
     gaps = []

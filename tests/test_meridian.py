@@ -1,6 +1,6 @@
-"""Any shell of revolution: a meridian given as a table of points (shells.geometry.MeridianTable)
-against the exact shapes it samples, on both models (issue 17: a meridian table of a cap
-reproduces the exact shape's critical point within 0.5 %)."""
+"""Any shell of revolution: a meridian given as a table of points
+(shells.geometry.meridian.MeridianTable) against the exact shapes it samples, on both models (issue
+17: a meridian table of a cap reproduces the exact shape's critical point within 0.5 %)."""
 
 from __future__ import annotations
 
@@ -10,9 +10,10 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from shells import axisym
+from shells.analyses import axisym_runs
 from shells.errors import InputError
-from shells.geometry import EllipsoidalCap, MeridianTable, Sphere, SphericalCap
+from shells.geometry.meridian import MeridianTable
+from shells.geometry.shapes import EllipsoidalCap, Sphere, SphericalCap
 
 
 def table(r, z) -> MeridianTable:
@@ -42,7 +43,7 @@ def test_table_normal_curvatures_and_mesh_map_match_the_exact_shape():
     the normal (measured 3.5e-8 off), the principal curvatures (4e-5, 5e-6), the nearest
     meridian parameter; and the map of the reference cap's mesh onto the table lands on the
     sphere, the reference cap having the table's rim radius and meridian length."""
-    from shells.geometry import mesh_reference, onto_shape
+    from shells.geometry.catalogue import mesh_reference, onto_shape
 
     t = np.linspace(0, CAP.theta, 40)
     tab = table(np.sin(t), np.cos(t))
@@ -73,9 +74,10 @@ def test_surface_model_on_a_cap_table_matches_the_cap():
     natural steps to κR = 1: the mesh's area and rim within 1e-6 of the exact cap's, energy and
     Ψ3 within 2e-3 (measured 4e-4 and 6e-4: the two meshes differ; at P3 and the default mesh
     the fold of both is within 1e-5 of the 1D model's 1.39343, `shells critical`)."""
-    from shells.continuation import ContinuationSettings, continuation
-    from shells.mesh import MeshSpec, generate
-    from shells.model import ModelParameters, ShellModel
+    from shells.algorithms.continuation import continuation
+    from shells.algorithms.settings import ContinuationSettings
+    from shells.surface.mesh import MeshSpec, generate
+    from shells.surface.model import ModelParameters, ShellModel
 
     t = np.linspace(0, CAP.theta, 41)
     out = []
@@ -97,9 +99,9 @@ def test_cap_table_reproduces_the_caps_critical_point(direction):
     within 1e-4 (measured 8e-7 and 1.3e-5; 10 points: 1.8e-5 and 3.5e-4)."""
     t = np.linspace(0, CAP.theta, 40)
     kmax = 3.0 if direction == "up" else 1.0
-    exact = axisym.critical(CAP, 0.04, 0.5, direction=direction, kappa_max=kmax)
-    tab = axisym.critical(table(np.sin(t), np.cos(t)), 0.04, 0.5, direction=direction,
-                          kappa_max=kmax)
+    exact = axisym_runs.critical(CAP, 0.04, 0.5, direction=direction, kappa_max=kmax)
+    tab = axisym_runs.critical(table(np.sin(t), np.cos(t)), 0.04, 0.5, direction=direction,
+                               kappa_max=kmax)
     assert tab["kind"] == exact["kind"] and tab["mode_m"] == exact["mode_m"]
     assert abs(tab["kappa_R"] / exact["kappa_R"] - 1) < 1e-4
 
@@ -109,16 +111,16 @@ def test_closed_and_ellipsoidal_tables():
     ellipsoid r3 = 1.5 R to its equator (40 points; h/R scaled to the same h): κ_b and the
     m = 3 bifurcation going up within 1e-4 (measured 4.8e-6 and 2.8e-7)."""
     u = np.linspace(0, math.pi, 60)
-    s_exact = axisym.critical(Sphere(1.0), 0.05, 0.5, max_critical=1)
-    s_tab = axisym.critical(table(np.sin(u), np.cos(u)), 0.05, 0.5, max_critical=1,
-                            kappa_max=40.0)
+    s_exact = axisym_runs.critical(Sphere(1.0), 0.05, 0.5, max_critical=1)
+    s_tab = axisym_runs.critical(table(np.sin(u), np.cos(u)), 0.05, 0.5, max_critical=1,
+                                 kappa_max=40.0)
     assert s_tab["kind"] == "bifurcation"
     assert abs(s_tab["kappa_h"] / s_exact["kappa_h"] - 1) < 1e-4
     ell = EllipsoidalCap(1.0, 1.5, math.pi / 2)
     t = np.linspace(0, math.pi / 2, 40)
     e_tab = table(np.sin(t), 1.5 * np.cos(t))
-    e_exact = axisym.critical(ell, 0.04, 0.5, kappa_max=6.0)
-    got = axisym.critical(e_tab, 0.04 / e_tab.R, 0.5, kappa_max=6.0 * ell.R / e_tab.R)
+    e_exact = axisym_runs.critical(ell, 0.04, 0.5, kappa_max=6.0)
+    got = axisym_runs.critical(e_tab, 0.04 / e_tab.R, 0.5, kappa_max=6.0 * ell.R / e_tab.R)
     assert got["mode_m"] == e_exact["mode_m"] == 3
     assert abs(got["kappa_h"] / e_exact["kappa_h"] - 1) < 1e-4
 
@@ -128,7 +130,7 @@ def test_a_closed_table_gets_the_spheres_default_range():
     the sphere law's (it was the 8/R of other shapes, κR = 8 against κ_b R ≈ 30 at h/R = 0.05:
     "no critical point"; with it the surface model finds κ_b h = 1.488927 on the 80-point
     sphere table, the built-in sphere 1.48979)."""
-    from shells.theory import default_kappa_range
+    from shells.analyses.setup import default_kappa_range
 
     u = np.linspace(0, math.pi, 60)
     tab = table(np.sin(u), np.cos(u))

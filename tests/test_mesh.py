@@ -7,8 +7,8 @@ from conftest import fitted_rate
 from mpi4py import MPI
 
 from shells.errors import InputError
-from shells.geometry import Disk, EllipsoidalCap, Sphere, SphericalCap
-from shells.mesh import MeshSpec, generate, load_mesh, write_msh
+from shells.geometry.shapes import Disk, EllipsoidalCap, Sphere, SphericalCap
+from shells.surface.mesh import MeshSpec, generate, load_mesh, write_msh
 
 SHAPES = {
     "sphere": Sphere(1.0),

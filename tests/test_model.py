@@ -10,11 +10,12 @@ import pytest
 from conftest import fitted_rate
 from scipy.optimize import brentq
 
-from shells.continuation import ContinuationSettings, continuation
-from shells.geometry import Sphere, SphericalCap
-from shells.mesh import MeshSpec, generate
-from shells.model import ModelParameters, ShellModel
-from shells.solvers import NewtonSolver
+from shells.algorithms.continuation import continuation
+from shells.algorithms.newton import NewtonSolver
+from shells.algorithms.settings import ContinuationSettings
+from shells.geometry.shapes import Sphere, SphericalCap
+from shells.surface.mesh import MeshSpec, generate
+from shells.surface.model import ModelParameters, ShellModel
 
 H = 0.05  # h/R of the paper's closed-sphere checks
 
@@ -214,7 +215,7 @@ def test_energy_density_fields_integrate_to_the_energies(sphere_model, sphere_so
     from dolfinx import fem
     from mpi4py import MPI
 
-    from shells.fields import FieldWriter
+    from shells.surface.fields import FieldWriter
 
     s = _solve_at(sphere_model, sphere_solver, 1.0 / H)
     funcs = FieldWriter(sphere_model, None).update()

@@ -1,4 +1,4 @@
-"""shells.paths (the I/O-validation layer) and the CLI's use of it: a path outside the folders
+"""shells.cli.paths (the I/O-validation layer) and the CLI's use of it: a path outside the folders
 shared with the host (SHELLS_HOST_PATHS) or an unusable output file or folder is refused before
 any work, as one line on stderr with exit status 2.
 
@@ -23,8 +23,7 @@ import pytest
 from mpi4py import MPI
 from stubs import WorkStartedError, stub_computations
 
-from shells import paths
-from shells.cli import main
+from shells.cli import main, paths
 from shells.errors import InputError
 
 REPO = Path(__file__).resolve().parent.parent
@@ -48,7 +47,7 @@ def _refused(capsys, argv, needle):
 
 
 # ------------------------------------------------------------------------------------------
-# shells.paths
+# shells.cli.paths
 # ------------------------------------------------------------------------------------------
 def test_host_prefixes(tmp_path):
     assert paths.host_prefixes({}) is None
@@ -183,7 +182,7 @@ def test_cli_refuses_unusable_outputs(capsys, monkeypatch, shared_tmp, no_work, 
 
 
 def test_cli_refuses_a_file_as_output_folder_and_a_folder_as_output_file(capsys, monkeypatch,
-                                                                          shared_tmp, no_work):
+                                                                         shared_tmp, no_work):
     monkeypatch.delenv("SHELLS_HOST_PATHS", raising=False)
     f, d = shared_tmp / "plain.txt", shared_tmp / "folder.msh"
     if MPI.COMM_WORLD.rank == 0:

@@ -15,15 +15,10 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
+from shells.analyses import phase_diagram
+from shells.analyses.phase_diagram import PhaseDiagramConfig, Task, compute_task, fit_all
 from shells.errors import InputError
-from shells.phase_diagram import (
-    PhaseDiagramConfig,
-    Task,
-    compute_task,
-    fit_all,
-    run_phase_diagram,
-)
-from shells.store import read_records
+from shells.files import read_records
 
 #: shallow caps at h/R = 0.04 lose symmetry in m = 2 (κ < 0 and the inverted shell) and snap with
 #: m = 0: modes up to 6 cover them, at half the inertia cost of the default 12
@@ -37,9 +32,9 @@ def diagram(tmp_path_factory):
     path = str(tmp_path_factory.mktemp("pd")) if c.rank == 0 else None
     out = c.bcast(path, root=0)
     cfg = PhaseDiagramConfig(**SMALL)
-    first = run_phase_diagram(cfg, out, limit=1, figure=False)
+    first = phase_diagram.run(cfg, out, limit=1, figure=False)
     recs_after_first = read_records(__import__("pathlib").Path(out) / "points.jsonl")
-    second = run_phase_diagram(cfg, out)
+    second = phase_diagram.run(cfg, out)
     recs = read_records(__import__("pathlib").Path(out) / "points.jsonl")
     return cfg, out, first, recs_after_first, second, recs
 
@@ -59,7 +54,7 @@ def test_interrupted_run_resumes_without_recomputing(diagram):
     assert second["stats"]["computed"] == n_grid - c.size + len(refine)
     assert all(r["status"] == "ok" for r in recs)
     # a third run finds everything done
-    third = run_phase_diagram(cfg, out, figure=False)
+    third = phase_diagram.run(cfg, out, figure=False)
     assert third["stats"]["computed"] == 0
 
 

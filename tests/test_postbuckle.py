@@ -1,6 +1,6 @@
-"""Post-buckling of the closed sphere on the 1D model (shells.postbuckle): the fundamental branch
-against the paper's Ψ3/h = -(κh/12)/(1 + (h/R)²/12), the axisymmetric bifurcation located by the
-common algorithm layer against the 1D model's own per-mode locator, and the subcritical branch
+"""Post-buckling of the closed sphere on the 1D model (shells.analyses.postbuckle): the fundamental
+branch against the paper's Ψ3/h = -(κh/12)/(1 + (h/R)²/12), the axisymmetric bifurcation located by
+the common algorithm layer against the 1D model's own per-mode locator, and the subcritical branch
 switched onto there (the paper's Fig. 3: κ falls as the pole dimples inwards).
 
 The 1D problem runs on MPI.COMM_SELF on every rank: every rank computes and asserts the same.
@@ -13,11 +13,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from shells import axisym
-from shells.geometry import Sphere
-from shells.postbuckle import CLOSED_PENALTY, PostbuckleConfig, postbuckle
-from shells.stability import Stability
-from shells.theory import sphere_psi3_linear
+from shells.algorithms.stability import Stability
+from shells.analyses import axisym_runs
+from shells.analyses.postbuckle import CLOSED_PENALTY, PostbuckleConfig, postbuckle
+from shells.geometry.shapes import Sphere
+from shells.theory import sphere_mode_n, sphere_psi3_linear
 
 H = 0.01
 
@@ -70,10 +70,10 @@ def test_bifurcation_located_and_agrees_with_the_per_mode_locator(sphere_run):
     assert cp["accuracy"] < 1e-4
     # the same model (the driver's penalty on closed shells), its own locator (bisection on
     # the per-mode inertia along chord-parametrised steps)
-    ref = axisym.critical(Sphere(1.0), H, 0.5, penalty=CLOSED_PENALTY)
+    ref = axisym_runs.critical(Sphere(1.0), H, 0.5, penalty=CLOSED_PENALTY)
     assert cp["kappa_h"] == pytest.approx(ref["kappa_h"], rel=1e-4)
     # the degree: 19 or 20 (the two cross 1e-4 apart; sphere_mode_n = 19.4)
-    assert abs(cp["mode_n"] - axisym.sphere_mode_n(H, 0.5)) < 1.0
+    assert abs(cp["mode_n"] - sphere_mode_n(H, 0.5)) < 1.0
 
 
 def test_subcritical_branch_starts_at_kappa_b_and_goes_down(sphere_run):
@@ -186,8 +186,8 @@ def test_postbuckle_cli_json_contract_and_shapes(capsys, shared_tmp):
         for key in ("kind", "kappa_R", "kappa_h", "mode_m", "mode_n"):
             assert key in cp, key
         assert cp["kind"] == "bifurcation" and cp["mode_m"] == 0
-        assert cp["kappa_h"] == pytest.approx(axisym.critical(Sphere(1.0), 0.05, 0.5,
-                                                              penalty=CLOSED_PENALTY)["kappa_h"],
+        assert cp["kappa_h"] == pytest.approx(axisym_runs.critical(Sphere(1.0), 0.05, 0.5,
+                                                                   penalty=CLOSED_PENALTY)["kappa_h"],
                                               rel=2e-4)
         pts = d["points"]
         for key in ("kappa_R", "kappa_h", "psi3_over_h", "energy", "newton_its", "branch",
@@ -232,7 +232,7 @@ def thick_run(tmp_path_factory):
     at the second, one point before the steps stall)."""
     from mpi4py import MPI
 
-    from shells.postbuckle import run_postbuckle
+    from shells.analyses.postbuckle import run_postbuckle
 
     c = MPI.COMM_WORLD
     out = c.bcast(str(tmp_path_factory.mktemp("pb_full")) if c.rank == 0 else None, root=0)
@@ -272,8 +272,8 @@ def test_an_interrupted_run_resumes_from_its_critical_point(thick_run, shared_tm
 
     from mpi4py import MPI
 
-    import shells.critical
-    from shells import postbuckle as pb
+    import shells.algorithms.switching
+    from shells.analyses import postbuckle as pb
 
     cfg, full_dir, full = thick_run
     kinds = [next(iter(r)) if "branch" not in r else r["branch"] for r in full]
@@ -287,7 +287,7 @@ def test_an_interrupted_run_resumes_from_its_critical_point(thick_run, shared_tm
     def no_follow(*args, **kwargs):
         raise AssertionError("the fundamental branch was followed again")
 
-    monkeypatch.setattr(shells.critical, "follow", no_follow)
+    monkeypatch.setattr(shells.algorithms.following, "follow", no_follow)
     resumed = pb.run_postbuckle(cfg, cut_dir)
     MPI.COMM_WORLD.barrier()  # rank 0 writes the file: read it once it has
     assert len(resumed) == len(full)
@@ -313,13 +313,13 @@ def test_a_side_that_cannot_switch_is_reported_and_the_run_goes_on(thick_run, sh
     (the run from the critical point's checkpoint, side +1's switch made to fail)."""
     from mpi4py import MPI
 
-    import shells.critical
-    from shells import postbuckle as pb
+    import shells.algorithms.switching
+    from shells.analyses import postbuckle as pb
 
     cfg, full_dir, full = thick_run
     cut_dir = shared_tmp / "pb_cut_fail"
     _cut_at_the_critical_point(full_dir, cut_dir)
-    switch = shells.critical.switch_branch
+    switch = shells.algorithms.switching.switch_branch
     tried = []
 
     def failing(*args, sign=1.0, **kwargs):
@@ -329,7 +329,7 @@ def test_a_side_that_cannot_switch_is_reported_and_the_run_goes_on(thick_run, sh
                                "fundamental branch at amplitudes (a test)")
         return switch(*args, sign=sign, **kwargs)
 
-    monkeypatch.setattr(shells.critical, "switch_branch", failing)
+    monkeypatch.setattr(shells.algorithms.switching, "switch_branch", failing)
     recs = pb.run_postbuckle(cfg, cut_dir)
     MPI.COMM_WORLD.barrier()
     sides = recs[-1]["summary"]["sides"]
@@ -360,13 +360,14 @@ def test_an_interrupted_side_resumes_after_its_last_point(thick_run, shared_tmp,
 
     from mpi4py import MPI
 
-    import shells.critical
-    from shells import postbuckle as pb
+    import shells.algorithms.switching
+    from shells.analyses import postbuckle as pb
 
     cfg, full_dir, full = thick_run
     cut_dir = shared_tmp / "pb_cut_side"
     lines = _cut_at_the_critical_point(full_dir, cut_dir)
-    monkeypatch.setattr(shells.critical, "follow", lambda *a, **k: pytest.fail("followed"))
+    monkeypatch.setattr(shells.algorithms.following, "follow", lambda *a, **k:
+                        pytest.fail("followed"))
 
     def kill(model, rec):
         if rec.get("side") == -1 and rec["index"] == 4:
@@ -434,7 +435,7 @@ def test_the_deep_dimple_turns_polygonal_at_located_secondary_bifurcations(monke
     two points whose counts it changed, its mode that block's, the rest of the branch as
     without locating (the same points to the last bit), nothing located in the blocks m = 1
     (the dimple sliding over the sphere) and none where a count only falls."""
-    from shells import postbuckle as pb
+    from shells.analyses import postbuckle as pb
 
     def run():
         return [r for r in postbuckle(PostbuckleConfig(Sphere(1.0), 0.05, sides=(-1,),
@@ -456,7 +457,7 @@ def test_the_deep_dimple_turns_polygonal_at_located_secondary_bifurcations(monke
     summary = next(r["side_end"] for r in recs if "side_end" in r)
     assert [c["mode_m"] for c in summary["critical"]] == [c["mode_m"] for _, c in located]
 
-    monkeypatch.setattr(pb._Secondary, "step", lambda self, *args: [])
+    monkeypatch.setattr(pb.SecondaryLocator, "step", lambda self, *args: [])
     plain = [r for r in run() if r.get("branch") == "bifurcated"]
     assert [(r["kappa"], r["psi3_pole_over_h"]) for r in plain] == \
         [(r["kappa"], r["psi3_pole_over_h"]) for r in down]

@@ -41,7 +41,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
 import reliability as rel  # noqa: E402
 
 from shells.errors import InputError  # noqa: E402
-from shells.store import append_record, read_records  # noqa: E402
+from shells.files import append_record, read_records  # noqa: E402
 
 #: natural steps of κR = 5 on a coarse P2 sphere: 5 points, about 0.2 s each
 BRANCH = ["branch", "--shape", "sphere", "--h-over-r", "0.05", "--kappa-h-max", "1", "--size",
@@ -119,9 +119,9 @@ def test_cli_refuses_a_corrupt_points_file_on_every_rank(capsys, shared_tmp):
 # ------------------------------------------------------------------------------------------
 def _branch_config():
     """``BRANCH``'s configuration, as ``shells branch`` builds it."""
-    from shells.branch import BranchConfig
-    from shells.continuation import ContinuationSettings
-    from shells.geometry import Sphere
+    from shells.algorithms.settings import ContinuationSettings
+    from shells.analyses.branch import BranchConfig
+    from shells.geometry.shapes import Sphere
 
     return BranchConfig(shape=Sphere(1.0), h_over_r=0.05, nu=0.5, kappa_end=20.0, size=0.3,
                         degree=2, continuation=ContinuationSettings(method="natural", ds=5.0,
@@ -132,7 +132,7 @@ def _branch_config():
 def reference(tmp_path_factory) -> list[dict] | None:
     """The uninterrupted branch, computed by rank 0 alone (None elsewhere): the same numbers
     as a 1-rank ``shells branch``, without one more process start."""
-    from shells.branch import run_branch
+    from shells.analyses.branch import run_branch
 
     if WORLD.rank != 0:
         return None
@@ -159,7 +159,7 @@ def test_sigint_and_sigterm_inside_petsc_callbacks_are_interruptions(monkeypatch
 def _interruptions(monkeypatch, tmp_path, capsys, reference) -> tuple[bool, str]:
     import os
 
-    from shells import solvers
+    from shells.algorithms import newton as solvers
     from shells.cli import main
 
     _one_rank(monkeypatch)
@@ -308,7 +308,7 @@ def test_branch_killed_torn_and_resumed(shared_tmp, reference):
             if sig == signal.SIGTERM and (len(lines) != 1 or "Traceback" in r.stderr
                                           or "interrupted (SIGTERM)" not in lines[0]):
                 problems.append(f"{sig.name}: stderr {r.stderr[-400:]}")
-            seen.update((rel._key(p), p) for p in rel.records(out, case))
+            seen.update((rel.record_key(p), p) for p in rel.records(out, case))
         with open(bfile, "a") as f:
             f.write(bfile.read_text().splitlines()[-1][:40])  # a write cut short
         final = rel.run(BRANCH, out)
@@ -351,10 +351,11 @@ def critical_reference(tmp_path_factory) -> Path:
 
 
 def _follow_indices(monkeypatch) -> list[int]:
-    """The indices of the points ``shells.critical.follow`` computes from now on."""
-    import shells.critical
+    """The indices of the points ``shells.algorithms.following.follow`` computes from now on."""
+    import shells.algorithms.following
+    import shells.algorithms.settings
 
-    real = shells.critical.follow
+    real = shells.algorithms.following.follow
     computed: list[int] = []
 
     def counting(*args, **kwargs):
@@ -362,7 +363,7 @@ def _follow_indices(monkeypatch) -> list[int]:
             computed.append(p.index)
             yield p, res, found
 
-    monkeypatch.setattr(shells.critical, "follow", counting)
+    monkeypatch.setattr(shells.algorithms.following, "follow", counting)
     return computed
 
 
@@ -407,13 +408,13 @@ def test_critical_interrupted_and_resumed(monkeypatch, capsys, tmp_path_factory,
     locate it again) and ends with the uninterrupted run's points, critical points and JSON
     (timings aside). A rerun of the finished run computes nothing (the critical point and its
     mode from the file and the checkpoint) and gives the same JSON."""
-    import shells.store
+    import shells.analyses.store
 
     ref = rel.records(critical_reference, CRITICAL)
     fold = next(r["critical_point"] for r in ref if "critical_point" in r)
     k = 1 if at == "early" else fold["after_point"]  # the fold lies between k and k + 1
     out = _shared_dir(tmp_path_factory, "critical-cut")
-    real = shells.store.save_state_checkpoint
+    real = shells.analyses.store.save_state_checkpoint
     saves = [0]
 
     def interrupted(*args, **kwargs):
@@ -422,10 +423,10 @@ def test_critical_interrupted_and_resumed(monkeypatch, capsys, tmp_path_factory,
             raise KeyboardInterrupt
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(shells.store, "save_state_checkpoint", interrupted)
+    monkeypatch.setattr(shells.analyses.store, "save_state_checkpoint", interrupted)
     rc, _, err = _cli(capsys, [*CRITICAL.argv, "-o", str(out)])
     assert rc == 130 and "interrupted (SIGINT); rerun the same command to resume" in err
-    monkeypatch.setattr(shells.store, "save_state_checkpoint", real)
+    monkeypatch.setattr(shells.analyses.store, "save_state_checkpoint", real)
     cut = rel.records(out, CRITICAL)
     assert [r["index"] for r in cut if "index" in r] == list(range(k + 2))
     assert len(cut) == k + 2 + (at != "early")  # the fold's record, dropped on the resume
@@ -453,7 +454,7 @@ def test_critical_interrupted_and_resumed(monkeypatch, capsys, tmp_path_factory,
 
 
 def test_critical_starts_afresh_under_another_configuration(monkeypatch, capsys,
-                                                           tmp_path_factory, critical_reference):
+                                                            tmp_path_factory, critical_reference):
     """A rerun with another configuration (here a shorter kappa range in longer steps: no
     critical point, 4 points) does not resume, with one log line, and computes from point 0;
     so does ``--restart`` with the same configuration; a checkpoint that cannot be read (a
@@ -512,9 +513,9 @@ def test_follow_resumes_exactly_on_the_algebraic_pitchforks():
     the run did: the same points and the same critical points (the pitchforks at kappa = 1
     and 2, located to 1e-8), to the last bit, the first step after the resume searched for a
     change of the point's counts like any other."""
-    from shells.algebraic import PitchforkProblem
-    from shells.continuation import ContinuationSettings
-    from shells.critical import CriticalSettings, follow
+    from shells.algorithms.following import follow
+    from shells.algorithms.settings import ContinuationSettings, CriticalSettings
+    from shells.problem.algebraic import PitchforkProblem
 
     st = ContinuationSettings(ds=0.1, ds_max=0.2, ds_unit="kappa")
     crit = CriticalSettings(rel_tol=1e-8, stop_at_fold=False)
@@ -539,9 +540,9 @@ def test_follow_resumes_exactly_with_the_quadratic_predictor():
     the fold x² + κ - 1 = 0, whose branch bends (the quadratic start is not the tangent
     predictor's), the resumed runs from every point take the run's points to the last bit,
     with its iterations, and locate its fold."""
-    from shells.algebraic import FoldProblem
-    from shells.continuation import ContinuationSettings
-    from shells.critical import CriticalSettings, follow
+    from shells.algorithms.following import follow
+    from shells.algorithms.settings import ContinuationSettings, CriticalSettings
+    from shells.problem.algebraic import FoldProblem
 
     st = ContinuationSettings(ds=0.05, ds_max=0.05, max_steps=40, predictor="quadratic")
     crit = CriticalSettings(rel_tol=1e-8, stop_at_fold=False)
@@ -595,9 +596,9 @@ def test_failed_corrector_steps_are_cut_and_the_run_recovers(monkeypatch, method
     """The pseudo-arclength corrector fails at the injected calls (before the fold, or in the
     locator next to it): the step is halved, and every later point is on the exact branch and
     the fold located to 1e-8 (x² + κ - 1 = 0: at κ = 1)."""
-    from shells.algebraic import FoldProblem
-    from shells.continuation import ContinuationSettings
-    from shells.critical import CriticalSettings, follow
+    from shells.algorithms.following import follow
+    from shells.algorithms.settings import ContinuationSettings, CriticalSettings
+    from shells.problem.algebraic import FoldProblem
 
     P = FoldProblem()
     hits = _inject(monkeypatch, P, method, calls, spoil)
@@ -620,9 +621,10 @@ def test_one_failure_anywhere_in_a_run_is_recovered(monkeypatch, method, spoil, 
     iterate, the corrector, the tangent at a converged point (which once went on with the
     failed factor and ended in a MUMPS error), the locator. Every arclength run ends with the
     fold at κ = 1 to 1e-8, every natural run on κ = 0.9, their points on the exact branch."""
-    from shells.algebraic import FoldProblem
-    from shells.continuation import ContinuationSettings, continuation
-    from shells.critical import CriticalSettings, follow
+    from shells.algorithms.continuation import continuation
+    from shells.algorithms.following import follow
+    from shells.algorithms.settings import ContinuationSettings, CriticalSettings
+    from shells.problem.algebraic import FoldProblem
 
     def run(calls: set[int]) -> list[int]:
         P = FoldProblem()
@@ -668,8 +670,9 @@ def test_one_failure_anywhere_in_a_run_is_recovered(monkeypatch, method, spoil, 
 def test_failed_natural_steps_are_cut_and_the_run_recovers(monkeypatch, method, spoil):
     """SNES (natural steps): the failed solves are retried with half the step; the factor of a
     failed factorisation is reset (else every later solve fails), the run lands on κ = 0.9."""
-    from shells.algebraic import FoldProblem
-    from shells.continuation import ContinuationSettings, continuation
+    from shells.algorithms.continuation import continuation
+    from shells.algorithms.settings import ContinuationSettings
+    from shells.problem.algebraic import FoldProblem
 
     P = FoldProblem()
     hits = _inject(monkeypatch, P, method, {3, 4}, spoil)
@@ -682,9 +685,9 @@ def test_failed_natural_steps_are_cut_and_the_run_recovers(monkeypatch, method, 
 
 def test_a_failed_inertia_factorisation_stops_with_a_message_and_the_next_one_works(
         monkeypatch):
-    from shells import stability
-    from shells.algebraic import FoldProblem
-    from shells.solvers import reset_factor
+    from shells.algorithms import stability
+    from shells.algorithms.newton import reset_factor
+    from shells.problem.algebraic import FoldProblem
 
     P = FoldProblem()
     stab = stability.Stability(P)
@@ -719,9 +722,9 @@ def test_slepc_failures_fall_back_on_the_inertia(monkeypatch, caplog, failures):
 
     from slepc4py import SLEPc
 
-    from shells.algebraic import PitchforkProblem
-    from shells.continuation import ContinuationSettings
-    from shells.critical import CriticalSettings, follow
+    from shells.algorithms.following import follow
+    from shells.algorithms.settings import ContinuationSettings, CriticalSettings
+    from shells.problem.algebraic import PitchforkProblem
 
     n = [0]
 
@@ -764,7 +767,8 @@ def test_a_continuation_that_gives_up_is_an_error_and_leaves_a_resumable_branch(
 
 
 def _gives_up(monkeypatch, tmp_path, reference) -> tuple[bool, str]:
-    from shells import drivers, solvers
+    from shells.algorithms import newton as solvers
+    from shells.analyses import branch
 
     _one_rank(monkeypatch)
     real = solvers.NewtonSolver.solve
@@ -778,12 +782,12 @@ def _gives_up(monkeypatch, tmp_path, reference) -> tuple[bool, str]:
     monkeypatch.setattr(solvers.NewtonSolver, "solve", failing)
     with pytest.raises(RuntimeError, match=r"stopped at kappa R = 10 before the end of the "
                        r"range, kappa R = 20: .* the same command resumes"):
-        drivers.branch_surface(_branch_config(), out)
+        branch.run_surface(_branch_config(), out)
     monkeypatch.setattr(solvers.NewtonSolver, "solve", real)
     case = rel.Case("branch", BRANCH, ["branch.jsonl"], True)
     kept = rel.records(out, case)
     assert [p["kappa_R"] for p in kept] == pytest.approx([0, 5, 10], rel=1e-12)
-    drivers.branch_surface(_branch_config(), out)
+    branch.run_surface(_branch_config(), out)
     got = rel.records(out, case)
     assert got[:len(kept)] == kept  # from the file, not recomputed
     diffs, _ = rel.compare(reference, got)

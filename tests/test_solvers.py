@@ -1,10 +1,11 @@
-"""Linear-solver plumbing (shells.solvers): a failed factorisation must not poison later ones."""
+"""Linear-solver plumbing (shells.algorithms.newton): a failed factorisation must not poison later
+ones."""
 
 import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from shells.solvers import DEFAULT_SNES_OPTIONS, configure_factor, setup_factor
+from shells.algorithms.newton import DEFAULT_SNES_OPTIONS, configure_factor, setup_factor
 
 
 def _tridiagonal(n: int, broken: bool) -> PETSc.Mat:
@@ -58,11 +59,11 @@ def _thin_sphere_profile(steps: int) -> tuple[np.ndarray, list[int], list[bool]]
     κh = 0.002, reached by Newton in ``steps`` equal load steps."""
     import math
 
+    from shells.algorithms.newton import NewtonSolver
     from shells.axisym import SNES_OPTIONS
     from shells.axisym.model import AxisymModel, AxisymParameters
-    from shells.geometry import Sphere
-    from shells.solvers import NewtonSolver
-    from shells.stimulus import CurvatureField
+    from shells.geometry.shapes import Sphere
+    from shells.geometry.stimulus import CurvatureField
 
     h = 0.001
     fld = CurvatureField(f"step(0.8 - theta, {0.25 * math.sqrt(h):.6g})")
@@ -139,8 +140,8 @@ def test_newton_with_the_native_lu_survives_a_zero_pivot():
     """A problem recommending PETSc's own LU whose Jacobian needs pivoting: E = x y - κ x
     (R = (y - κ, x), J = [[0, 1], [1, 0]]). Newton falls back to MUMPS and converges to
     (0, κ) in one step; a problem without the recommendation keeps MUMPS throughout."""
-    from shells.algebraic import AlgebraicProblem
-    from shells.solvers import NewtonSolver
+    from shells.algorithms.newton import NewtonSolver
+    from shells.problem.algebraic import AlgebraicProblem
 
     class Saddle(AlgebraicProblem):
         factor_options = {"pc_factor_mat_solver_type": "petsc",

@@ -4,11 +4,11 @@ import math
 
 import pytest
 
-from shells.geometry import Sphere
-from shells.mesh import MeshSpec, generate
-from shells.model import ModelParameters, ShellModel
-from shells.solvers import NewtonSolver
-from shells.stability import Stability
+from shells.algorithms.newton import NewtonSolver
+from shells.algorithms.stability import Stability
+from shells.geometry.shapes import Sphere
+from shells.surface.mesh import MeshSpec, generate
+from shells.surface.model import ModelParameters, ShellModel
 
 H = 0.05
 
@@ -55,7 +55,7 @@ def test_naghdi_loses_ellipticity_koiter_limit_does_not(meshes):
 
 
 # ------------------------------------------------------------------------------------------------
-# the banded Cholesky test of definiteness (stability._BandedCholesky) against eigenvalues
+# the banded Cholesky test of definiteness (stability.BandedCholesky) against eigenvalues
 # and MUMPS
 # ------------------------------------------------------------------------------------------------
 def _scaled_band_matrix(n: int, kd: int, lowest: float, seed: int):
@@ -97,12 +97,12 @@ def test_banded_cholesky_decides_definiteness_by_the_scaled_eigenvalue(lowest, d
     again)."""
     import numpy as np
 
-    from shells.stability import DEFINITE_MARGIN, _BandedCholesky
+    from shells.algorithms.stability import DEFINITE_MARGIN, BandedCholesky
 
     M, B = _scaled_band_matrix(300, 4, lowest, seed=int(1e6 * abs(lowest)) % 1000 + 7)
     assert abs(np.linalg.eigvalsh(B)[0] - lowest) < 1e-14 + 1e-9 * abs(lowest)
     ai, aj, values = M.getValuesCSR()
-    test = _BandedCholesky(ai, aj)
+    test = BandedCholesky(ai, aj)
     assert test.kd <= 4
     assert test.definite(values, DEFINITE_MARGIN) is definite
     bad = values.copy()
@@ -121,7 +121,7 @@ def test_banded_inertia_is_that_of_mumps_on_the_deep_cap():
     factorisation's); the test decides most blocks and leaves the indefinite and the nearly
     singular ones to the exact counts."""
     from shells.axisym import SNES_OPTIONS, AxisymModel, AxisymParameters
-    from shells.geometry import SphericalCap
+    from shells.geometry.shapes import SphericalCap
 
     model = AxisymModel(SphericalCap(1.0, math.radians(46.2)), AxisymParameters(h=0.01))
     ns = NewtonSolver(model, options=SNES_OPTIONS)
@@ -160,7 +160,7 @@ def test_orbit_cosine_measures_the_orbit_modulo_rigid_motions():
     (0); without rigid motions it is the plain |cos| with the tangent."""
     import numpy as np
 
-    from shells.problem import orbit_cosine
+    from shells.problem.interface import orbit_cosine
 
     rng = np.random.default_rng(7)
     t1, t2, r1, r2 = rng.standard_normal((4, 40))

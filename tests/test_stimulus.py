@@ -1,6 +1,6 @@
-"""Natural-curvature fields K = f(x) (f1 e1⊗e1 + f2 e2⊗e2) (shells.stimulus and both models):
-the field language and its refusals, f = 1 against the uniform stimulus, the anisotropic plate
-against its closed-form solution, and the two models against each other on a patterned cap."""
+"""Natural-curvature fields K = f(x) (f1 e1⊗e1 + f2 e2⊗e2) (shells.geometry.stimulus and both
+models): the field language and its refusals, f = 1 against the uniform stimulus, the anisotropic
+plate against its closed-form solution, and the two models against each other on a patterned cap."""
 
 from __future__ import annotations
 
@@ -11,8 +11,8 @@ import pytest
 from mpi4py import MPI
 
 from shells.errors import InputError
-from shells.geometry import Disk, SphericalCap
-from shells.stimulus import UNIFORM, CurvatureField
+from shells.geometry.shapes import Disk, SphericalCap
+from shells.geometry.stimulus import UNIFORM, CurvatureField
 
 CAP = SphericalCap(radius=1.0, theta=math.radians(30))
 H_OVER_R = 0.04
@@ -101,9 +101,9 @@ def test_bad_anisotropy_is_refused():
 # the 1D model
 # ------------------------------------------------------------------------------------------
 def _axisym_state(shape, fld, kappa, h_over_r=H_OVER_R, nu=0.5, cells=None):
+    from shells.algorithms.newton import NewtonSolver
     from shells.axisym import SNES_OPTIONS
     from shells.axisym.model import AxisymModel, AxisymParameters
-    from shells.solvers import NewtonSolver
 
     kw = {} if cells is None else {"cells": cells}
     m = AxisymModel(shape, AxisymParameters(h=h_over_r * shape.characteristic_size(), nu=nu,
@@ -121,7 +121,7 @@ def test_unit_field_reproduces_the_uniform_model_1d():
     uniform stimulus's to round-off (1e-12); the 30° cap's located fold to 1e-9: the forms
     differ in the order of their floating-point operations, and the located point moves with
     round-off by up to the Newton tolerance's effect (measured 2.8e-10)."""
-    from shells import axisym
+    from shells.analyses import axisym_runs
 
     base = _axisym_state(CAP, UNIFORM, 0.8)
     one = _axisym_state(CAP, CurvatureField(ONE), 0.0)
@@ -139,8 +139,8 @@ def test_unit_field_reproduces_the_uniform_model_1d():
         assert b.norm() <= 1e-12 * max(a.norm(), db.norm())
     assert abs(one.scalars()["energy"] - base.scalars()["energy"]) \
         < 1e-12 * abs(base.scalars()["energy"])
-    ref = axisym.critical(CAP, H_OVER_R, 0.5, direction="up")
-    fld = axisym.critical(CAP, H_OVER_R, 0.5, direction="up", kappa_field=CurvatureField(ONE))
+    ref = axisym_runs.critical(CAP, H_OVER_R, 0.5, direction="up")
+    fld = axisym_runs.critical(CAP, H_OVER_R, 0.5, direction="up", kappa_field=CurvatureField(ONE))
     assert ref["kind"] == fld["kind"] == "fold"
     assert abs(fld["kappa_R"] - ref["kappa_R"]) < 1e-9 * abs(ref["kappa_R"])
     assert abs(ref["kappa_R"] - 1.3934) < 2e-4  # the converged value (docs/paper-comparison)
@@ -177,8 +177,8 @@ def test_patterned_cap_1d_refuses_a_field_of_the_azimuth():
 # the surface model, against the uniform stimulus and the 1D model
 # ------------------------------------------------------------------------------------------
 def _surface_state(fld, kappa, shell):
-    from shells.model import ModelParameters, ShellModel
-    from shells.solvers import NewtonSolver
+    from shells.algorithms.newton import NewtonSolver
+    from shells.surface.model import ModelParameters, ShellModel
 
     # P3, the default under a field (P2 locks: the curvature potential 2 % off on this mesh)
     m = ShellModel(shell, ModelParameters(h=H_OVER_R, nu=0.5, degree=3, quadrature_degree=6,
@@ -194,7 +194,7 @@ def _surface_state(fld, kappa, shell):
 
 @pytest.fixture(scope="module")
 def cap_mesh():
-    from shells.mesh import MeshSpec, generate
+    from shells.surface.mesh import MeshSpec, generate
 
     return generate(MeshSpec(CAP, h=H_OVER_R, size=0.1, layer_elements=3.0), MPI.COMM_WORLD)
 
@@ -307,7 +307,7 @@ def test_equivalent_load_splits_into_normal_and_tangential_forces():
         c = -2 * (1 + m.nu) / 3 * m.h**2
         us = (u[0] * m.r0t + u[1] * m.z0t) / m.g
         tangential = c * 2 / S.R * m.K[0].dx(0) / m.g * us * m.area_density * m.dx
-        relief = -c * m._normal_load()[1] * u[1] * m.area_density * m.dx
+        relief = -c * m.normal_load()[1] * u[1] * m.area_density * m.dx
         split = [fem.assemble_scalar(fem.form(f)) for f in (tangential, relief)]
         b.destroy()
     diff = work["equivalent"] - work["equivalent_normal"]
@@ -320,9 +320,9 @@ def test_stimulus_against_its_equivalent_dead_loads():
     equivalent load gives the stimulus's Ψ3 profile to its nonlinearity (measured 0.19 %); the
     normal forces alone (the outlook's hypothesis) are 18 % off, the local pressure of Eq. (5)
     96 % (it misses Δf) - benchmarks/outlook_hypothesis.py has the widths and thicknesses."""
+    from shells.algorithms.newton import NewtonSolver
     from shells.axisym import SNES_OPTIONS
     from shells.axisym.model import AxisymModel, AxisymParameters
-    from shells.solvers import NewtonSolver
 
     S = SphericalCap(1.0, math.pi)
     prof = {}
@@ -354,7 +354,7 @@ def test_tables_reproduce_the_expression(shared_tmp):
     the cap (4 columns): the 1D model's fold within 1e-4 and 3e-3 of the expression's
     (measured 2.2e-3 with 3000 points: their spacing, 0.017 R, against the ring's edge width
     0.05 R)."""
-    from shells import axisym
+    from shells.analyses import axisym_runs
 
     fld = CurvatureField(RING)
     rng = np.random.default_rng(3)
@@ -371,10 +371,10 @@ def test_tables_reproduce_the_expression(shared_tmp):
     MPI.COMM_WORLD.barrier()
     files = {"profile": CurvatureField.from_file(str(shared_tmp / "ring_profile.csv")),
              "points": CurvatureField.from_file(str(shared_tmp / "ring_points.txt"))}
-    ref = axisym.critical(CAP, H_OVER_R, 0.5, direction="up", kappa_field=fld)["kappa_R"]
+    ref = axisym_runs.critical(CAP, H_OVER_R, 0.5, direction="up", kappa_field=fld)["kappa_R"]
     for name, tol in (("profile", 1e-4), ("points", 3e-3)):
-        got = axisym.critical(CAP, H_OVER_R, 0.5, direction="up",
-                              kappa_field=files[name])["kappa_R"]
+        got = axisym_runs.critical(CAP, H_OVER_R, 0.5, direction="up",
+                                   kappa_field=files[name])["kappa_R"]
         assert abs(got / ref - 1) < tol, (name, got, ref)
     # a table travels with a run's description (resume checks, headers)
     again = CurvatureField.from_description({"field": files["profile"].describe()})

@@ -1,4 +1,4 @@
-"""Surfaces known only by their mesh (``shells.surface_fit``, issue 17): the normal and the
+"""Surfaces known only by their mesh (``shells.geometry.surface_fit``, issue 17): the normal and the
 curvatures fitted at the nodes converge on a cap's meshes; orientation is made consistent or
 refused; the surface model on such a mesh matches the exact cap's, and runs on a mesh that is
 not a surface of revolution (a stretched cap) with a gauge that fixes every rigid motion.
@@ -19,8 +19,8 @@ import pytest
 from mpi4py import MPI
 
 from shells.errors import InputError
-from shells.geometry import SphericalCap
-from shells.surface_fit import MeshSurface
+from shells.geometry.shapes import SphericalCap
+from shells.geometry.surface_fit import MeshSurface
 
 WRITER = Path(__file__).parent / "data" / "gmsh_cap.py"
 CAP = SphericalCap(1.0, math.radians(30))
@@ -28,14 +28,14 @@ CAP = SphericalCap(1.0, math.radians(30))
 
 def _user_mesh(path: Path, *args: str) -> tuple[np.ndarray, np.ndarray]:
     """A cap meshed by gmsh outside shells (written on rank 0), and its nodes and triangles."""
-    from shells.mesh import _gmsh_model
+    from shells.surface.mesh import gmsh_model
 
     c = MPI.COMM_WORLD
     if c.rank == 0 and not path.exists():
         subprocess.run([sys.executable, str(WRITER), str(path), *args], check=True,
                        capture_output=True)
     c.barrier()
-    with _gmsh_model("fit") as g:
+    with gmsh_model("fit") as g:
         g.merge(str(path))
         tags, x, _ = g.model.mesh.getNodes()
         _, _, en = g.model.mesh.getElements(2)
@@ -131,9 +131,10 @@ def test_surface_model_on_a_fitted_cap_matches_the_cap(meshes):
     here, where Ψ3 h is of the order of the rotation squared). (At P3 its fold, `critical`
     with the default settings, is κR = 1.393448 with the fitted R = 1.0000019, against
     1.393434 for the meridian table: 1.0e-5.)"""
-    from shells.continuation import ContinuationSettings, continuation
-    from shells.mesh import MeshSpec, generate, load_mesh
-    from shells.model import ModelParameters, ShellModel
+    from shells.algorithms.continuation import continuation
+    from shells.algorithms.settings import ContinuationSettings
+    from shells.surface.mesh import MeshSpec, generate, load_mesh
+    from shells.surface.model import ModelParameters, ShellModel
 
     path = meshes / "cap_default.msh"
     x, tri = _user_mesh(path)
@@ -153,10 +154,11 @@ def test_a_mesh_not_of_revolution_runs_with_a_fixed_gauge(meshes):
     a MeshSurface; the 3-2-1 gauge leaves no rigid motion free (the reference Hessian is
     definite) and the surface model follows it to κR = 1 (the apex moves down against the
     mean, as a cap's, and the energy is within 5 % of the unstretched cap's)."""
-    from shells.continuation import ContinuationSettings, continuation
-    from shells.mesh import load_mesh
-    from shells.model import ModelParameters, ShellModel
-    from shells.stability import Stability
+    from shells.algorithms.continuation import continuation
+    from shells.algorithms.settings import ContinuationSettings
+    from shells.algorithms.stability import Stability
+    from shells.surface.mesh import load_mesh
+    from shells.surface.model import ModelParameters, ShellModel
 
     path = meshes / "stretched.msh"
     _user_mesh(path, "--stretch", "1.05")

@@ -1,4 +1,5 @@
-"""Branch switching at a bifurcation (shells.critical.switch_branch), on the surface model.
+"""Branch switching at a bifurcation (shells.algorithms.switching.switch_branch), on the surface
+model.
 
 A spherical cap (θ = 30°, h/R = 0.04, ν = ½) under κ < 0 loses its rotational symmetry in a
 supercritical pitchfork into the m = 2 mode, a (cos 2φ, sin 2φ) pair: exactly double on the
@@ -20,14 +21,16 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from shells import axisym
-from shells.continuation import ContinuationSettings, continuation
-from shells.critical import CriticalSettings, follow, switch_branch
-from shells.geometry import SphericalCap
-from shells.mesh import MeshSpec, generate
-from shells.model import ModelParameters, ShellModel
-from shells.solvers import NewtonSolver
-from shells.stability import Stability
+from shells.algorithms.continuation import continuation
+from shells.algorithms.following import follow
+from shells.algorithms.newton import NewtonSolver
+from shells.algorithms.settings import ContinuationSettings, CriticalSettings
+from shells.algorithms.stability import Stability
+from shells.algorithms.switching import switch_branch
+from shells.analyses import axisym_runs
+from shells.geometry.shapes import SphericalCap
+from shells.surface.mesh import MeshSpec, generate
+from shells.surface.model import ModelParameters, ShellModel
 
 
 def test_switch_onto_the_buckled_branch_of_a_cap():
@@ -123,7 +126,7 @@ def test_switch_onto_the_buckled_branch_of_a_cap():
     # cross-validation (this cap is the θ = 30°, κ < 0 case of tests/test_cross_validation*.py):
     # the 1D model's first critical point is the same m = 2 bifurcation, within 2 % of both the
     # located κ_c and the pitchfork's κ_0 (measured: -0.6622, located -0.6625, κ_0 -0.6630)
-    one_d = axisym.critical(shape, h, 0.5, direction="down", m_max=6, kappa_max=2.0)
+    one_d = axisym_runs.critical(shape, h, 0.5, direction="down", m_max=6, kappa_max=2.0)
     assert one_d["kind"] == "bifurcation" and one_d["mode_m"] == 2
     assert cp.kappa == pytest.approx(one_d["kappa_R"], rel=0.02)
     assert kappa0 == pytest.approx(one_d["kappa_R"], rel=0.02)

@@ -14,8 +14,9 @@ from mpi4py import MPI
 from scipy import integrate
 
 from shells.errors import InputError
-from shells.geometry import Torus, make_shape, shape_from_description
-from shells.mesh import MeshSpec, generate
+from shells.geometry.catalogue import make_shape, shape_from_description
+from shells.geometry.shapes import Torus
+from shells.surface.mesh import MeshSpec, generate
 
 TORUS = Torus(1.0, 3.0)
 
@@ -75,7 +76,7 @@ def test_mesh_area_converges_at_the_second_order_rate():
 
 @pytest.fixture(scope="module")
 def torus_model():
-    from shells.model import ModelParameters, ShellModel
+    from shells.surface.model import ModelParameters, ShellModel
 
     sm = generate(MeshSpec(TORUS, h=0.05, size=0.5), MPI.COMM_WORLD)
     return ShellModel(sm, ModelParameters(h=0.05, nu=0.5, degree=2))
@@ -85,7 +86,7 @@ def test_pole_free_gauge_fixes_the_rigid_motions(torus_model):
     """Six constraints on the outer equator (u_y at azimuth 0 and π, u_x at π/2, u_z at all
     three): the Hessian of the reference state is positive definite (a rigid motion left free
     would be a zero eigenvalue)."""
-    from shells.stability import Stability
+    from shells.algorithms.stability import Stability
 
     m = torus_model
     m.w.x.array[:] = 0.0
@@ -106,7 +107,8 @@ def test_pole_free_gauge_costs_an_axisymmetric_state_nothing(torus_model):
     from dolfinx.fem.petsc import assemble_vector
     from petsc4py import PETSc
 
-    from shells.continuation import ContinuationSettings, continuation
+    from shells.algorithms.continuation import continuation
+    from shells.algorithms.settings import ContinuationSettings
 
     m = torus_model
     m.w.x.array[:] = 0.0
@@ -135,9 +137,10 @@ def test_a_user_mesh_of_a_torus(tmp_path_factory):
     import sys
     from pathlib import Path
 
-    from shells.continuation import ContinuationSettings, continuation
-    from shells.mesh import load_mesh
-    from shells.model import ModelParameters, ShellModel
+    from shells.algorithms.continuation import continuation
+    from shells.algorithms.settings import ContinuationSettings
+    from shells.surface.mesh import load_mesh
+    from shells.surface.model import ModelParameters, ShellModel
 
     c = MPI.COMM_WORLD
     d = Path(c.bcast(str(tmp_path_factory.mktemp("torus")) if c.rank == 0 else None, root=0))

@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 from mpi4py import MPI
 
-from shells.geometry import SphericalCap
+from shells.geometry.shapes import SphericalCap
 
 WRITER = Path(__file__).parent / "data" / "gmsh_cap.py"
 CAP = SphericalCap(1.0, math.radians(30))
@@ -40,8 +40,8 @@ def test_a_user_mesh_gets_its_meridian_and_rim(user_cap):
     """The 30° cap's mesh (no sidecar, no boundary elements): the shape is a meridian table
     through its nodes (pole radius 1.6e-4 off at this mesh's 0.05 spacing by the pole), the
     rim is tagged, area and rim length are the cap's."""
-    from shells.geometry import MeridianTable
-    from shells.mesh import load_mesh
+    from shells.geometry.meridian import MeridianTable
+    from shells.surface.mesh import load_mesh
 
     sm = load_mesh(user_cap, MPI.COMM_WORLD)
     assert isinstance(sm.shape, MeridianTable) and not sm.shape.closed
@@ -55,9 +55,10 @@ def test_the_surface_model_on_a_user_mesh_matches_the_cap(user_cap):
     """P2, natural steps to κR = 1 (h/R = 0.04): energy and Ψ3 within 2e-3 of the built-in
     cap's on its default P2 mesh (both meshes differ). At P3 (the default on tables) the fold
     is κR = 1.393434 on this mesh against the 1D model's 1.39343 (`shells critical --mesh`)."""
-    from shells.continuation import ContinuationSettings, continuation
-    from shells.mesh import MeshSpec, generate, load_mesh
-    from shells.model import ModelParameters, ShellModel
+    from shells.algorithms.continuation import continuation
+    from shells.algorithms.settings import ContinuationSettings
+    from shells.surface.mesh import MeshSpec, generate, load_mesh
+    from shells.surface.model import ModelParameters, ShellModel
 
     st = ContinuationSettings(method="natural", ds=0.5, ds_max=0.5)
     out = []
@@ -105,7 +106,7 @@ def test_cli_branch_on_a_user_mesh(user_cap, shared_tmp, capsys):
     against the built-in cap's: Ψ3 at the end within 2e-3 (the two meshes differ); the header
     records the mesh file."""
     from shells.cli import main
-    from shells.store import read_with_header
+    from shells.files import read_with_header
 
     ends = []
     for shape_args, out in ((["--mesh", str(user_cap)], "user"),
@@ -130,7 +131,7 @@ def test_nodes_without_a_pole_are_refused():
     import numpy as np
 
     from shells.errors import InputError
-    from shells.geometry import MeridianTable
+    from shells.geometry.meridian import MeridianTable
 
     t, p = np.meshgrid(np.linspace(0.05, CAP.theta, 20), np.linspace(0, 2 * math.pi, 16))
     x = np.column_stack([(np.sin(t) * np.cos(p)).ravel(), (np.sin(t) * np.sin(p)).ravel(),

@@ -4,7 +4,7 @@ negative, huge, tiny, text, empty) given to any option of any subcommand is eith
 the options with a documented range are refused exactly outside it.
 
 Only the cheap validation paths run: every computation a subcommand would start (meshing,
-axisym.critical/branch, run_branch, run_phase_diagram) is replaced by a stub that raises
+axisym_runs.critical/branch, run_branch, run) is replaced by a stub that raises
 WorkStartedError on every rank, so a value that passes validation ends there.
 
 The properties are driven by hypothesis (python3-hypothesis) when it is importable, with a fixed
@@ -157,8 +157,8 @@ def anything(v: str) -> None:
     return None
 
 
-THETA = in_range(0.1, 179.9)  # a cap (shells.geometry: THETA_MIN_DEG, CAP_THETA_MAX_DEG)
-H = in_range(1e-5, 0.5)  # shells.cli.common.H_OVER_R_MIN, H_OVER_R_MAX
+THETA = in_range(0.1, 179.9)  # a cap (shells.geometry.shapes: THETA_MIN_DEG, CAP_THETA_MAX_DEG)
+H = in_range(1e-5, 0.5)  # shells.parameters.H_OVER_R_MIN, H_OVER_R_MAX
 NU = in_range(-1.0, 0.5, lo_open=True)
 RADIUS = in_range(0.5, 1e6)  # shells.cli.common.RADIUS_RANGE
 
@@ -203,7 +203,7 @@ OPTIONS = [
     (BRANCH, "--method", one_of("arclength", "natural")),
     (["branch", "--shape=sphere", "--h-over-r=0.05", "--model=axisym", "-o", "out"],
      "--kappa-r-max", nonzero_up_to(100 / 0.05)),
-    (KD, "--h-over-r", in_range(1e-5, 0.2)),  # KnockdownConfig: a sphere up to h/R = 0.2
+    (KD, "--h-over-r", H),  # shells.parameters: one range for every entry point
     (KD, "--nu", NU),
     (KD, "--width", in_range(0.0, 50.0, lo_open=True)),
     (KD, "--amplitudes", in_range(0.0, 10.0)),
@@ -353,12 +353,12 @@ def test_mesh_parameter_files_of_any_content(no_work, ex):
 
 
 # ------------------------------------------------------------------------------------------
-# the memory estimate behind --size (shells.mesh.check_mesh_size)
+# the memory estimate behind --size (shells.surface.mesh.check_mesh_size)
 # ------------------------------------------------------------------------------------------
 def test_cell_estimate_against_gmsh():
     """Two cheap meshes with and without the rim layer: the estimate is within -20 %/+50 %."""
-    from shells.geometry import Sphere, SphericalCap
-    from shells.mesh import MeshSpec, estimate_cells, generate
+    from shells.geometry.shapes import Sphere, SphericalCap
+    from shells.surface.mesh import MeshSpec, estimate_cells, generate
 
     for spec in (MeshSpec(SphericalCap(1.0, math.radians(30)), h=0.01, size=0.1),
                  MeshSpec(Sphere(1.0), size=0.15)):
@@ -367,12 +367,12 @@ def test_cell_estimate_against_gmsh():
 
 
 def test_memory_check_reads_the_machine(no_work, monkeypatch):
-    from shells import mesh
+    from shells.surface import mesh
 
-    real = mesh._memory_limit()  # MemTotal (or a smaller cgroup limit)
+    real = mesh.memory_limit()  # MemTotal (or a smaller cgroup limit)
     assert real is None or real >= 2**27
     argv = ["mesh", "cap", "--theta-deg=30", "--size=0.01"]  # ~21 000 cells: 42 MB + 256 MB
-    monkeypatch.setattr(mesh, "_memory_limit", lambda: 2**40)
+    monkeypatch.setattr(mesh, "memory_limit", lambda: 2**40)
     assert outcome(argv) == "reached"
-    monkeypatch.setattr(mesh, "_memory_limit", lambda: 200 * 2**20)
+    monkeypatch.setattr(mesh, "memory_limit", lambda: 200 * 2**20)
     assert outcome(argv) == "refused"

@@ -4,48 +4,38 @@ matrices, condensed on the meridian's chain of cells (problem layer: ``ModeForms
 ``block_inertia``, ``block_factor`` and ``condensed_hessian``; and the Jacobian assembled
 from its element matrices, ``AxisymModel.assemble_jacobian``).
 
-Why. A stability check of the 1D model tests every Fourier block H_m (m = 0..12) at every point
-of a branch. Assembled, each block is a sparse matrix of 3000 rows and half-bandwidth 20, and
-the test was: assemble the five coefficient matrices C_k of H_m = Σ m^k C_k through PETSc,
-combine their values per m, and factor each block by LAPACK's banded Cholesky (21 ms a point
-on the θ̄ = 8 cap, of which the kernels are 1.8 ms). Here the same test works on element
-matrices:
+A stability check of the 1D model tests every Fourier block H_m at every point of a branch.
+Assembling each block (sparse, half-bandwidth 20) through PETSc from the five coefficient
+matrices C_k of H_m = Σ m^k C_k and factoring it costs far more than the FFCx kernels
+themselves, so the test works on element matrices instead (the costs: docs/model.md,
+"Stability and critical points"):
 
 1. ``CellTabulator``: one C loop (compiled once with cffi, cached like FFCx's own modules)
    calls the forms' FFCx kernels cell by cell into an array of element matrices: no sparse
-   insertion, no copies out of PETSc (1.8 ms for the five C_k against 4.7 ms; H_0's element
-   matrices follow from C_0's by a change of unknowns, ``sum_difference``).
-2. ``ChainCholesky``: the nine interior DOFs of a cell (its P3 and P2 interior nodes) couple to
-   nothing outside it, so they are eliminated cell by cell (a 9 x 9 Cholesky factor in a second
-   C loop, which also forms each block's element matrix Σ m^k C_k on the fly: cells outer,
-   blocks inner, four or eight blocks in lockstep, one per SIMD lane (eight where the CPU has
-   AVX-512: ``_lanes_for``), each lane with the arithmetic of its block alone), and what
-   remains is the Schur complement on the vertex DOFs, a block
-   tridiagonal matrix of 6 x 6 blocks (half-bandwidth 11, 1200 rows), factored by a banded
-   Cholesky in C (as ``dpbtrf``, the lanes' bands interleaved: ``definite_chain``):
-   1.2 ms for m = 0..12 all told in two passes of eight lanes (1.45 ms in four of four),
-   against 2.8 ms one block after another. Boundary
-   conditions (on vertex DOFs only) are applied to that complement: a constrained DOF's row and
-   column are zeroed and its diagonal is one, which is what the complement of the constrained
-   matrix is.
-3. The exact count of a block that is not definite, from that complement without the margin:
-   its inertia is the block's but for one positive eigenvalue per eliminated DOF
-   (Haynsworth), at 1200 rows instead of 3000. ``ChainCholesky.inertia`` counts it by an LDLᵀ
-   without pivoting that vouches for its count within a growth bound; ``ChainCholesky.schur``
-   hands it to MUMPS as CSR values where it does not.
-4. ``ChainCholesky.factor`` (``ChainLU``): the block for solves, the interior factors kept and
-   the complement factored by LAPACK's banded LU (the shift-invert eigensolves' operator).
-   ``ElementAssembler``: a form's matrix from element matrices, written in place.
+   insertion, no copies out of PETSc (H_0's element matrices follow from C_0's by a change
+   of unknowns, ``sum_difference``).
+2. ``ChainCholesky``: the nine interior DOFs of a cell couple to nothing outside it, so they
+   are eliminated cell by cell (a 9 x 9 Cholesky in a second C loop, which also forms each
+   block's element matrix Σ m^k C_k on the fly, four or eight blocks in lockstep, one per
+   SIMD lane, each lane with the arithmetic of its block alone); what remains is the Schur
+   complement on the vertex DOFs, block tridiagonal (half-bandwidth 11), factored by a
+   banded Cholesky in C (``definite_chain``). Boundary conditions (on vertex DOFs only) are
+   applied to that complement: a constrained DOF's row and column zeroed and its diagonal
+   one, which is what the complement of the constrained matrix is.
+3. The exact count of a block that is not definite, from that complement without the
+   margin: its inertia is the block's but for one positive eigenvalue per eliminated DOF
+   (Haynsworth). ``ChainCholesky.inertia`` counts it by an LDLᵀ without pivoting that
+   vouches for its count within a growth bound; ``ChainCholesky.schur`` hands it to MUMPS.
+4. ``ChainCholesky.factor`` (``ChainLU``): the block for solves (the shift-invert
+   eigensolves' operator). ``ElementAssembler``: a form's matrix from element matrices.
 
-The answer is the same as the banded Cholesky's of the assembled block: H - τ diag(H) is
-positive definite iff its interior blocks are and the Schur complement is (Haynsworth), and
-both factorisations are backward stable, so they can differ only for a block within round-off
-of the margin τ (``shells.stability.DEFINITE_MARGIN``), where either answer is a correct one.
-A block that fails gets its exact count (3.).
-
-One process only (the caller asks only then); a mesh whose cells do not form one chain, or a
-constrained interior DOF, makes ``ChainCholesky`` refuse at construction (``ValueError``) and
-the caller keeps the assembled path.
+The answer is the banded Cholesky's of the assembled block: H - τ diag(H) is positive
+definite iff its interior blocks are and the Schur complement is (Haynsworth), and both
+factorisations are backward stable, so they can differ only for a block within round-off of
+the margin τ (``shells.algorithms.stability.DEFINITE_MARGIN``), where either answer is
+correct. One process only; a mesh whose cells do not form one chain, or a constrained
+interior DOF, makes ``ChainCholesky`` refuse at construction (``ValueError``) and the caller
+keeps the assembled path.
 """
 
 from __future__ import annotations
@@ -65,447 +55,24 @@ __all__ = ["CellTabulator", "ChainCholesky", "ChainLU", "ElementAssembler", "sum
 
 log = logging.getLogger("shells")
 
-_C_DECL = """
-void tabulate_cells(int nforms, const uintptr_t* kernels, int ncells, int n, double* out,
-                    const double* const* coeffs, const int* ncoeff,
-                    const double* const* consts, const double* coords, int ncoord);
-int band_ldlt(double* ab, int n, int kd, double growth, int* counts);
-int band_lu(double* ab, int n, int kd, int* piv);
-void chain_solve(int ncells, int ni, int nv, const double* keep_l, const double* keep_y,
-                 const int* idof, const int* vdof, const char* fixed, int size,
-                 const double* lu, const int* piv, const double* b, double* z, double* bv,
-                 double* x);
-void scatter_add(long n, const long* pos, const double* w, long nout, double* out);
-void sum_difference(int ncells, int n, int npairs, const int* s, const int* d,
-                    const double* C, double* out);
-"""
+
+def _source(name: str) -> str:
+    """The text of the C source or header ``name`` beside this module: the loops themselves
+    (``chain.c``; ``chain_lanes.c``, a template instantiated per SIMD lane width) and their
+    declarations for cffi (``chain.h``, ``chain_lanes.h``)."""
+    return (Path(__file__).with_name(name)).read_text(encoding="utf-8")
+
+
+_C_DECL = _source("chain.h")
 
 #: the declarations of ``_C_LANES``'s functions (their names end in _l@LANES@)
-_C_LANES_DECL = """
-void condense_chain_l@LANES@(int nb, int ncells, int n, int nf, const double* E,
-                    const double* weights, const int* order, int ni, const int* irow, int nv,
-                    const int* vrow, double scale, double* band, int size, int* failed,
-                    double* keep_l, double* keep_y);
-void definite_chain_l@LANES@(int nb, int ncells, int n, int nf, const double* E,
-                    const double* weights, const int* order, int ni, const int* irow, int nv,
-                    const int* vrow, double scale, int size, double* band, const long* zero,
-                    const long* zero_start, const long* diag, const long* diag_start, int* ok);
-"""
+_C_LANES_DECL = _source("chain_lanes.h")
 
-_C_COMMON = r"""
-#include <math.h>
-#include <stdint.h>
-#include <string.h>
-typedef void (*kernel_t)(double*, const double*, const double*, const double*, const int*,
-                         const uint8_t*);
-/* out[f, c] = the element matrix (n x n) of form f on cell c, by its FFCx kernel */
-void tabulate_cells(int nforms, const uintptr_t* kernels, int ncells, int n, double* out,
-                    const double* const* coeffs, const int* ncoeff,
-                    const double* const* consts, const double* coords, int ncoord)
-{
-  const long size = (long)n * n;
-  for (int f = 0; f < nforms; ++f)
-  {
-    kernel_t kernel = (kernel_t)kernels[f];
-    double* A = out + (long)f * ncells * size;
-    memset(A, 0, sizeof(double) * size * ncells);
-    for (int c = 0; c < ncells; ++c)
-      kernel(A + c * size, coeffs[f] + (long)c * ncoeff[f], consts[f],
-             coords + (long)c * ncoord * 3, 0, 0);
-  }
-}
-
-/* The blocks' matrices are assembled from the element matrices E (nf forms x cells x n x n,
-   row-major) as sum_f weights[b, f] E[f, c], cells taken in chain order (cell order[p] between
-   chain vertices p and p + 1), diagonals scaled by `scale`; the ni interior rows irow[p] of a
-   cell are eliminated by Cholesky, and the Schur complement on its nv vertex rows vrow[p]
-   (lower vertex first) is added into LAPACK's lower band storage (kd = nv - 1, column-major
-   (kd + 1) x size, entry (i, j) at (i - j) + j (kd + 1)). NL blocks go through a cell in
-   lockstep, one per lane of GCC's vector type (SIMD where the CPU has it): every lane reads
-   the same element entry and its own weight; each lane's arithmetic is that of its block
-   alone, in the same order (no fused multiply-adds: -ffp-contract=off), so the values do not
-   depend on which blocks share a call. A lane whose interior pivot is not positive (or not
-   finite) goes on with a unit pivot, its block already marked failed. */
-#define NI_MAX 32
-#define NV_MAX 32
-#define NK_MAX 8
-/* LAPACK's banded LU with partial pivoting (the process's own liblapack: PETSc's, scipy's) */
-void dgbtrf_(const int* m, const int* n, const int* kl, const int* ku, double* ab,
-             const int* ldab, int* ipiv, int* info);
-
-/* ab: n columns of 3 kd + 1 doubles (column-major general band storage, A[i, j] at row
-   2 kd + i - j, kd rows of fill-in above), factored in place as dgbtrf; piv 1-based. Returns
-   dgbtrf's info (0: factored, > 0: an exactly zero pivot). */
-int band_lu(double* ab, int n, int kd, int* piv)
-{
-  const int ldab = 3 * kd + 1;
-  int info = 0;
-  dgbtrf_(&n, &n, &kd, &kd, ab, &ldab, piv, &info);
-  return info;
-}
-
-/* LDL^T without pivoting of a symmetric band matrix (LAPACK's lower band storage, as
-   condense_chain's, kd <= NV_MAX), in place; counts[0] / counts[1] = the negative / positive
-   pivots. Returns 0, or 1 where the factorisation cannot vouch for the inertia: a zero or
-   non-finite diagonal entry or pivot, or growth: a diagonal entry of |L| |D| |L^T| (its
-   off-diagonal entries are bounded by the diagonal's geometric means) above `growth` times
-   |a_jj|. Within that growth, the factors are those of A + dA with |dA_ij| <= (kd + 1) eps
-   growth sqrt(|a_ii a_jj|) (to first order): the inertia of the diagonally scaled matrix up
-   to a perturbation of that size (the error analysis of Cholesky, Higham, Accuracy
-   and Stability of Numerical Algorithms, ch. 10, applies to LDL^T without pivoting). */
-int band_ldlt(double* ab, int n, int kd, double growth, int* counts)
-{
-  const int kd1 = kd + 1;
-  double v[NV_MAX + 1];
-  counts[0] = counts[1] = 0;
-  if (kd > NV_MAX) return 1;
-  for (int j = 0; j < n; ++j)
-  {
-    const int k0 = j - kd > 0 ? j - kd : 0;
-    const double ajj = ab[j * kd1];
-    if (!(fabs(ajj) > 0.0) || !isfinite(ajj)) return 1;
-    /* v_k = L_jk d_k for k < j; d_j = a_jj - sum L_jk v_k; g = sum L_jk^2 |d_k| + |d_j| */
-    double d = ajj, g = 0.0;
-    for (int k = k0; k < j; ++k)
-    {
-      const double ljk = ab[(j - k) + k * kd1];
-      const double dk = ab[k * kd1];
-      v[k - k0] = ljk * dk;
-      d -= ljk * v[k - k0];
-      g += ljk * ljk * fabs(dk);
-    }
-    g += fabs(d);
-    if (!(fabs(d) > 0.0) || !isfinite(d) || !(g <= growth * fabs(ajj))) return 1;
-    ab[j * kd1] = d;
-    counts[d < 0.0 ? 0 : 1] += 1;
-    const int iend = j + kd < n - 1 ? j + kd : n - 1;
-    for (int i = j + 1; i <= iend; ++i)
-    {
-      /* L_ij = (a_ij - sum_{k >= i - kd} L_ik v_k) / d_j */
-      double t = ab[(i - j) + j * kd1];
-      const int ks = i - kd > k0 ? i - kd : k0;
-      for (int k = ks; k < j; ++k) t -= ab[(i - k) + k * kd1] * v[k - k0];
-      ab[(i - j) + j * kd1] = t / d;
-    }
-  }
-  return 0;
-}
-
-/* out[c] = 2 T^T C[c] T for each cell's n x n matrix, T the change of unknowns that maps the
-   pairs (s[k], d[k]) to their half sum and half difference (x'_s = (x_s + x_d) / 2,
-   x'_d = (x_s - x_d) / 2), the identity elsewhere: columns, then rows. */
-void sum_difference(int ncells, int n, int npairs, const int* s, const int* d,
-                    const double* C, double* out)
-{
-  const long nn = (long)n * n;
-  for (long i = 0; i < (long)ncells * nn; ++i) out[i] = 2.0 * C[i];
-  for (int c = 0; c < ncells; ++c)
-  {
-    double* A = out + c * nn;
-    for (int r = 0; r < n; ++r)
-      for (int k = 0; k < npairs; ++k)
-      {
-        const double a = A[r * n + s[k]], b = A[r * n + d[k]];
-        A[r * n + s[k]] = 0.5 * (a + b);
-        A[r * n + d[k]] = 0.5 * (a - b);
-      }
-    for (int k = 0; k < npairs; ++k)
-      for (int j = 0; j < n; ++j)
-      {
-        const double a = A[s[k] * n + j], b = A[d[k] * n + j];
-        A[s[k] * n + j] = 0.5 * (a + b);
-        A[d[k] * n + j] = 0.5 * (a - b);
-      }
-  }
-}
-
-/* Solves with a matrix condensed by condense_chain (nb = 1, its factors kept) and its vertex
-   Schur complement factored by LAPACK's dgbtrf (lu: (2 kd + kd + 1) x size, column-major,
-   kl = ku = kd; piv: its 1-based row interchanges): H x = b is L z = b_I per cell, then
-   S x_V = b_V - sum Y^T z (dgbtrs' algorithm: the row interchanges and L, then U), then
-   L^T x_I = z - Y x_V. idof[p * ni + i]: the global DOF of chain cell p's interior row i;
-   vdof[q]: the global DOF of the condensed vertex index q; fixed[q]: q is constrained (its
-   coupling to the interior is dropped: the constrained matrix's column is zero). z (cells x
-   ni) and bv (size) are work arrays. */
-void chain_solve(int ncells, int ni, int nv, const double* keep_l, const double* keep_y,
-                 const int* idof, const int* vdof, const char* fixed, int size,
-                 const double* lu, const int* piv, const double* b, double* z, double* bv,
-                 double* x)
-{
-  const int half = nv / 2, kd = nv - 1, ldab = 3 * kd + 1;
-  double xl[NV_MAX];
-  for (int q = 0; q < size; ++q) bv[q] = b[vdof[q]];
-  for (int p = 0; p < ncells; ++p)
-  {
-    const double* l = keep_l + (long)p * ni * ni;
-    const double* y = keep_y + (long)p * ni * nv;
-    double* zp = z + (long)p * ni;
-    for (int i = 0; i < ni; ++i)
-    {
-      double t = b[idof[p * ni + i]];
-      for (int j = 0; j < i; ++j) t -= l[i * ni + j] * zp[j];
-      zp[i] = t / l[i * ni + i];
-    }
-    const long base = (long)p * half;
-    for (int j = 0; j < nv; ++j) xl[j] = 0.0;
-    for (int i = 0; i < ni; ++i)
-      for (int j = 0; j < nv; ++j) xl[j] += y[i * nv + j] * zp[i];
-    for (int j = 0; j < nv; ++j)
-      if (!fixed[base + j]) bv[base + j] -= xl[j];
-  }
-  /* L: the interchanges and unit lower factor, column by column (entries at row 2 kd + i - j) */
-  for (int j = 0; j < size - 1; ++j)
-  {
-    const int lm = kd < size - 1 - j ? kd : size - 1 - j;
-    const int jp = piv[j] - 1;
-    if (jp != j) { double t = bv[jp]; bv[jp] = bv[j]; bv[j] = t; }
-    const double* col = lu + (long)j * ldab + 2 * kd;
-    for (int i = 1; i <= lm; ++i) bv[j + i] -= col[i] * bv[j];
-  }
-  /* U: upper with 2 kd superdiagonals, U[i, j] at row 2 kd + i - j of column j */
-  for (int j = size - 1; j >= 0; --j)
-  {
-    const double* col = lu + (long)j * ldab;
-    bv[j] /= col[2 * kd];
-    const double t = bv[j];
-    const int i0 = j - 2 * kd > 0 ? j - 2 * kd : 0;
-    for (int i = i0; i < j; ++i) bv[i] -= col[2 * kd + i - j] * t;
-  }
-  for (int q = 0; q < size; ++q) x[vdof[q]] = bv[q];
-  for (int p = 0; p < ncells; ++p)
-  {
-    const double* l = keep_l + (long)p * ni * ni;
-    const double* y = keep_y + (long)p * ni * nv;
-    double* zp = z + (long)p * ni;
-    const long base = (long)p * half;
-    for (int j = 0; j < nv; ++j) xl[j] = fixed[base + j] ? 0.0 : bv[base + j];
-    for (int i = 0; i < ni; ++i)
-    {
-      double t = zp[i];
-      for (int j = 0; j < nv; ++j) t -= y[i * nv + j] * xl[j];
-      zp[i] = t;
-    }
-    for (int i = ni - 1; i >= 0; --i)
-    {
-      double t = zp[i];
-      for (int j = i + 1; j < ni; ++j) t -= l[j * ni + i] * zp[j];
-      zp[i] = t / l[i * ni + i];
-      x[idof[p * ni + i]] = zp[i];
-    }
-  }
-}
-
-/* out = the sum of w[i] at pos[i], added in the order of i: np.bincount(pos, w)'s values, bit
-   for bit (the same additions in the same order), without its new array */
-void scatter_add(long n, const long* pos, const double* w, long nout, double* out)
-{
-  for (long j = 0; j < nout; ++j) out[j] = 0.0;
-  for (long i = 0; i < n; ++i) out[pos[i]] += w[i];
-}
-"""
+_C_COMMON = _source("chain.c")
 
 #: the lane-dependent part: typedefs and functions for NL = @LANES@ lanes, instantiated for
 #: each width in ``_WIDTHS`` (``_lanes_source``)
-_C_LANES = r"""#define NL @LANES@
-typedef double v4 __attribute__((vector_size(NL * sizeof(double))));
-/* the same in memory the caller allocated: no alignment beyond a double's assumed */
-typedef double v4u __attribute__((vector_size(NL * sizeof(double)), aligned(sizeof(double))));
-
-/* One cell p for the NL lanes of weights w: the interior factor L (a, lower) and L^-1 A_iv
-   (y) kept, the Schur complement's lower triangle in s. Returns the failed lanes (bit l). */
-static int condense_cell(int nf, const double* E, int ncells, int n, const int* order, int p,
-                         const v4* w, int ni, const int* irow, int nv, const int* vrow,
-                         double scale, v4 a[NI_MAX][NI_MAX], v4 y[NI_MAX][NV_MAX],
-                         v4 s[NV_MAX][NV_MAX])
-{
-  const long nn = (long)n * n;
-  const int* ir = irow + (long)p * ni;
-  const int* vr = vrow + (long)p * nv;
-  const v4 zero4 = {0.0, 0.0, 0.0, 0.0};
-  const double* Ec[NK_MAX];
-  int bad = 0;
-  for (int f = 0; f < nf; ++f) Ec[f] = E + ((long)f * ncells + order[p]) * nn;
-#define ENTRY(r, c, out) { const long o_ = (long)(r) * n + (c); v4 t_ = zero4; \
-    for (int f_ = 0; f_ < nf; ++f_) { t_ += w[f_] * Ec[f_][o_]; } out = t_; }
-  for (int i = 0; i < ni; ++i)
-  {
-    for (int j = 0; j <= i; ++j) ENTRY(ir[i], ir[j], a[i][j]);
-    a[i][i] *= scale;
-    for (int j = 0; j < nv; ++j) ENTRY(ir[i], vr[j], y[i][j]);
-  }
-  for (int i = 0; i < nv; ++i)
-  {
-    for (int j = 0; j <= i; ++j) ENTRY(vr[i], vr[j], s[i][j]);
-    s[i][i] *= scale;
-  }
-#undef ENTRY
-  /* Cholesky a = L L^T (lower, in place), y <- L^-1 y, column by column */
-  for (int k = 0; k < ni; ++k)
-  {
-    v4 d = a[k][k];
-    for (int j = 0; j < k; ++j) d -= a[k][j] * a[k][j];
-    for (int l = 0; l < NL; ++l)
-    {
-      if (!(d[l] > 0.0)) { bad |= 1 << l; d[l] = 1.0; }
-      d[l] = sqrt(d[l]);
-    }
-    a[k][k] = d;
-    for (int i = k + 1; i < ni; ++i)
-    {
-      v4 t = a[i][k];
-      for (int j = 0; j < k; ++j) t -= a[i][j] * a[k][j];
-      a[i][k] = t / d;
-    }
-    for (int j = 0; j < nv; ++j)
-    {
-      v4 t = y[k][j];
-      for (int q = 0; q < k; ++q) t -= a[k][q] * y[q][j];
-      y[k][j] = t / d;
-    }
-  }
-  for (int i = 0; i < nv; ++i)
-    for (int j = 0; j <= i; ++j)
-    {
-      v4 t = s[i][j];
-      for (int k = 0; k < ni; ++k) t -= y[k][i] * y[k][j];
-      s[i][j] = t;
-    }
-  return bad;
-}
-
-/* The lanes' weights for blocks g .. g + NL - 1 (lanes past the last block repeat it: their
-   results are not stored). */
-static void lane_weights(int nb, int nf, const double* weights, int g, v4* w)
-{
-  for (int l = 0; l < NL; ++l)
-  {
-    const int b = g + l < nb ? g + l : nb - 1;
-    for (int f = 0; f < nf; ++f) w[f][l] = weights[(long)b * nf + f];
-  }
-}
-
-/* Each block's Schur complement into its own band (band + b (kd + 1) size); failed[b] = 1 if
-   an interior pivot of block b is not positive. With nb = 1, keep_l and keep_y (if not NULL)
-   receive each chain cell's interior factor L (ni x ni, lower) and L^-1 A_iv (ni x nv), for
-   solves (chain_solve). */
-void condense_chain(int nb, int ncells, int n, int nf, const double* E, const double* weights,
-                    const int* order, int ni, const int* irow, int nv, const int* vrow,
-                    double scale, double* band, int size, int* failed, double* keep_l,
-                    double* keep_y)
-{
-  const int kd1 = nv, half = nv / 2;
-  v4 a[NI_MAX][NI_MAX], y[NI_MAX][NV_MAX], sv[NV_MAX][NV_MAX], w[NK_MAX];
-  for (int b = 0; b < nb; ++b) failed[b] = 1;
-  if (ni > NI_MAX || nv > NV_MAX || nf > NK_MAX) return;
-  for (long i = 0; i < (long)nb * kd1 * size; ++i) band[i] = 0.0;
-  for (int g = 0; g < nb; g += NL)
-  {
-    const int lanes = nb - g < NL ? nb - g : NL;
-    int bad = 0;
-    lane_weights(nb, nf, weights, g, w);
-    for (int p = 0; p < ncells; ++p)
-    {
-      bad |= condense_cell(nf, E, ncells, n, order, p, w, ni, irow, nv, vrow, scale, a, y, sv);
-      if (nb == 1 && keep_l && keep_y)
-      {
-        double* kl = keep_l + (long)p * ni * ni;
-        double* ky = keep_y + (long)p * ni * nv;
-        for (int i = 0; i < ni; ++i)
-        {
-          for (int j = 0; j < ni; ++j) kl[i * ni + j] = j <= i ? a[i][j][0] : 0.0;
-          for (int j = 0; j < nv; ++j) ky[i * nv + j] = y[i][j][0];
-        }
-      }
-      const long base = (long)p * half;
-      for (int l = 0; l < lanes; ++l)
-      {
-        double* ab = band + (long)(g + l) * kd1 * size;
-        for (int i = 0; i < nv; ++i)
-          for (int j = 0; j <= i; ++j) ab[(i - j) + (base + j) * kd1] += sv[i][j][l];
-      }
-    }
-    for (int l = 0; l < lanes; ++l) failed[g + l] = bad >> l & 1;
-  }
-}
-
-/* Definiteness tests of nb blocks (condensed as condense_chain's, diagonals scaled by
-   `scale`): the rows and columns zero[zero_start[b] ..] of block b's band set to 0 and the
-   entries diag[diag_start[b] ..] to `scale`, then ok[b] = 1 if every interior pivot, every band
-   entry and diagonal is finite and positive as a left-looking banded Cholesky (LAPACK's
-   dpbtrf) requires, else 0. NL blocks in lockstep as in condense_chain, their bands
-   interleaved (lanes innermost) in the work space band ((kd + 1) x size x NL doubles). */
-void definite_chain(int nb, int ncells, int n, int nf, const double* E, const double* weights,
-                    const int* order, int ni, const int* irow, int nv, const int* vrow,
-                    double scale, int size, double* band_, const long* zero,
-                    const long* zero_start, const long* diag, const long* diag_start, int* ok)
-{
-  const int kd1 = nv, kd = nv - 1, half = nv / 2;
-  v4 a[NI_MAX][NI_MAX], y[NI_MAX][NV_MAX], sv[NV_MAX][NV_MAX], w[NK_MAX];
-  const v4 zero4 = {0.0, 0.0, 0.0, 0.0};
-  v4u* band = (v4u*)band_;  /* lanes innermost: band[i][l] */
-  int good[NL];
-  if (ni > NI_MAX || nv > NV_MAX || nf > NK_MAX)
-  {
-    for (int b = 0; b < nb; ++b) ok[b] = 0;
-    return;
-  }
-  for (int g = 0; g < nb; g += NL)
-  {
-    int bad = 0;  /* bit l: lane l failed */
-    lane_weights(nb, nf, weights, g, w);
-    for (long i = 0; i < (long)kd1 * size; ++i) band[i] = zero4;
-    for (int p = 0; p < ncells; ++p)
-    {
-      bad |= condense_cell(nf, E, ncells, n, order, p, w, ni, irow, nv, vrow, scale, a, y, sv);
-      const long base = (long)p * half;
-      for (int i = 0; i < nv; ++i)
-        for (int j = 0; j <= i; ++j) band[(i - j) + (base + j) * kd1] += sv[i][j];
-    }
-    for (int l = 0; l < NL; ++l) good[l] = !(bad >> l & 1);
-    /* each block's conditions, then the checks and the Cholesky, all lanes at once */
-    for (int l = 0; l < NL; ++l)
-    {
-      const int b = g + l < nb ? g + l : nb - 1;
-      for (long z = zero_start[b]; z < zero_start[b + 1]; ++z) band[zero[z]][l] = 0.0;
-      for (long z = diag_start[b]; z < diag_start[b + 1]; ++z) band[diag[z]][l] = scale;
-    }
-    for (long i = 0; i < (long)kd1 * size; ++i)
-      for (int l = 0; l < NL; ++l) good[l] &= isfinite(band[i][l]);
-    for (int j = 0; j < size; ++j)
-      for (int l = 0; l < NL; ++l) good[l] &= band[(long)j * kd1][l] > 0.0;
-    bad = 0;
-    for (int j = 0; j < size; ++j)
-    {
-      const int k0 = j - kd > 0 ? j - kd : 0;
-      v4 d = band[(long)j * kd1];
-      for (int k = k0; k < j; ++k)
-      {
-        const v4 lk = band[(j - k) + (long)k * kd1];
-        d -= lk * lk;
-      }
-      for (int l = 0; l < NL; ++l)
-      {
-        if (!(d[l] > 0.0)) { bad |= 1 << l; d[l] = 1.0; }
-        d[l] = sqrt(d[l]);
-      }
-      band[(long)j * kd1] = d;
-      const int iend = j + kd < size - 1 ? j + kd : size - 1;
-      for (int i = j + 1; i <= iend; ++i)
-      {
-        v4 t = band[(i - j) + (long)j * kd1];
-        const int ks = i - kd > k0 ? i - kd : k0;
-        for (int k = ks; k < j; ++k)
-          t -= band[(i - k) + (long)k * kd1] * band[(j - k) + (long)k * kd1];
-        band[(i - j) + (long)j * kd1] = t / d;
-      }
-    }
-    for (int l = 0; l < NL; ++l)
-      if (g + l < nb) ok[g + l] = good[l] && !(bad >> l & 1);
-  }
-}
-
-#undef NL
-"""
+_C_LANES = _source("chain_lanes.c")
 
 _LIBRARY: Any = None
 
@@ -526,10 +93,9 @@ def _cpu_flags() -> set[str]:
 # it (its four double lanes are definite_chain's), named in the module's hash: no -march=native,
 # as the cache folder may serve another machine
 _CFLAGS = ["-O3", "-ffp-contract=off"] + (["-mavx2"] if "avx2" in _cpu_flags() else [])
-#: the lane widths built: 8 too where the CPU has AVX-512 (on this machine's AMD EPYC, whose
-#: AVX-512 units are 256 bits wide, a pass of eight blocks costs less than two of four: the 13
-#: blocks of the θ̄ = 8 cap's check 1.2 instead of 1.45 ms), and ``_lanes_for`` picks one per
-#: call. Each lane's
+#: the lane widths built: 8 too where the CPU has AVX-512 (a pass of eight blocks costs less
+#: than two of four, even where the AVX-512 units are 256 bits wide: docs/model.md,
+#: "Stability and critical points"), and ``_lanes_for`` picks one per call. Each lane's
 #: arithmetic is its block's alone, in the same order (no fused multiply-adds): the values do
 #: not depend on the width
 _WIDTHS = (4, 8) if "avx512f" in _cpu_flags() else (4,)
@@ -559,15 +125,27 @@ _C_DECLARATIONS = _C_DECL + "".join(_lanes_source(_C_LANES_DECL, n) for n in _WI
 _LDFLAGS = ["-l:liblapack.so.3"]
 
 
-def _cache_dir() -> Path:
-    """The package's cache folder (``shells.formcache.cache_root``), where the C loop is
+def cache_dir() -> Path:
+    """The package's cache folder (``shells.problem.formcache.cache_root``), where the C loop is
     built."""
-    from shells.formcache import cache_root
+    from shells.problem.formcache import cache_root
 
     return cache_root()
 
 
-def _library() -> Any:
+def loaded() -> bool:
+    """Whether the compiled C loop is loaded in this process."""
+    return _LIBRARY is not None
+
+
+def unload() -> None:
+    """Forget the loaded C loop: the next ``library()`` loads it again (or builds it, into
+    ``cache_dir()``), as a new process would."""
+    global _LIBRARY
+    _LIBRARY = None
+
+
+def library() -> Any:
     """The compiled C loop (cffi module ``lib``, ``ffi``): built on first use into the cache
     folder under a name that hashes its source, atomically (parallel test workers may build it
     at once), and loaded from there afterwards."""
@@ -580,7 +158,7 @@ def _library() -> Any:
                         + cffi.__version__).encode()
                        ).hexdigest()[:12]
     name = f"_shells_cells_{tag}"
-    folder = _cache_dir()
+    folder = cache_dir()
     found = sorted(folder.glob(f"{name}*.so")) if folder.is_dir() else []
     if not found:
         folder.mkdir(parents=True, exist_ok=True)
@@ -603,11 +181,17 @@ def sum_difference(C: np.ndarray, s: np.ndarray, d: np.ndarray, out: np.ndarray)
     """out[c] = 2 Tᵀ C[c] T for each of the matrices C (cells x n x n, C-contiguous, as
     ``out``), T the change of unknowns x'_s = (x_s + x_d)/2, x'_d = (x_s - x_d)/2 of the index
     pairs (s[k], d[k]) (the identity elsewhere); the arithmetic of numpy's
-    ``0.5 * (a + b)``, ``0.5 * (a - b)`` on columns, then rows."""
+    ``0.5 * (a + b)``, ``0.5 * (a - b)`` on columns, then rows.
+
+    Args:
+        C: the element matrices (cells x n x n).
+        s, d: the index pairs (int arrays of equal length).
+        out: receives the result (the shape of ``C``).
+    """
     if C.shape != out.shape or C.ndim != 3 or not (C.flags.c_contiguous
                                                    and out.flags.c_contiguous):
         raise ValueError("C and out: C-contiguous arrays of one shape (cells, n, n)")
-    lib = _library()
+    lib = library()
     ffi = lib.ffi
     s = np.ascontiguousarray(s, dtype=np.intc)
     d = np.ascontiguousarray(d, dtype=np.intc)
@@ -627,7 +211,7 @@ class CellTabulator:
         from dolfinx.fem import IntegralType
 
         self.forms = list(forms)
-        lib = _library()
+        lib = library()
         self._lib, self._ffi = lib.lib, lib.ffi
         pointers = []
         for f in self.forms:
@@ -707,7 +291,7 @@ class ElementAssembler:
             raise ValueError("an element entry outside the form's pattern")
         self._indptr, self._indices = indptr.astype(np.int32), indices.astype(np.int32)
         self._pos, self._rows = np.ascontiguousarray(pos, dtype=np.int64), rows
-        lib = _library()
+        lib = library()
         self._lib, self._ffi = lib.lib, lib.ffi
         self._masks: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
 
@@ -742,8 +326,8 @@ class ElementAssembler:
 
     def create_matrix(self) -> Any:
         """A sequential AIJ matrix of the form's pattern whose value array is a numpy array
-        ``set`` writes in place (``setValuesCSR`` costs 0.35 ms on the θ̄ = 8 cap's 2000
-        rows, the write 0.01 ms), with identity local-to-global maps (dolfinx's assembler can
+        ``set`` writes in place (``setValuesCSR`` costs many times the write; docs/design-notes.md,
+        "The 1D model's assembly"), with identity local-to-global maps (dolfinx's assembler can
         still assemble into it)."""
         from petsc4py import PETSc
 
@@ -849,7 +433,7 @@ class ChainCholesky:
         self._vrow = np.ascontiguousarray(rows, dtype=np.intc)
         self._lanes: np.ndarray | None = None  # ``definite``'s work space
 
-    def _constraint_indices(self, dofs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def constraint_indices(self, dofs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Band positions of the rows and columns of constrained DOFs, and of their diagonal."""
         key = dofs.tobytes()
         if key not in self._constraint_cache:
@@ -887,12 +471,12 @@ class ChainCholesky:
         E = np.ascontiguousarray(E, dtype=np.float64)
         weights = _weights(E, powers, own)
         nf = len(E)
-        lib = _library()
+        lib = library()
         ffi = lib.ffi
         ptr = lambda a, t: ffi.cast(t, ffi.from_buffer(a))  # noqa: E731
         zs, ds = [], []
         for b in range(nb):
-            zero, diagonal = self._constraint_indices(np.asarray(constrained[b]))
+            zero, diagonal = self.constraint_indices(np.asarray(constrained[b]))
             zs.append(zero)
             ds.append(diagonal)
         zero = np.ascontiguousarray(np.concatenate(zs), dtype=np.int64)
@@ -920,7 +504,7 @@ class ChainCholesky:
         (blocks x lower band storage, no conditions applied) and which failed (an interior
         block not positive definite). ``keep`` (one block only): arrays (cells x ni x ni,
         cells x ni x nv) that receive the cells' interior factors."""
-        lib = _library()
+        lib = library()
         ffi = lib.ffi
         E = np.ascontiguousarray(E, dtype=np.float64)
         ncells, n = E.shape[1], E.shape[2]
@@ -960,7 +544,7 @@ class ChainCholesky:
             if failed[b] or not np.isfinite(band).all():
                 out.append(None)
                 continue
-            zero, diagonal = self._constraint_indices(np.asarray(constrained[b]))
+            zero, diagonal = self.constraint_indices(np.asarray(constrained[b]))
             band[zero] = 0.0
             band[diagonal] = 1.0
             out.append(band)
@@ -998,12 +582,12 @@ class ChainCholesky:
                  ) -> list[tuple[int, int, int] | None]:
         """``inertia`` of several blocks (``powers`` one row per block), their condensations in
         one C call, four or eight blocks in lockstep with the arithmetic each has alone (the
-        same counts as one at a time, at less than half the cost for four)."""
+        same counts as one at a time, at a fraction of the cost)."""
         if len(powers) != len(own) or len(own) != len(constrained):
             raise ValueError("inconsistent blocks")
         if not own:
             return []
-        lib = _library()
+        lib = library()
         ffi = lib.ffi
         out: list[tuple[int, int, int] | None] = []
         for band in self._condensed_blocks(E, powers, own, constrained):
@@ -1058,9 +642,10 @@ class ChainCholesky:
 class ChainLU:
     """Solves with one block factored on the chain (``ChainCholesky.factor``): each cell's
     interior DOFs by their Cholesky factor, the vertex Schur complement by LAPACK's banded LU
-    with partial pivoting (``dgbtrf``, half-bandwidth 11 on 1200 rows for the 1D model's
-    Fourier blocks): H x = b to the accuracy of a backward stable factorisation, in about a
-    third of MUMPS' time per solve (the shift-invert eigensolves' operator)."""
+    with partial pivoting (``dgbtrf``, half-bandwidth 11 for the 1D model's Fourier blocks):
+    H x = b to the accuracy of a backward stable factorisation, faster than MUMPS on the
+    assembled block (the shift-invert eigensolves' operator; docs/model.md, "Stability and
+    critical points")."""
 
     def __init__(self, chain: ChainCholesky, ab: np.ndarray,
                  keep: tuple[np.ndarray, np.ndarray], fixed: np.ndarray) -> None:
@@ -1068,12 +653,13 @@ class ChainLU:
         lower = ab.reshape(size, kd + 1).T  # lower[i - j, j] = A[i, j], i >= j
         # general band storage for dgbtrf, column-major (column j = row j of g here): A[i, j]
         # at row 2 kd + i - j (kl = ku = kd, plus kd rows of fill-in above). Not scipy's
-        # wrapper: importing scipy.linalg costs 0.2 s, a tenth of a θ̄ = 8 run
+        # wrapper: importing scipy.linalg is a noticeable share of a short 1D run
+        # (docs/design-notes.md, "The 1D model's assembly")
         g = np.zeros((size, 3 * kd + 1))
         for d in range(kd + 1):
             g[: size - d, 2 * kd + d] = lower[d, : size - d]  # below the diagonal: A[j + d, j]
             g[d:, 2 * kd - d] = lower[d, : size - d]  # above: A[j, j + d] = A[j + d, j]
-        lib = _library()
+        lib = library()
         piv = np.zeros(size, dtype=np.intc)
         info = lib.lib.band_lu(lib.ffi.cast("double*", lib.ffi.from_buffer(g)), size, kd,
                                lib.ffi.cast("int*", lib.ffi.from_buffer(piv)))
@@ -1094,7 +680,7 @@ class ChainLU:
 
     def solve(self, b: np.ndarray, x: np.ndarray) -> None:
         """x = H^-1 b (arrays of the block's local DOFs, one process; x C-contiguous)."""
-        lib = _library()
+        lib = library()
         ffi = lib.ffi
         b = np.ascontiguousarray(b, dtype=np.float64)
         if not (x.flags.c_contiguous and x.dtype == np.float64 and x.shape == b.shape):

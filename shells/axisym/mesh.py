@@ -1,7 +1,7 @@
 """The meridian mesh of the axisymmetric model (problem layer): a 1D interval mesh of the
 meridian parameter, graded towards a free rim.
 
-Geometry. The reference meridian (r°(t), z°(t)) of a ``shells.geometry`` shape (Sphere,
+Geometry. The reference meridian (r°(t), z°(t)) of a ``shells.geometry.shapes`` shape (Sphere,
 SphericalCap, EllipsoidalCap, Disk) is parametrised by its own parameter t (the colatitude of the
 sphere/cap, the parametric colatitude of the spheroid, the radius of the disk) on a 1D interval
 mesh of [0, t_max]; g(t) = |x°'(t)| converts to arclength, ds = g dt (g = R on a sphere, so the
@@ -18,19 +18,23 @@ from typing import Any
 import numpy as np
 
 from shells.errors import InputError
-from shells.geometry import (
-    Disk,
-    EllipsoidalCap,
-    MeridianTable,
-    Shape,
-    SphericalCap,
-    perfect_shape,
-)
+from shells.geometry.catalogue import perfect_shape
+from shells.geometry.meridian import MeridianTable
+from shells.geometry.shapes import Disk, EllipsoidalCap, Shape, SphericalCap
 
-__all__ = ["MeridianMesh", "make_meridian_nodes"]
+__all__ = ["MeridianMesh", "check_supported", "make_meridian_nodes"]
 
 
-def _supported(shape: Any) -> None:
+def check_supported(shape: Any) -> None:
+    """Refuse a shape the 1D model cannot take.
+
+    Args:
+        shape: the shape.
+
+    Raises:
+        InputError: if it is not a surface of revolution with a pole, or not one of the
+            1D model's shapes.
+    """
     if not getattr(shape, "of_revolution", True):
         raise InputError("the mesh is not a surface of revolution about the z axis (nor a "
                          "torus): the 1D model needs one; the surface model takes it "
@@ -59,6 +63,16 @@ def make_meridian_nodes(shape: Shape, h: float, cells: int, layer_cells: float,
     Closed shapes: uniform in arclength. A free rim: from the rim inwards, cells of arclength
     ``sqrt(R h) / layer_cells`` growing by ``grading`` up to the bulk size S / cells (S: the
     meridian's length), then uniform; the nodes are mapped back to t through s(t).
+
+    Args:
+        shape: the shell of revolution.
+        h: the thickness.
+        cells: the bulk cells.
+        layer_cells: cells per sqrt(R h) at a free rim.
+        grading: the growth factor of the cells away from the rim.
+
+    Returns:
+        The nodes, ascending.
     """
     # an imperfect sphere is meshed as its perfect sphere (nodes uniform in the angle from the
     # pole): every amplitude of a knock-down curve shares one mesh, so that states, residuals

@@ -1,8 +1,9 @@
 """The axisymmetric model's kinematics and energy (problem layer): ``AxisymModel``, a
-``shells.problem.Problem`` whose stability blocks are the Fourier modes m
+``shells.problem.interface.Problem`` whose stability blocks are the Fourier modes m
 (``shells.axisym.modes``).
 
-Energy (same normalisation as ``shells.model``, Young's modulus scaled out, per reference area)::
+Energy (same normalisation as ``shells.surface.model``, Young's modulus scaled out, per reference
+area)::
 
     U = ∫ (1-ν)|a - a°|² + ν tr²(a - a°) + (h²/3) [(1-ν)|b - b̄|² + ν tr²(b - b̄)] dω,
     b̄ = b° + κ a°,   dω = r° g dt dφ,
@@ -31,36 +32,42 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from shells.axisym.mesh import MeridianMesh, _supported, make_meridian_nodes
-from shells.errors import InputError
-from shells.formcache import cache_root, compiled_derived, file_tag
-from shells.formproblem import FormProblem, dkappa_ufl
-from shells.geometry import (
-    Disk,
-    EllipsoidalCap,
-    ImperfectSphere,
-    MeridianTable,
-    Shape,
-    SphericalCap,
+from shells.axisym.kinematics import (
+    JIT_OPTIONS,
+    Jet,
+    cross,
+    dirichlet,
+    dot,
+    is_sphere,
+    meridian_ufl,
+    read_inputs,
+    same_inputs,
 )
-from shells.problem import ModeInfo, orbit_cosine
-from shells.stimulus import UNIFORM, CurvatureField, field_radius
+from shells.axisym.mesh import MeridianMesh, check_supported, make_meridian_nodes
+from shells.errors import InputError
+from shells.geometry.shapes import Shape
+from shells.geometry.stimulus import UNIFORM, CurvatureField, field_radius
+from shells.parameters import check_nu
+from shells.problem.formcache import compiled_derived, file_tag
+from shells.problem.forms import FormProblem, assemble_symmetric, dkappa_ufl
+from shells.problem.interface import ModeInfo, orbit_cosine
 
 if TYPE_CHECKING:
     from shells.axisym.modes import ModeForms
 
-__all__ = ["AxisymModel", "AxisymParameters", "Jet"]
+__all__ = ["SNES_OPTIONS", "AxisymModel", "AxisymParameters"]
 
 #: what the load parameter ``kappa`` imposes (``AxisymParameters.load``)
 LOADS = ("curvature", "pressure", "equivalent", "equivalent_normal", "local_pressure")
 
-#: the mode Hessian's kernel is long to compile (the second variation of the whole density at
-#: two phases); the 1D model's forms go to a cache folder of their own (``~/.cache/shells/ffcx``):
-#: FFCx lists its cache folder at every lookup of a compiled form (2.4 ms a form in a shared
-#: folder of 3900 files, 0.1 ms in one of 84: the 21 forms of a run, 50 ms of its set-up)
-JIT_OPTIONS: dict[str, Any] = {"timeout": 300, "cache_dir": str(cache_root() / "ffcx")}
-#: names this module's derivations of forms in the form cache (``shells.formcache``)
+#: names this module's derivations of forms in the form cache (``shells.problem.formcache``)
 _DERIVATION = file_tag(__file__)
+
+
+#: Newton (SNES) options of the 1D model's solves: its residual is assembled to round-off, so
+#: tight relative and absolute tolerances are reachable
+SNES_OPTIONS: dict[str, Any] = {"snes_rtol": 1.0e-9, "snes_atol": 1.0e-12, "snes_stol": 1.0e-10,
+                                "snes_max_it": 25}
 
 
 # ------------------------------------------------------------------------------------------------
@@ -93,8 +100,9 @@ class AxisymParameters:
             and "local_pressure" (closed spheres: Eq. (5)'s pressure with the local stimulus,
             (4/3)(1+ν)(h/R)² κ f Ψ3); the last two with a uniform axial body force that
             balances their resultant (inertia relief).
-        kappa_field: the natural-curvature stimulus K of b̄ = b° + κ K (``shells.stimulus``): an
-            axisymmetric f and factors (f1, f2) on e_s⊗e_s and e_φ⊗e_φ; default K = a°.
+        kappa_field: the natural-curvature stimulus K of b̄ = b° + κ K
+            (``shells.geometry.stimulus``): an axisymmetric f and factors (f1, f2) on e_s⊗e_s and
+            e_φ⊗e_φ; default K = a°.
     """
 
     h: float
@@ -120,8 +128,7 @@ class AxisymParameters:
             raise InputError(f"the {self.load} load is derived for an isotropic stimulus")
         if not (isinstance(self.h, (int, float)) and math.isfinite(self.h) and self.h > 0):
             raise InputError(f"thickness h must be positive, got {self.h!r}")
-        if not (isinstance(self.nu, (int, float)) and -1.0 < self.nu <= 0.5):
-            raise InputError(f"Poisson ratio nu must lie in (-1, 0.5], got {self.nu!r}")
+        check_nu(self.nu, "Poisson ratio nu")
         if not (isinstance(self.cells, int) and 4 <= self.cells <= 100000):
             raise InputError(f"cells must be an integer in [4, 100000], got {self.cells!r}")
         if not (math.isfinite(self.layer_cells) and self.layer_cells > 0):
@@ -136,81 +143,10 @@ class AxisymParameters:
 
 
 # ------------------------------------------------------------------------------------------------
-# the energy density of a displacement jet
-# ------------------------------------------------------------------------------------------------
-@dataclass
-class Jet:
-    """Cylindrical components (r, φ, z) of a displacement and its derivatives at a point (UFL).
-
-    ``val``, ``t``, ``ph``, ``tph``, ``phph``: u, ∂_t u, ∂_φ u, ∂_t∂_φ u, ∂_φφ u; ``p``: the slope
-    field (≈ ∂_t u) and ``pt`` = ∂_t p, which replaces ∂_tt u (C1 by penalty).
-    """
-
-    val: tuple
-    t: tuple
-    ph: tuple
-    tph: tuple
-    phph: tuple
-    p: tuple
-    pt: tuple
-    pph: tuple
-
-    def __add__(self, other: Jet) -> Jet:
-        return Jet(*(tuple(a + b for a, b in zip(x, y, strict=True)) for x, y in
-                     zip(self.fields(), other.fields(), strict=True)))
-
-    def fields(self) -> tuple:
-        return (self.val, self.t, self.ph, self.tph, self.phph, self.p, self.pt, self.pph)
-
-
-def _meridian_ufl(shape: Shape, t: Any, mesh: Any = None) -> tuple:
-    """r°, z° and their first and second t-derivatives as UFL expressions of t. An imperfect
-    sphere's amplitude is a ``fem.Constant`` on ``mesh``: one compiled kernel for every
-    amplitude of a knock-down curve."""
-    import ufl
-
-    if isinstance(shape, Disk):
-        return t, 0.0 * t, 1.0 + 0.0 * t, 0.0 * t, 0.0 * t, 0.0 * t
-    if isinstance(shape, MeridianTable):
-        # the spline's values and derivatives, each interpolated into P5 on the meridian mesh
-        # (exact in a cell that holds one cubic piece; C2 across a knot, O(size³) there)
-        from dolfinx import fem
-
-        V = fem.functionspace(mesh, ("Lagrange", 5))
-        out = []
-        for fn in (shape.meridian, shape.meridian_derivative, shape.meridian_second_derivative):
-            for k in (0, 1):
-                f = fem.Function(V)
-                f.interpolate(lambda x, fn=fn, k=k: np.asarray(fn(x[0])[k], dtype=float))
-                out.append(f)
-        return tuple(out)
-    if isinstance(shape, ImperfectSphere):
-        from dolfinx import default_scalar_type, fem
-
-        amp = fem.Constant(mesh, default_scalar_type(shape.amplitude)) if mesh else None
-        r, z = shape.meridian_ufl(t, amp)
-        return r, z, r.dx(0), z.dx(0), r.dx(0).dx(0), z.dx(0).dx(0)
-    if isinstance(shape, EllipsoidalCap):
-        a, c = shape.radius, shape.r3
-    else:
-        a = c = shape.radius
-    s, co = ufl.sin(t), ufl.cos(t)
-    return a * s, c * co, a * co, -c * s, -a * s, -c * co
-
-
-def _dot(a: tuple, b: tuple) -> Any:
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-
-
-def _cross(a: tuple, b: tuple) -> tuple:
-    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
-
-
-# ------------------------------------------------------------------------------------------------
 # the model
 # ------------------------------------------------------------------------------------------------
 class AxisymModel(FormProblem):
-    """Axisymmetric shell model, a ``shells.problem.Problem``.
+    """Axisymmetric shell model, a ``shells.problem.interface.Problem``.
 
     Attributes: ``shape``, ``shell`` (the ``MeridianMesh``; ``shell.comm``), ``W``, ``w`` (state
     (u_r, u_z; p_r, p_z)), ``kappa``, ``h``, ``nu`` (Constants), ``residual``, ``hessian``,
@@ -228,7 +164,7 @@ class AxisymModel(FormProblem):
         import ufl
         from dolfinx import default_scalar_type, fem
 
-        _supported(shape)
+        check_supported(shape)
         self.shape = shape
         self.params = params
         nodes = make_meridian_nodes(shape, params.h, params.cells, params.layer_cells,
@@ -249,24 +185,25 @@ class AxisymModel(FormProblem):
                               metadata={"quadrature_degree": params.quadrature_degree})
         self.t = ufl.SpatialCoordinate(mesh)[0]
         (self.r0, self.z0, self.r0t, self.z0t,
-         self.r0tt, self.z0tt) = _meridian_ufl(shape, self.t, mesh)
+         self.r0tt, self.z0tt) = meridian_ufl(shape, self.t, mesh)
         self.g = ufl.sqrt(self.r0t**2 + self.z0t**2)
         self.area_density = 2 * math.pi * self.r0 * self.g  # dω = area_density dt
         params.kappa_field.check_on(shape, axisymmetric=True)
-        if params.load in ("equivalent_normal", "local_pressure") and not _is_sphere(shape):
+        if params.load in ("equivalent_normal", "local_pressure") and not is_sphere(shape):
             raise InputError(f"the {params.load} load is derived for a closed sphere (an open "
                              "shell adds edge terms: use the equivalent load)")
         self.K = self._natural_factors()
         self._build_forms()
         self.bcs = self._axis_conditions()
         self._degree_forms: dict[Any, tuple] = {}
-        self._jacobian_fast: Any = None  # ``_jacobian_elements``
+        self._jacobian_fast: Any = None  # ``jacobian_elements``
         self._pair: Any = None  # ``_paired``
-        self._dkappa_kept: Any = None  # dR/dκ from the last paired pass, and its inputs
+        self.dkappa_kept: Any = None  # dR/dκ from the last paired pass, and its inputs
         self._uz_dofs: tuple[np.ndarray, np.ndarray] | None = None  # ``uz_at``'s
 
     # -- kinematics ------------------------------------------------------------------------------
     def base_jet(self, w: Any) -> Jet:
+        """The jet of an axisymmetric state ``w`` (u_r, u_z; p_r, p_z): no φ-dependence."""
         import ufl
 
         u, p = ufl.split(w)
@@ -276,6 +213,7 @@ class AxisymModel(FormProblem):
                    pt=(p[0].dx(0), z, p[1].dx(0)), pph=(z, z, z))
 
     def zero_jet(self) -> Jet:
+        """The jet of the reference state (every component zero)."""
         z = (0.0 * self.t,) * 3
         return Jet(z, z, z, z, z, z, z, z)
 
@@ -297,11 +235,11 @@ class AxisymModel(FormProblem):
                 xtph = (j.tph[0] - j.t[1], j.tph[1] + self.r0t + j.t[0], j.tph[2])
             import ufl
 
-            c = _cross(xtb, xph)
-            nn = ufl.sqrt(_dot(c, c))
+            c = cross(xtb, xph)
+            nn = ufl.sqrt(dot(c, c))
             n = tuple(ci / nn for ci in c)
-            a = (_dot(xt, xt) / g**2, _dot(xt, xph) / (g * r0), _dot(xph, xph) / r0**2)
-            b = (_dot(n, xtt) / g**2, _dot(n, xtph) / (g * r0), _dot(n, xphph) / r0**2)
+            a = (dot(xt, xt) / g**2, dot(xt, xph) / (g * r0), dot(xph, xph) / r0**2)
+            b = (dot(n, xtt) / g**2, dot(n, xtph) / (g * r0), dot(n, xphph) / r0**2)
             return a, b
 
         a, b = geo(j)
@@ -324,7 +262,7 @@ class AxisymModel(FormProblem):
         gap, potential = self._natural_gap(Eb, kn)
         stretch = self._quad(Ea)
         bend_nat = self.h**2 / 3 * self._quad(gap)
-        pen = self.pen * _dot(e["slope_gap"], e["slope_gap"]) / self.g**2
+        pen = self.pen * dot(e["slope_gap"], e["slope_gap"]) / self.g**2
         out = {"total": stretch + bend_nat + pen, "stretching": stretch,
                "bending": self.h**2 / 3 * self._quad(Eb),
                "curvature_potential": potential,
@@ -349,7 +287,7 @@ class AxisymModel(FormProblem):
             # tangential part they omit carries its opposite): balanced by a uniform body force
             # (inertia relief), else the gauge point would carry it as a point load
             c = -2 * (1 + self.nu) / 3 * self.h**2 * self.kappa
-            q, q_z = self._normal_load()
+            q, q_z = self.normal_load()
             out["pressure_work"] = c * (q * un - q_z * j.val[2])
         if "pressure_work" in out:
             out["total"] = out["total"] + out["pressure_work"]
@@ -367,7 +305,7 @@ class AxisymModel(FormProblem):
         return gap, -2 / 3 * self.h**2 * ((1 - self.nu) * (k1 * Eb[0] + k2 * Eb[2])
                                           + self.nu * (k1 + k2) * (Eb[0] + Eb[2]))
 
-    def _normal_load(self) -> tuple[Any, float]:
+    def normal_load(self) -> tuple[Any, float]:
         """q of the normal load c q Ψ3 ("equivalent_normal": Δf - 2f/R²; "local_pressure":
         -2f/R²) and the mean ∫ q n_z dω / A of its axial component."""
         from dolfinx import fem
@@ -427,7 +365,7 @@ class AxisymModel(FormProblem):
         sf["nz_integral"] = n0z * ad * self.dx
         sf["area"] = ad * self.dx
         # compiled on first use (``assemble``): a run that only locates critical points asks
-        # for none of them, and each form costs its signature and a cache lookup (~2 ms)
+        # for none of them, and each form costs its signature and a cache lookup
         self._scalar_ufl = sf
         self._scalar_forms: dict[str, Any] = {}
 
@@ -437,9 +375,10 @@ class AxisymModel(FormProblem):
         ur, uz, pz = W.sub(0).sub(0), W.sub(0).sub(1), W.sub(1).sub(1)
         poles = self.axis_vertices()
         top = self.vertices_at(0.0)
-        return (_dirichlet(ur, poles) + _dirichlet(pz, poles) + _dirichlet(uz, top))
+        return (dirichlet(ur, poles) + dirichlet(pz, poles) + dirichlet(uz, top))
 
     def axis_vertices(self) -> np.ndarray:
+        """The mesh vertices on the axis: the top pole, and the bottom one if closed."""
         pts = [0.0] + ([self.shape.t_max] if self.shape.closed else [])
         return np.concatenate([self.vertices_at(t) for t in pts])
 
@@ -450,6 +389,7 @@ class AxisymModel(FormProblem):
         return self.vertices_at(float(x[np.argmax(r0)]))
 
     def vertices_at(self, t: float) -> np.ndarray:
+        """The local mesh vertices at meridian coordinate ``t``."""
         from dolfinx import mesh as dmesh
 
         tol = 1e-10 * max(1.0, self.shape.t_max)
@@ -457,6 +397,10 @@ class AxisymModel(FormProblem):
 
     # -- scalars ---------------------------------------------------------------------------------
     def assemble(self, name: str) -> float:
+        """The scalar functional ``name`` (energy parts, integrals) at the current state.
+
+        Its form is compiled on first use.
+        """
         from dolfinx import fem
 
         if name not in self._scalar_forms:
@@ -487,7 +431,7 @@ class AxisymModel(FormProblem):
         ``scalars`` (exactly: it is linear in w), zero on the constrained DOFs: the normal
         displacement of the top pole (t = 0) relative to the centroid's, (u_z(0) - ū_z)/h
         with u_z(0) = 0 (the gauge), i.e. -∂/∂w ∫ u_z dA / (A h). The parameter of a closed
-        sphere's dimple branch (``shells.postbuckle``)."""
+        sphere's dimple branch (``shells.analyses.postbuckle``)."""
         import ufl
         from dolfinx import fem
         from dolfinx.fem.petsc import assemble_vector
@@ -555,13 +499,14 @@ class AxisymModel(FormProblem):
         return np.array([vals[np.argmin(np.abs(x - ti))] for ti in np.atleast_1d(t)])
 
     def num_dofs(self) -> int:
+        """The global number of unknowns of the axisymmetric state."""
         im = self.W.dofmap.index_map
         return int(im.size_global * self.W.dofmap.index_map_bs)
 
     def create_jacobian(self) -> Any:
         """The Jacobian's matrix; on one process one whose values ``assemble_jacobian``
         writes in place (``chain.ElementAssembler.create_matrix``)."""
-        fast = self._jacobian_elements()
+        fast = self.jacobian_elements()
         if fast is None:
             return FormProblem.create_jacobian(self)
         return fast[1].create_matrix()
@@ -569,10 +514,10 @@ class AxisymModel(FormProblem):
     def assemble_jacobian(self, A: Any) -> None:
         """The Jacobian (``FormProblem``'s), on one process from its element matrices
         (``chain.CellTabulator``, ``chain.ElementAssembler``): the same values, added in the
-        same order, without dolfinx's per-cell insertion (0.55 against 0.85 ms on the θ̄ = 8
-        cap's 200 cells, into a matrix of ``create_jacobian``; Newton assembles it at every
-        iteration)."""
-        fast = self._jacobian_elements()
+        same order, without dolfinx's per-cell insertion, into a matrix of
+        ``create_jacobian`` (Newton assembles it at every iteration; docs/model.md,
+        "Stability and critical points")."""
+        fast = self.jacobian_elements()
         if fast is None:
             FormProblem.assemble_jacobian(self, A)
             return
@@ -581,9 +526,8 @@ class AxisymModel(FormProblem):
 
     def assemble_residual(self, b: Any) -> None:
         """R (``FormProblem``'s); on one process R and dR/dκ in one pass of one kernel
-        (``_paired``: 0.12 ms against 0.10 + 0.11 for the two forms' kernels on the θ̄ = 8
-        cap), dR/dκ kept for ``assemble_dkappa`` at the same state (the corrector asks for
-        both at every iterate)."""
+        (``_paired``, cheaper than the two forms' kernels), dR/dκ kept for ``assemble_dkappa``
+        at the same state (the corrector asks for both at every iterate)."""
         pair = self._paired()
         if pair is None:
             FormProblem.assemble_residual(self, b)
@@ -600,12 +544,12 @@ class AxisymModel(FormProblem):
         apply_lifting(b, [self.hessian], bcs=[self.bcs], x0=[self.state], alpha=-1.0)
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         set_bc(b, self.bcs, self.state, -1.0)
-        self._dkappa_kept = (inputs, both[second])
+        self.dkappa_kept = (inputs, both[second])
 
     def assemble_dkappa(self, b: Any) -> None:
         """dR/dκ (``FormProblem``'s), from ``assemble_residual``'s pass where that was at the
         same state (every coefficient, Constant and the geometry compared exactly)."""
-        kept, pair = self._dkappa_kept, self._paired()
+        kept, pair = self.dkappa_kept, self._paired()
         if kept is None or pair is None or not same_inputs(kept[0],
                                                            read_inputs(*pair[4], self.mesh)):
             FormProblem.assemble_dkappa(self, b)
@@ -659,7 +603,7 @@ class AxisymModel(FormProblem):
         size = W2.dofmap.index_map.size_local + W2.dofmap.index_map.num_ghosts
         return forms[0], maps[0], maps[1], np.zeros(size), reads[0]
 
-    def _jacobian_elements(self) -> Any:
+    def jacobian_elements(self) -> Any:
         """(tabulator, assembler, constrained DOFs) of the Jacobian, made on first use; None
         in parallel or where the C loop is not available (then dolfinx assembles it)."""
         if self.comm.size > 1 or self._jacobian_fast is False:
@@ -686,20 +630,21 @@ class AxisymModel(FormProblem):
 
     @property
     def factor_options(self) -> dict[str, Any]:
-        """The Jacobian's factorisation (``shells.problem``): on one process PETSc's own LU in
-        reverse Cuthill-McKee order. The meridian's matrices are banded (half-bandwidth about
-        20 after the ordering), where MUMPS' per-factorisation overhead dominates: 0.16 ms
-        against 1.1 ms per factorisation of the θ̄ = 8 cap's 2004 unknowns, solves 0.02
-        against 0.13 ms (benchmarks/axisym_speed.py). That LU does not pivot: a zero pivot
-        makes ``shells.solvers`` fall back to MUMPS for the rest of the run. In parallel:
-        MUMPS (the default)."""
+        """The Jacobian's factorisation (``shells.problem.interface``): on one process PETSc's own
+        LU in reverse Cuthill-McKee order. The meridian's matrices are banded (half-bandwidth
+        about 20 after the ordering), where MUMPS' per-factorisation overhead dominates
+        (docs/model.md, "Solvers"; benchmarks/axisym_speed.py). That LU does not pivot: a zero
+        pivot makes ``shells.algorithms.newton`` fall back to MUMPS for the rest of the run. In
+        parallel: MUMPS (the default)."""
         if self.comm.size > 1:
             return {}
         return {"pc_factor_mat_solver_type": "petsc", "pc_factor_mat_ordering_type": "rcm"}
 
-    # -- stability blocks: the Fourier modes m (shells.problem.Problem) ---------------------------
+    # -- stability blocks: the Fourier modes m (shells.problem.interface.Problem)
+    # ---------------------------
     @property
     def mode_forms(self) -> ModeForms:
+        """The Fourier-mode Hessians (``ModeForms``), built on first use."""
         from shells.axisym.modes import ModeForms
 
         if not hasattr(self, "_mode_forms"):
@@ -710,32 +655,36 @@ class AxisymModel(FormProblem):
     # without the torsion D (the stability within rotational symmetry: folds and axisymmetric
     # bifurcations, the block branch switching on the 1D model uses).
     def stability_blocks(self) -> tuple[int, ...]:
+        """The Fourier modes m of ``modes`` (``Problem.stability_blocks``)."""
         return tuple(self.modes)
 
     def block_layout(self, block: Any) -> str:
+        """One layout for every H_m, another for the Jacobian (``Problem.block_layout``)."""
         return "axisymmetric" if block is None else "modes"  # one form for every m
 
     def create_hessian(self, block: Any) -> Any:
+        """A matrix for ``block``: the Jacobian's, or one of every H_m's pattern."""
         if block is None:
             return self.create_jacobian()
         return self.mode_forms.create_matrix()
 
     def assemble_hessian(self, block: Any, H: Any) -> None:
+        """The Jacobian (block None) or H_m at the current state into ``H``."""
         if block is None:
-            self._assemble_symmetric(H, self.hessian, self.bcs)
+            assemble_symmetric(H, self.hessian, self.bcs)
             return
         self.mode_forms.assemble_hessian(block, H)  # m ≥ 1: Σ m^k C_k, C_k once per state
 
     def definite_blocks(self, blocks: Any, margin: float) -> dict[Any, bool] | None:
         """Whether H_m - ``margin`` diag(H_m) has a Cholesky factor, for each m of ``blocks``
         (``ModeForms.definite``, one process; block None is left out), for
-        ``shells.stability``'s test of definiteness."""
+        ``shells.algorithms.stability``'s test of definiteness."""
         return self.mode_forms.definite([b for b in blocks if b is not None], margin)
 
     def block_inertia(self, block: Any, growth: float) -> tuple[int, int, int] | None:
         """H_m's inertia by an LDLᵀ of its condensed form that vouches for it
-        (``ModeForms.inertia``), for ``shells.stability``'s exact counts; None for block None,
-        in parallel, or where that factorisation cannot vouch for the count."""
+        (``ModeForms.inertia``), for ``shells.algorithms.stability``'s exact counts; None for block
+        None, in parallel, or where that factorisation cannot vouch for the count."""
         return None if block is None else self.mode_forms.inertia(block, growth)
 
     def block_inertias(self, blocks: list[Any], growth: float
@@ -752,7 +701,7 @@ class AxisymModel(FormProblem):
         """vᵀ H v of block None (the Jacobian) or H_m at the current state, by quadrature of
         the second variation d²E(v, v) (``FormProblem._quadratic``: H_m's from the direct form
         of mode m), the block's constrained DOFs of v taken as zero; for
-        ``shells.stability``'s Rayleigh quotients."""
+        ``shells.algorithms.stability``'s Rayleigh quotients."""
         if block is None:
             return self._quadratic(None, self.hessian_ufl, self.bcs, v, JIT_OPTIONS)
         mf = self.mode_forms
@@ -763,18 +712,20 @@ class AxisymModel(FormProblem):
                                         lambda: mf.fixed_phase_ufl(cls)))
 
     def block_factor(self, block: Any) -> Any:
-        """H_m factored on the chain of cells (``ModeForms.factor``), for ``shells.stability``'s
-        shift-invert eigensolves; None for block None, in parallel, or where it fails."""
+        """H_m factored on the chain of cells (``ModeForms.factor``), for
+        ``shells.algorithms.stability``'s shift-invert eigensolves; None for block None, in
+        parallel, or where it fails."""
         return None if block is None else self.mode_forms.factor(block)
 
     def condensed_hessian(self, block: Any) -> tuple[Any, int] | None:
         """H_m with its cells' interior DOFs eliminated (``ModeForms.condensed_hessian``): a
         smaller matrix of the same inertia but for the returned number of positive
-        eigenvalues, for ``shells.stability``'s exact counts; None for block None, in
+        eigenvalues, for ``shells.algorithms.stability``'s exact counts; None for block None, in
         parallel, or where it does not apply."""
         return None if block is None else self.mode_forms.condensed_hessian(block)
 
     def assemble_mass(self, block: Any) -> Any:
+        """The block's mass matrix (``Problem.assemble_mass``)."""
         if block is None:
             return self._assemble_mass(self.mass, self.bcs)
         return self._assemble_mass(self.mode_forms.mass, self.mode_forms.conditions(block))
@@ -784,7 +735,7 @@ class AxisymModel(FormProblem):
         n of the mode from the Rayleigh quotient R² ∫ |∇w|² / ∫ w² = n(n+1) of its normal
         component w, |∇w|² = (∂_s w)² + m² w² / r² (exact for the spherical harmonic Y_n^m)."""
         m = 0 if block is None else int(block)
-        if not _is_sphere(self.shape):
+        if not is_sphere(self.shape):
             return ModeInfo(m=m, n=None)
         if block is None:
             key, space, ur_uz = None, self.W, self._radial_axial
@@ -872,29 +823,3 @@ class AxisymModel(FormProblem):
         forms = tuple(fem.form(q * ad * self.dx, jit_options=JIT_OPTIONS)
                       for q in (grad2, wn * wn, uz, 1.0))
         return f, shift, m_c, forms
-
-
-def read_inputs(coefficients: Any, constants: Any, mesh: Any) -> list[np.ndarray]:
-    """Everything compiled forms read (views, not copies): each coefficient's local array
-    (ghosts included), each Constant's value, the mesh geometry."""
-    return ([w.x.array for w in coefficients] + [np.atleast_1d(k.value) for k in constants]
-            + [mesh.geometry.x])
-
-
-def same_inputs(old: list[np.ndarray] | None, new: list[np.ndarray]) -> bool:
-    """Whether ``read_inputs`` are those of ``old`` (a copy of earlier ones), exactly."""
-    return old is not None and len(old) == len(new) and all(
-        np.array_equal(a, b) for a, b in zip(old, new, strict=True))
-
-
-def _dirichlet(V: Any, vertices: np.ndarray) -> list[Any]:
-    from dolfinx import default_scalar_type, fem
-
-    if len(vertices) == 0:
-        return []
-    dofs = fem.locate_dofs_topological(V, 0, vertices)
-    return [fem.dirichletbc(default_scalar_type(0.0), dofs, V)]
-
-
-def _is_sphere(shape: Shape) -> bool:
-    return isinstance(shape, SphericalCap) and shape.closed

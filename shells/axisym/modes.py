@@ -2,49 +2,36 @@
 mode Hessians H_m of ``AxisymModel``, one compiled form for all m and, for m ≥ 1, H_m as a
 polynomial in m whose matrix coefficients are assembled once per base state.
 
-Stability. Perturbations U(t) cos mφ e_r + V(t) sin mφ e_φ + W(t) cos mφ e_z about the base
-state. For an axisymmetric base state the φ-integral of the second-variation density Q equals
-π [Q(mφ = 0) + Q(mφ = π/2)] for m ≥ 1 and 2π Q for m = 0, so one UFL form (the second derivative
-of the density at base + perturbation, at two phases) with m and the phases as Constants gives
-every Hessian H_m: one compilation, no recompiles. The unknowns are (S, D, W) with U = S + D,
-V = S - D for m ≥ 1 (U = S, V = D for m = 0), which turns the axis conditions into Dirichlet
-conditions on each pole (∂: the slope field): m = 0: S = D = 0, ∂W = 0; m = 1: S = 0, W = 0,
-∂S = ∂D = 0; m = 2: S = D = W = 0, ∂S = ∂W = 0; m ≥ 3: all values and slopes zero. A free
-rim needs no condition. Rigid motions are exact null vectors of the continuum Hessians and
-are removed by value constraints that they violate (restriction to such a hyperplane keeps the
-inertia): m = 0: W = 0 at the top pole (z-translation), D = 0 on the widest parallel (rotation
-about z); m = 1: D = 0 at the top pole (translation) and W = 0 on the widest parallel (tilt). A
-slope constraint at the pole would do for the tilt in principle, but a point has no capacity
-for slopes in 2D: it leaves a spurious near-zero eigenvalue. Inertia per m: a Cholesky test
-where H_m is definite by a margin (on one process from element matrices, ``definite`` and
-``shells.axisym.chain``; else the banded Cholesky of the assembled H_m), else MUMPS LDLᵀ
-(``shells.stability``).
+Perturbations U(t) cos mφ e_r + V(t) sin mφ e_φ + W(t) cos mφ e_z about the base state. For an
+axisymmetric base state the φ-integral of the second-variation density Q equals
+π [Q(mφ = 0) + Q(mφ = π/2)] for m ≥ 1 and 2π Q for m = 0, so one UFL form (the second
+derivative of the density at base + perturbation, at two phases) with m and the phases as
+Constants gives every Hessian H_m: one compilation, no recompiles. The unknowns are (S, D, W)
+with U = S + D, V = S - D for m ≥ 1 (U = S, V = D for m = 0), which turns the axis conditions
+into Dirichlet conditions on each pole (``ModeForms.conditions``). Inertia per m: a Cholesky
+test where H_m is definite by a margin, else an exact count (``shells.algorithms.stability``).
 
-Assembly (on one process the C_k and H_0 are not assembled at all: their element matrices are
-tabulated once per state by a C loop over the FFCx kernels, every H_m's definiteness and exact
-count come from them, ``shells.axisym.chain``, and a PETSc H_m is summed from them where a
-solver needs one). m = 0 from that form with its own phases and m = 0 put in as numbers
-(``axisymmetric_form``: the direct form's values, bit for bit on the θ̄ = 8 cap and the
-sphere, at a quarter of its cost); on one process its element matrices come from C_0's
-instead, by a change of unknowns (``_axisymmetric_elements``: to 5e-16 of the direct
-assembly, no kernel). For m ≥ 1 the phases
-are fixed and m enters the perturbation's jet linearly (φ-derivatives ∝ m, ∂_φφ ∝ m²) while
-the second variation is quadratic in the jet, so H_m = Σ_{k=0..4} m^k C_k before the boundary
-conditions. The C_k are exact forms: the Hessian's UFL with the m ≥ 1 phases put in as numbers,
-the (zero) perturbation as 0 and m as a coefficient, differentiated k times in m by
-``ufl.derivative``, at m = 0, over k! (no sampling of m, so no round-off amplified by m^k); one
-compiled kernel each. They are assembled without conditions, once per base state: the matrices
-remember the inputs they were assembled from (every coefficient array, Constant value and the
-mesh geometry the forms read) and are reassembled as soon as any of them differs, so no
-state change (Newton, ``set_kappa``, a vector written directly) can be served a stale C_k. Each
-H_m is then C_0 + Σ m^k C_k (MatAXPY, one nonzero pattern: that of the direct form) with mode
-m's conditions applied as direct assembly does (rows and columns zeroed, 1 on the diagonal:
-MatZeroRowsColumns), flagged symmetric. It equals the direct assembly to round-off (relative
-Frobenius difference ≤ 7e-16 measured for m ≤ 62, constrained rows identical:
-tests/test_axisym_modes.py) at five assemblies per state instead of one per m: on the closed
-sphere at h/R = 0.002 (m = 0..62) 0.65 ms per block instead of 6.1 ms (the C_k: 10 ms per
-state), a stability check over all blocks 0.32 s instead of 0.64 s; with the element-matrix
-path 0.034 s (benchmarks/axisym_mode_assembly.py, docs/model.md).
+Assembly:
+
+1. m = 0 from its own form, m and its phases put in as numbers (``axisymmetric_form``: the
+   direct form's values at a fraction of its cost).
+2. m ≥ 1: with the phases fixed, m enters the perturbation's jet linearly (φ-derivatives ∝ m,
+   ∂_φφ ∝ m²) and the second variation is quadratic in the jet, so H_m = Σ_{k=0..4} m^k C_k
+   before the boundary conditions. The C_k are exact forms: the Hessian's UFL differentiated
+   k times in m by ``ufl.derivative`` at m = 0, over k! (no sampling of m, so no round-off
+   amplified by m^k); one compiled kernel each.
+3. The C_k are assembled without conditions once per base state, and again as soon as any
+   input their forms read (coefficient arrays, Constant values, mesh geometry) differs, so no
+   state change can be served a stale C_k. H_m = Σ m^k C_k has one nonzero pattern (the
+   direct form's) and mode m's conditions applied as direct assembly does
+   (MatZeroRowsColumns): the direct assembly to round-off (tests/test_axisym_modes.py).
+4. On one process the C_k and H_0 are not assembled at all: their element matrices are
+   tabulated once per state (H_0's from C_0's by a change of unknowns), every H_m's
+   definiteness and exact count come from them (``shells.axisym.chain``), and a PETSc H_m is
+   summed from them where a solver needs one.
+
+The costs: docs/model.md (the section on the assembly of the 1D model's mode Hessians) and
+docs/design-notes.md, "The 1D model's assembly".
 """
 
 from __future__ import annotations
@@ -55,16 +42,9 @@ from typing import Any
 
 import numpy as np
 
-from shells.axisym.model import (
-    JIT_OPTIONS,
-    AxisymModel,
-    Jet,
-    _dirichlet,
-    read_inputs,
-    same_inputs,
-)
+from shells.axisym.kinematics import JIT_OPTIONS, Jet, dirichlet, read_inputs, same_inputs
 from shells.errors import InputError
-from shells.formcache import compiled_derived, file_tag
+from shells.problem.formcache import compiled_derived, file_tag
 
 __all__ = ["ModeForms"]
 
@@ -78,7 +58,7 @@ _PHASES: dict[int, dict[str, float]] = {
 #: H_m of m ≥ 1 is a polynomial of this degree in m
 DEGREE = 4
 #: names the derivation of the mode forms from the Hessian's UFL (this file) in the form cache
-#: (``shells.formcache``): any change of this module derives them again
+#: (``shells.problem.formcache``): any change of this module derives them again
 _DERIVATION = file_tag(__file__)
 
 
@@ -96,7 +76,7 @@ class ModeForms:
     assembled at changed (module docstring).
     """
 
-    def __init__(self, model: AxisymModel) -> None:
+    def __init__(self, model: Any) -> None:
         import basix.ufl
         import ufl
         from dolfinx import default_scalar_type, fem
@@ -141,12 +121,12 @@ class ModeForms:
         self._coefficient_forms: list[Any] | None = None
         self._axisymmetric_form: Any = None  # H_0's own form (``axisymmetric_form``)
         self._C: list[Any] | None = None  # the matrices C_k
-        self._C_inputs: list[np.ndarray] | None = None  # what they were assembled from
+        self.coefficient_inputs: list[np.ndarray] | None = None  # what they were assembled from
         self._read: tuple[dict, dict] = ({}, {})  # the coefficients and Constants they read
         self._rows: dict[int, Any] = {}  # the constrained rows of each class of m
         self._chain: Any = None  # ``definite``'s tabulator and chain test (False: unavailable)
         self._E: np.ndarray | None = None  # ``element_matrices``
-        self._E_inputs: list[np.ndarray] | None = None  # what they were tabulated from
+        self.element_inputs: list[np.ndarray] | None = None  # what they were tabulated from
         self._csr: Any = None  # ``_set_from_elements``'s ``ElementAssembler``
         self._schur: Any = None  # ``condensed_hessian``'s matrix
         #: names the derivations of forms from ``hessian_ufl`` in this module (form cache)
@@ -184,7 +164,7 @@ class ModeForms:
         elif m_as is not None:
             rep[c["m"]] = m_as
         rep[self.pert] = ufl.zero(*self.pert.ufl_shape)
-        if self._expanded is None:  # once: every use expands the same Hessian (0.1 s each)
+        if self._expanded is None:  # once: every use expands the same (costly) Hessian
             self._expanded = expand_derivatives(self.hessian_ufl)
         return ufl.replace(self._expanded, rep)
 
@@ -200,11 +180,12 @@ class ModeForms:
 
     @property
     def axisymmetric_form(self) -> Any:
-        """The compiled form of H_0 with m = 0 and its phases put in as numbers (compiled on
-        first use): the direct form's values to round-off at a quarter of its cost (it
-        evaluates the density at two general phases: 3.6 ms against 0.9 ms per assembly on
-        the θ̄ = 8 cap's 200 cells), so the stability check's one direct assembly per state
-        no longer costs as much as the five coefficient matrices together."""
+        """The compiled form of H_0 with m = 0 and its phases put in as numbers.
+
+        Compiled on first use. Its values are the direct form's to round-off, at a fraction
+        of its cost (the direct form evaluates the density at two general phases), so the
+        stability check's one direct assembly per state costs less than the five coefficient
+        matrices together (docs/design-notes.md, "The 1D model's assembly")."""
 
         if self._axisymmetric_form is None:
             forms, reads = compiled_derived(self.hessian_ufl, f"{_DERIVATION} H_0",
@@ -216,7 +197,7 @@ class ModeForms:
     @property
     def coefficient_forms(self) -> list[Any]:
         """The compiled forms of C_0..C_4 (``coefficient_ufl``), one kernel each; after the
-        first run on a machine without their UFL work (``shells.formcache``: 0.1 s a model)."""
+        first run on a machine, without their UFL work (``shells.problem.formcache``)."""
         if self._coefficient_forms is None:
             forms, reads = compiled_derived(self.hessian_ufl, f"{_DERIVATION} C_k",
                                             self.coefficient_ufl, JIT_OPTIONS)
@@ -256,19 +237,19 @@ class ModeForms:
         from dolfinx.fem.petsc import assemble_matrix, create_matrix
 
         forms = self.coefficient_forms
-        stale, inputs = self._stale(self._C_inputs)
+        stale, inputs = self._stale(self.coefficient_inputs)
         if stale:
             if self._C is None:  # the direct form's pattern: that of every H_m's matrix
                 self._C = [create_matrix(self.form) for _ in forms]
-            self._C_inputs = None  # not valid while being assembled
+            self.coefficient_inputs = None  # not valid while being assembled
             for C, f in zip(self._C, forms, strict=True):
                 C.zeroEntries()
                 assemble_matrix(C, f)
                 C.assemble()
-            self._C_inputs = [a.copy() for a in inputs]
+            self.coefficient_inputs = [a.copy() for a in inputs]
         return self._C
 
-    def _constrained_rows(self, m: int) -> Any:
+    def constrained_rows(self, m: int) -> Any:
         """Global indices of the owned DOFs constrained in mode m (a PETSc IS)."""
         from petsc4py import PETSc
 
@@ -292,22 +273,28 @@ class ModeForms:
         from ``form``; m = 0: from ``axisymmetric_form``; m ≥ 1: Σ m^k C_k
         (``coefficient_matrices``). On one process both come from the element matrices
         (``element_matrices``): Σ m^k of theirs, summed into H's values by their positions,
-        the conditions applied to those values (the same matrix to round-off, 0.7 ms a block
-        instead of five assemblies of the C_k after each change of state)."""
+        the conditions applied to those values (the same matrix to round-off, without five
+        assemblies of the C_k after each change of state).
+
+        Args:
+            m: the mode.
+            H: the matrix.
+            direct: assemble from ``form`` itself (the reference).
+        """
         from petsc4py import PETSc
 
-        from shells.formproblem import FormProblem
+        from shells.problem.forms import assemble_symmetric
 
         bcs = self.set_mode(m)
         if direct:
-            FormProblem._assemble_symmetric(H, self.form, bcs)
+            assemble_symmetric(H, self.form, bcs)
             return
         E = self.element_matrices()
         if E is not None:  # one process: from the element matrices, no assembly of forms
             self._set_from_elements(H, self._block_elements(E, [m])[0], m)
             return
         if m == 0:
-            FormProblem._assemble_symmetric(H, self.axisymmetric_form, bcs)
+            assemble_symmetric(H, self.axisymmetric_form, bcs)
             return
         C = self.coefficient_matrices()
         same = PETSc.Mat.Structure.SAME_NONZERO_PATTERN
@@ -318,10 +305,10 @@ class ModeForms:
             H.assemble()
         for k in range(1, DEGREE + 1):
             H.axpy(float(m) ** k, C[k], structure=same)
-        H.zeroRowsColumns(self._constrained_rows(m), diag=1.0)
+        H.zeroRowsColumns(self.constrained_rows(m), diag=1.0)
         H.setOption(H.Option.SYMMETRIC, True)
 
-    def _chain_setup(self) -> Any:
+    def chain_setup(self) -> Any:
         """(tabulator, chain test) of ``shells.axisym.chain`` for this space, made on first use;
         None in parallel or where it cannot be set up (no C compiler, an unexpected mesh)."""
         if self.model.comm.size > 1 or self._chain is False:
@@ -338,7 +325,7 @@ class ModeForms:
                                        list(layout.entity_dofs(0, 1))),
                                       list(layout.entity_dofs(1, 0)))
                 for key in (0, 1, 2, 3):  # every condition on a vertex DOF
-                    chain._constraint_indices(np.asarray(self._constrained_rows(key).getIndices()))
+                    chain.constraint_indices(np.asarray(self.constrained_rows(key).getIndices()))
             except Exception as e:  # the assembled path instead
                 log.debug("element matrices of the mode forms not available: %s", e)
                 self._chain = False
@@ -371,9 +358,8 @@ class ModeForms:
         m = 0 with the m ≥ 1 phases) is π [q_UW(S + D, W) + q_V(S - D)]: the quadratic forms
         of the meridional and of the azimuthal displacement, which do not couple at m = 0
         about an axisymmetric state (the base state has no azimuthal component); H_0 is
-        2π [q_UW(S, W) + q_V(D)]. Equal to the second derivative of its own form to round-off
-        (1e-14 of each entry, 6e-16 of the largest, measured on the θ̄ = 8 cap), at no
-        kernel's cost (0.07 against 0.4 ms a state there)."""
+        2π [q_UW(S, W) + q_V(D)]. Equal to the second derivative of its own form to round-off,
+        at no kernel's cost (docs/model.md, "Stability and critical points")."""
         from shells.axisym.chain import sum_difference
 
         sum_difference(C0, pairs[0], pairs[1], out)
@@ -381,19 +367,19 @@ class ModeForms:
     def element_matrices(self) -> np.ndarray | None:
         """The element matrices of C_0..C_4 and of H_0 on every cell (6, cells, 21, 21) at
         the model's current state: tabulated on first use and again whenever an input of the
-        forms changed (as ``coefficient_matrices``). None in parallel (``_chain_setup``)."""
-        setup = self._chain_setup()
+        forms changed (as ``coefficient_matrices``). None in parallel (``chain_setup``)."""
+        setup = self.chain_setup()
         if setup is None:
             return None
-        stale, inputs = self._stale(self._E_inputs)
+        stale, inputs = self._stale(self.element_inputs)
         if stale:
-            self._E_inputs = None  # not valid while being tabulated
+            self.element_inputs = None  # not valid while being tabulated
             tab, _, pairs = setup
             if self._E is None:
                 self._E = np.empty((DEGREE + 2, tab.ncells, tab.n, tab.n))
             tab.tabulate(out=self._E[:DEGREE + 1])
             self._axisymmetric_elements(self._E[0], pairs, self._E[DEGREE + 1])
-            self._E_inputs = [a.copy() for a in inputs]
+            self.element_inputs = [a.copy() for a in inputs]
         return self._E
 
     @staticmethod
@@ -423,16 +409,16 @@ class ModeForms:
     def _set_from_elements(self, H: Any, Em: np.ndarray, m: int) -> None:
         """H's values from the element matrices Em of H_m (``chain.ElementAssembler``), mode
         m's constrained rows and columns 0 and their diagonal 1, flagged symmetric."""
-        self._assembler().set(H, Em, np.asarray(self._constrained_rows(m).getIndices()))
+        self._assembler().set(H, Em, np.asarray(self.constrained_rows(m).getIndices()))
         H.setOption(H.Option.SYMMETRIC, True)
 
     def create_matrix(self) -> Any:
         """A matrix of the pattern of every H_m: on one process one whose value array
         ``assemble_hessian`` writes in place (``chain.ElementAssembler.create_matrix``: no
-        ``setValuesCSR``, 0.75 ms a block on the θ̄ = 8 cap), else dolfinx's."""
+        ``setValuesCSR``), else dolfinx's."""
         from dolfinx.fem.petsc import create_matrix
 
-        if self._chain_setup() is not None:
+        if self.chain_setup() is not None:
             return self._assembler().create_matrix()
         return create_matrix(self.form)
 
@@ -497,7 +483,7 @@ class ModeForms:
             return None
         m = int(m)
         return (E, self._powers([m]), DEGREE + 1 if m == 0 else -1,
-                np.asarray(self._constrained_rows(m).getIndices()))
+                np.asarray(self.constrained_rows(m).getIndices()))
 
     def definite(self, ms: list[int], margin: float) -> dict[int, bool] | None:
         """For each m: is H_m - ``margin`` diag(H_m) positive definite (a Cholesky factor
@@ -509,7 +495,7 @@ class ModeForms:
         if E is None:
             return None
         ms = [int(m) for m in ms]
-        constrained = [np.asarray(self._constrained_rows(m).getIndices()) for m in ms]
+        constrained = [np.asarray(self.constrained_rows(m).getIndices()) for m in ms]
         powers = self._powers(ms)
         own = [DEGREE + 1 if m == 0 else -1 for m in ms]  # H_0 has its own form
         answers = self._chain[1].definite(E, powers, own, constrained, margin)
@@ -536,10 +522,27 @@ class ModeForms:
             pairs = [(S, poles), (D, poles), (W, poles), (PS, poles), (PW, poles)]
         else:
             pairs = [(S, poles), (D, poles), (W, poles), (PS, poles), (PD, poles), (PW, poles)]
-        return [bc for sub, verts in pairs for bc in _dirichlet(sub, verts)]
+        return [bc for sub, verts in pairs for bc in dirichlet(sub, verts)]
 
     def conditions(self, m: int) -> list[Any]:
-        """The Dirichlet conditions of mode m (axis conditions and rigid-motion gauges)."""
+        """The Dirichlet conditions of mode m (axis conditions and rigid-motion gauges).
+
+        On each pole (∂: the slope field): m = 0: S = D = 0, ∂W = 0; m = 1: S = 0, W = 0,
+        ∂S = ∂D = 0; m = 2: S = D = W = 0, ∂S = ∂W = 0; m ≥ 3: all values and slopes zero. A
+        free rim needs no condition. Rigid motions are exact null vectors of the continuum
+        Hessians and are removed by value constraints that they violate (restriction to such
+        a hyperplane keeps the inertia): m = 0: W = 0 at the top pole (z-translation), D = 0
+        on the widest parallel (rotation about z); m = 1: D = 0 at the top pole (translation)
+        and W = 0 on the widest parallel (tilt). A slope constraint at the pole would do for
+        the tilt in principle, but a point has no capacity for slopes in 2D: it leaves a
+        spurious near-zero eigenvalue.
+
+        Args:
+            m: the mode.
+
+        Returns:
+            The conditions (shared by every m ≥ 3).
+        """
         return self._bcs[min(int(m), 3)]
 
     def set_mode(self, m: int) -> list[Any]:

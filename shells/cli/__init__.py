@@ -8,7 +8,7 @@ never a traceback.
 Modules: ``common`` (the parser class, logging, ``emit``, argument types, the shape and physics
 arguments, the checks of ranges and paths), one per subcommand: ``mesh`` (mesh, info, render),
 ``branch``, ``critical``, ``postbuckle``, ``phase_diagram``, ``knockdown``. They parse, call
-the library (``shells.drivers`` and the driver modules) and print.
+the analyses (``shells.analyses``: each analysis module's ``run``) and print.
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ _EARLY: list[int] = []
 def _build_parser() -> argparse.ArgumentParser:
     # the subcommands (NumPy, SciPy, the geometry) are imported here, once ``main`` handles
     # signals, not when ``shells.cli`` is imported
-    from shells.cli import branch, critical, knockdown, mesh, phase_diagram, postbuckle
+    from shells.cli import branch, critical, knockdown, mesh, phase_diagram, plot, postbuckle
     from shells.cli.common import Parser
 
     p = Parser(prog="shells", description="Thin elastic shells with natural curvature "
@@ -46,12 +46,21 @@ def _build_parser() -> argparse.ArgumentParser:
     phase_diagram.add_subcommand(sub)
     postbuckle.add_subcommand(sub)
     knockdown.add_subcommand(sub)
+    plot.add_subcommand(sub)
     mesh.add_render(sub)
     return p
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the CLI; returns the exit status (0 ok, 2 bad input, 1 failure)."""
+    """Run the command line.
+
+    Args:
+        argv: the arguments (default ``sys.argv[1:]``).
+
+    Returns:
+        The exit status: 0 ok, 2 bad input, 1 failure, 128 + the signal's number when
+        interrupted (the same command then resumes).
+    """
     argv = list(sys.argv[1:] if argv is None else argv)
     signalled: list[int] = []
 
@@ -70,17 +79,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     def _terminate(signum: int, frame: Any) -> None:
         if _importing(frame):
             # a KeyboardInterrupt inside a C extension's module initialisation (dolfinx's
-            # nanobind module calls back into Python for its enums) aborted the process with
-            # a native backtrace, or ended it by SIGINT, in 8 of 300 signals sent within 0.5 s
-            # of a 1D branch's first record: act once the import is done (polled every 50 ms)
+            # nanobind module calls back into Python for its enums) can abort the process with
+            # a native backtrace, or end it by SIGINT (docs/design-notes.md, "Interrupts"):
+            # act once the import is done (polled every 50 ms)
             signal.signal(signal.SIGALRM, lambda _s, f: _terminate(signum, f))
             signal.setitimer(signal.ITIMER_REAL, 0.05)
             return
         signalled.append(signum)
         # what is logged from here on is the unwinding's, not the run's: a KeyboardInterrupt
         # raised inside a PETSc callback (the Jacobian's assembly during the start's Newton
-        # solve) failed that factorisation, and its "zero pivot: MUMPS from now on" line came
-        # before the interrupt's (once in the 2-rank suite, signalled 0.15 s after the start)
+        # solve) fails that factorisation, and its "zero pivot: MUMPS from now on" line would
+        # come before the interrupt's
         logging.disable(logging.CRITICAL)
         from mpi4py import MPI
 
@@ -94,7 +103,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 time.sleep(2.0)
             print(_message(signum), file=sys.stderr, flush=True)
             # mpirun forwards a rank's stderr through a pipe it reads in its own time; an
-            # immediate Abort lost the line in 3 runs of 70
+            # immediate Abort can lose the line (docs/design-notes.md, "Interrupts")
             time.sleep(0.5)
             comm.Abort(128 + signum)
         raise KeyboardInterrupt
@@ -136,6 +145,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             if rank() == 0:
                 parser.print_help()
             return 0
+        from shells.progress import quiet
+
+        quiet(bool(getattr(args, "json", False)))  # --json: for a program, no bar
         common.check_ranges(args)
         common.check_paths(args)
         with common.hold_output(args):  # a second run into the same folder: refused, exit 2
@@ -177,13 +189,19 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def entry() -> None:
-    """The ``shells`` command (console script and ``python3 -m shells``): ``main()``, then exit
-    with its status. Once ``main`` has returned, the run is complete and its files written:
-    SIGINT and SIGTERM are ignored through the teardown (logging, atexit, MPI_Finalize, well
-    under a second; SIGKILL still ends it). Python's default handler raised KeyboardInterrupt
-    in whatever teardown code ran and printed its fragments, and after the interpreter's own
-    clean-up (which resets Python-level handlers to SIG_DFL, not SIG_IGN) a signal during
-    MPI_Finalize killed the rank: mpirun then reported a rank ended by a signal, exit 130."""
+    """The ``shells`` command (console script and ``python3 -m shells``).
+
+    Runs ``main()``, then exits with its status. Once ``main`` has returned, the run is
+    complete and its files written: SIGINT and SIGTERM are ignored through the teardown
+    (logging, atexit, MPI_Finalize, well under a second; SIGKILL still ends it). With Python's
+    default handler a KeyboardInterrupt would be raised in whatever teardown code runs and
+    print its fragments, and after the interpreter's own clean-up (which resets Python-level
+    handlers to SIG_DFL, not SIG_IGN) a signal during MPI_Finalize would kill the rank, which
+    mpirun reports as a rank ended by a signal, exit 130.
+
+    Raises:
+        SystemExit: always, with ``main``'s status.
+    """
     import signal
 
     def _between(signum: int, frame: Any) -> None:

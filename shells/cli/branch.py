@@ -1,5 +1,5 @@
 """``shells branch`` (CLI layer; no library module imports it): follow a shell in kappa from 0,
-either model; the run is ``shells.drivers.branch_surface`` / ``branch_axisym``.
+either model; the run is ``shells.analyses.branch.run``.
 """
 
 from __future__ import annotations
@@ -9,8 +9,10 @@ from collections.abc import Callable
 from typing import Any
 
 from shells.cli.common import (
+    add_degree_arg,
     add_field_args,
-    add_json,
+    add_kappa_range,
+    add_outputs,
     add_shape_args,
     add_shell_args,
     emit,
@@ -23,17 +25,14 @@ from shells.errors import InputError
 
 
 def add_subcommand(sub: Any) -> argparse.ArgumentParser:
+    """Add ``shells branch`` to ``sub`` (the CLI's subparsers); returns its parser."""
     b = sub.add_parser("branch", help="follow the equilibrium branch in kappa (continuation)",
                        description="Follow a shell from kappa = 0 to a final natural curvature "
                        "with pseudo-arclength (through folds) or natural continuation; each point "
                        "is appended to DIR/branch.jsonl as it is computed and a rerun resumes.")
     add_shape_args(b, positional=False, user_mesh=True)
     add_shell_args(b)
-    g = b.add_mutually_exclusive_group()
-    g.add_argument("--kappa-h-max", type=float, default=None,
-                   help="final kappa h (sign: direction)")
-    g.add_argument("--kappa-r-max", type=float, default=None,
-                   help="final kappa R (sign: direction)")
+    add_kappa_range(b, "final kappa h (sign: direction)", "final kappa R (sign: direction)")
     b.add_argument("--model", default="surface", choices=("surface", "axisym"),
                    help="surface (2D mesh, default) or axisym (shell of revolution, 1D)")
     add_field_args(b)
@@ -43,10 +42,7 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
     b.add_argument("--size", type=positive_float("size"), default=None,
                    help="bulk element size / R (default 0.1; caps deeper than thetabar = 3 and "
                    "ellipsoids 0.2; closed spheres 0.21)")
-    b.add_argument("--degree", type=int, choices=(2, 3), default=None,
-                   help="polynomial degree (default 2; closed spheres, caps deeper than "
-                   "thetabar = 3, ellipsoids and any --kappa-field or --anisotropy 3: P2 "
-                   "locks there, docs/model.md)")
+    add_degree_arg(b)
     b.add_argument("--layer-elements", type=positive_float("layer-elements"), default=4.0,
                    help="elements across sqrt(R h) at the rim (default 4)")
     b.add_argument("--shear-penalty", type=positive_float("shear-penalty"), default=1.0e3,
@@ -55,29 +51,21 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
                    help="write VTX fields (DIR/fields.bp) for ParaView")
     b.add_argument("--restart", action="store_true", help="ignore an existing branch file")
     b.add_argument("-o", "--output", default=None, help="output directory (results/branch)")
-    add_json(b)
-    b.set_defaults(func=_cmd_branch)
-    return b
+    return add_outputs(b, _cmd_branch)
 
 
 def _cmd_branch(args: argparse.Namespace) -> int:
-    from shells import drivers
+    from shells.analyses import branch
 
-    shape = shape_from_args(args)
     if (args.kappa_h_max is None) == (args.kappa_r_max is None):
-        raise InputError("give exactly one of --kappa-h-max and --kappa-r-max")
+        raise InputError("give exactly one of --kappa-h-max, --kappa-r-max and --kappa-max")
+    shape = shape_from_args(args)
     outdir = args.output or "results/branch"
     fld = field_from_args(args, shape, args.model)
     k_end = kappa_end(shape, args.h_over_r, args.kappa_h_max, args.kappa_r_max)  # checked
     if args.model == "axisym":
-        L = shape.characteristic_size()
-        from shells.geometry import kappa_length
-
-        R_or_L = kappa_length(shape)
-        kr = (args.kappa_h_max * R_or_L / (args.h_over_r * L) if args.kappa_h_max is not None
-              else args.kappa_r_max)
-        result = drivers.branch_axisym(shape, args.h_over_r, args.nu, kr, outdir,
-                                       kappa_field=fld)
+        result = branch.run(shape, args.h_over_r, args.nu, k_end, model="axisym",
+                            outdir=outdir, kappa_field=fld)
         header = f"{'kappa R':>10} {'kappa h':>10} {'Psi3/h':>12} {'energy':>12} its unstable m"
 
         def row(p: dict[str, Any]) -> str:
@@ -86,18 +74,16 @@ def _cmd_branch(args: argparse.Namespace) -> int:
 
         title, with_last = f"{shape.kind} h/L = {args.h_over_r}, nu = {args.nu}, axisym", False
     else:
-        from shells.branch import BranchConfig
-        from shells.continuation import ContinuationSettings
+        from shells.algorithms.settings import ContinuationSettings
 
         cont = ContinuationSettings(method=args.method, ds=args.ds,
                                     ds_max=max(args.ds, args.ds_max))
-        cfg = BranchConfig(shape=shape, h_over_r=args.h_over_r, nu=args.nu,
-                           kappa_end=k_end,
-                           size=args.size, layer_elements=args.layer_elements,
-                           shear_penalty=args.shear_penalty, continuation=cont,
-                           degree=args.degree, kappa_field=fld, mesh_file=args.mesh)
-        result = drivers.branch_surface(cfg, outdir, fields=args.fields,
-                                        resume=not args.restart)
+        result = branch.run(shape, args.h_over_r, args.nu, k_end, model="surface",
+                            outdir=outdir, kappa_field=fld, fields=args.fields,
+                            resume=not args.restart, size=args.size,
+                            layer_elements=args.layer_elements,
+                            shear_penalty=args.shear_penalty, continuation=cont,
+                            degree=args.degree, mesh_file=args.mesh)
         header = (f"{'kappa R':>10} {'kappa h':>10} {'Psi3/h':>12} {'apex/h':>10} "
                   f"{'energy':>12} its")
 

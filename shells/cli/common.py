@@ -14,9 +14,10 @@ from collections.abc import Callable
 from contextlib import AbstractContextManager, nullcontext
 from typing import Any
 
-from shells import paths
+from shells.cli import paths
 from shells.errors import InputError
-from shells.store import hold_output_folder, json_default
+from shells.files import hold_output_folder, json_default
+from shells.parameters import check_h_over_r, check_nu
 
 log = logging.getLogger("shells")
 
@@ -63,10 +64,52 @@ def emit(result: dict[str, Any], args: argparse.Namespace, human: Callable[[], N
     """Print a result on rank 0: the human summary, then (with --json) the JSON last line."""
     if rank() != 0:
         return
+    full = with_units(result, args)
+    if getattr(args, "plot", None) or getattr(args, "csv", None):
+        from shells.api.results import Result
+
+        res = Result(args.command.replace("-", "_"), full)
+        if args.plot:
+            res.plot(args.plot)
+        if args.csv:
+            res.to_csv(args.csv)
     if not getattr(args, "json", False):
         human()
     else:
-        print(json.dumps(result, default=json_default), flush=True)
+        print(json.dumps(full, default=json_default), flush=True)
+
+
+def add_outputs(p: argparse.ArgumentParser, func: Callable[[argparse.Namespace], int]
+                ) -> argparse.ArgumentParser:
+    """--plot, --csv and --json on an analysis's parser, ``func`` its command; returns ``p``."""
+    add_table_args(p)
+    add_json(p)
+    p.set_defaults(func=func)
+    return p
+
+
+def shape_and_field(args: argparse.Namespace) -> tuple[Any, Any]:
+    """The shape of the arguments and its natural-curvature field (``--kappa-field``, checked
+    for the model)."""
+    shape = shape_from_args(args)
+    return shape, field_from_args(args, shape, args.model)
+
+
+def add_degree_arg(p: argparse.ArgumentParser) -> None:
+    """--degree: the surface model's polynomial degree (None: its default)."""
+    p.add_argument("--degree", type=int, choices=(2, 3), default=None,
+                   help="surface model: polynomial degree, full quadrature 2 x degree (default "
+                   "2; closed spheres, caps deeper than thetabar = 3, ellipsoids and any "
+                   "--kappa-field or --anisotropy 3: P2 locks there, docs/model.md)")
+
+
+def add_table_args(p: argparse.ArgumentParser) -> None:
+    """--plot FILE.png and --csv FILE.csv: the run's figure and table."""
+    p.add_argument("--plot", default=None, metavar="FILE.png",
+                   help="a figure of the result (a branch's Psi3/h against kappa R, stable and "
+                   "unstable parts, critical points marked)")
+    p.add_argument("--csv", default=None, metavar="FILE.csv",
+                   help="the result's table (its points, or its critical points) as CSV")
 
 
 # --------------------------------------------------------------------------------------------
@@ -87,22 +130,44 @@ def positive_float(name: str) -> Callable[[str], float]:
 
 #: Accepted --radius (and --r3 up to the upper bound). Every result is dimensionless (kappa R,
 #: kappa h, h/R): the radius only sets the unit. The mesher's test that drops a cap's flat base
-#: (height < 1e-6 R, shells.mesh) fails against OCC's absolute bounding-box slack (~2e-7) below
-#: R = 0.25 (measured: R = 0.2 and 0.1 mesh a closed lens, twice the area, no rim; 0.25 and 0.3
-#: are right), and R = 1e200 fails in OCC ("Could not fix wire"); 1e6 .. 1e20 mesh correctly.
+#: (height < 1e-6 R, shells.surface.mesh) fails against OCC's absolute bounding-box slack (~2e-7)
+#: below R = 0.25, and OCC fails on huge radii; the range keeps a margin from both
+#: (docs/design-notes.md, "Meshes").
 RADIUS_RANGE = (0.5, 1.0e6)
 
 
+class SILength(float):
+    """A length given with units on the command line (``25mm``), in metres."""
+
+
 def length(name: str, lo: float | None) -> Callable[[str], float]:
-    """A length in [lo, RADIUS_RANGE[1]] (lo None: any positive value)."""
+    """A length: a plain number in [lo, RADIUS_RANGE[1]] (lo None: any positive value), the
+    unit of the dimensionless results, or a length with units (``25mm``, ``0.025 m``), any
+    positive value, kept as an ``SILength`` in metres."""
     hi = RADIUS_RANGE[1]
 
     def conv(text: str) -> float:
+        try:
+            float(text)
+            with_units = False
+        except ValueError:
+            with_units = True
+        if with_units:
+            from shells.units import length as si_length
+
+            try:
+                si = si_length(text, f"--{name}")
+            except InputError as e:
+                raise argparse.ArgumentTypeError(str(e)) from None
+            if not si > 0:
+                raise argparse.ArgumentTypeError(f"--{name} must be positive, got {text}")
+            return SILength(si)
         v = positive_float(name)(text)
         if v > hi or (lo is not None and v < lo):
             rng = f"[{lo:g}, {hi:g}]" if lo is not None else f"(0, {hi:g}]"
             raise argparse.ArgumentTypeError(f"{name} must lie in {rng} (results are "
-                                             f"dimensionless: R sets the unit), got {text}")
+                                             f"dimensionless: R sets the unit), got {text}; a "
+                                             f"length with units is any size (25mm)")
         return v
 
     return conv
@@ -124,7 +189,7 @@ def add_shape_args(p: argparse.ArgumentParser, positional: bool,
                    user_mesh: bool = False) -> None:
     """The shape's arguments; ``user_mesh``: also ``--mesh FILE`` (then --shape is optional,
     ``shape_from_args`` checks that exactly one of them is given)."""
-    from shells.geometry import SHAPES
+    from shells.geometry.catalogue import SHAPES
 
     if positional:
         p.add_argument("shape", metavar="SHAPE", help=f"one of: {', '.join(SHAPES)}")
@@ -163,14 +228,15 @@ def add_ring_arg(p: argparse.ArgumentParser) -> None:
 def shape_from_args(args: argparse.Namespace):
     """The shape of the arguments; with ``--mesh``, the mesh file's (its mesh is built by the
     run)."""
-    from shells.geometry import MeridianTable, make_shape
+    from shells.geometry.catalogue import make_shape
+    from shells.geometry.meridian import MeridianTable
 
     if getattr(args, "mesh", None) is not None:
         if args.shape is not None or getattr(args, "meridian", None) is not None:
             raise InputError("--mesh gives the shape: drop --shape and --meridian")
         from mpi4py import MPI
 
-        from shells.mesh import read_mesh_shape
+        from shells.surface.mesh import read_mesh_shape
 
         return read_mesh_shape(args.mesh, MPI.COMM_WORLD)
     if args.shape is None:
@@ -192,9 +258,13 @@ def shape_from_args(args: argparse.Namespace):
 
 
 def add_shell_args(p: argparse.ArgumentParser) -> None:
-    """--h-over-r (required) and --nu."""
-    p.add_argument("--h-over-r", type=positive_float("h/R"), required=True,
+    """--h-over-r or --thickness (one of them required) and --nu."""
+    g = p.add_mutually_exclusive_group(required=True)
+    g.add_argument("--h-over-r", type=positive_float("h/R"), default=None,
                    help="thickness over R (disk: over its radius)")
+    g.add_argument("--thickness", type=length("thickness", None), default=None,
+                   help="instead of --h-over-r: the thickness, a length with units (1mm) with "
+                   "--radius given with units, or a number in the unit of --radius")
     p.add_argument("--nu", type=float, default=0.5, help="Poisson ratio (default 0.5)")
 
 
@@ -230,7 +300,7 @@ def field_from_args(args: argparse.Namespace, shape: Any, model: str) -> Any:
     """The ``CurvatureField`` of --kappa-field/--anisotropy (the uniform one if neither is
     given), checked on ``shape`` (finite, not zero everywhere; axisymmetric for the 1D model)
     before any work."""
-    from shells.stimulus import UNIFORM, CurvatureField, names_table
+    from shells.geometry.stimulus import UNIFORM, CurvatureField, names_table
 
     expr, an = getattr(args, "kappa_field", None), getattr(args, "anisotropy", None)
     if expr is None and an is None:
@@ -244,11 +314,15 @@ def field_from_args(args: argparse.Namespace, shape: Any, model: str) -> Any:
     return fld
 
 
-def add_kappa_range(p: argparse.ArgumentParser) -> None:
-    """--kappa-h-max | --kappa-r-max: the end of the range, in magnitude (--direction: sign)."""
+def add_kappa_range(p: argparse.ArgumentParser, help_h: str = "end of the range, |kappa h|",
+                    help_r: str = "end of the range, |kappa R|") -> None:
+    """--kappa-h-max | --kappa-r-max | --kappa-max: the end of the range (--kappa-max a
+    curvature with units, for a --radius with units)."""
     g = p.add_mutually_exclusive_group()
-    g.add_argument("--kappa-h-max", type=float, default=None, help="end of the range, |kappa h|")
-    g.add_argument("--kappa-r-max", type=float, default=None, help="end of the range, |kappa R|")
+    g.add_argument("--kappa-h-max", type=float, default=None, help=help_h)
+    g.add_argument("--kappa-r-max", type=float, default=None, help=help_r)
+    g.add_argument("--kappa-max", default=None, metavar="K",
+                   help="the same as a curvature with units (40/m), with --radius in units")
 
 
 def kappa_end(shape: Any, h_over_r: float, kappa_h: float | None, kappa_r: float | None,
@@ -259,7 +333,7 @@ def kappa_end(shape: Any, h_over_r: float, kappa_h: float | None, kappa_r: float
     if kappa_h is not None:
         k = kappa_h / (h_over_r * L)
     elif kappa_r is not None:
-        from shells.geometry import kappa_length
+        from shells.geometry.shapes import kappa_length
 
         k = kappa_r / kappa_length(shape)
     else:
@@ -280,47 +354,112 @@ KAPPA_H_LIMIT = 100.0
 # --------------------------------------------------------------------------------------------
 # argument validation before any work: ranges common to the subcommands, every path argument
 # --------------------------------------------------------------------------------------------
-#: Largest h/R (h over the shape's length scale) accepted. The model is Koiter's thin-shell
-#: energy (bending h^3/12, no transverse shear or thickness change), an expansion in h/R: at
-#: h/R = 0.5 the faces lie at 0.75 R and 1.25 R and the expansion has no meaning any more. The
-#: thickest shells in tests/ and benchmarks/ have h/R = 0.05.
-H_OVER_R_MAX = 0.5
-#: thinner shells: the bending stiffness, (h/R)² of the stretching one, is lost in round-off
-#: (a tenth of the thinnest sphere the paper computes is 1e-4; 5e-324 overflowed the range)
-H_OVER_R_MIN = 1e-5
-
 #: Path arguments per subcommand: (attribute, label, kind, value used when the attribute is
 #: None). Kinds: "in" (a file read), "msh"/"png" (a file written, with that suffix), "dir" (an
 #: output folder), "shared" (only: shared with the host), "field" (--kappa-field: "in" if it
 #: names a table file). Every one is checked by
-#: ``shells.paths`` before the subcommand starts; a subcommand not listed here has its -o
+#: ``shells.cli.paths`` before the subcommand starts; a subcommand not listed here has its -o
 #: (``output``), if any, checked as "shared".
 PATH_ARGS: dict[str, list[tuple[str, str, str, str | None]]] = {
     "mesh": [("spec", "--spec", "in", None), ("output", "-o", "msh", None),
              ("png", "--png", "png", None), ("meridian", "--meridian", "in", None)],
     "info": [("mesh", "mesh file", "in", None)],
     "render": [("mesh", "mesh file", "in", None), ("output", "-o", "png", None)],
-    "branch": [("output", "-o", "dir", "results/branch"),
+    "branch": [("plot", "--plot", "png", None), ("csv", "--csv", "csv", None),
+               ("output", "-o", "dir", "results/branch"),
                ("kappa_field", "--kappa-field", "field", None),
                ("meridian", "--meridian", "in", None), ("mesh", "--mesh", "in", None)],
-    "critical": [("output", "-o", "dir", None), ("kappa_field", "--kappa-field", "field", None),
+    "plot": [("folder", "run folder", "shared", None), ("output", "-o", "png", None)],
+    "critical": [("plot", "--plot", "png", None), ("csv", "--csv", "csv", None),
+                 ("output", "-o", "dir", None), ("kappa_field", "--kappa-field", "field", None),
                  ("meridian", "--meridian", "in", None), ("mesh", "--mesh", "in", None)],
     "phase-diagram": [("output", "-o", "dir", None)],
-    "postbuckle": [("output", "-o", "dir", None),
+    "postbuckle": [("plot", "--plot", "png", None), ("csv", "--csv", "csv", None),
+                   ("output", "-o", "dir", None),
                    ("kappa_field", "--kappa-field", "field", None),
                    ("meridian", "--meridian", "in", None), ("mesh", "--mesh", "in", None)],
     "knockdown": [("output", "-o", "dir", None)],
 }
 
 
+def apply_units(args: argparse.Namespace) -> None:
+    """Lengths and curvatures given with units, turned into the dimensionless arguments: a
+    --radius with units becomes R = 1 (the computation is the dimensionless one) with
+    ``args.radius_m`` its length in metres; --r3 and --ring with units become ratios to it;
+    --thickness becomes --h-over-r; --kappa-max (1/m) becomes --kappa-r-max."""
+    radius = getattr(args, "radius", None)
+    args.radius_m = float(radius) if isinstance(radius, SILength) else None
+    if args.radius_m is not None and args.command in ("mesh", "render", "info"):
+        raise InputError("a mesh is written in the shape's own numbers: give --radius as a "
+                         "number (the runs take lengths with units)")
+    if args.radius_m is not None:
+        for opt in ("r3", "ring"):
+            v = getattr(args, opt, None)
+            if v is not None and not isinstance(v, SILength):
+                raise InputError(f"--{opt} needs units when --radius has them (e.g. 30mm)")
+            if v is not None:
+                setattr(args, opt, float(v) / args.radius_m)
+        args.radius = 1.0
+    else:
+        for opt in ("r3", "ring", "thickness"):
+            if isinstance(getattr(args, opt, None), SILength):
+                raise InputError(f"--{opt} with units needs --radius with units (e.g. "
+                                 "--radius 25mm)")
+    thickness = getattr(args, "thickness", None)
+    if thickness is not None:
+        if getattr(args, "mesh", None) is not None or getattr(args, "shape", None) == "meridian":
+            raise InputError("--thickness needs the shape's radius: give --h-over-r for a "
+                             "meridian table or a mesh")
+        if args.radius_m is not None and not isinstance(thickness, SILength):
+            raise InputError("--thickness needs units when --radius has them (e.g. 1mm)")
+        scale = args.radius_m if isinstance(thickness, SILength) else args.radius
+        args.h_over_r = float(thickness) / scale
+    k = getattr(args, "kappa_max", None)
+    if k is not None:
+        from shells.units import curvature
+
+        try:
+            float(k)
+            si = None  # a plain number: no units
+        except ValueError:
+            si = curvature(k, "--kappa-max")
+        if si is None or args.radius_m is None:
+            raise InputError("--kappa-max is a curvature with units (e.g. 40/m) for a "
+                             "--radius with units; otherwise give --kappa-r-max")
+        args.kappa_r_max = si * args.radius_m
+
+
+def with_units(result: dict[str, Any], args: argparse.Namespace) -> dict[str, Any]:
+    """The result with its lengths and curvatures in SI units added where the shell was given
+    with units: ``R_m``, ``h_m``, and ``kappa_per_m`` beside every ``kappa_R``."""
+    r = getattr(args, "radius_m", None)
+    if r is None:
+        return result
+
+    def add(d: dict[str, Any]) -> dict[str, Any]:
+        out = dict(d)
+        if isinstance(d.get("kappa_R"), (int, float)):
+            out["kappa_per_m"] = d["kappa_R"] / r
+        for key in ("critical_points", "points"):
+            if isinstance(d.get(key), list):
+                out[key] = [add(x) if isinstance(x, dict) else x for x in d[key]]
+        if isinstance(d.get("critical_point"), dict):
+            out["critical_point"] = add(d["critical_point"])
+        return out
+
+    h = getattr(args, "h_over_r", None)
+    return {**add(result), "R_m": r, **({"h_m": h * r} if isinstance(h, float) else {})}
+
+
 def check_ranges(args: argparse.Namespace) -> None:
     """Ranges shared by several subcommands (nu, the kappa range, h/R; the phase diagram's
     smallest cap), before any work or any file is written."""
-    from shells.geometry import THETA_MIN_DEG
+    from shells.geometry.shapes import THETA_MIN_DEG
 
     nu = getattr(args, "nu", None)
-    if nu is not None and not (math.isfinite(nu) and -1.0 < nu <= 0.5):
-        raise InputError(f"nu must lie in (-1, 0.5], got {nu:g}")
+    if nu is not None:
+        check_nu(nu, "--nu")
+    apply_units(args)
     for opt in ("kappa_h_max", "kappa_r_max"):
         k = getattr(args, opt, None)
         if k is not None and not (math.isfinite(k) and k != 0):
@@ -330,9 +469,7 @@ def check_ranges(args: argparse.Namespace) -> None:
     if hs is None:
         return
     for h in hs if isinstance(hs, list) else [hs]:
-        if not (math.isfinite(h) and H_OVER_R_MIN <= h <= H_OVER_R_MAX):
-            raise InputError(f"--h-over-r must lie in [{H_OVER_R_MIN:g}, {H_OVER_R_MAX:g}] (a "
-                             f"thin shell, not thinner than double precision resolves), got {h:g}")
+        check_h_over_r(h, "--h-over-r")
     rng = getattr(args, "thetabar_range", None)
     if args.command == "phase-diagram" and rng and all(math.isfinite(v) for v in rng):
         theta_deg = math.degrees(min(rng) * math.sqrt(min(hs)))
@@ -342,8 +479,12 @@ def check_ranges(args: argparse.Namespace) -> None:
 
 
 def hold_output(args: argparse.Namespace) -> AbstractContextManager[None]:
-    """The run's hold on its output folder (its "dir" entry in ``PATH_ARGS``, if it has one):
-    ``shells.store.hold_output_folder`` on all ranks; nothing to hold otherwise."""
+    """Hold the run's output folder, its "dir" entry in ``PATH_ARGS`` (collective).
+
+    Returns:
+        ``shells.files.hold_output_folder`` of that folder on all ranks, or a context that
+        holds nothing if the subcommand has no output folder.
+    """
     from mpi4py import MPI
 
     for attr, label, kind, default in PATH_ARGS.get(args.command, []):
@@ -370,7 +511,7 @@ def check_paths(args: argparse.Namespace) -> None:
                 if value is None:
                     continue
                 if kind == "field":  # a table file, or an expression (nothing to check)
-                    from shells.stimulus import names_table
+                    from shells.geometry.stimulus import names_table
 
                     if names_table(value):
                         paths.check_input_file(value.strip(), label)

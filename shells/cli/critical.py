@@ -1,5 +1,5 @@
 """``shells critical`` (CLI layer; no library module imports it): the critical points of the
-fundamental branch; the run is ``shells.drivers.critical_run``.
+fundamental branch; the run is ``shells.analyses.critical.run``.
 """
 
 from __future__ import annotations
@@ -11,6 +11,7 @@ from shells.cli import common
 
 
 def add_subcommand(sub: Any) -> argparse.ArgumentParser:
+    """Add ``shells critical`` to ``sub`` (the CLI's subparsers); returns its parser."""
     c = sub.add_parser("critical", help="first critical point (fold or bifurcation) along the "
                        "fundamental branch", description="Follow the fundamental branch from "
                        "kappa = 0 with the Hessian inertia at every point; locate every critical "
@@ -23,13 +24,12 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
     common.add_field_args(c)
     c.add_argument("--first-only", action="store_true", help="stop at the first critical point")
     common.add_mesh_size_args(c, None, "bulk element size / R (default 0.1; caps deeper than "
-                              "thetabar = 3 and ellipsoids 0.2; closed spheres 0.21)")
+                              "thetabar = 3 and ellipsoids 0.2; closed spheres: 4.25 elements per "
+                              "wavelength of the critical degree n, at most 0.21, refused above "
+                              "150k DOFs)")
     c.add_argument("--shear-penalty", type=common.positive_float("shear-penalty"), default=1.0e3,
                    help="Kirchhoff-Love penalty, times the Naghdi shear stiffness (default 1e3)")
-    c.add_argument("--degree", type=int, choices=(2, 3), default=None,
-                   help="surface model: polynomial degree, full quadrature 2 x degree (default "
-                   "2; closed spheres, caps deeper than thetabar = 3, ellipsoids and any "
-                   "--kappa-field or --anisotropy 3: P2 locks there, docs/model.md)")
+    common.add_degree_arg(c)
     c.add_argument("--ds", type=common.positive_float("ds"), default=None,
                    help="initial step, in kappa L (default: range/16)")
     c.add_argument("--ds-max", type=common.positive_float("ds-max"), default=None,
@@ -41,22 +41,20 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
     c.add_argument("--restart", action="store_true",
                    help="ignore an existing branch file (surface model; the 1D model always "
                    "computes again)")
-    common.add_json(c)
-    c.set_defaults(func=_cmd_critical)
-    return c
+    return common.add_outputs(c, _cmd_critical)
 
 
 def _cmd_critical(args: argparse.Namespace) -> int:
-    from shells.drivers import critical_run
+    from shells.analyses import critical
 
-    shape = common.shape_from_args(args)
-    fld = common.field_from_args(args, shape, args.model)
+    shape, fld = common.shape_and_field(args)
     surface = {} if args.model != "surface" else dict(
-        first_only=args.first_only, size=args.size, layer_elements=args.layer_elements,
+        size=args.size, layer_elements=args.layer_elements,
         shear_penalty=args.shear_penalty, degree=args.degree, ds=args.ds, ds_max=args.ds_max,
         mesh_file=args.mesh, resume=not args.restart)
-    result = critical_run(shape, args.h_over_r, args.nu, direction=args.direction,
+    result = critical.run(shape, args.h_over_r, args.nu, direction=args.direction,
                           model=args.model, outdir=args.output, kappa_field=fld,
+                          first_only=args.first_only,
                           kappa_end=common.kappa_end(shape, args.h_over_r, args.kappa_h_max,
                                                      args.kappa_r_max, args.direction),
                           **surface)

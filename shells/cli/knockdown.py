@@ -1,6 +1,6 @@
 """``shells knockdown`` (CLI layer; no library module imports it): the knock-down of a closed
 sphere's curvature buckling by an imperfection (axisymmetric, or on the surface model a
-spherical harmonic); the run is ``shells.knockdown.run_knockdown``.
+spherical harmonic); the run is ``shells.analyses.knockdown.run``.
 """
 
 from __future__ import annotations
@@ -14,6 +14,7 @@ __all__ = ["add_subcommand"]
 
 
 def add_subcommand(sub: Any) -> argparse.ArgumentParser:
+    """Add ``shells knockdown`` to ``sub`` (the CLI's subparsers); returns its parser."""
     p = sub.add_parser("knockdown", help="knock-down of a closed sphere's buckling curvature by "
                        "an imperfection", description="For each imperfection amplitude delta/h: "
                        "follow the imperfect sphere (rotational symmetry enforced) from kappa = 0 "
@@ -55,8 +56,9 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
 
 
 def _cmd_knockdown(args: argparse.Namespace) -> int:
+    from shells.analyses import knockdown
+    from shells.analyses.knockdown import KnockdownConfig
     from shells.errors import InputError
-    from shells.knockdown import KnockdownConfig, run_knockdown
 
     if args.mode_n is not None and args.imperfection == "dimple":
         raise InputError("--mode-n is the degree of the mode or harmonic imperfection, not of "
@@ -67,7 +69,7 @@ def _cmd_knockdown(args: argparse.Namespace) -> int:
     # the 1D model is serial: rank 0 computes and writes, the others compute without files;
     # the surface model computes on all ranks, rank 0 writes
     outdir = args.output if common.rank() == 0 else None
-    res = run_knockdown(cfg, outdir, figure=not args.no_figure)
+    res = knockdown.run(cfg, outdir, figure=not args.no_figure)
 
     def human() -> None:
         load = "" if cfg.load == "curvature" else (

@@ -13,6 +13,7 @@ from shells.errors import InputError
 
 
 def add_mesh(sub: Any) -> argparse.ArgumentParser:
+    """Add ``shells mesh`` to ``sub`` (the CLI's subparsers); returns its parser."""
     m = sub.add_parser("mesh", help="mesh a sphere, cap, ellipsoidal cap, disk or torus with gmsh",
                        description="Mesh a shape with gmsh (second-order geometry, refined in the "
                        "rim boundary layer of width sqrt(R h)) and report area and rim errors.")
@@ -56,11 +57,13 @@ def _add_reader(sub: Any, name: str, help_: str, func: Any, png: bool
 
 
 def add_info(sub: Any) -> argparse.ArgumentParser:
+    """Add ``shells info`` to ``sub`` (the CLI's subparsers); returns its parser."""
     return _add_reader(sub, "info", "read a .msh file and report its size, area, rim",
                        _cmd_info, png=False)
 
 
 def add_render(sub: Any) -> argparse.ArgumentParser:
+    """Add ``shells render`` to ``sub`` (the CLI's subparsers); returns its parser."""
     return _add_reader(sub, "render", "render a .msh surface to PNG (off-screen)", _cmd_render,
                        png=True)
 
@@ -68,7 +71,7 @@ def add_render(sub: Any) -> argparse.ArgumentParser:
 def _cmd_mesh(args: argparse.Namespace) -> int:
     from mpi4py import MPI
 
-    from shells.mesh import MeshSpec, check_mesh_size, generate, load_mesh
+    from shells.surface.mesh import MeshSpec, check_mesh_size, generate, load_mesh
 
     if args.spec is not None:
         spec = _load_spec(args.spec)
@@ -89,7 +92,7 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
     summary = sm.summary()
     summary["file"] = args.output
     if args.png:
-        from shells.render import render_mesh
+        from shells.analyses.render import render_mesh
 
         render_mesh(sm, args.png)
         summary["png"] = args.png
@@ -114,7 +117,7 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
 def _load_spec(path: str):
     from pathlib import Path
 
-    from shells.mesh import MeshSpec
+    from shells.surface.mesh import MeshSpec
 
     p = Path(path)
     if not p.is_file():
@@ -142,7 +145,7 @@ def _load_spec(path: str):
 def _cmd_info(args: argparse.Namespace) -> int:
     from mpi4py import MPI
 
-    from shells.mesh import load_mesh
+    from shells.surface.mesh import load_mesh
 
     sm = load_mesh(args.mesh, MPI.COMM_WORLD)
     summary = sm.summary()
@@ -159,8 +162,8 @@ def _cmd_info(args: argparse.Namespace) -> int:
 def _cmd_render(args: argparse.Namespace) -> int:
     from mpi4py import MPI
 
-    from shells.mesh import load_mesh
-    from shells.render import render_mesh
+    from shells.analyses.render import render_mesh
+    from shells.surface.mesh import load_mesh
 
     sm = load_mesh(args.mesh, MPI.COMM_WORLD)
     render_mesh(sm, args.output)

@@ -1,5 +1,5 @@
 """``shells phase-diagram`` (CLI layer; no library module imports it): the phase diagram of open
-caps; the run is ``shells.phase_diagram.run_phase_diagram``.
+caps; the run is ``shells.analyses.phase_diagram.run``.
 """
 
 from __future__ import annotations
@@ -13,7 +13,14 @@ __all__ = ["add_subcommand"]
 
 
 def add_subcommand(subparsers: Any) -> argparse.ArgumentParser:
-    """Register ``shells phase-diagram`` on the CLI's subparsers; returns its parser."""
+    """Register ``shells phase-diagram`` on the command line's subparsers.
+
+    Args:
+        subparsers: the subparsers (``add_subparsers``' result).
+
+    Returns:
+        The subcommand's parser.
+    """
     p = subparsers.add_parser(
         "phase-diagram", help="phase diagram of open caps: snap, loss of symmetry, fits",
         description="For each h/R and theta-bar = theta/sqrt(h/R): the first instability going up "
@@ -50,7 +57,7 @@ def add_subcommand(subparsers: Any) -> argparse.ArgumentParser:
 
 
 def _cmd_phase_diagram(args: argparse.Namespace) -> int:
-    from shells import phase_diagram
+    from shells.analyses import phase_diagram
     from shells.theory import PAPER
 
     cfg = phase_diagram.PhaseDiagramConfig(
@@ -59,7 +66,7 @@ def _cmd_phase_diagram(args: argparse.Namespace) -> int:
         rel_tol=args.rel_tol, refine=args.refine,
         discretisation=phase_diagram.Discretisation(cells=args.cells, size=args.size,
                                                     layer_elements=args.layer_elements))
-    res = phase_diagram.run_phase_diagram(cfg, args.output, figure=not args.no_figure)
+    res = phase_diagram.run(cfg, args.output, figure=not args.no_figure)
 
     def human() -> None:
         f, e = res["fits"], res["fits_error"]

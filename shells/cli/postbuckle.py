@@ -1,5 +1,5 @@
-"""``shells postbuckle``: the command line of ``shells.postbuckle`` (CLI layer; no library module
-imports it); the run is ``shells.drivers.postbuckle_run``.
+"""``shells postbuckle``: the command line of ``shells.analyses.postbuckle`` (CLI layer; no library
+module imports it); the run is ``shells.analyses.postbuckle.run``.
 
     shells postbuckle --shape S --h-over-r H [--nu NU] [--theta-deg T] [--direction up|down]
         [--model axisym|surface] [--at K] [--kappa-r-max X | --kappa-h-max X] [-o DIR]
@@ -28,24 +28,14 @@ import argparse
 import math
 from typing import Any
 
-from shells.cli.common import (
-    add_field_args,
-    add_json,
-    add_kappa_range,
-    add_physics_args,
-    add_shape_args,
-    emit,
-    field_from_args,
-    kappa_end,
-    positive_float,
-    shape_from_args,
-)
+from shells.cli import common
 from shells.errors import InputError
 
 __all__ = ["add_subcommand"]
 
 
 def add_subcommand(sub: Any) -> argparse.ArgumentParser:
+    """Add ``shells postbuckle`` to ``sub`` (the CLI's subparsers); returns its parser."""
     p = sub.add_parser("postbuckle", help="follow the branch that bifurcates from the "
                        "fundamental one (post-buckling), both sides",
                        description="Follow the fundamental branch from kappa = 0, locate its "
@@ -54,23 +44,20 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
                        "stability at every point. The 1D model (axisym) follows axisymmetric "
                        "branches only (a closed sphere's buckling with rotational symmetry "
                        "enforced, as in the paper).")
-    add_shape_args(p, positional=False, user_mesh=True)
-    add_physics_args(p, "axisym", "axisym (1D, default) or surface (2D mesh)")
+    common.add_shape_args(p, positional=False, user_mesh=True)
+    common.add_physics_args(p, "axisym", "axisym (1D, default) or surface (2D mesh)")
     p.add_argument("--at", type=int, default=1, help="the K-th bifurcation (default 1)")
-    add_kappa_range(p)
-    add_field_args(p)
+    common.add_kappa_range(p)
+    common.add_field_args(p)
     p.add_argument("--kappa-min-ratio", type=float, default=0.5,
                    help="bifurcated branches end below this kappa/kappa_c (default 0.5)")
     p.add_argument("--max-points", type=int, default=60,
                    help="points per side of the bifurcated branch (default 60)")
-    p.add_argument("--size", type=positive_float("size"), default=None,
+    p.add_argument("--size", type=common.positive_float("size"), default=None,
                    help="surface model: bulk element size / R (default 0.2)")
-    p.add_argument("--layer-elements", type=positive_float("layer-elements"), default=3.0,
+    p.add_argument("--layer-elements", type=common.positive_float("layer-elements"), default=3.0,
                    help="surface model: elements across sqrt(R h) at the rim (default 3)")
-    p.add_argument("--degree", type=int, choices=(2, 3), default=None,
-                   help="surface model: polynomial degree (default 2; closed spheres, caps "
-                   "deeper than thetabar = 3, ellipsoids and any --kappa-field or --anisotropy 3: "
-                   "P2 locks there)")
+    common.add_degree_arg(p)
     p.add_argument("--fields", default="none", choices=("none", "last", "all"),
                    help="write the bifurcated states for ParaView (needs -o)")
     p.add_argument("--sides", default="both", choices=("both", "+1", "-1"),
@@ -78,18 +65,16 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
                         "pitchfork's are mirror images)")
     p.add_argument("-o", "--output", default=None,
                    help="directory: postbuckle.jsonl (points as computed) and shapes")
-    add_json(p)
-    p.set_defaults(func=_cmd_postbuckle)
-    return p
+    return common.add_outputs(p, _cmd_postbuckle)
 
 
 def _cmd_postbuckle(args: argparse.Namespace) -> int:
-    from shells.drivers import postbuckle_run
-    from shells.postbuckle import PostbuckleConfig
+    from shells.analyses import postbuckle
+    from shells.analyses.postbuckle import PostbuckleConfig
 
-    shape = shape_from_args(args)
-    fld = field_from_args(args, shape, args.model)
-    k_end = kappa_end(shape, args.h_over_r, args.kappa_h_max, args.kappa_r_max, args.direction)
+    shape, fld = common.shape_and_field(args)
+    k_end = common.kappa_end(shape, args.h_over_r, args.kappa_h_max, args.kappa_r_max,
+                             args.direction)
     if k_end is not None and not (math.isfinite(k_end) and k_end != 0):
         raise InputError("the end of the kappa range must be a nonzero number")
     if args.fields != "none" and args.output is None:
@@ -101,7 +86,7 @@ def _cmd_postbuckle(args: argparse.Namespace) -> int:
                            degree=args.degree,
                            sides=(1, -1) if args.sides == "both" else (int(args.sides),),
                            kappa_field=fld, mesh_file=args.mesh)
-    result = postbuckle_run(cfg, args.output, fields=args.fields)
+    result = postbuckle.run(cfg, args.output, fields=args.fields)
     cp, points, sides = result["critical_point"], result["points"], result["sides"]
 
     def human() -> None:
@@ -125,5 +110,5 @@ def _cmd_postbuckle(args: argparse.Namespace) -> int:
                       f"(kappa/kc = {c['kappa_over_kappa_c']:.5f}), m = {c['mode_m']}, "
                       f"accuracy {c['accuracy']:.1e}")
 
-    emit(result, args, human)
+    common.emit(result, args, human)
     return 0

@@ -35,10 +35,10 @@ ARRAYS = ("displacement", "director", "mean_curvature_change", "natural_curvatur
 def main(out: Path) -> None:
     from mpi4py import MPI
 
-    from shells.branch import BranchConfig, _load_checkpoint, read_branch
-    from shells.fields import FieldWriter
-    from shells.mesh import generate
-    from shells.model import ModelParameters, ShellModel
+    from shells.analyses.branch import BranchConfig, load_branch_checkpoint, read_branch
+    from shells.surface.fields import FieldWriter
+    from shells.surface.mesh import generate
+    from shells.surface.model import ModelParameters, ShellModel
 
     comm = MPI.COMM_WORLD
     assert comm.size == 1, "run serially: the expected point count is that of one rank"
@@ -52,7 +52,7 @@ def main(out: Path) -> None:
                        ModelParameters(h=cfg.h, nu=cfg.nu, shear_penalty=cfg.shear_penalty,
                                        degree=cfg.degree, quadrature_degree=2 * cfg.degree))
     # the run's last state, read back through the branch module's own checkpoint reader
-    ck = _load_checkpoint(run, model)
+    ck = load_branch_checkpoint(run, model)
     assert ck is not None, "no usable checkpoint"
     assert ck[1] == last["index"], "checkpoint is not the last point"
     model.kappa.value = ck[0]
@@ -95,11 +95,11 @@ def postbuckled_cap(out: Path) -> dict:
     must hold, interpolated again from the same state."""
     import math
 
-    from shells.drivers import ShapeWriter
-    from shells.fields import FieldWriter
-    from shells.geometry import SphericalCap
-    from shells.postbuckle import PostbuckleConfig, run_postbuckle
-    from shells.problem import set_state
+    from shells.analyses.postbuckle import PostbuckleConfig, run_postbuckle
+    from shells.analyses.writers import ShapeWriter
+    from shells.geometry.shapes import SphericalCap
+    from shells.problem.interface import set_state
+    from shells.surface.fields import FieldWriter
 
     run = out / "postbuckle_surface"
     shutil.rmtree(run, ignore_errors=True)  # a finished run would be reused, not recomputed
@@ -120,11 +120,11 @@ def postbuckled_cap(out: Path) -> dict:
 
 def postbuckled_shape(out: Path) -> dict:
     """A 1D post-buckled sphere written as a 3D surface by ``shells postbuckle --fields last``,
-    and what its arrays must hold: rebuilt here from the run's meridian CSV (``shells.revolve``
-    on the CSV's values, not by reading the .vts back)."""
+    and what its arrays must hold: rebuilt here from the run's meridian CSV
+    (``shells.axisym.revolve`` on the CSV's values, not by reading the .vts back)."""
     import csv
 
-    from shells.revolve import revolve
+    from shells.axisym.revolve import revolve
 
     run = out / "postbuckle"
     subprocess.run([sys.executable, "-m", "shells", *PB_RUN, "-o", str(run)], check=True)

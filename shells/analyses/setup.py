@@ -1,0 +1,53 @@
+"""What the analyses share in setting up a run (analyses layer): the κ range a run covers when
+the user gives none.
+
+The shell parameters themselves are checked by ``shells.parameters``, the one check every
+entry point uses.
+"""
+
+from __future__ import annotations
+
+import math
+
+from shells.geometry.shapes import Disk, Sphere, SphericalCap, kappa_length
+from shells.theory import (
+    buckling_kappa_R,
+    mirrored_buckling_kappa_R,
+    plate_a,
+    snap_kappa_R,
+    sphere_kappa_b_h,
+)
+
+__all__ = ["default_kappa_range"]
+
+
+def default_kappa_range(shape: object, h_over_r: float, nu: float, direction: str) -> float:
+    """A κ range (absolute, signed) that contains the first critical point with a margin.
+
+    Built from the paper's laws (sphere and any closed shell: κ_b h; caps: the snap line, the
+    mirrored Eq. (4) and Eq. (4); disk: the plate limit), widened by 60 %; other shapes 8/R.
+
+    Args:
+        shape: the shell.
+        h_over_r: thickness over the shape's length scale.
+        nu: Poisson's ratio.
+        direction: "up" (κ > 0) or "down" (κ < 0).
+
+    Returns:
+        The signed end of the range, an absolute κ.
+    """
+    sign = 1.0 if direction == "up" else -1.0
+    L = shape.characteristic_size()  # type: ignore[attr-defined]
+    h = h_over_r * L
+    if isinstance(shape, Sphere) or getattr(shape, "closed", False):
+        # any closed shell (a spheroid, a closed meridian table): the sphere's buckling law
+        return sign * 1.6 * sphere_kappa_b_h(nu) / h
+    if isinstance(shape, Disk):
+        return sign * 1.6 * plate_a() * h / L**2
+    if isinstance(shape, SphericalCap):
+        tb = shape.theta / math.sqrt(h_over_r)
+        if direction == "up":
+            kr = max(snap_kappa_R(tb), mirrored_buckling_kappa_R(tb, h_over_r))
+            return (1.6 * max(kr, 1.0) + 0.5) / shape.R
+        return (1.6 * min(buckling_kappa_R(tb, h_over_r), -1.0) - 0.5) / shape.R
+    return sign * 8.0 / kappa_length(shape)  # type: ignore[arg-type]

@@ -1,0 +1,281 @@
+"""The analyses as a researcher calls them (API layer): one function per analysis, taking a
+``Shell``, returning a ``Result``, with one set of defaults.
+
+The model. ``model=None`` picks the 1D axisymmetric model for every shell of revolution it
+takes (spheres, caps, ellipsoidal caps, disks, meridian tables) under a uniform or
+axisymmetric natural curvature: its branch is exact for an axisymmetric state and its
+stability covers every Fourier mode m, in seconds. Other shells (a torus, a user's mesh that
+is no surface of revolution, a field that varies around the axis) take the 2D surface model.
+``model="surface"`` or ``"axisym"`` chooses explicitly. The chosen model is in the result
+(``res.model``).
+
+The κ range: ``kappa_R_max`` (κR), ``kappa_h_max`` (κh) or ``kappa_max`` (a curvature with
+units, such as ``"40 1/m"``, for a shell with units); none: a range from the paper's laws that
+contains the first critical point.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+from shells.api.results import Result
+from shells.api.shell import Shell
+from shells.errors import InputError
+from shells.geometry.shapes import kappa_length
+from shells.units import curvature
+
+__all__ = ["branch", "choose_model", "critical", "knockdown", "phase_diagram", "postbuckle",
+           "sweep"]
+
+
+def choose_model(shell: Shell, model: str | None = None) -> str:
+    """The model a run uses: ``model`` if given, else the 1D model where it applies (a shell of
+    revolution with a pole under an axisymmetric stimulus), else the surface model."""
+    from shells.parameters import check_model
+
+    if model is not None:
+        return check_model(model)
+    from shells.axisym.mesh import check_supported
+
+    try:
+        check_supported(shell.shape)
+    except InputError:
+        return "surface"
+    field = shell.kappa_field
+    if field is not None:
+        try:
+            field.check_on(shell.shape, axisymmetric=True)
+        except InputError:
+            return "surface"
+    return "axisym"
+
+
+def _kappa_end(shell: Shell, kappa_max: Any, kappa_R_max: Any, kappa_h_max: Any,
+               direction: str | None) -> float | None:
+    """The end of the κ range as an absolute κ in the shape's units (None: the default), its
+    sign the direction's when one is given."""
+    given = [v is not None for v in (kappa_max, kappa_R_max, kappa_h_max)]
+    if sum(given) > 1:
+        raise InputError("give the end of the kappa range once: kappa_max, kappa_R_max or "
+                         "kappa_h_max")
+    shape = shell.shape
+    if kappa_R_max is not None:
+        k = float(kappa_R_max) / kappa_length(shape)
+    elif kappa_h_max is not None:
+        k = float(kappa_h_max) / (shell.h_over_r * shape.characteristic_size())
+    elif kappa_max is not None:
+        si = curvature(kappa_max, "kappa_max")
+        if si is None:
+            k = float(kappa_max)
+        elif shell.geometry.length is None:
+            raise InputError("kappa_max with units needs a shell with units (give the radius "
+                             "as a length), or give kappa_R_max")
+        else:
+            k = si * shell.geometry.length
+    else:
+        return None
+    if not k:
+        raise InputError("the end of the kappa range must be nonzero")
+    if direction is None:
+        return k
+    return abs(k) if direction == "up" else -abs(k)
+
+
+def critical(shell: Shell, direction: str = "up", *, model: str | None = None,
+             kappa_max: Any = None, kappa_R_max: float | None = None,
+             kappa_h_max: float | None = None, outdir: Any = None, first_only: bool = False,
+             **options: Any) -> Result:
+    """The critical points of the shell's fundamental branch from κ = 0 (``shells critical``).
+
+    Args:
+        shell: the shell.
+        direction: ``"up"`` (κ > 0) or ``"down"`` (κ < 0).
+        model: ``"axisym"``, ``"surface"`` or None (``choose_model``).
+        kappa_max, kappa_R_max, kappa_h_max: the end of the range (module docstring).
+        outdir: a folder for the run's files (``critical.json``; the surface model also its
+            branch, checkpoints and modes); None: none.
+        first_only: stop at the first critical point.
+        **options: the surface model's numerics (``size``, ``degree``, ``layer_elements``,
+            ``shear_penalty``, ``ds``, ``ds_max``, ``mesh_file``, ``resume``).
+
+    Returns:
+        The ``Result``: ``kind``, ``kappa_R``, ``kappa_h``, ``mode_m``, ``mode_n`` of the first
+        critical point, and ``critical_points``, as ``shells critical --json`` gives them.
+    """
+    from shells.analyses import critical as analysis
+
+    m = choose_model(shell, model)
+    if m == "axisym" and options:
+        raise InputError(f"{', '.join(options)}: the surface model's options (model='surface')")
+    data = analysis.run(shell.shape, shell.h_over_r, shell.nu, direction=direction, model=m,
+                        kappa_end=_kappa_end(shell, kappa_max, kappa_R_max, kappa_h_max,
+                                             direction),
+                        outdir=outdir, kappa_field=shell.kappa_field, first_only=first_only,
+                        **options)
+    return Result("critical", data, shell.describe())
+
+
+def branch(shell: Shell, *, kappa_max: Any = None, kappa_R_max: float | None = None,
+           kappa_h_max: float | None = None, model: str | None = None,
+           outdir: Any = "results/branch", fields: str = "none", resume: bool = True,
+           **options: Any) -> Result:
+    """The shell's equilibrium branch from κ = 0 to the end of the range (its sign: the
+    direction), by pseudo-arclength through folds (``shells branch``).
+
+    Args:
+        shell: the shell.
+        kappa_max, kappa_R_max, kappa_h_max: the end of the range (one is required).
+        model: ``"axisym"``, ``"surface"`` or None (``choose_model``).
+        outdir: the run's folder (``branch.jsonl``, every point appended as computed).
+        fields: the surface model's fields for ParaView: ``"none"``, ``"last"``, ``"all"``.
+        resume: the surface model resumes an unfinished run of the same configuration.
+        **options: the surface model's ``BranchConfig`` numerics (``size``, ``degree``, ...).
+
+    Returns:
+        The ``Result``: ``points`` (κR, κh, Ψ3/h, energy, ... per point) and ``folds``.
+    """
+    from shells.analyses import branch as analysis
+
+    end = _kappa_end(shell, kappa_max, kappa_R_max, kappa_h_max, None)
+    if end is None:
+        raise InputError("a branch needs the end of its range: kappa_R_max, kappa_h_max or "
+                         "kappa_max")
+    data = analysis.run(shell.shape, shell.h_over_r, shell.nu, end,
+                        model=choose_model(shell, model), outdir=outdir,
+                        kappa_field=shell.kappa_field, fields=fields, resume=resume, **options)
+    return Result("branch", data, shell.describe())
+
+
+def postbuckle(shell: Shell, direction: str = "up", *, at: int = 1, model: str | None = None,
+               kappa_max: Any = None, kappa_R_max: float | None = None,
+               kappa_h_max: float | None = None, outdir: Any = None, fields: str = "none",
+               **options: Any) -> Result:
+    """The branch that bifurcates at the ``at``-th bifurcation of the fundamental branch,
+    both sides, with the stability at every point (``shells postbuckle``).
+
+    Args:
+        shell: the shell.
+        direction: ``"up"`` or ``"down"``.
+        at: which bifurcation (1: the first).
+        model, kappa_max, kappa_R_max, kappa_h_max, outdir: as for ``critical``.
+        fields: 3D shapes (1D model) or fields (surface model) for ParaView: ``"none"``,
+            ``"last"``, ``"all"`` (needs ``outdir``).
+        **options: ``PostbuckleConfig`` fields (``sides``, ``max_points``, ``amplitude``,
+            ``cells``, ``penalty``, ``size``, ``degree``, ...).
+
+    Returns:
+        The ``Result``: ``critical_point``, ``points`` (branch, side, κR, Ψ3(pole)/h,
+        stable, ...) and ``sides``.
+    """
+    from shells.analyses import postbuckle as analysis
+    from shells.analyses.postbuckle import PostbuckleConfig
+    from shells.geometry.stimulus import UNIFORM
+
+    cfg = PostbuckleConfig(
+        shape=shell.shape, h_over_r=shell.h_over_r, nu=shell.nu,
+        model=choose_model(shell, model), direction=direction, at=at,
+        kappa_end=_kappa_end(shell, kappa_max, kappa_R_max, kappa_h_max, direction),
+        kappa_field=UNIFORM if shell.kappa_field is None else shell.kappa_field, **options)
+    return Result("postbuckle", analysis.run(cfg, outdir, fields=fields), shell.describe())
+
+
+def knockdown(shell: Shell | None = None, amplitudes: Sequence[float] = (0.0,), *,
+              h_over_r: float | None = None, nu: float = 0.5, imperfection: str = "dimple",
+              model: str = "axisym", outdir: Any = None, figure: bool = True,
+              **options: Any) -> Result:
+    """The knock-down of a closed sphere's buckling curvature by an imperfection
+    (``shells knockdown``).
+
+    Args:
+        shell: a closed sphere (its h/R and ν), or None with ``h_over_r`` and ``nu``.
+        amplitudes: imperfection amplitudes δ/h (0: the perfect sphere).
+        imperfection: ``"dimple"``, ``"mode"`` or ``"harmonic"`` (the surface model).
+        model: ``"axisym"`` (rotational symmetry enforced, Koiter's law beside the points) or
+            ``"surface"``.
+        outdir: a folder: every point appended to ``points.jsonl`` and skipped on a rerun.
+        figure: draw ``outdir/knockdown.png``.
+        **options: ``KnockdownConfig`` fields (``width``, ``degree``, ``order``, ``load``, ...).
+
+    Returns:
+        The ``Result``: ``kappa_b``, ``asymptotics`` and ``points`` (δ/h, κ_max h,
+        knock-down).
+    """
+    from shells.analyses import knockdown as analysis
+    from shells.analyses.knockdown import KnockdownConfig
+
+    if shell is not None:
+        if not shell.shape.closed:
+            raise InputError("the knock-down is computed for closed spheres")
+        h_over_r, nu = shell.h_over_r, shell.nu
+    if h_over_r is None:
+        raise InputError("give the sphere: a shell or h_over_r")
+    cfg = KnockdownConfig(h_over_r=h_over_r, amplitudes=tuple(amplitudes), nu=nu,
+                          imperfection=imperfection, model=model, **options)
+    data = analysis.run(cfg, outdir, figure=figure and outdir is not None)
+    return Result("knockdown", data, None if shell is None else shell.describe())
+
+
+def phase_diagram(h_over_r: Sequence[float], thetabar_range: tuple[float, float],
+                  points: int, *, nu: float = 0.5, model: str = "axisym",
+                  outdir: Any = "results/phase-diagram", figure: bool = True,
+                  **options: Any) -> Result:
+    """The phase diagram of open spherical caps in (θ̄, κR) with the paper's fits
+    (``shells phase-diagram``); points run in parallel, one per MPI process.
+
+    Args:
+        h_over_r: the thicknesses h/R.
+        thetabar_range: (A, B): ``points`` values of θ̄ = θ/√(h/R) evenly spaced in it.
+        points: values of θ̄ per h/R.
+        nu: Poisson's ratio.
+        model: ``"axisym"`` or ``"surface"`` (spot checks).
+        outdir: the run's folder (``points.jsonl``, ``phase_diagram.json``, the figure).
+        figure: draw ``outdir/phase_diagram.png``.
+        **options: ``PhaseDiagramConfig`` fields (``m_max``, ``rel_tol``, ``refine``, ...).
+
+    Returns:
+        The ``Result``: ``points`` and ``fits`` (α, β, b, c, θ̄_s, θ̄_c with errors).
+    """
+    from shells.analyses import phase_diagram as analysis
+    from shells.analyses.phase_diagram import PhaseDiagramConfig
+
+    cfg = PhaseDiagramConfig(h_over_r=tuple(h_over_r), thetabar_range=tuple(thetabar_range),
+                             points=points, nu=nu, model=model, **options)
+    return Result("phase_diagram", analysis.run(cfg, outdir, figure=figure))
+
+
+def sweep(shells: Sequence[Shell], analysis: str = "critical", *, comm: Any = None,
+          **kwargs: Any) -> list[Result]:
+    """One analysis of many shells, spread over the MPI processes of ``comm``.
+
+    Shells the 1D model runs (``choose_model``) are independent one-process runs: process r
+    computes shells r, r + size, ... and every process gets all the results. Surface-model
+    runs are collective: they run one after another on all processes.
+
+    Args:
+        shells: the shells.
+        analysis: ``"critical"`` or ``"postbuckle"``.
+        comm: the communicator (default MPI.COMM_WORLD).
+        **kwargs: the analysis's arguments (without ``outdir``: runs of a sweep keep no
+            files).
+
+    Returns:
+        The results, in the order of ``shells``, on every process.
+    """
+    from mpi4py import MPI
+
+    runs = {"critical": critical, "postbuckle": postbuckle}
+    if analysis not in runs:
+        raise InputError(f"a sweep runs critical or postbuckle, not {analysis!r}")
+    if "outdir" in kwargs:
+        raise InputError("a sweep keeps no files: drop outdir")
+    comm = MPI.COMM_WORLD if comm is None else comm
+    fn = runs[analysis]
+    one_d = all(choose_model(s, kwargs.get("model")) == "axisym" for s in shells)
+    if not one_d:
+        return [fn(s, **kwargs) for s in shells]
+    mine = {i: fn(s, **kwargs) for i, s in enumerate(shells) if i % comm.size == comm.rank}
+    gathered: dict[int, Result] = {}
+    for part in comm.allgather(mine):
+        gathered.update(part)
+    return [gathered[i] for i in range(len(shells))]

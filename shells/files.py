@@ -13,7 +13,9 @@ exit 2) instead of using it. A file may start with a header record ``{"header": 
 
 ``write_atomic`` replaces any file by new text atomically (temporary file, fsync, then rename);
 ``read_number_rows`` reads the plain-text tables a user gives (a meridian, a curvature field);
-``json_default`` serialises numpy scalars and arrays.
+``json_default`` serialises numpy scalars and arrays. ``hold_output_folder`` gives a run its
+output folder to itself: a second run into a folder in use is refused (``InputError``), not
+interleaved with the first.
 """
 
 from __future__ import annotations
@@ -23,7 +25,9 @@ import json
 import logging
 import os
 import re
-from collections.abc import Sequence
+import socket
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -32,7 +36,7 @@ import numpy as np
 from shells.errors import InputError
 
 __all__ = ["append_record", "drop_torn_tail", "json_default", "read_number_rows", "read_records",
-           "read_with_header", "write_atomic", "write_header"]
+           "read_with_header", "write_atomic", "write_header", "hold_output_folder"]
 
 log = logging.getLogger("shells")
 
@@ -286,3 +290,103 @@ def _is_number(text: str) -> bool:
     except ValueError:
         return False
     return True
+
+
+#: the lock file of a run's output folder, there while the run holds the folder
+RUN_LOCK = ".shells-run.lock"
+
+
+def _take_folder(folder: Path, label: str) -> tuple[int | None, list[Path]]:
+    """Lock ``folder/RUN_LOCK`` exclusively without waiting, making the folder if missing.
+
+    Returns:
+        (the descriptor holding the lock, or None where the file system has no locks; the
+        folders made for it, innermost first).
+
+    Raises:
+        InputError: another run holds the folder, or it cannot be written.
+    """
+    while True:
+        made, p = [], folder
+        while not p.exists():
+            made.append(p)
+            p = p.parent
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+            fd = os.open(folder / RUN_LOCK, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o644)
+        except FileNotFoundError:  # the folder was removed meanwhile by a run that ended
+            continue
+        except OSError as e:
+            raise InputError(f"{label} {str(folder)!r} cannot be written: "
+                             f"{e.strerror or e}") from None
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.pread(fd, 200, 0).decode(errors="replace").strip()
+            os.close(fd)
+            holder = f" ({holder})" if holder else ""
+            raise InputError(f"{label} {str(folder)!r} is the output folder of a run in progress"
+                             f"{holder}: wait for it to end, or give another folder") from None
+        except OSError:  # no locks here (Lustre mounted without flock): the run goes unlocked
+            os.close(fd)
+            return None, made
+        try:
+            st = os.stat(folder / RUN_LOCK)
+            same = (st.st_dev, st.st_ino) == (os.fstat(fd).st_dev, os.fstat(fd).st_ino)
+        except FileNotFoundError:
+            same = False
+        if same:
+            os.ftruncate(fd, 0)
+            os.pwrite(fd, f"pid {os.getpid()} on {socket.gethostname()}\n".encode(), 0)
+            return fd, made
+        os.close(fd)  # unlinked by the run that held it as it ended: take the file there now
+
+
+@contextmanager
+def hold_output_folder(folder: str | os.PathLike, comm: Any, label: str = "-o") -> Iterator[None]:
+    """Hold a run's output folder for the ``with`` block: one run at a time writes into it.
+
+    Rank 0 of ``comm`` takes an exclusive ``flock`` on ``folder/RUN_LOCK`` (made with the
+    folder if missing) without waiting and tells the others the outcome. The lock file is
+    removed at the end, and so are the folders made for it if the run left them empty; the
+    lock goes with the process however it ends. Where the file system has no locks the run
+    goes on unlocked. Collective on ``comm``.
+
+    Args:
+        folder: the output folder.
+        comm: the run's communicator.
+        label: the folder's option, named in the error (e.g. "-o").
+
+    Raises:
+        InputError: on every rank, if another run holds the folder (naming its process and
+            host: the CLI's one line, exit 2) or it cannot be written.
+    """
+    folder = Path(folder)
+    fd, made, err = None, [], None
+    if comm.rank == 0:
+        try:
+            fd, made = _take_folder(folder, label)
+        except InputError as e:
+            err = str(e)
+        except Exception as e:  # never leave the other ranks waiting in the broadcast
+            err = f"cannot hold the output folder {str(folder)!r}: {type(e).__name__}: {e}"
+    if comm.size > 1:
+        err = comm.bcast(err, root=0)
+    if err:
+        raise InputError(err)
+    try:
+        yield
+    finally:
+        if fd is not None:
+            # unlinked while held: a run that opened it meanwhile finds another file at the
+            # path (or none) once it has the lock, and takes that one
+            try:
+                os.unlink(folder / RUN_LOCK)
+            except OSError:
+                pass
+            os.close(fd)
+            for p in made:  # innermost first; a folder with anything in it stays
+                try:
+                    p.rmdir()
+                except OSError:
+                    break

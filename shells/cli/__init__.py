@@ -150,7 +150,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         quiet(bool(getattr(args, "json", False)))  # --json: for a program, no bar
         common.check_ranges(args)
         common.check_paths(args)
-        return int(args.func(args) or 0)
+        with common.hold_output(args):  # a second run into the same folder: refused, exit 2
+            return int(args.func(args) or 0)
     except InputError as e:
         msg = " ".join(str(e).splitlines())  # one line, whatever the message holds
         if rank() == 0:

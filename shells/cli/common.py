@@ -11,11 +11,12 @@ import logging
 import math
 import sys
 from collections.abc import Callable
+from contextlib import AbstractContextManager, nullcontext
 from typing import Any
 
 from shells.cli import paths
 from shells.errors import InputError
-from shells.files import json_default
+from shells.files import hold_output_folder, json_default
 from shells.parameters import check_h_over_r, check_nu
 
 log = logging.getLogger("shells")
@@ -377,6 +378,7 @@ PATH_ARGS: dict[str, list[tuple[str, str, str, str | None]]] = {
                    ("output", "-o", "dir", None),
                    ("kappa_field", "--kappa-field", "field", None),
                    ("meridian", "--meridian", "in", None), ("mesh", "--mesh", "in", None)],
+    "knockdown": [("output", "-o", "dir", None)],
 }
 
 
@@ -474,6 +476,23 @@ def check_ranges(args: argparse.Namespace) -> None:
         if theta_deg < THETA_MIN_DEG:
             raise InputError(f"theta-bar {min(rng):g} at h/R = {min(hs):g} is a cap of theta = "
                              f"{theta_deg:.3g} deg, below the {THETA_MIN_DEG:g} deg minimum")
+
+
+def hold_output(args: argparse.Namespace) -> AbstractContextManager[None]:
+    """Hold the run's output folder, its "dir" entry in ``PATH_ARGS`` (collective).
+
+    Returns:
+        ``shells.files.hold_output_folder`` of that folder on all ranks, or a context that
+        holds nothing if the subcommand has no output folder.
+    """
+    from mpi4py import MPI
+
+    for attr, label, kind, default in PATH_ARGS.get(args.command, []):
+        value = getattr(args, attr, None)
+        value = default if value is None else value
+        if kind == "dir" and value is not None:
+            return hold_output_folder(value, MPI.COMM_WORLD, label)
+    return nullcontext()
 
 
 def check_paths(args: argparse.Namespace) -> None:

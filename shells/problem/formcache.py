@@ -21,6 +21,10 @@ source code), the versions of UFL, FFCx, basix and dolfinx, and the compiler opt
 whose modules cannot be loaded is ignored and written again. ``SHELLS_FORM_CACHE=0`` turns the
 cache off (the forms are then derived every time). In parallel the forms come from the
 records only where every rank of the mesh's communicator has them (compiling is collective).
+
+Processes that run at once share these folders and FFCx's: a record is written whole (a
+temporary file renamed into place), and a process that finds a form being compiled by another
+waits for it up to ``JIT_TIMEOUT`` (``_wait_for_other_compiles``).
 """
 
 from __future__ import annotations
@@ -72,6 +76,30 @@ def _order_constants_by_count() -> None:
 
 
 _order_constants_by_count()
+
+#: seconds a process waits for a form that another process is compiling (FFCx's cache: the
+#: module's .c file made, its .c.cached marker not yet): as long as the longest compile
+JIT_TIMEOUT = 300
+
+
+def _wait_for_other_compiles() -> None:
+    """Raise dolfinx's default JIT timeout, where it is shorter, to ``JIT_TIMEOUT`` (a user's
+    dolfinx_jit_options.json still takes precedence; forms compiled with their own
+    ``jit_options`` keep theirs). dolfinx's 10 s is shorter than a surface model's form takes to
+    compile: of two runs started at once with an empty cache, the one that waited for the
+    other's compile failed with FFCx's TimeoutError."""
+    try:
+        from dolfinx import jit
+    except ImportError:  # pragma: no cover - dolfinx is a dependency
+        return
+    defaults = getattr(jit, "DOLFINX_DEFAULT_JIT_OPTIONS", None)
+    if isinstance(defaults, dict):
+        value, doc = defaults.get("timeout", (None, ""))
+        if isinstance(value, int | float) and value < JIT_TIMEOUT:
+            defaults["timeout"] = (JIT_TIMEOUT, doc)
+
+
+_wait_for_other_compiles()
 
 log = logging.getLogger("shells")
 

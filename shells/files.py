@@ -33,7 +33,7 @@ from typing import Any
 
 import numpy as np
 
-from shells.errors import InputError
+from shells.errors import InputError, on_rank_zero
 
 __all__ = ["append_record", "drop_torn_tail", "json_default", "read_number_rows", "read_records",
            "read_with_header", "write_atomic", "write_header", "hold_output_folder"]
@@ -362,18 +362,9 @@ def hold_output_folder(folder: str | os.PathLike, comm: Any, label: str = "-o") 
             host: the CLI's one line, exit 2) or it cannot be written.
     """
     folder = Path(folder)
-    fd, made, err = None, [], None
-    if comm.rank == 0:
-        try:
-            fd, made = _take_folder(folder, label)
-        except InputError as e:
-            err = str(e)
-        except Exception as e:  # never leave the other ranks waiting in the broadcast
-            err = f"cannot hold the output folder {str(folder)!r}: {type(e).__name__}: {e}"
-    if comm.size > 1:
-        err = comm.bcast(err, root=0)
-    if err:
-        raise InputError(err)
+    taken = on_rank_zero(comm, lambda: _take_folder(folder, label),
+                         f"cannot hold the output folder {str(folder)!r}")
+    fd, made = taken if taken is not None else (None, [])
     try:
         yield
     finally:

@@ -15,7 +15,7 @@ from contextlib import AbstractContextManager, nullcontext
 from typing import Any
 
 from shells.cli import paths
-from shells.errors import InputError
+from shells.errors import InputError, on_rank_zero
 from shells.files import hold_output_folder, json_default
 from shells.parameters import check_h_over_r, check_nu
 
@@ -501,33 +501,25 @@ def check_paths(args: argparse.Namespace) -> None:
     from mpi4py import MPI
 
     specs = PATH_ARGS.get(args.command, [("output", "-o", "shared", None)])
-    comm = MPI.COMM_WORLD
-    err = None
-    if comm.rank == 0:
-        try:
-            for attr, label, kind, default in specs:
-                value = getattr(args, attr, None)
-                value = default if value is None else value
-                if value is None:
-                    continue
-                if kind == "field":  # a table file, or an expression (nothing to check)
-                    from shells.geometry.stimulus import names_table
 
-                    if names_table(value):
-                        paths.check_input_file(value.strip(), label)
-                elif kind == "in":
-                    paths.check_input_file(value, label)
-                elif kind == "shared":
-                    paths.check_shared(value, label)
-                elif kind == "dir":
-                    paths.check_output_dir(value, label)
-                else:
-                    paths.check_output_file(value, label, suffixes=(f".{kind}",))
-        except InputError as e:
-            err = str(e)
-        except Exception as e:  # never leave the other ranks waiting in the broadcast
-            err = f"cannot check the paths: {type(e).__name__}: {e}"
-    if comm.size > 1:
-        err = comm.bcast(err, root=0)
-    if err:
-        raise InputError(err)
+    def check() -> None:
+        for attr, label, kind, default in specs:
+            value = getattr(args, attr, None)
+            value = default if value is None else value
+            if value is None:
+                continue
+            if kind == "field":  # a table file, or an expression (nothing to check)
+                from shells.geometry.stimulus import names_table
+
+                if names_table(value):
+                    paths.check_input_file(value.strip(), label)
+            elif kind == "in":
+                paths.check_input_file(value, label)
+            elif kind == "shared":
+                paths.check_shared(value, label)
+            elif kind == "dir":
+                paths.check_output_dir(value, label)
+            else:
+                paths.check_output_file(value, label, suffixes=(f".{kind}",))
+
+    on_rank_zero(MPI.COMM_WORLD, check, "cannot check the paths")

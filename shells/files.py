@@ -35,8 +35,8 @@ import numpy as np
 
 from shells.errors import InputError, on_rank_zero
 
-__all__ = ["append_record", "drop_torn_tail", "json_default", "read_number_rows", "read_records",
-           "read_with_header", "write_atomic", "write_header", "hold_output_folder"]
+__all__ = ["RUN_FILE", "append_record", "drop_torn_tail", "hold_output_folder", "json_default",
+           "read_number_rows", "read_records", "read_with_header", "write_atomic", "write_header"]
 
 log = logging.getLogger("shells")
 
@@ -170,8 +170,13 @@ def read_records(path: str | os.PathLike) -> list[dict[str, Any]]:
     return out
 
 
+#: the sidecar of a run folder's JSON-lines file: {"file": its name, "header": its header}
+RUN_FILE = "run.json"
+
+
 def read_with_header(path: str | os.PathLike) -> tuple[dict[str, Any], list[dict[str, Any]]]:
-    """Read a JSON-lines file whose records may include {"header": ...}.
+    """Read a JSON-lines file and its header: the folder's ``run.json`` where it names the
+    file (``write_header(..., sidecar=True)``), else a record {"header": ...} in the file.
 
     Args:
         path: the file.
@@ -183,6 +188,14 @@ def read_with_header(path: str | os.PathLike) -> tuple[dict[str, Any], list[dict
         InputError: as ``read_records``.
     """
     header: dict[str, Any] = {}
+    side = Path(path).parent / RUN_FILE
+    if side.exists():
+        try:
+            run = json.loads(side.read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            run = None
+        if isinstance(run, dict) and run.get("file") == Path(path).name:
+            header = run.get("header") or {}
     recs = []
     for rec in read_records(path):
         if "header" in rec:
@@ -193,18 +206,27 @@ def read_with_header(path: str | os.PathLike) -> tuple[dict[str, Any], list[dict
 
 
 def write_header(path: str | os.PathLike, header: dict[str, Any],
-                 records: Sequence[dict[str, Any]] = ()) -> None:
-    """Replace a file, atomically, by its header record followed by ``records``.
+                 records: Sequence[dict[str, Any]] = (), *, sidecar: bool = False) -> None:
+    """Replace a file, atomically, by its header and then ``records``.
 
     Args:
         path: the JSON-lines file.
-        header: the header (written as {"header": header}).
+        header: the header: the file's first record {"header": header}, or with ``sidecar``
+            the folder's ``run.json``, so that the file holds records of one kind only (one
+            table: ``pandas.read_json(path, lines=True)``).
         records: a resumed run's kept records.
+        sidecar: write the header to ``run.json``. The file is replaced first: a kill between
+            the two writes leaves the kept records under the old header, which a rerun of
+            another configuration refuses and one of the same configuration reads as its own.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
+    head = [] if sidecar else [{"header": header}]
     write_atomic(path, "".join(json.dumps(r, default=json_default) + "\n"
-                               for r in [{"header": header}, *records]))
+                               for r in [*head, *records]))
+    if sidecar:
+        write_atomic(path.parent / RUN_FILE, json.dumps(
+            {"file": path.name, "header": header}, indent=1, default=json_default))
 
 
 def write_atomic(path: str | os.PathLike, text: str) -> None:

@@ -247,6 +247,10 @@ def test_plots_and_tables_of_runs_and_run_folders(shared_tmp, capsys):
     capsys.readouterr()
     if MPI.COMM_WORLD.rank == 0:
         table = pd.read_csv(shared_tmp / "b.csv")
+        # the JSON lines are one table, the run's header in its sidecar run.json
+        lines = pd.read_json(out / "branch.jsonl", lines=True)
+        assert len(lines) == len(table) and "header" not in lines.columns
+        assert json.loads((out / "run.json").read_text())["header"]["model"] == "axisym"
         back = shells.load(out)
         assert back.analysis == "branch" and len(back.rows()) == len(table)
         assert table["kappa_R"].iloc[-1] == pytest.approx(1.2, rel=1e-12)  # lands on the end

@@ -278,7 +278,7 @@ def run_branch(cfg: BranchConfig, outdir: str | os.PathLike, *, comm: Any = None
         # the kept points are rewritten under the header into a temporary file, renamed over
         # the old one: a kill leaves the old file or the new one, never a torn one (a torn
         # last line of the old file is dropped here)
-        write_header(bfile, header, done)
+        write_header(bfile, header, done, sidecar=True)
     yield from done
 
     writer = FieldWriter(model, outdir / "fields.bp") if fields != "none" else None
@@ -455,7 +455,7 @@ def run_axisym(shape: Any, h_over_r: float, nu: float, kappa_R_end: float,
         outdir.mkdir(parents=True, exist_ok=True)
         write_header(outdir / "branch.jsonl", {
             "model": "axisym", "shape": shape.describe(), "h_over_r": h_over_r,
-            "nu": nu, "kappa_R_end": kappa_R_end, **kappa_field.header_entry()})
+            "nu": nu, "kappa_R_end": kappa_R_end, **kappa_field.header_entry()}, sidecar=True)
     for i, p in enumerate(axisym_runs.branch(shape, h_over_r, nu,
                                              direction="up" if kappa_R_end > 0 else "down",
                                              kappa_max=abs(kappa_R_end), kappa_field=kappa_field)):

@@ -35,6 +35,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from conftest import child_env
 from mpi4py import MPI
 
 from shells.errors import InputError
@@ -52,22 +53,6 @@ CRITICAL = ["critical", "--shape", "cap", "--theta-deg", "30", "--h-over-r", "0.
             "axisym", "--json"]
 BRANCH = ["branch", "--shape", "cap", "--theta-deg", "30", "--h-over-r", "0.04",
           "--kappa-r-max", "1.3", "--model", "axisym"]
-
-#: Open MPI variables of the environment (scripts/in-env) that a nested mpirun may inherit; any
-#: other OMPI_/PMIX_/PRTE_ variable belongs to a running job (ours, under mpirun) and would make
-#: a child join it
-_KEEP_MPI = {"OMPI_ALLOW_RUN_AS_ROOT", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "OMPI_MCA_btl",
-             "OMPI_MCA_btl_vader_single_copy_mechanism", "OMPI_MCA_rmaps_base_oversubscribe",
-             "OMPI_MCA_btl_base_warn_component_unused"}
-
-
-def clean_env(**extra: str) -> dict[str, str]:
-    """The environment for a child process: no variable of a running MPI job."""
-    env = {k: v for k, v in os.environ.items()
-           if k in _KEEP_MPI or not k.startswith(("OMPI_", "PMIX_", "PRTE_"))}
-    env.update(extra)
-    return env
-
 
 def on_rank0(fn: Callable[[], None]) -> None:
     """fn() on rank 0 (it starts processes), its AssertionError or other exception raised on
@@ -120,7 +105,7 @@ def fake_root(folder: Path, key: str, *, days_ago: float, env: str = "main",
 def in_env(cache: Path, *args: str, timeout: float = 60, **env: str
            ) -> subprocess.CompletedProcess[str]:
     return subprocess.run(["bash", str(IN_ENV), *args], capture_output=True, text=True,
-                          timeout=timeout, env=clean_env(SHELLS_ENV_CACHE=str(cache), **env))
+                          timeout=timeout, env=child_env(SHELLS_ENV_CACHE=str(cache), **env))
 
 
 class Holder:
@@ -241,7 +226,7 @@ def test_gc_waits_for_a_build_and_refuses_bad_arguments(tmp_path):
         try:
             p = subprocess.Popen(["bash", str(IN_ENV), "--gc"], stdout=subprocess.PIPE,
                                  stderr=subprocess.PIPE, text=True,
-                                 env=clean_env(SHELLS_ENV_CACHE=str(cache)))
+                                 env=child_env(SHELLS_ENV_CACHE=str(cache)))
             time.sleep(3.0)  # past the 2 s waited for without a word
             assert p.poll() is None and old.is_dir()  # nothing removed during a build
         finally:
@@ -308,11 +293,11 @@ def test_a_second_run_into_a_folder_in_use_is_refused(shared_tmp):
 
     def check() -> None:
         ref = shared_tmp / "ref"
-        r = subprocess.run(shells([*BRANCH, "-o", str(ref)]), cwd=REPO, env=clean_env(),
+        r = subprocess.run(shells([*BRANCH, "-o", str(ref)]), cwd=REPO, env=child_env(),
                            capture_output=True, text=True, timeout=120)
         assert r.returncode == 0, r.stderr
         out = shared_tmp / "out"
-        first = subprocess.Popen(shells([*BRANCH, "-o", str(out)]), cwd=REPO, env=clean_env(),
+        first = subprocess.Popen(shells([*BRANCH, "-o", str(out)]), cwd=REPO, env=child_env(),
                                  stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
         try:
             t0 = time.monotonic()
@@ -322,7 +307,7 @@ def test_a_second_run_into_a_folder_in_use_is_refused(shared_tmp):
             first.send_signal(signal.SIGSTOP)
             for ranks in (1, 2):
                 r = subprocess.run(shells([*BRANCH, "-o", str(out)], ranks), cwd=REPO,
-                                   env=clean_env(), capture_output=True, text=True,
+                                   env=child_env(), capture_output=True, text=True,
                                    timeout=120)
                 lines = [ln for ln in r.stderr.splitlines() if ln.startswith("shells")]
                 assert r.returncode == 2 and len(lines) == 1, (ranks, r.stderr)
@@ -346,7 +331,7 @@ def test_runs_at_once_end_with_the_results_of_a_run_alone(shared_tmp):
 
     def check() -> None:
         def at_once(cmds: list[list[str]], **env: str) -> list[dict[str, Any]]:
-            ps = [subprocess.Popen(c, cwd=REPO, env=clean_env(**env), stdout=subprocess.PIPE,
+            ps = [subprocess.Popen(c, cwd=REPO, env=child_env(**env), stdout=subprocess.PIPE,
                                    stderr=subprocess.PIPE, text=True) for c in cmds]
             outs = [p.communicate(timeout=400) for p in ps]
             for p, (_, err) in zip(ps, outs, strict=True):

@@ -308,3 +308,21 @@ def test_one_kappa_b_for_the_sphere_from_every_command():
     knock = shells.knockdown(sphere, amplitudes=(0.0,)).kappa_b * 0.01
     for value in (crit, post, knock):
         assert value == pytest.approx(1.5062, rel=1e-4)
+
+
+def test_the_first_line_says_which_model_runs_and_why(capsys):
+    """Subcommands differ in their default model (critical and branch: surface; postbuckle
+    and knockdown: axisym): where --model is not given, the first line of the output names the
+    model, that it is the command's default, and the other one."""
+    from shells.cli import main
+
+    base = ["critical", "--shape", "cap", "--theta-deg", "30", "--h-over-r", "0.04",
+            "--first-only", "--size", "0.5"]
+    assert main(base) == 0
+    first = capsys.readouterr().out.splitlines()
+    assert main([*base, "--model", "surface"]) == 0
+    given = capsys.readouterr().out.splitlines()
+    if MPI.COMM_WORLD.rank == 0:
+        assert "model surface: the default of this command" in first[0]
+        assert "--model axisym" in first[0]
+        assert given[0].endswith("model surface") and first[1:] == given[1:]

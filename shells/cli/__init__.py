@@ -140,6 +140,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         from shells.cli import common
 
         args = parser.parse_args(argv)
+        # whether the model is the subcommand's default (its human output then says so, and why)
+        args.model_given = any(a == "--model" or a.startswith("--model=") for a in argv)
         common.setup_logging(args.verbose)
         if args.command is None:
             if rank() == 0:

@@ -18,6 +18,7 @@ from shells.cli.common import (
     emit,
     field_from_args,
     kappa_end,
+    model_words,
     positive_float,
     shape_from_args,
 )
@@ -72,7 +73,8 @@ def _cmd_branch(args: argparse.Namespace) -> int:
             return (f"{p['kappa_R']:10.4f} {p['kappa_h']:10.4f} {p['psi3_over_h']:12.4e} "
                     f"{p['energy']:12.5e} {p['newton_its']:3d} {p.get('unstable_modes')}")
 
-        title, with_last = f"{shape.kind} h/L = {args.h_over_r}, nu = {args.nu}, axisym", False
+        title, with_last = (f"{shape.kind} h/L = {args.h_over_r}, nu = {args.nu}, "
+                            f"{model_words(args)}", False)
     else:
         from shells.algorithms.settings import ContinuationSettings
 
@@ -91,7 +93,8 @@ def _cmd_branch(args: argparse.Namespace) -> int:
             return (f"{p['kappa_R']:10.4f} {p['kappa_h']:10.4f} {p['psi3_over_h']:12.4e} "
                     f"{p['apex_uz_over_h']:10.4f} {p['energy']:12.5e} {p['newton_its']:3d}")
 
-        title, with_last = f"{shape.kind} h/L = {args.h_over_r}, nu = {args.nu}", True
+        title, with_last = (f"{shape.kind} h/L = {args.h_over_r}, nu = {args.nu}, "
+                            f"{model_words(args)}", True)
     emit(result, args, lambda: _print_branch(result, title, header, row, with_last))
     return 0
 
@@ -100,7 +103,8 @@ def _print_branch(result: dict[str, Any], title: str, header: str,
                   row: Callable[[dict[str, Any]], str], with_last: bool) -> None:
     """About 25 rows of the branch (``with_last``: and its last point), then its folds."""
     points = result["points"]
-    print(f"{title}: {len(points)} points -> {result['branch_file']}")
+    print(title)
+    print(f"{len(points)} points -> {result['branch_file']}")
     print(header)
     step = max(1, len(points) // 25)
     rows = points[::step]

@@ -95,6 +95,22 @@ def shape_and_field(args: argparse.Namespace) -> tuple[Any, Any]:
     return shape, field_from_args(args, shape, args.model)
 
 
+#: why each model is the default where it is, for the human output's first line
+_DEFAULT_MODEL_WHY = {
+    "surface": "the default of this command (any state, in minutes; --model axisym: the 1D "
+               "model of shells of revolution, every Fourier mode, in seconds)",
+    "axisym": "the default of this command (rotational symmetry of the branch enforced, in "
+              "seconds; --model surface: the 2D model, any state)",
+}
+
+
+def model_words(args: argparse.Namespace) -> str:
+    """``model M``, and why where M is the subcommand's default (not given with --model)."""
+    if getattr(args, "model_given", True):
+        return f"model {args.model}"
+    return f"model {args.model}: {_DEFAULT_MODEL_WHY[args.model]}"
+
+
 def add_degree_arg(p: argparse.ArgumentParser) -> None:
     """--degree: the surface model's polynomial degree (None: its default)."""
     p.add_argument("--degree", type=int, choices=(2, 3), default=None,

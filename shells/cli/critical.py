@@ -61,7 +61,7 @@ def _cmd_critical(args: argparse.Namespace) -> int:
 
     def human() -> None:
         print(f"{shape.kind}, h/L = {args.h_over_r}, nu = {args.nu}, {args.direction}, "
-              f"model {args.model}, {result.get('dofs')} DOFs")
+              f"{result.get('dofs')} DOFs, {common.model_words(args)}")
         cps = result["critical_points"]
         if not cps:
             print(f"no critical point up to kappa R = {result['kappa_R_end']:.4f} "

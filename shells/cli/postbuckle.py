@@ -90,8 +90,8 @@ def _cmd_postbuckle(args: argparse.Namespace) -> int:
     cp, points, sides = result["critical_point"], result["points"], result["sides"]
 
     def human() -> None:
-        print(f"{shape.kind} h/L = {args.h_over_r}, nu = {args.nu}, {args.model}: "
-              f"{cp['kind']} at kappa R = {cp['kappa_R']:.6f} (kappa h = {cp['kappa_h']:.6f}), "
+        print(f"{shape.kind} h/L = {args.h_over_r}, nu = {args.nu}, {common.model_words(args)}")
+        print(f"{cp['kind']} at kappa R = {cp['kappa_R']:.6f} (kappa h = {cp['kappa_h']:.6f}), "
               f"m = {cp['mode_m']}, n = {cp['mode_n']}")
         print(f"{'branch':>11} {'side':>4} {'kappa R':>10} {'kappa/kc':>8} {'Psi3 pole/h':>11} "
               f"{'amplitude':>9} {'neg':>4} {'orbit':>5}")

@@ -40,21 +40,21 @@ REUSE_CRITICAL = 1.0e-4
 #: benchmarks/axisym_convergence.py, kept wherever its round-off allows (``resolve_penalty``)
 PENALTY = 1.0e4
 #: the same on a closed shell: the penalty ties the slopes to the displacement to O(1/penalty),
-#: which on a closed sphere is an imperfection at its poles that lowers κ_b by ∝ 1/penalty
-#: (3e-4 at 1e4, h/R = 0.01); at 1e5 κ_b h is within 3e-5 of the converged value, so
-#: ``critical``, ``postbuckle`` and ``knockdown`` (1e6) report one κ_b for the same sphere
+#: which on a closed sphere is an imperfection at its poles that lowers κ_b by ∝ 1/penalty; a
+#: tenfold stiffer tie puts that below the location's tolerance, so ``critical``, ``postbuckle``
+#: and ``knockdown`` report one κ_b for the same sphere (docs/design-notes.md, "The C1
+#: penalty on closed shells")
 CLOSED_PENALTY = 1.0e5
 #: the lowest penalty ``resolve_penalty`` goes to, over h/R: the penalty's consistency error, a
-#: relative C (h/R)/penalty independent of the mesh (measured C: 0.13 on the 30° cap's fold at
-#: h/R = 0.04, 2e-3 to 2e-2 on the m = 2 eigenvalue of caps of θ̄ = 10-40 at h/R = 1e-4 and
-#: 3e-4), is then at most 1.3e-5
+#: relative C (h/R)/penalty independent of the mesh, then stays within the location's
+#: tolerance for the constants C measured (docs/model.md, "The thin end")
 PENALTY_FLOOR = 1.0e4
 #: ``resolve_penalty`` lowers the penalty until the round-off of every Fourier block's
 #: eigenvalue nearest 0 at κ = 0 is at most this fraction of it
 ROUNDOFF_TARGET = 1.0e-2
 #: ... and refuses a discretisation whose round-off stays above this fraction: its counts would
-#: be decided by round-off well away from any crossing (the worst case accepted in
-#: benchmarks/thin_end.py: 2e-2, the θ̄ = 40 cap of h/R = 1e-4 on 3200 cells at penalty 1)
+#: be decided by round-off well away from any crossing (the cases accepted:
+#: benchmarks/thin_end.py)
 ROUNDOFF_LIMIT = 5.0e-2
 
 
@@ -139,9 +139,9 @@ def resolve_penalty(model: AxisymModel, cfg: RunConfig) -> tuple[float, float]:
     round-off of its blocks there (``unloaded_roundoff``, over m ≤ 12).
 
     The penalty's weight multiplies the largest entries of every block, and with them the
-    round-off of their factorisations, while a thin shell's softest eigenvalues fall as h²:
-    with the fixed 1e4 a cap of h/R = 1e-4 on 800 cells has its m = 2 eigenvalue at κ = 0
-    wrong by 70 % (θ̄ = 10) to 430 % (θ̄ = 40, counted negative). ``cfg.penalty`` None:
+    round-off of their factorisations, while a thin shell's softest eigenvalues fall as h², so
+    a fixed penalty lets round-off decide a thin shell's counts (docs/model.md, "The thin
+    end"). ``cfg.penalty`` None:
     ``default_penalty``, or where its round-off exceeds ``ROUNDOFF_TARGET`` a tenth of it, and so
     on, down to ``PENALTY_FLOOR`` h/R (the consistency error that allows). An explicit penalty is
     kept.

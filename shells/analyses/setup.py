@@ -8,7 +8,9 @@ entry point uses.
 from __future__ import annotations
 
 import math
+from typing import Any
 
+from shells.errors import InputError
 from shells.geometry.shapes import Disk, Sphere, SphericalCap, kappa_length
 from shells.theory import (
     buckling_kappa_R,
@@ -18,7 +20,7 @@ from shells.theory import (
     sphere_kappa_b_h,
 )
 
-__all__ = ["default_kappa_range"]
+__all__ = ["KAPPA_H_LIMIT", "default_kappa_range", "kappa_end"]
 
 
 def default_kappa_range(shape: object, h_over_r: float, nu: float, direction: str) -> float:
@@ -51,3 +53,39 @@ def default_kappa_range(shape: object, h_over_r: float, nu: float, direction: st
             return (1.6 * max(kr, 1.0) + 0.5) / shape.R
         return (1.6 * min(buckling_kappa_R(tb, h_over_r), -1.0) - 0.5) / shape.R
     return sign * 8.0 / kappa_length(shape)  # type: ignore[arg-type]
+
+
+def kappa_end(shape: Any, h_over_r: float, kappa_h: float | None, kappa_r: float | None,
+              direction: str | None = None) -> float | None:
+    """The end of a κ range given as κh or κR, as an absolute κ in the shape's units.
+
+    Args:
+        shape: the shell's shape.
+        h_over_r: thickness over the shape's length scale.
+        kappa_h, kappa_r: the end as κh or as κR (at most one is used; κh first).
+        direction: "up" or "down": the sign of the result; None: the given sign.
+
+    Returns:
+        κ, or None when neither is given.
+
+    Raises:
+        InputError: |κ| h beyond ``KAPPA_H_LIMIT``.
+    """
+    L = shape.characteristic_size()
+    if kappa_h is not None:
+        k = kappa_h / (h_over_r * L)
+    elif kappa_r is not None:
+        k = kappa_r / kappa_length(shape)
+    else:
+        return None
+    if not abs(k) * h_over_r * L <= KAPPA_H_LIMIT:
+        raise InputError(f"the kappa range's end, |kappa| h = {abs(k) * h_over_r * L:.3g}, "
+                         f"exceeds {KAPPA_H_LIMIT:g}: it would strain the faces by "
+                         "|kappa| h / 2, far beyond a thin shell's range")
+    return k if direction is None else abs(k) if direction == "up" else -abs(k)
+
+
+#: largest |kappa| h of a kappa range (--kappa-h-max, or --kappa-r-max times h/R): the natural
+#: curvature strains the faces by kappa h / 2, and the paper's instabilities all lie below
+#: kappa h = 2 (closed spheres 1.5, caps' snap-through less)
+KAPPA_H_LIMIT = 100.0

@@ -226,11 +226,10 @@ def load(folder: str | Path) -> Result:
                                      "sides": summary.get("sides")})
     if (folder / "branch.jsonl").exists():
         header, recs = read_with_header(folder / "branch.jsonl")
+        from shells.analyses.branch import folds
+
         points = [r for r in recs if "index" in r and "kappa_R" in r]
-        turns = [{"kappa_R": p["kappa_R"], "kappa_h": p["kappa_h"], "index": p["index"]}
-                 for a, p in zip(points, points[1:], strict=False)
-                 if a.get("dkappa_ds", 0) * p.get("dkappa_ds", 0) < 0]
-        return Result("branch", {"config": header, "points": points, "folds": turns})
+        return Result("branch", {"config": header, "points": points, "folds": folds(points)})
     if (folder / "points.jsonl").exists():
         header, recs = read_with_header(folder / "points.jsonl")
         points = [r for r in recs if "delta_over_h" in r]

@@ -19,6 +19,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
+from shells.analyses.setup import kappa_end
 from shells.api.results import Result
 from shells.api.shell import Shell
 from shells.errors import InputError
@@ -59,12 +60,7 @@ def _kappa_end(shell: Shell, kappa_max: Any, kappa_R_max: Any, kappa_h_max: Any,
     if sum(given) > 1:
         raise InputError("give the end of the kappa range once: kappa_max, kappa_R_max or "
                          "kappa_h_max")
-    shape = shell.shape
-    if kappa_R_max is not None:
-        k = float(kappa_R_max) / kappa_length(shape)
-    elif kappa_h_max is not None:
-        k = float(kappa_h_max) / (shell.h_over_r * shape.characteristic_size())
-    elif kappa_max is not None:
+    if kappa_max is not None:
         si = curvature(kappa_max, "kappa_max")
         if si is None:
             k = float(kappa_max)
@@ -73,13 +69,11 @@ def _kappa_end(shell: Shell, kappa_max: Any, kappa_R_max: Any, kappa_h_max: Any,
                              "as a length), or give kappa_R_max")
         else:
             k = si * shell.geometry.length
-    else:
-        return None
-    if not k:
+        kappa_R_max = k * kappa_length(shell.shape)
+    k = kappa_end(shell.shape, shell.h_over_r, kappa_h_max, kappa_R_max, direction)
+    if k is not None and not k:
         raise InputError("the end of the kappa range must be nonzero")
-    if direction is None:
-        return k
-    return abs(k) if direction == "up" else -abs(k)
+    return k
 
 
 def critical(shell: Shell, direction: str = "up", *, model: str | None = None,

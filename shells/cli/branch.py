@@ -8,6 +8,7 @@ import argparse
 from collections.abc import Callable
 from typing import Any
 
+from shells.analyses.setup import kappa_end
 from shells.cli.common import (
     add_degree_arg,
     add_field_args,
@@ -17,7 +18,6 @@ from shells.cli.common import (
     add_shell_args,
     emit,
     field_from_args,
-    kappa_end,
     model_words,
     positive_float,
     shape_from_args,

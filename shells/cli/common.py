@@ -341,32 +341,6 @@ def add_kappa_range(p: argparse.ArgumentParser, help_h: str = "end of the range,
                    help="the same as a curvature with units (40/m), with --radius in units")
 
 
-def kappa_end(shape: Any, h_over_r: float, kappa_h: float | None, kappa_r: float | None,
-              direction: str | None = None) -> float | None:
-    """The end of the kappa range given as kappa h or kappa R (None: neither given); with a
-    ``direction`` (up/down) its sign is the direction's, otherwise the given one's."""
-    L = shape.characteristic_size()
-    if kappa_h is not None:
-        k = kappa_h / (h_over_r * L)
-    elif kappa_r is not None:
-        from shells.geometry.shapes import kappa_length
-
-        k = kappa_r / kappa_length(shape)
-    else:
-        return None
-    if not abs(k) * h_over_r * L <= KAPPA_H_LIMIT:
-        raise InputError(f"the kappa range's end, |kappa| h = {abs(k) * h_over_r * L:.3g}, "
-                         f"exceeds {KAPPA_H_LIMIT:g}: it would strain the faces by "
-                         "|kappa| h / 2, far beyond a thin shell's range")
-    return k if direction is None else abs(k) if direction == "up" else -abs(k)
-
-
-#: largest |kappa| h of a kappa range (--kappa-h-max, or --kappa-r-max times h/R): the natural
-#: curvature strains the faces by kappa h / 2, and the paper's instabilities all lie below
-#: kappa h = 2 (closed spheres 1.5, caps' snap-through less)
-KAPPA_H_LIMIT = 100.0
-
-
 # --------------------------------------------------------------------------------------------
 # argument validation before any work: ranges common to the subcommands, every path argument
 # --------------------------------------------------------------------------------------------

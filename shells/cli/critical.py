@@ -7,6 +7,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from shells.analyses.setup import kappa_end
 from shells.cli import common
 
 
@@ -55,7 +56,7 @@ def _cmd_critical(args: argparse.Namespace) -> int:
     result = critical.run(shape, args.h_over_r, args.nu, direction=args.direction,
                           model=args.model, outdir=args.output, kappa_field=fld,
                           first_only=args.first_only,
-                          kappa_end=common.kappa_end(shape, args.h_over_r, args.kappa_h_max,
+                          kappa_end=kappa_end(shape, args.h_over_r, args.kappa_h_max,
                                                      args.kappa_r_max, args.direction),
                           **surface)
 

@@ -28,6 +28,7 @@ import argparse
 import math
 from typing import Any
 
+from shells.analyses.setup import kappa_end
 from shells.cli import common
 from shells.errors import InputError
 
@@ -73,7 +74,7 @@ def _cmd_postbuckle(args: argparse.Namespace) -> int:
     from shells.analyses.postbuckle import PostbuckleConfig
 
     shape, fld = common.shape_and_field(args)
-    k_end = common.kappa_end(shape, args.h_over_r, args.kappa_h_max, args.kappa_r_max,
+    k_end = kappa_end(shape, args.h_over_r, args.kappa_h_max, args.kappa_r_max,
                              args.direction)
     if k_end is not None and not (math.isfinite(k_end) and k_end != 0):
         raise InputError("the end of the kappa range must be a nonzero number")

@@ -1,15 +1,15 @@
-# %% [markdown]
-# Fig. S5: ellipsoidal caps
-# =========================
-#
-# The supplement's last figure applies the same energy to a shell whose reference curvature is
-# not uniform: the half ellipsoid with semi-axes (R, R, r3), r3 = 3/2 R, h/R = 0.04, open at
-# θ = 90° (its equator). Under κ < 0 it buckles into a spindle-like shape, as a spherical cap
-# does; under κ > 0 it snaps, the deformation concentrated in the boundary layer at the rim.
-#
-# An ellipsoid of revolution is a shell of revolution, so the 1D model locates both
-# instabilities; the full mode also computes them on the surface model, whose
-# mesh of the whole shell imposes no symmetry (several minutes on 2 processes).
+"""Fig. S5: ellipsoidal caps
+=========================
+
+The supplement's last figure applies the same energy to a shell whose reference curvature is
+not uniform: the half ellipsoid with semi-axes (R, R, r3), r3 = 3/2 R, h/R = 0.04, open at
+θ = 90° (its equator). Under κ < 0 it buckles into a spindle-like shape, as a spherical cap
+does; under κ > 0 it snaps, the deformation concentrated in the boundary layer at the rim.
+
+An ellipsoid of revolution is a shell of revolution, so the 1D model locates both
+instabilities; the full mode also computes them on the surface model, whose
+mesh of the whole shell imposes no symmetry (several minutes on 2 processes).
+"""
 
 # %%
 import os

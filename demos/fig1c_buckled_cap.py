@@ -1,21 +1,21 @@
-# %% [markdown]
-# Fig. 1 (c): a cap that loses its rotational symmetry
-# ====================================================
-#
-# A spherical cap of radius R, thickness h and half opening angle θ is described by its
-# depth θ̄ = θ/√(h/R): θ measured in widths of the rim's boundary layer, √(h/R). The paper's
-# Fig. 1 (c) shows a cap with θ̄ = 5 and h/R = 0.04 (θ = 57.3°) under a *negative* natural
-# curvature κ: the bilayer wants to curve less than the cap. The cap first flattens
-# axisymmetrically; at a critical κ_b R it buckles into a saddle, the Fourier mode m = 2
-# around its axis (two lobes up, two down), and the buckled shape is stable (a supercritical
-# bifurcation).
-#
-# The paper's Eq. (4) interpolates this threshold between the plate limit and the closed
-# sphere. Here the 1D model (the meridian of the shell of revolution, with the stability of
-# every Fourier mode m) locates the bifurcation exactly; the full mode also follows the m = 2
-# branch on the surface model and writes the buckled shape for ParaView.
-#
-# Run it with ``python3 demos/fig1c_buckled_cap.py`` (``--quick``: the 1D model only).
+"""Fig. 1 (c): a cap that loses its rotational symmetry
+====================================================
+
+A spherical cap of radius R, thickness h and half opening angle θ is described by its
+depth θ̄ = θ/√(h/R): θ measured in widths of the rim's boundary layer, √(h/R). The paper's
+Fig. 1 (c) shows a cap with θ̄ = 5 and h/R = 0.04 (θ = 57.3°) under a *negative* natural
+curvature κ: the bilayer wants to curve less than the cap. The cap first flattens
+axisymmetrically; at a critical κ_b R it buckles into a saddle, the Fourier mode m = 2
+around its axis (two lobes up, two down), and the buckled shape is stable (a supercritical
+bifurcation).
+
+The paper's Eq. (4) interpolates this threshold between the plate limit and the closed
+sphere. Here the 1D model (the meridian of the shell of revolution, with the stability of
+every Fourier mode m) locates the bifurcation exactly; the full mode also follows the m = 2
+branch on the surface model and writes the buckled shape for ParaView.
+
+Run it with ``python3 demos/fig1c_buckled_cap.py`` (``--quick``: the 1D model only).
+"""
 
 # %%
 import math

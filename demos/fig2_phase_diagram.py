@@ -1,24 +1,24 @@
-# %% [markdown]
-# Fig. 2: the phase diagram of open caps
-# ======================================
-#
-# The paper summarises the instabilities of open caps in the plane (θ̄, κR):
-#
-# - **κ < 0**: every cap loses its rotational symmetry (m = 2) at κ_b R, Eq. (4):
-#   κ_b R = −a/θ̄² + 1 + b/(θ̄ − π√(R/h)) + c, with a = √(10 + 7√2) from the plate limit and
-#   the paper's fit b = 3.6, c = −0.98;
-# - **κ > 0**: caps deeper than θ̄_s ≈ 2.09 snap through at a fold, κ_s R = β θ̄ − α
-#   (β = 0.85, α = 0.67), shallower ones invert smoothly; after inversion symmetry is lost
-#   again on the mirrored line 2 − κ_b R; the two lines cross at the triple point
-#   θ̄_c ≈ 3.85.
-#
-# ``shells.phase_diagram`` computes the first instability of each cap in both directions on
-# the 1D model (one cap per MPI process: ``mpirun -n 2 python3 demos/fig2_phase_diagram.py``),
-# fits the paper's laws and draws the figure.
-#
-# The quick mode computes 4 caps at h/R = 0.04; the full mode the paper's two thicknesses,
-# h/R = 0.01 and 0.04, at 31 depths θ̄ from 1 to 20 and bisects θ̄_s (about a minute on
-# 2 processes), and reproduces the fits of the validation page.
+"""Fig. 2: the phase diagram of open caps
+======================================
+
+The paper summarises the instabilities of open caps in the plane (θ̄, κR):
+
+- **κ < 0**: every cap loses its rotational symmetry (m = 2) at κ_b R, Eq. (4):
+  κ_b R = −a/θ̄² + 1 + b/(θ̄ − π√(R/h)) + c, with a = √(10 + 7√2) from the plate limit and
+  the paper's fit b = 3.6, c = −0.98;
+- **κ > 0**: caps deeper than θ̄_s ≈ 2.09 snap through at a fold, κ_s R = β θ̄ − α
+  (β = 0.85, α = 0.67), shallower ones invert smoothly; after inversion symmetry is lost
+  again on the mirrored line 2 − κ_b R; the two lines cross at the triple point
+  θ̄_c ≈ 3.85.
+
+``shells.phase_diagram`` computes the first instability of each cap in both directions on
+the 1D model (one cap per MPI process: ``mpirun -n 2 python3 demos/fig2_phase_diagram.py``),
+fits the paper's laws and draws the figure.
+
+The quick mode computes 4 caps at h/R = 0.04; the full mode the paper's two thicknesses,
+h/R = 0.01 and 0.04, at 31 depths θ̄ from 1 to 20 and bisects θ̄_s (about a minute on
+2 processes), and reproduces the fits of the validation page.
+"""
 
 # %%
 import os

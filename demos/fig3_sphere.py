@@ -1,21 +1,21 @@
-# %% [markdown]
-# Fig. 3: the closed sphere and its post-buckling
-# ===============================================
-#
-# A closed sphere has no rim and so no nearly isometric deformation: its characteristic
-# curvature is 1/h, not 1/R. Under a natural curvature κ > 0 it shrinks uniformly, the pole
-# moving inwards by Ψ3/h = −κh/12 (Ψ3: the normal displacement), until it buckles at
-#
-#     κ_b h = 4 √(3(1−ν)/((1+ν)(5+4ν))) = 4/√7 ≈ 1.512   (ν = ½, the thin-shell limit)
-#
-# into a spherical harmonic of degree n ≈ √(x), x = n(n+1) ∝ R/h. The bifurcation is
-# subcritical: the branch with a dimple at the pole, followed with rotational symmetry
-# enforced, falls back in κ as the dimple deepens (the paper's Fig. 3), as in the pressure
-# buckling of spheres.
-#
-# The 1D model gives the buckling point, the n of its mode and the axisymmetric post-buckled
-# branch (``shells.postbuckle``). The quick mode follows a short stretch of the branch at
-# h/R = 0.01; the full mode the paper's h/R = 0.001, 0.01 and 0.1, 80 points each.
+"""Fig. 3: the closed sphere and its post-buckling
+===============================================
+
+A closed sphere has no rim and so no nearly isometric deformation: its characteristic
+curvature is 1/h, not 1/R. Under a natural curvature κ > 0 it shrinks uniformly, the pole
+moving inwards by Ψ3/h = −κh/12 (Ψ3: the normal displacement), until it buckles at
+
+    κ_b h = 4 √(3(1−ν)/((1+ν)(5+4ν))) = 4/√7 ≈ 1.512   (ν = ½, the thin-shell limit)
+
+into a spherical harmonic of degree n ≈ √(x), x = n(n+1) ∝ R/h. The bifurcation is
+subcritical: the branch with a dimple at the pole, followed with rotational symmetry
+enforced, falls back in κ as the dimple deepens (the paper's Fig. 3), as in the pressure
+buckling of spheres.
+
+The 1D model gives the buckling point, the n of its mode and the axisymmetric post-buckled
+branch (``shells.postbuckle``). The quick mode follows a short stretch of the branch at
+h/R = 0.01; the full mode the paper's h/R = 0.001, 0.01 and 0.1, 80 points each.
+"""
 
 # %%
 import os

@@ -1,17 +1,17 @@
-# %% [markdown]
-# A natural-curvature field
-# =========================
-#
-# The paper imposes one uniform natural curvature, b̄ = b° + κ a°. Patterned bilayers impose
-# a field: ``shells`` takes b̄ = b° + κ f(x) (f1 e1⊗e1 + f2 e2⊗e2), with f a scalar field of
-# the reference position and (f1, f2) an anisotropy along the meridian (e1) and the parallel
-# (e2). f = 1, (f1, f2) = (1, 1) is the paper's stimulus.
-#
-# Here a 45° cap (h/R = 0.04) is patterned in two ways: a ring at its rim only (the
-# boundary layer, where the stimulus acts as a torque) and a patch at the pole only (the
-# bulk, where it acts as a pressure). Under the uniform stimulus the cap snaps at a fold;
-# each pattern alone needs a larger κ, and the ring changes the kind of instability: the
-# rim, bent alone, buckles around the axis before the cap can snap.
+"""A natural-curvature field
+=========================
+
+The paper imposes one uniform natural curvature, b̄ = b° + κ a°. Patterned bilayers impose
+a field: ``shells`` takes b̄ = b° + κ f(x) (f1 e1⊗e1 + f2 e2⊗e2), with f a scalar field of
+the reference position and (f1, f2) an anisotropy along the meridian (e1) and the parallel
+(e2). f = 1, (f1, f2) = (1, 1) is the paper's stimulus.
+
+Here a 45° cap (h/R = 0.04) is patterned in two ways: a ring at its rim only (the
+boundary layer, where the stimulus acts as a torque) and a patch at the pole only (the
+bulk, where it acts as a pressure). Under the uniform stimulus the cap snaps at a fold;
+each pattern alone needs a larger κ, and the ring changes the kind of instability: the
+rim, bent alone, buckles around the axis before the cap can snap.
+"""
 
 # %%
 import math

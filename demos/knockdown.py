@@ -1,16 +1,16 @@
-# %% [markdown]
-# Imperfections: the knock-down of a sphere's buckling curvature
-# ==============================================================
-#
-# Real shells are not perfect spheres. Under pressure a small dimple lowers a sphere's
-# buckling load a lot (Koiter's imperfection sensitivity). The same holds under a natural
-# curvature: a closed sphere with an axisymmetric dimple of amplitude δ at its pole no
-# longer bifurcates at κ_b; its branch turns at a fold κ_max < κ_b. The knock-down factor
-# κ_max/κ_b against δ/h is what ``shells.knockdown`` computes (1D model: the dimple and the
-# branch are axisymmetric; ``model="surface"`` for other imperfections).
-#
-# The quick mode computes three amplitudes; the full mode twelve from 0.01 h to 2 h, with
-# Koiter's asymptotic law for small δ beside them.
+"""Imperfections: the knock-down of a sphere's buckling curvature
+==============================================================
+
+Real shells are not perfect spheres. Under pressure a small dimple lowers a sphere's
+buckling load a lot (Koiter's imperfection sensitivity). The same holds under a natural
+curvature: a closed sphere with an axisymmetric dimple of amplitude δ at its pole no
+longer bifurcates at κ_b; its branch turns at a fold κ_max < κ_b. The knock-down factor
+κ_max/κ_b against δ/h is what ``shells.knockdown`` computes (1D model: the dimple and the
+branch are axisymmetric; ``model="surface"`` for other imperfections).
+
+The quick mode computes three amplitudes; the full mode twelve from 0.01 h to 2 h, with
+Koiter's asymptotic law for small δ beside them.
+"""
 
 # %%
 import os

@@ -1,22 +1,22 @@
-# %% [markdown]
-# Your own cap, from the command line
-# ===================================
-#
-# The same questions without writing Python: the ``shells`` command. For a cap of radius
-# 25 mm, thickness 1 mm, half opening angle 30° (θ̄ = θ/√(h/R) = 2.6):
-#
-# .. code-block:: sh
-#
-#     shells critical --shape cap --theta-deg 30 --radius 25mm --thickness 1mm \
-#         --model axisym --json
-#
-# prints one line per critical point (the snap-through fold of this cap going up) and, with
-# ``--json``, a last line of JSON that scripts read. ``--direction down`` asks for the loss of
-# symmetry under κ < 0. ``--model axisym`` is the 1D model (seconds); without it the command
-# runs the surface model (the first output line says which model runs), about 0.1 % away at
-# its default mesh.
-# This demo runs the command and reads its JSON, then computes the same cap from Python:
-# both give the same number to the last digit (the command is a thin layer over the API).
+r"""Your own cap, from the command line
+===================================
+
+The same questions without writing Python: the ``shells`` command. For a cap of radius
+25 mm, thickness 1 mm, half opening angle 30° (θ̄ = θ/√(h/R) = 2.6):
+
+.. code-block:: sh
+
+    shells critical --shape cap --theta-deg 30 --radius 25mm --thickness 1mm \
+        --model axisym --json
+
+prints one line per critical point (the snap-through fold of this cap going up) and, with
+``--json``, a last line of JSON that scripts read. ``--direction down`` asks for the loss of
+symmetry under κ < 0. ``--model axisym`` is the 1D model (seconds); without it the command
+runs the surface model (the first output line says which model runs), about 0.1 % away at
+its default mesh.
+This demo runs the command and reads its JSON, then computes the same cap from Python:
+both give the same number to the last digit (the command is a thin layer over the API).
+"""
 
 # %%
 import json

@@ -1,14 +1,14 @@
-# %% [markdown]
-# Your own cap, from Python
-# =========================
-#
-# A researcher's cap as measured: a bilayer shell of radius 25 mm, two layers of 0.5 mm with
-# Young's moduli 1 and 2 MPa, cut at a half opening angle of 40°. The layers' mismatch strain
-# (differential swelling) sets the natural curvature; ``shells`` answers: at which natural
-# curvature does this cap snap, at which does it buckle, and what mismatch gets there?
-#
-# The API takes lengths and moduli with units (strings such as ``"25 mm"`` or pint
-# quantities) and reports dimensionless numbers (κR, κh) beside κ in 1/m.
+"""Your own cap, from Python
+=========================
+
+A researcher's cap as measured: a bilayer shell of radius 25 mm, two layers of 0.5 mm with
+Young's moduli 1 and 2 MPa, cut at a half opening angle of 40°. The layers' mismatch strain
+(differential swelling) sets the natural curvature; ``shells`` answers: at which natural
+curvature does this cap snap, at which does it buckle, and what mismatch gets there?
+
+The API takes lengths and moduli with units (strings such as ``"25 mm"`` or pint
+quantities) and reports dimensionless numbers (κR, κh) beside κ in 1/m.
+"""
 
 # %%
 import os

@@ -1,17 +1,17 @@
-# %% [markdown]
-# Your own mesh, made with gmsh
-# =============================
-#
-# Any surface meshed by the user runs on the surface model: ``shells.mesh("file.msh")``. A
-# mesh that is a surface of revolution about z is recognised as such: its meridian is
-# recovered from the nodes and its rim tagged, so the 1D model runs on it too (the default
-# for a shell of revolution), and the two models can be compared on the user's own shape.
-#
-# Here the mesh is a 30° spherical cap made with gmsh's own Python API, as one would outside
-# ``shells``: the curved face of an OpenCASCADE ball sector, second-order triangles, finer at
-# the rim where the boundary layer is. The quick mode runs the 1D model on the recovered
-# meridian and a short stretch of the surface model's branch; the full mode locates the
-# snap-through fold on the surface model.
+"""Your own mesh, made with gmsh
+=============================
+
+Any surface meshed by the user runs on the surface model: ``shells.mesh("file.msh")``. A
+mesh that is a surface of revolution about z is recognised as such: its meridian is
+recovered from the nodes and its rim tagged, so the 1D model runs on it too (the default
+for a shell of revolution), and the two models can be compared on the user's own shape.
+
+Here the mesh is a 30° spherical cap made with gmsh's own Python API, as one would outside
+``shells``: the curved face of an OpenCASCADE ball sector, second-order triangles, finer at
+the rim where the boundary layer is. The quick mode runs the 1D model on the recovered
+meridian and a short stretch of the surface model's branch; the full mode locates the
+snap-through fold on the surface model.
+"""
 
 # %%
 import math

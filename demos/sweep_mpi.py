@@ -1,21 +1,21 @@
-# %% [markdown]
-# A parameter sweep with MPI
-# ==========================
-#
-# Many independent runs, one call: ``shells.sweep`` spreads a list of shells over the MPI
-# processes (process r computes shells r, r + size, …) and gives every process all the
-# results, in order. Run it as
-#
-# .. code-block:: sh
-#
-#     mpirun -n 2 python3 demos/sweep_mpi.py
-#
-# Here: caps at h/R = 0.04 whose depth θ̄ runs across the snapping regime, each asked for its
-# first instability going up. The snap-through curvature κ_s R grows linearly with θ̄, the
-# paper's Eq. (3), κ_s R = β θ̄ − α, and the sweep fits it.
-#
-# On a cluster the same script runs under Slurm (``srun python3 demos/sweep_mpi.py``); the
-# user guide has a batch script.
+"""A parameter sweep with MPI
+==========================
+
+Many independent runs, one call: ``shells.sweep`` spreads a list of shells over the MPI
+processes (process r computes shells r, r + size, …) and gives every process all the
+results, in order. Run it as
+
+.. code-block:: sh
+
+    mpirun -n 2 python3 demos/sweep_mpi.py
+
+Here: caps at h/R = 0.04 whose depth θ̄ runs across the snapping regime, each asked for its
+first instability going up. The snap-through curvature κ_s R grows linearly with θ̄, the
+paper's Eq. (3), κ_s R = β θ̄ − α, and the sweep fits it.
+
+On a cluster the same script runs under Slurm (``srun python3 demos/sweep_mpi.py``); the
+user guide has a batch script.
+"""
 
 # %%
 import math

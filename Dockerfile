@@ -26,11 +26,16 @@ ENV OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 \
 COPY . /opt/shells
 WORKDIR /opt/shells
 RUN pip install --break-system-packages --no-deps --no-build-isolation --no-cache-dir . \
- && shells --version
+ && ln -s /opt/shells/scripts/demo /usr/local/bin/demo \
+ && shells --version && demo >/dev/null
 # `docker run` enters through scripts/in-env, which sets SHELLS_HOST_PATHS to the folders mounted
 # into the container (from /proc/self/mountinfo): `shells` then refuses, before any work, a path
 # that would stay inside the container. Mount the working folder at the same path:
 #   docker run --rm -v "$PWD:$PWD" -w "$PWD" shells shells mesh cap --theta-deg 30 -o cap.msh
 # (-e SHELLS_HOST_PATHS=/ turns the check off). `buildah run` and RUN skip the entrypoint.
 ENTRYPOINT ["/usr/bin/env", "SHELLS_HOST_PATHS_FROM=mountinfo", "/opt/shells/scripts/in-env"]
-CMD ["python3", "demos/main.py", "/opt/shells/results/demo"]
+# The default command lists the demos (scripts/demo); `docker run --rm shells demo NAME` runs
+# one (`demo NAME --quick`: its quick mode; `demo -n 2 NAME`: on 2 MPI processes), writing to
+# results/demos/NAME/ under the working folder: mount one to keep the outputs, e.g.
+#   docker run --rm -v "$PWD:$PWD" -w "$PWD" shells demo fig3_sphere
+CMD ["demo"]

@@ -1,11 +1,12 @@
 """The surface model's default discretisation against the 1D model (issue 42): `shells critical`
 with its defaults (no --size, no --degree) on closed spheres of h/R 0.05 and 0.02 (going up)
-and on caps of θ̄ = 2, 5, 8 at h/R = 0.04 (going down), the first critical point compared with
-`shells critical --model axisym`. Each surface run takes minutes on 2 cores; cases may be
-chosen by name. Writes JSON (merged into an existing file, case by case) and prints a table.
+and on caps of θ̄ = 2, 5, 8 at h/R = 0.04 and 0.01 (going down; θ̄ = θ/√(h/R), θ the cap's
+half-angle), the first critical point compared with `shells critical --model axisym`. Each
+surface run takes minutes on 2 cores; cases may be chosen by name. Writes JSON (merged into
+an existing file, case by case) and prints a table.
 
     scripts/in-env python3 benchmarks/surface_defaults.py [--out OUT.json] [CASE ...]
-    (CASE: sphere-0.05 sphere-0.02 cap-2-0.04 cap-5-0.04 cap-8-0.04; default: all)
+    (CASE: sphere-0.05 sphere-0.02 cap-TB-H for TB in 2 5 8, H in 0.04 0.01; default: all)
 """
 
 from __future__ import annotations
@@ -20,8 +21,9 @@ from pathlib import Path
 CASES = {
     "sphere-0.05": ["--shape", "sphere", "--h-over-r", "0.05", "--direction", "up"],
     "sphere-0.02": ["--shape", "sphere", "--h-over-r", "0.02", "--direction", "up"],
-    **{f"cap-{tb:g}-0.04": ["--shape", "cap", "--theta-deg", repr(math.degrees(tb * 0.2)),
-                            "--h-over-r", "0.04", "--direction", "down"] for tb in (2, 5, 8)},
+    **{f"cap-{tb:g}-{h:g}": ["--shape", "cap", "--theta-deg",
+                             repr(math.degrees(tb * math.sqrt(h))), "--h-over-r", repr(h),
+                             "--direction", "down"] for h in (0.04, 0.01) for tb in (2, 5, 8)},
 }
 
 

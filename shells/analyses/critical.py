@@ -295,8 +295,8 @@ def run_surface(shape: Any, h_over_r: float, nu: float, kappa_end: float, *,
             "mode_m": first["mode_m"] if first else None,
             "mode_n": first["mode_n"] if first else None,
             "dofs": model.num_dofs(), "critical_points": cps,
-            "discretisation_error": _discretisation_error(shape, defaults),
-            "discretisation_note": _discretisation_note(shape, defaults),
+            "discretisation_error": _discretisation_error(shape, defaults, kappa_field.uniform),
+            "discretisation_note": _discretisation_note(shape, defaults, kappa_field.uniform),
             "mesh": ({"size": size, "layer_elements": layer_elements, "degree": degree}
                      if mesh_file is None else {"size": None, "layer_elements": None,
                                                 "degree": degree, "user_mesh": True,
@@ -311,22 +311,33 @@ def _rank() -> int:
     return MPI.COMM_WORLD.rank
 
 
-def _discretisation_error(shape: Any, defaults: bool) -> float | None:
+def _discretisation_error(shape: Any, defaults: bool, uniform: bool = True) -> float | None:
     """The relative error of κ that the surface model's discretisation is known to stay within:
-    a closed sphere on its default mesh (``shells.surface.model.SPHERE_DEFAULT_ERROR``); else
+    a closed sphere on its default mesh (``shells.surface.model.SPHERE_DEFAULT_ERROR``), a
+    spherical cap under the uniform stimulus on its default mesh (``CAP_DEFAULT_ERROR``); else
     None."""
-    from shells.surface.model import SPHERE_DEFAULT_ERROR
+    from shells.geometry.shapes import SphericalCap
+    from shells.surface.model import CAP_DEFAULT_ERROR, SPHERE_DEFAULT_ERROR
 
-    sphere = shape.closed and shape.kind in ("sphere", "meridian")
-    return SPHERE_DEFAULT_ERROR if sphere and defaults else None
+    if not defaults:
+        return None
+    if shape.closed and shape.kind in ("sphere", "meridian"):
+        return SPHERE_DEFAULT_ERROR
+    if isinstance(shape, SphericalCap) and not shape.closed and uniform:
+        return CAP_DEFAULT_ERROR
+    return None
 
 
-def _discretisation_note(shape: Any, defaults: bool) -> str:
+def _discretisation_note(shape: Any, defaults: bool, uniform: bool = True) -> str:
     """What a critical point's ``accuracy`` (``locator_accuracy``) covers, and what not."""
-    known = _discretisation_error(shape, defaults)
+    known = _discretisation_error(shape, defaults, uniform)
+    sphere = shape.closed and shape.kind in ("sphere", "meridian")
+    why = ("4.25 elements per wavelength of the critical degree" if sphere else
+           "the rim layer at sqrt(R h)/4, the bulk size scaled with sqrt(R h); measured on caps "
+           "of theta/sqrt(h/R) 2 to 8 at h/R 0.04 and 0.01, docs/design-notes.md")
     return ("accuracy / locator_accuracy: the locator's bracket on this mesh only, not the "
             "discretisation error; " + (
-                f"the default sphere mesh keeps kappa within about {known:.1%} of the converged "
-                "value (4.25 elements per wavelength of the critical degree)" if known else
+                f"the default {'sphere' if sphere else 'cap'} mesh keeps kappa within about "
+                f"{known:.1%} of the converged value ({why})" if known else
                 "that is not estimated here: refine --size, or compare with --model axisym"
                 " on a shell of revolution"))

@@ -312,18 +312,18 @@ def _rank() -> int:
 
 
 def _discretisation_error(shape: Any, defaults: bool, uniform: bool = True) -> float | None:
-    """The relative error of κ that the surface model's discretisation is known to stay within:
-    a closed sphere on its default mesh (``shells.surface.model.SPHERE_DEFAULT_ERROR``), a
-    spherical cap under the uniform stimulus on its default mesh (``CAP_DEFAULT_ERROR``); else
-    None."""
+    """The relative error of κ that the surface model's discretisation is known to stay within,
+    under the uniform stimulus on the default mesh: a closed sphere's
+    (``shells.surface.model.SPHERE_DEFAULT_ERROR``), a spherical cap's (``CAP_DEFAULT_ERROR``);
+    else None."""
     from shells.geometry.shapes import SphericalCap
     from shells.surface.model import CAP_DEFAULT_ERROR, SPHERE_DEFAULT_ERROR
 
-    if not defaults:
+    if not (defaults and uniform):
         return None
     if shape.closed and shape.kind in ("sphere", "meridian"):
         return SPHERE_DEFAULT_ERROR
-    if isinstance(shape, SphericalCap) and not shape.closed and uniform:
+    if isinstance(shape, SphericalCap) and not shape.closed:
         return CAP_DEFAULT_ERROR
     return None
 

@@ -109,15 +109,15 @@ def test_stated_error_covers_the_default_meshes_only():
     """`shells critical` states ``discretisation_error`` for the default mesh of a closed sphere
     or a spherical cap under the uniform stimulus (the measured rules), else null; the note
     says which, and that ``accuracy`` is the locator's bracket."""
-    from shells.analyses.critical import _discretisation_error, _discretisation_note
+    from shells.analyses.critical import discretisation_error_of, discretisation_note_of
     from shells.surface.model import CAP_DEFAULT_ERROR, SPHERE_DEFAULT_ERROR
 
     cap = _cap(5.0, 0.01)
-    assert _discretisation_error(Sphere(1.0), True) == SPHERE_DEFAULT_ERROR
-    assert _discretisation_error(cap, True) == CAP_DEFAULT_ERROR
+    assert discretisation_error_of(Sphere(1.0), True) == SPHERE_DEFAULT_ERROR
+    assert discretisation_error_of(cap, True) == CAP_DEFAULT_ERROR
     for shape in (Sphere(1.0), cap):
-        assert _discretisation_error(shape, False) is None
-        assert _discretisation_error(shape, True, uniform=False) is None
-        assert "locator's bracket" in _discretisation_note(shape, False)
-    assert "default cap mesh" in _discretisation_note(cap, True)
-    assert "not estimated" in _discretisation_note(cap, True, uniform=False)
+        assert discretisation_error_of(shape, False) is None
+        assert discretisation_error_of(shape, True, uniform=False) is None
+        assert "locator's bracket" in discretisation_note_of(shape, False)
+    assert "default cap mesh" in discretisation_note_of(cap, True)
+    assert "not estimated" in discretisation_note_of(cap, True, uniform=False)

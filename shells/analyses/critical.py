@@ -20,7 +20,8 @@ from shells.geometry.shapes import kappa_length
 from shells.parameters import check_model
 from shells.progress import Progress
 
-__all__ = ["CRITICAL_CHECKPOINT", "REUSE_SURFACE", "run", "run_surface"]
+__all__ = ["CRITICAL_CHECKPOINT", "REUSE_SURFACE", "discretisation_error_of",
+           "discretisation_note_of", "run", "run_surface"]
 
 log = logging.getLogger("shells")
 
@@ -295,8 +296,8 @@ def run_surface(shape: Any, h_over_r: float, nu: float, kappa_end: float, *,
             "mode_m": first["mode_m"] if first else None,
             "mode_n": first["mode_n"] if first else None,
             "dofs": model.num_dofs(), "critical_points": cps,
-            "discretisation_error": _discretisation_error(shape, defaults, kappa_field.uniform),
-            "discretisation_note": _discretisation_note(shape, defaults, kappa_field.uniform),
+            "discretisation_error": discretisation_error_of(shape, defaults, kappa_field.uniform),
+            "discretisation_note": discretisation_note_of(shape, defaults, kappa_field.uniform),
             "mesh": ({"size": size, "layer_elements": layer_elements, "degree": degree}
                      if mesh_file is None else {"size": None, "layer_elements": None,
                                                 "degree": degree, "user_mesh": True,
@@ -311,11 +312,21 @@ def _rank() -> int:
     return MPI.COMM_WORLD.rank
 
 
-def _discretisation_error(shape: Any, defaults: bool, uniform: bool = True) -> float | None:
-    """The relative error of κ that the surface model's discretisation is known to stay within,
-    under the uniform stimulus on the default mesh: a closed sphere's
-    (``shells.surface.model.SPHERE_DEFAULT_ERROR``), a spherical cap's (``CAP_DEFAULT_ERROR``);
-    else None."""
+def discretisation_error_of(shape: Any, defaults: bool, uniform: bool = True) -> float | None:
+    """The relative error of κ that the surface model's discretisation is known to stay within
+    (a run's ``discretisation_error``).
+
+    Args:
+        shape: the shell.
+        defaults: the mesh and degree are ``default_discretisation``'s (no size, degree or
+            mesh file given).
+        uniform: the stimulus is the uniform one.
+
+    Returns:
+        Under the uniform stimulus on the default mesh, a closed sphere's
+        ``shells.surface.model.SPHERE_DEFAULT_ERROR`` or a spherical cap's
+        ``CAP_DEFAULT_ERROR``; else None.
+    """
     from shells.geometry.shapes import SphericalCap
     from shells.surface.model import CAP_DEFAULT_ERROR, SPHERE_DEFAULT_ERROR
 
@@ -328,9 +339,10 @@ def _discretisation_error(shape: Any, defaults: bool, uniform: bool = True) -> f
     return None
 
 
-def _discretisation_note(shape: Any, defaults: bool, uniform: bool = True) -> str:
-    """What a critical point's ``accuracy`` (``locator_accuracy``) covers, and what not."""
-    known = _discretisation_error(shape, defaults, uniform)
+def discretisation_note_of(shape: Any, defaults: bool, uniform: bool = True) -> str:
+    """What a critical point's ``accuracy`` (``locator_accuracy``) covers, and what not (a run's
+    ``discretisation_note``; arguments as ``discretisation_error_of``'s)."""
+    known = discretisation_error_of(shape, defaults, uniform)
     sphere = shape.closed and shape.kind in ("sphere", "meridian")
     why = ("4.25 elements per wavelength of the critical degree" if sphere else
            "the rim layer at sqrt(R h)/4, the bulk size scaled with sqrt(R h); measured on caps "

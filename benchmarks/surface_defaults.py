@@ -1,11 +1,13 @@
 """The surface model's default discretisation against the 1D model (issue 42): `shells critical`
-with its defaults (no --size, no --degree) on closed spheres of h/R 0.05 and 0.02 (going up)
-and on caps of θ̄ = 2, 5, 8 at h/R = 0.04 (going down), the first critical point compared with
-`shells critical --model axisym`. Each surface run takes minutes on 2 cores; cases may be
-chosen by name. Writes JSON (merged into an existing file, case by case) and prints a table.
+with its defaults (no --size, no --degree) on closed spheres of h/R 0.05, 0.02, 0.01 (going up)
+and on caps of θ̄ = 2, 5, 8, 12 at h/R = 0.04 and 0.01 (going down; θ̄ = θ/√(h/R), θ the cap's
+half-angle), the first critical point compared with `shells critical --model axisym`. Each
+surface run takes minutes on 2 cores; cases may be chosen by name. Writes JSON (merged into
+an existing file, case by case) and prints a table.
 
     scripts/in-env python3 benchmarks/surface_defaults.py [--out OUT.json] [CASE ...]
-    (CASE: sphere-0.05 sphere-0.02 cap-2-0.04 cap-5-0.04 cap-8-0.04; default: all)
+    (CASE: sphere-H for H in 0.05 0.02 0.01, cap-TB-H for TB in 2 5 8 12 and H in 0.04 0.01,
+    cap-2-0.04-p3; default: all)
 """
 
 from __future__ import annotations
@@ -20,9 +22,13 @@ from pathlib import Path
 CASES = {
     "sphere-0.05": ["--shape", "sphere", "--h-over-r", "0.05", "--direction", "up"],
     "sphere-0.02": ["--shape", "sphere", "--h-over-r", "0.02", "--direction", "up"],
-    **{f"cap-{tb:g}-0.04": ["--shape", "cap", "--theta-deg", repr(math.degrees(tb * 0.2)),
-                            "--h-over-r", "0.04", "--direction", "down"] for tb in (2, 5, 8)},
+    "sphere-0.01": ["--shape", "sphere", "--h-over-r", "0.01", "--direction", "up"],
+    **{f"cap-{tb:g}-{h:g}": ["--shape", "cap", "--theta-deg",
+                             repr(math.degrees(tb * math.sqrt(h))), "--h-over-r", repr(h),
+                             "--direction", "down"] for h in (0.04, 0.01) for tb in (2, 5, 8, 12)},
 }
+#: not a default: the θ̄ = 2 cap at h/R = 0.04 with P3 on its default mesh, to tell P2's share
+CASES["cap-2-0.04-p3"] = [*CASES["cap-2-0.04"], "--degree", "3"]
 
 
 def shells(args: list[str], ranks: int) -> tuple[dict, float]:
@@ -48,15 +54,15 @@ def main() -> None:
             sur, t_sur = shells(args + ["--first-only"], a.ranks)
         except subprocess.CalledProcessError as e:  # a refusal is a result
             rows[name] = {"refused": e.stderr.strip().splitlines()[-1], "axisym": ref["kappa_R"]}
-            continue
-        rows[name] = {"surface": sur["kappa_R"], "axisym": ref["kappa_R"],
-                      "relative": sur["kappa_R"] / ref["kappa_R"] - 1,
-                      "mode_surface": [sur["mode_m"], sur["mode_n"]],
-                      "mode_axisym": [ref["mode_m"], ref["mode_n"]],
-                      "dofs": sur["dofs"], "mesh": sur["mesh"],
-                      "discretisation_error": sur.get("discretisation_error"),
-                      "locator_accuracy": sur["critical_points"][0].get("locator_accuracy"),
-                      "wall_s": t_sur, "axisym_wall_s": t_ref, "ranks": a.ranks}
+        else:
+            rows[name] = {"surface": sur["kappa_R"], "axisym": ref["kappa_R"],
+                          "relative": sur["kappa_R"] / ref["kappa_R"] - 1,
+                          "mode_surface": [sur["mode_m"], sur["mode_n"]],
+                          "mode_axisym": [ref["mode_m"], ref["mode_n"]],
+                          "dofs": sur["dofs"], "mesh": sur["mesh"],
+                          "discretisation_error": sur.get("discretisation_error"),
+                          "locator_accuracy": sur["critical_points"][0].get("locator_accuracy"),
+                          "wall_s": t_sur, "axisym_wall_s": t_ref, "ranks": a.ranks}
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(json.dumps(rows, indent=1))
     print(f"{'case':>12} {'surface kappa R':>16} {'1D kappa R':>12} {'rel':>10} {'dofs':>7} "

@@ -76,3 +76,47 @@ def test_penalty_resolution_keeps_the_default_where_blocks_are_definite():
     model.modes = tuple(cfg.modes)
     assert unloaded_roundoff(model, list(model.modes)) == 0.0
     assert resolve_penalty(model, cfg) == (1e4, 0.0)
+
+
+#: κ_b h of the closed sphere at h/R = 1e-4 lies in this window on every mesh: its located first
+#: critical point is 1.511788 / 1.511757 / 1.511591 on 400 / 800 / 1600 cells
+#: (benchmarks/thin_end.py), the thin-limit 4/√7 = 1.511858 (1 + O(h/R))
+SPHERE_WINDOW = (1.5115, 1.5121)
+
+
+@pytest.mark.skipif(MPI.COMM_WORLD.size > 1, reason="the blocks' LDLᵀ counts are serial only")
+@pytest.mark.parametrize("cells", [400, 800, 1600])
+def test_thin_sphere_buckles_in_one_narrow_window_on_every_mesh(cells):
+    """The closed sphere at h/R = 1e-4 (critical degree n = 199; 400 cells put 4 on its
+    wavelength 2πR/n): every Fourier block m = 0..1.3 n + 4 is positive definite on the
+    fundamental branch at the window's lower end, and some are indefinite at its upper end,
+    on each mesh, with the penalty the run chooses (``resolve_penalty``). So the first critical
+    point of every mesh lies in the same window, 4e-4 of κ wide, which holds 4/√7."""
+    from shells.algorithms.newton import NewtonSolver
+    from shells.algorithms.stability import LDLT_GROWTH
+    from shells.analyses.axisym_runs import RunConfig, resolve_penalty
+    from shells.axisym import AxisymModel
+    from shells.axisym.model import SNES_OPTIONS
+    from shells.geometry import Sphere
+    from shells.theory import sphere_kappa_b_h
+
+    lo, hi = SPHERE_WINDOW
+    assert lo < sphere_kappa_b_h(0.5) < hi
+    cfg = RunConfig(shape=Sphere(1.0), h_over_r=1e-4, direction="up", cells=cells)
+    model = AxisymModel(cfg.shape, cfg.params())
+    model.modes = tuple(cfg.modes)
+    resolve_penalty(model, cfg)
+    ns = NewtonSolver(model, options=SNES_OPTIONS)
+    try:
+        model.set_kappa(lo / cfg.h)
+        assert ns.solve()[0]
+        below = model.block_inertias(list(model.modes), LDLT_GROWTH)
+        probe = [m for m in model.modes if m in (100, 150, 180, 199)]
+        model.set_kappa(hi / cfg.h)
+        assert ns.solve()[0]
+        above = model.block_inertias(probe, LDLT_GROWTH)
+    finally:
+        ns.destroy()
+    assert len(model.modes) > 199
+    assert all(v is not None and v[0] == 0 for v in below.values()), below
+    assert any(v is not None and v[0] > 0 for v in above.values()), above

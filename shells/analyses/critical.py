@@ -20,7 +20,8 @@ from shells.geometry.shapes import kappa_length
 from shells.parameters import check_model
 from shells.progress import Progress
 
-__all__ = ["CRITICAL_CHECKPOINT", "REUSE_SURFACE", "run", "run_surface"]
+__all__ = ["CRITICAL_CHECKPOINT", "REUSE_SURFACE", "discretisation_error_of",
+           "discretisation_note_of", "run", "run_surface"]
 
 log = logging.getLogger("shells")
 
@@ -295,8 +296,8 @@ def run_surface(shape: Any, h_over_r: float, nu: float, kappa_end: float, *,
             "mode_m": first["mode_m"] if first else None,
             "mode_n": first["mode_n"] if first else None,
             "dofs": model.num_dofs(), "critical_points": cps,
-            "discretisation_error": _discretisation_error(shape, defaults),
-            "discretisation_note": _discretisation_note(shape, defaults),
+            "discretisation_error": discretisation_error_of(shape, defaults, kappa_field.uniform),
+            "discretisation_note": discretisation_note_of(shape, defaults, kappa_field.uniform),
             "mesh": ({"size": size, "layer_elements": layer_elements, "degree": degree}
                      if mesh_file is None else {"size": None, "layer_elements": None,
                                                 "degree": degree, "user_mesh": True,
@@ -311,22 +312,44 @@ def _rank() -> int:
     return MPI.COMM_WORLD.rank
 
 
-def _discretisation_error(shape: Any, defaults: bool) -> float | None:
-    """The relative error of κ that the surface model's discretisation is known to stay within:
-    a closed sphere on its default mesh (``shells.surface.model.SPHERE_DEFAULT_ERROR``); else
-    None."""
-    from shells.surface.model import SPHERE_DEFAULT_ERROR
+def discretisation_error_of(shape: Any, defaults: bool, uniform: bool = True) -> float | None:
+    """The relative error of κ that the surface model's discretisation is known to stay within
+    (a run's ``discretisation_error``).
 
+    Args:
+        shape: the shell.
+        defaults: the mesh and degree are ``default_discretisation``'s (no size, degree or
+            mesh file given).
+        uniform: the stimulus is the uniform one.
+
+    Returns:
+        Under the uniform stimulus on the default mesh, a closed sphere's
+        ``shells.surface.model.SPHERE_DEFAULT_ERROR`` or a spherical cap's
+        ``CAP_DEFAULT_ERROR``; else None.
+    """
+    from shells.geometry.shapes import SphericalCap
+    from shells.surface.model import CAP_DEFAULT_ERROR, SPHERE_DEFAULT_ERROR
+
+    if not (defaults and uniform):
+        return None
+    if shape.closed and shape.kind in ("sphere", "meridian"):
+        return SPHERE_DEFAULT_ERROR
+    if isinstance(shape, SphericalCap) and not shape.closed:
+        return CAP_DEFAULT_ERROR
+    return None
+
+
+def discretisation_note_of(shape: Any, defaults: bool, uniform: bool = True) -> str:
+    """What a critical point's ``accuracy`` (``locator_accuracy``) covers, and what not (a run's
+    ``discretisation_note``; arguments as ``discretisation_error_of``'s)."""
+    known = discretisation_error_of(shape, defaults, uniform)
     sphere = shape.closed and shape.kind in ("sphere", "meridian")
-    return SPHERE_DEFAULT_ERROR if sphere and defaults else None
-
-
-def _discretisation_note(shape: Any, defaults: bool) -> str:
-    """What a critical point's ``accuracy`` (``locator_accuracy``) covers, and what not."""
-    known = _discretisation_error(shape, defaults)
+    why = ("4.25 elements per wavelength of the critical degree" if sphere else
+           "the rim layer at sqrt(R h)/4, the bulk size scaled with sqrt(R h); measured on caps "
+           "of theta/sqrt(h/R) 2 to 8 at h/R 0.04 and 0.01, docs/design-notes.md")
     return ("accuracy / locator_accuracy: the locator's bracket on this mesh only, not the "
             "discretisation error; " + (
-                f"the default sphere mesh keeps kappa within about {known:.1%} of the converged "
-                "value (4.25 elements per wavelength of the critical degree)" if known else
+                f"the default {'sphere' if sphere else 'cap'} mesh keeps kappa within about "
+                f"{known:.1%} of the converged value ({why})" if known else
                 "that is not estimated here: refine --size, or compare with --model axisym"
                 " on a shell of revolution"))

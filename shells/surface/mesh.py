@@ -43,7 +43,7 @@ if TYPE_CHECKING:
     from mpi4py import MPI
 
 __all__ = ["MeshSpec", "ShellMesh", "generate", "write_msh", "load_mesh", "SURFACE_TAG", "RIM_TAG",
-           "estimate_cells", "check_mesh_size"]
+           "estimate_cells", "estimate_cap_cells", "check_mesh_size"]
 
 SURFACE_TAG = 1
 RIM_TAG = 1
@@ -356,6 +356,11 @@ def _set_sizes(gmsh: Any, spec: MeshSpec, rim: list[int]) -> None:
                   sampling=int(min(20000, max(200, 4 * length / spec.layer_size))))
 
 
+#: growth of the element size per unit distance across a graded transition (gmsh's Threshold
+#: field, linear from the fine size to the coarse one): about 20 % per element
+GRADING_SLOPE = 0.2
+
+
 def _graded_sizes(gmsh: Any, kind: str, tags: list[int], fine: float, coarse: float,
                   dist_min: float, sampling: int | None = None) -> None:
     """Elements of size ``fine`` within ``dist_min`` of the entities ``tags`` (``kind``: the
@@ -372,7 +377,7 @@ def _graded_sizes(gmsh: Any, kind: str, tags: list[int], fine: float, coarse: fl
     field_.setNumber(thr, "SizeMin", fine)
     field_.setNumber(thr, "SizeMax", coarse)
     field_.setNumber(thr, "DistMin", dist_min)
-    field_.setNumber(thr, "DistMax", dist_min + max(coarse - fine, 0.0) / 0.2)
+    field_.setNumber(thr, "DistMax", dist_min + max(coarse - fine, 0.0) / GRADING_SLOPE)
     field_.setAsBackgroundMesh(thr)
 
 
@@ -519,10 +524,36 @@ def _estimate_cells(spec: MeshSpec) -> float:
     if w is None or rim <= 0 or s_l >= s_b:
         return bulk
     band = spec.layer_widths * w / L  # DistMin: the band at the layer size
-    grow = (s_b - s_l) / 0.2  # DistMax - DistMin: size linear from s_l to s_b over it
+    grow = (s_b - s_l) / GRADING_SLOPE  # DistMax - DistMin: size linear from s_l to s_b over it
     layer = c * rim * band / s_l**2
     graded = c * rim * grow / (s_l * s_b)  # integral of 1/s(x)^2 across the transition
     return min(bulk + layer + graded, c * area / s_l**2)
+
+
+def estimate_cap_cells(spec: MeshSpec, samples: int = 2001) -> float:
+    """The number of triangles gmsh makes for ``spec`` of a spherical cap (``SphericalCap``).
+
+    ``CELLS_PER_SIZE2`` / s² integrated over the cap, s the size field of ``_set_sizes`` at the
+    chord distance from the rim: the layer size within the rim band, growing by
+    ``GRADING_SLOPE`` to the bulk size. Unlike ``estimate_cells`` it follows the band where it
+    covers most of the cap (docs/design-notes.md, "Surface model defaults": its error).
+
+    Args:
+        spec: the mesh; its shape a spherical cap.
+        samples: quadrature points over the polar angle.
+
+    Returns:
+        The estimate.
+    """
+    shape = spec.shape
+    R, theta = shape.R, shape.theta
+    s_b, s_l = spec.bulk_size, spec.layer_size
+    band = spec.layer_widths * (spec.layer_width or 0.0)
+    phi = np.linspace(0.0, theta, samples)
+    dist = 2.0 * R * np.sin(0.5 * (theta - phi))  # chord to the rim along the meridian
+    s = np.clip(s_l + GRADING_SLOPE * (dist - band), s_l, s_b)
+    f = CELLS_PER_SIZE2 / s**2 * 2.0 * math.pi * R**2 * np.sin(phi)
+    return float(np.sum(0.5 * (f[1:] + f[:-1]) * np.diff(phi)))
 
 
 def memory_limit() -> int | None:

@@ -46,9 +46,10 @@ from shells.geometry.stimulus import UNIFORM, CurvatureField, field_radius
 from shells.parameters import check_nu
 from shells.problem.forms import FormProblem, assemble_symmetric
 from shells.problem.interface import ModeInfo
-from shells.surface.mesh import RIM_TAG, ShellMesh
+from shells.surface.mesh import RIM_TAG, MeshSpec, ShellMesh, estimate_cap_cells
 
-__all__ = ["ModelParameters", "ShellModel", "default_discretisation", "sphere_default_size"]
+__all__ = ["ModelParameters", "ShellModel", "cap_default_size", "default_discretisation",
+           "default_dofs", "sphere_default_size"]
 
 
 #: caps deeper than this θ̄ = θ/√(h/R) get P3 by default (P2 locks on deep shells)
@@ -66,6 +67,17 @@ SPHERE_DEFAULT_ERROR = 5.0e-3
 SPHERE_P3_DOFS = 20748 * 0.21**2
 #: a default surface mesh above this many DOFs is refused (``default_discretisation``)
 MAX_DEFAULT_DOFS = 150_000
+#: a spherical cap's default bulk size / R at h/R ≥ ``CAP_SIZE_H_OVER_R``: P3 caps (θ̄ above
+#: ``P2_THETABAR_MAX``) and P2 caps
+DEEP_CAP_SIZE = 0.2
+SHALLOW_CAP_SIZE = 0.1
+#: below this h/R a cap's default bulk size falls as √(h/R), so that in units of the rim layer's
+#: width √(Rh) every default cap mesh is at least as fine as at this h/R, where the defaults were
+#: measured (the rim band of ``shells.surface.mesh`` scales with √(Rh) already)
+CAP_SIZE_H_OVER_R = 0.04
+#: the error a spherical cap's default discretisation is meant to stay within, relative in κ
+#: (measured errors: docs/design-notes.md, "Surface model defaults")
+CAP_DEFAULT_ERROR = 5.0e-3
 
 
 def default_discretisation(shape: Shape, h_over_r: float | None = None,
@@ -84,8 +96,16 @@ def default_discretisation(shape: Shape, h_over_r: float | None = None,
     a curved surface), so: closed spheres P3 (an explicit degree 2 is refused);
     caps of θ̄ ≤ 3 and the flat disk P2 at size 0.1; deeper caps, ellipsoids, tori, meridian
     tables and surfaces known only by their mesh P3 at size 0.2 (a closed meridian table as a
-    sphere); a non-uniform ``kappa_field`` P3 on every shape. The errors of each choice against
-    the 1D model: docs/design-notes.md, "Surface model defaults".
+    sphere); a non-uniform ``kappa_field`` P3 on every shape.
+
+    Spherical caps with a given h/R: those sizes down to h/R = ``CAP_SIZE_H_OVER_R``, below it
+    shrinking as √(h/R) (``cap_default_size``), so that with the rim band of
+    ``shells.surface.mesh`` (size √(Rh)/4 within 3 √(Rh) of the rim) a cap of given θ̄ is meshed
+    alike in units of √(Rh) at every h/R (κ meant within ``CAP_DEFAULT_ERROR``); where that
+    needs more than ``MAX_DEFAULT_DOFS`` (``default_dofs``: P3 caps of θ̄ above about 8 at
+    h/R ≤ 0.01) the default is refused with the 1D model and the explicit options as the ways
+    on. The errors of each choice against the 1D model: docs/design-notes.md, "Surface model
+    defaults".
 
     Args:
         shape: the shell.
@@ -99,8 +119,8 @@ def default_discretisation(shape: Shape, h_over_r: float | None = None,
         (degree, size).
 
     Raises:
-        InputError: for degree 2 on a closed sphere, or a default sphere mesh beyond
-            ``MAX_DEFAULT_DOFS``.
+        InputError: for degree 2 on a closed sphere, or a default sphere or spherical cap mesh
+            beyond ``MAX_DEFAULT_DOFS``.
     """
     from shells.geometry.meridian import MeridianTable
     from shells.geometry.shapes import EllipsoidalCap, SphericalCap, Torus
@@ -116,7 +136,17 @@ def default_discretisation(shape: Shape, h_over_r: float | None = None,
     if degree is None:
         degree = 3 if sphere or deep or patterned else 2
     if size is None:
-        size = 0.21 if sphere else 0.2 if deep else 0.1
+        size = 0.21 if sphere else DEEP_CAP_SIZE if deep else SHALLOW_CAP_SIZE
+        if isinstance(shape, SphericalCap) and not sphere and h_over_r is not None:
+            size = cap_default_size(h_over_r, deep)
+            dofs = default_dofs(shape, h_over_r, degree, size)
+            if dofs > MAX_DEFAULT_DOFS:
+                raise InputError(
+                    f"the surface model's default mesh for a spherical cap of theta/sqrt(h/R) = "
+                    f"{shape.theta / math.sqrt(h_over_r):.3g} at h/R = {h_over_r:g} needs about "
+                    f"{dofs:,.0f} DOFs (P{degree} at size {size:.3f}, the rim graded to "
+                    f"sqrt(R h)/4), above {MAX_DEFAULT_DOFS:,}: use --model axisym (the 1D "
+                    f"model), or give --size {size:.3f} --degree {degree} to run it anyway")
         if sphere and h_over_r is not None:
             size = min(size, sphere_default_size(h_over_r, nu))
             dofs = SPHERE_P3_DOFS / size**2 * (degree / 3.0) ** 2
@@ -129,6 +159,35 @@ def default_discretisation(shape: Shape, h_over_r: float | None = None,
                     f"{MAX_DEFAULT_DOFS:,}: use --model axisym (the 1D model), or give "
                     f"--size {size:.3f} --degree 3 to run it anyway")
     return degree, size
+
+
+def cap_default_size(h_over_r: float, deep: bool) -> float:
+    """A spherical cap's default bulk size / R: ``DEEP_CAP_SIZE`` (P3 caps) or
+    ``SHALLOW_CAP_SIZE`` (P2 caps), times √(h/R / ``CAP_SIZE_H_OVER_R``) below that h/R, so the
+    bulk size in units of the rim layer's width √(Rh) does not grow as the shell thins."""
+    base = DEEP_CAP_SIZE if deep else SHALLOW_CAP_SIZE
+    return base * min(1.0, math.sqrt(h_over_r / CAP_SIZE_H_OVER_R))
+
+
+def default_dofs(shape: Shape, h_over_r: float, degree: int, size: float,
+                 layer_elements: float = 4.0) -> float:
+    """The DOFs of the surface model on the mesh ``shells critical`` makes of a spherical cap:
+    six fields of Lagrange degree ``degree`` on triangles (about degree²/2 nodes each) over
+    ``shells.surface.mesh.estimate_cap_cells``.
+
+    Args:
+        shape: a ``SphericalCap``.
+        h_over_r: thickness over R.
+        degree: the element degree.
+        size: the bulk size / R.
+        layer_elements: elements across the rim layer's width √(Rh).
+
+    Returns:
+        The estimate.
+    """
+    spec = MeshSpec(shape, h=h_over_r * shape.characteristic_size(), size=size,
+                    layer_elements=layer_elements)
+    return 3.0 * degree**2 * estimate_cap_cells(spec)
 
 
 def sphere_mode_n(h_over_r: float, nu: float) -> float:

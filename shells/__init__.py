@@ -16,7 +16,8 @@ The public API::
 
 Geometries: ``cap``, ``sphere``, ``ellipsoid``, ``disk``, ``torus``, ``meridian``, ``mesh``;
 ``Shell``; ``bilayer`` (Timoshenko's natural curvature of two layers); analyses:
-``critical``, ``branch``, ``postbuckle``, ``knockdown``, ``phase_diagram``, ``sweep``;
+``critical``, ``branch``, ``postbuckle``, ``knockdown``, ``phase_diagram``, ``snap``,
+``sweep``;
 ``Result``, ``load``; the shape classes ``Sphere``, ``SphericalCap``, ``EllipsoidalCap``,
 ``Disk`` and ``make_shape``. Names are imported on first use, so ``import shells`` stays
 light.
@@ -37,7 +38,7 @@ _PUBLIC = {
     **{n: "shells.api.shell" for n in ("Geometry", "Shell", "bilayer", "cap", "disk",
                                        "ellipsoid", "mesh", "meridian", "sphere", "torus")},
     **{n: "shells.api.runs" for n in ("branch", "choose_model", "critical", "knockdown",
-                                      "phase_diagram", "postbuckle", "sweep")},
+                                      "phase_diagram", "postbuckle", "snap", "sweep")},
     **{n: "shells.api.results" for n in ("Result", "load")},
     **{n: "shells.geometry" for n in ("Sphere", "SphericalCap", "EllipsoidalCap", "Disk",
                                       "make_shape")},

@@ -1,6 +1,7 @@
 """Settings of the path-following algorithms (algorithm layer), frozen dataclasses validated on
 construction: ``ContinuationSettings`` (continuation and its corrector), ``CriticalSettings``
-(locating critical points), and the conversion of steps to arclength.
+(locating critical points), ``MinimiseSettings`` (energy minimisation at fixed κ), and the
+conversion of steps to arclength.
 """
 
 from __future__ import annotations
@@ -11,7 +12,7 @@ from typing import Any
 
 from shells.errors import InputError
 
-__all__ = ["ContinuationSettings", "CriticalSettings", "in_arclength"]
+__all__ = ["ContinuationSettings", "CriticalSettings", "MinimiseSettings", "in_arclength"]
 
 
 @dataclass(frozen=True)
@@ -187,3 +188,41 @@ class CriticalSettings:
                              f"{self.max_critical!r}")
         if not (isinstance(self.deflate, int) and 0 <= self.deflate <= 20):
             raise InputError(f"deflate must be an integer in [0, 20], got {self.deflate!r}")
+
+
+@dataclass(frozen=True)
+class MinimiseSettings:
+    """How a stable equilibrium is found by minimising the energy at fixed κ (TAO).
+
+    Attributes:
+        method: the TAO solver: "nls" (Newton with a Moré-Thuente line search, its Hessian
+            shifted by a perturbation while it is not positive definite: TAONLS) or "ntr"
+            (trust-region Newton: TAONTR).
+        gatol: convergence: the gradient's norm (the residual's, in the problem's units) at
+            most ``gatol``.
+        grtol: or the gradient's norm at most ``grtol`` times |E|.
+        max_it: at most this many Newton iterations.
+        options: further PETSc options under the prefix ``shells_minimise_`` (TAO, its KSP
+            and PC), e.g. {"tao_monitor": None}.
+
+    Raises:
+        InputError: on construction, for a setting out of its range.
+    """
+
+    method: str = "nls"
+    gatol: float = 1.0e-9
+    grtol: float = 0.0
+    max_it: int = 500
+    options: tuple[tuple[str, Any], ...] = ()
+
+    def __post_init__(self) -> None:
+        if self.method not in ("nls", "ntr"):
+            raise InputError(f"method must be 'nls' or 'ntr', got {self.method!r}")
+        if not (self.gatol > 0 and self.grtol >= 0):
+            raise InputError("need gatol > 0 and grtol >= 0")
+        if not (isinstance(self.max_it, int) and self.max_it >= 1):
+            raise InputError(f"max_it must be a positive integer, got {self.max_it!r}")
+
+    def describe(self) -> dict[str, Any]:
+        """The settings as a plain dict (for a run's JSON record)."""
+        return asdict(self)

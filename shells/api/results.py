@@ -29,8 +29,8 @@ class Result(Mapping):
     """What an analysis computed, read-only.
 
     Attributes:
-        analysis: ``"critical"``, ``"branch"``, ``"postbuckle"``, ``"knockdown"`` or
-            ``"phase_diagram"``.
+        analysis: ``"critical"``, ``"branch"``, ``"postbuckle"``, ``"knockdown"``,
+            ``"phase_diagram"`` or ``"snap"``.
         shell: the shell's description (``Shell.describe()``), or None.
         data: the analysis's result (the command line's JSON).
     """
@@ -188,7 +188,7 @@ class Result(Mapping):
 def load(folder: str | Path) -> Result:
     """The result in a folder: one ``Result.save`` wrote, or the run folder of a command
     (``-o DIR`` of ``shells critical``, ``branch``, ``postbuckle``, ``knockdown``,
-    ``phase-diagram``), read from its files without computing anything.
+    ``phase-diagram``, ``snap``), read from its files without computing anything.
 
     Raises:
         InputError: the folder holds no result that can be read.
@@ -215,6 +215,8 @@ def load(folder: str | Path) -> Result:
         return Result(analysis, d, shell)
     if (folder / "critical.json").exists():
         return Result("critical", read_json("critical.json"))
+    if (folder / "snap.json").exists():
+        return Result("snap", read_json("snap.json"))
     if (folder / "phase_diagram.json").exists():
         return Result("phase_diagram", read_json("phase_diagram.json"))
     if (folder / "postbuckle.jsonl").exists():
@@ -237,4 +239,4 @@ def load(folder: str | Path) -> Result:
             return Result("knockdown", {"config": header.get("config", header),
                                         "points": points})
     raise InputError(f"no result in {str(folder)!r}: none of {RESULT_FILE}, critical.json, "
-                     "phase_diagram.json, postbuckle.jsonl, branch.jsonl, points.jsonl")
+                     "phase_diagram.json, snap.json, postbuckle.jsonl, branch.jsonl, points.jsonl")

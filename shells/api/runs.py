@@ -27,7 +27,7 @@ from shells.geometry.shapes import kappa_length
 from shells.units import curvature
 
 __all__ = ["branch", "choose_model", "critical", "knockdown", "phase_diagram", "postbuckle",
-           "sweep"]
+           "snap", "sweep"]
 
 
 def choose_model(shell: Shell, model: str | None = None) -> str:
@@ -172,6 +172,38 @@ def postbuckle(shell: Shell, direction: str = "up", *, at: int = 1, model: str |
         kappa_end=_kappa_end(shell, kappa_max, kappa_R_max, kappa_h_max, direction),
         kappa_field=UNIFORM if shell.kappa_field is None else shell.kappa_field, **options)
     return Result("postbuckle", analysis.run(cfg, outdir, fields=fields), shell.describe())
+
+
+def snap(shell: Shell, *, past: float = 0.01, kappa_R: float | None = None,
+         method: str = "minimise", outdir: Any = None, render: bool = True,
+         **options: Any) -> Result:
+    """Where the shell lands when it snaps through (``shells snap``; the surface model).
+
+    Follows the fundamental branch to its snap fold, steps ``past`` beyond it (κ = (1 + past)
+    κ_fold, or ``kappa_R``), perturbs the state along its unstable modes and minimises the
+    energy there (``shells.analyses.snap``).
+
+    Args:
+        shell: an open shell (a cap).
+        past: the relative step past the fold.
+        kappa_R: κR of the landing instead (past the fold).
+        method: ``"minimise"``.
+        outdir: a folder for ``snap.json``, the renders and the checkpoint (None: none).
+        render: draw the landing and everted states (with ``outdir``).
+        **options: ``SnapConfig`` numerics (``amplitude``, ``kappa_R_max``, ``size``,
+            ``degree``, ``layer_elements``, ``shear_penalty``).
+
+    Returns:
+        The ``Result``: ``start``, ``method``, ``landing`` (``energy``, ``stable``,
+        ``symmetric``, ``mode_m``, ...), ``axisymmetric_everted``, ``snap_time``.
+    """
+    from shells.analyses import snap as analysis
+
+    if shell.kappa_field is not None and not shell.kappa_field.uniform:
+        raise InputError("snap takes a uniform natural curvature")
+    cfg = analysis.SnapConfig(shape=shell.shape, h_over_r=shell.h_over_r, nu=shell.nu,
+                              method=method, past=past, kappa_R=kappa_R, **options)
+    return Result("snap", analysis.run(cfg, outdir, render=render), shell.describe())
 
 
 def knockdown(shell: Shell | None = None, amplitudes: Sequence[float] = (0.0,), *,

@@ -407,6 +407,10 @@ class AxisymModel(FormProblem):
             self._scalar_forms[name] = fem.form(self._scalar_ufl[name], jit_options=JIT_OPTIONS)
         return float(fem.assemble_scalar(self._scalar_forms[name]))
 
+    def total_energy(self) -> float:
+        """The energy whose gradient is the residual, at the current state (``Energy``)."""
+        return self.assemble("total")
+
     def scalars(self) -> dict[str, float]:
         """Energy split, Ψ3/h (mean normal displacement, translation-free), apex u_z/h, and the
         pole's normal displacement Ψ3(pole)/h = (u_z(pole) - ū_z)/h (ū: the mean displacement,

@@ -7,8 +7,8 @@ never a traceback.
 
 Modules: ``common`` (the parser class, logging, ``emit``, argument types, the shape and physics
 arguments, the checks of ranges and paths), one per subcommand: ``mesh`` (mesh, info, render),
-``branch``, ``critical``, ``postbuckle``, ``phase_diagram``, ``knockdown``. They parse, call
-the analyses (``shells.analyses``: each analysis module's ``run``) and print.
+``branch``, ``critical``, ``postbuckle``, ``phase_diagram``, ``knockdown``, ``snap``. They
+parse, call the analyses (``shells.analyses``: each analysis module's ``run``) and print.
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ _EARLY: list[int] = []
 def _build_parser() -> argparse.ArgumentParser:
     # the subcommands (NumPy, SciPy, the geometry) are imported here, once ``main`` handles
     # signals, not when ``shells.cli`` is imported
-    from shells.cli import branch, critical, knockdown, mesh, phase_diagram, plot, postbuckle
+    from shells.cli import branch, critical, knockdown, mesh, phase_diagram, plot, postbuckle, snap
     from shells.cli.common import Parser
 
     p = Parser(prog="shells", description="Thin elastic shells with natural curvature "
@@ -46,6 +46,7 @@ def _build_parser() -> argparse.ArgumentParser:
     phase_diagram.add_subcommand(sub)
     postbuckle.add_subcommand(sub)
     knockdown.add_subcommand(sub)
+    snap.add_subcommand(sub)
     plot.add_subcommand(sub)
     mesh.add_render(sub)
     return p

@@ -140,6 +140,10 @@ class AlgebraicProblem:
         pass  # no gauge
 
     # -- scalars and stability -------------------------------------------------------------------
+    def total_energy(self) -> float:
+        """E at the current state (``shells.problem.interface.Energy``)."""
+        return float(self.energy(self.gathered(), self._kappa))
+
     def scalars(self) -> dict[str, float]:
         w = self.gathered()
         out = {"energy": float(self.energy(w, self._kappa))}

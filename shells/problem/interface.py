@@ -38,7 +38,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 
 __all__ = ["BlockFactor", "BlockInertia", "BlockInertias", "CondensedHessian", "DefiniteBlocks",
-           "FactorOptions", "HessianQuadratic", "ModeInfo", "PoleFunctional", "Problem",
+           "Energy", "FactorOptions", "HessianQuadratic", "ModeInfo", "PoleFunctional", "Problem",
            "get_state", "orbit_cosine", "set_state"]
 
 
@@ -251,6 +251,15 @@ class PoleFunctional(Protocol):
     def pole_functional(self) -> Any:
         """e with e·w = Ψ3(pole)/h (a state-shaped vector; shapes of revolution with a pole):
         the parameter a closed sphere's dimple branch is followed with."""
+
+
+@runtime_checkable
+class Energy(Protocol):
+    """The energy itself, for minimisation (``shells.algorithms.minimise``)."""
+
+    def total_energy(self) -> float:
+        """E(w, κ) at the current state: the functional whose gradient ``assemble_residual``
+        assembles (the same on every rank)."""
 
 
 @runtime_checkable

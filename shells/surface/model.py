@@ -613,6 +613,10 @@ class ShellModel(FormProblem):
         local = fem.assemble_scalar(self._scalar_forms[name])
         return float(self.shell.comm.allreduce(local, op=MPI.SUM))
 
+    def total_energy(self) -> float:
+        """The energy whose gradient is the residual, at the current state (``Energy``)."""
+        return self.assemble("total")
+
     def scalars(self) -> dict[str, float]:
         """Rigid-motion-free scalar indicators of the current state."""
         out = {k: self.assemble(k) for k in ("total", "stretching", "bending",

@@ -1,0 +1,270 @@
+"""Energy minimisation at fixed κ with PETSc TAO (algorithm layer).
+
+Where a branch ends at a fold, or an equilibrium has negative eigenvalues, the shell leaves it:
+the state it lands in is a local minimum of the energy at the same κ, which continuation from
+κ = 0 may never reach (the axisymmetric path of a deep cap winds through many folds before it
+comes back to a stable state, and a snap that breaks the symmetry leaves that path at once).
+``minimise`` finds it by a second-order method that uses negative curvature: Newton on the
+problem's energy, its gradient the residual and its Hessian the Jacobian (the same UFL energy,
+``ufl.derivative``), globalised by TAO.
+
+* ``"nls"`` (TAONLS, the default): Newton with a Moré-Thuente line search; while the Newton
+  direction is not one of descent (an indefinite Hessian) TAO shifts the Hessian by a
+  perturbation it grows and later shrinks (the PATH scheme), so that the first steps leave the
+  saddle along its negative curvature and the last ones are pure Newton steps. The shifted
+  Hessian is factored exactly (MUMPS LU, as every solve in ``shells``): a shell's Hessian is too
+  ill-conditioned (membrane against bending stiffness, (R/h)²) for Krylov methods without a
+  strong preconditioner.
+* ``"ntr"`` (TAONTR): trust-region Newton; its KSP must be a trust-region CG (STCG, NASH, GLTR),
+  preconditioned here by the same LU.
+
+A start on an exactly symmetric saddle stays on it (Newton's iterates keep the symmetry), so the
+caller perturbs the start along the unstable eigenvectors first (``perturb_unstable``). And a
+line search accepts any descent direction, among them Newton directions that lead to a nearby
+saddle: ``minimise_to_stable`` checks each minimiser's end by the Hessian's inertia and leaves a
+saddle along its unstable eigenvectors, until the end is stable.
+
+Options prefix ``shells_minimise_`` (TAO, its KSP and PC; ``-shells_minimise_tao_monitor``).
+The gauge's constrained DOFs keep their values: their gradient rows are zero and their Hessian
+rows unit rows, so every step is zero there.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from shells.algorithms.newton import apply_options
+from shells.algorithms.settings import MinimiseSettings
+from shells.errors import InputError
+from shells.problem.interface import Energy
+
+__all__ = ["MINIMISE_PREFIX", "MinimiseResult", "minimise", "minimise_to_stable",
+           "perturb_unstable", "perturbed"]
+
+log = logging.getLogger("shells")
+
+#: the options prefix of the minimiser (TAO, its KSP and PC)
+MINIMISE_PREFIX = "shells_minimise_"
+
+_FACTOR = {"pc_type": "lu", "pc_factor_mat_solver_type": "mumps", "mat_mumps_icntl_14": 200}
+_METHOD_OPTIONS: dict[str, dict[str, Any]] = {
+    "nls": {"ksp_type": "preonly", **_FACTOR},
+    "ntr": {"ksp_type": "stcg", **_FACTOR},
+}
+
+
+@dataclass(frozen=True)
+class MinimiseResult:
+    """What a minimisation ended with (the state is left in the problem).
+
+    Attributes:
+        converged: TAO met its gradient tolerance.
+        reason: TAO's converged reason (its name).
+        iterations: Newton iterations.
+        energy: E at the final state.
+        energy_start: E at the start (after any perturbation).
+        gradient_norm: the gradient's (residual's) norm at the final state.
+        wall_time: seconds.
+        rounds: minimisations run (``minimise_to_stable``: one more per saddle left).
+        negative_count: the Hessian's negative eigenvalues at the end (None: not computed).
+        orbit_modes: how many of those lie along the state's symmetry orbit (neutral).
+    """
+
+    converged: bool
+    reason: str
+    iterations: int
+    energy: float
+    energy_start: float
+    gradient_norm: float
+    wall_time: float
+    rounds: int = 1
+    negative_count: int | None = None
+    orbit_modes: int | None = None
+
+    def as_dict(self) -> dict[str, Any]:
+        """The record as a plain dict (for JSON)."""
+        return dict(self.__dict__)
+
+
+def perturbed(problem: Any, directions: list[np.ndarray], amplitude: float) -> None:
+    """Add ``amplitude`` times the state scale along each direction, normalised, to the state.
+
+    The directions are this rank's owned values of state-shaped vectors (unstable eigenvectors);
+    each is scaled to unit RMS over the unknowns, so ``amplitude`` is the RMS displacement
+    in units of ``problem.state_scale()`` (the thickness).
+
+    Args:
+        problem: the problem (its state is changed in place and synced).
+        directions: the directions (owned values; constrained DOFs are zeroed).
+        amplitude: the perturbation's RMS size over the thickness.
+    """
+    v = problem.state
+    work = v.duplicate()
+    n = max(problem.num_dofs(), 1)
+    for d in directions:
+        work.array_w[:] = d[: work.getLocalSize()]
+        problem.zero_constrained(work)
+        norm = work.norm()
+        if norm > 0:
+            v.axpy(amplitude * problem.state_scale() * math.sqrt(n) / norm, work)
+    work.destroy()
+    problem.sync()
+
+
+def minimise(problem: Any, settings: MinimiseSettings | None = None, *,
+             monitor: Callable[[Any], None] | None = None) -> MinimiseResult:
+    """Minimise the problem's energy at its current κ, from its current state, with TAO.
+
+    Args:
+        problem: a ``shells.problem.interface.Problem`` that is also an ``Energy``; its state
+            is the start and is left at the final iterate.
+        settings: the method and tolerances (None: ``MinimiseSettings()``).
+        monitor: called with the TAO object after every iteration (``tao.getSolution()`` is
+            the iterate, ``getObjectiveValue``, ``getGradientNorm``): progress, checkpoints.
+
+    Returns:
+        The ``MinimiseResult``; ``converged`` False when TAO stopped otherwise (the caller
+        decides: the state is then the last iterate, not an equilibrium).
+
+    Raises:
+        InputError: for a problem without ``total_energy``.
+    """
+    from petsc4py import PETSc
+
+    if not isinstance(problem, Energy):
+        raise InputError("this problem has no energy to minimise (no total_energy())")
+    st = settings or MinimiseSettings()
+    state = problem.state
+    x = problem.create_vector()
+    x.array_w[:] = state.array_r[: x.getLocalSize()]
+    g = problem.create_vector()
+    H = problem.create_jacobian()
+
+    def load(xv: Any) -> None:
+        state.array_w[: xv.getLocalSize()] = xv.array_r
+        problem.sync()
+
+    def objective_gradient(tao: Any, xv: Any, gv: Any) -> float:
+        load(xv)
+        problem.assemble_residual(gv)
+        return problem.total_energy()
+
+    def hessian(tao: Any, xv: Any, A: Any, P: Any) -> None:
+        load(xv)
+        problem.assemble_jacobian(A)
+
+    tao = PETSc.TAO().create(problem.comm)
+    tao.setType(st.method)
+    tao.setObjectiveGradient(objective_gradient, g)
+    tao.setHessian(hessian, H)
+    tao.setSolution(x)
+    tao.setTolerances(gatol=st.gatol, grtol=st.grtol, gttol=0.0)
+    tao.setMaximumIterations(st.max_it)
+    if monitor is not None:
+        tao.setMonitor(monitor)
+    tao.setOptionsPrefix(MINIMISE_PREFIX)
+    options = {**_METHOD_OPTIONS[st.method], **dict(st.options)}
+    apply_options(tao, MINIMISE_PREFIX, options)
+    ksp = tao.getKSP()
+    ksp.setOptionsPrefix(MINIMISE_PREFIX)
+    apply_options(ksp, MINIMISE_PREFIX, options)
+    load(x)
+    e0 = problem.total_energy()
+    t0 = time.perf_counter()
+    tao.solve()
+    load(x)
+    reason = tao.getConvergedReason()
+    names = {v: k for k, v in vars(PETSc.TAO.ConvergedReason).items() if isinstance(v, int)}
+    problem.assemble_residual(g)
+    out = MinimiseResult(converged=reason > 0, reason=names.get(reason, str(reason)),
+                         iterations=int(tao.getIterationNumber()),
+                         energy=problem.total_energy(), energy_start=e0,
+                         gradient_norm=float(g.norm()), wall_time=time.perf_counter() - t0)
+    for obj in (tao, x, g, H):
+        obj.destroy()
+    log.debug("minimise: %s after %d iterations, E %.10g -> %.10g, |g| %.3g", out.reason,
+              out.iterations, e0, out.energy, out.gradient_norm)
+    return out
+
+
+def perturb_unstable(problem: Any, amplitude: float, nev: int = 2) -> list[dict[str, Any]]:
+    """Perturb the state along every negative eigenvector of the Hessian (block ``None``).
+
+    Args:
+        problem: the problem, its state and κ the point (the state is changed and synced).
+        amplitude: RMS size of each direction's perturbation over the state scale
+            (``perturbed``).
+        nev: eigenpairs computed beyond the negative count.
+
+    Returns:
+        One {"eigenvalue", "mode_m", "mode_n"} per direction used (the negative ones).
+    """
+    from shells.algorithms.stability import Stability
+
+    stab = Stability(problem)
+    neg = stab.inertia()[0]
+    unstable: list[tuple[float, Any]] = []
+    if neg:
+        vals, vecs = stab.eigenpairs(max(neg + nev, 4), modes=True)
+        unstable = [(mu, v) for mu, v in zip(vals, vecs, strict=False) if mu < 0]
+    info = []
+    for mu, v in unstable:
+        mode = problem.classify_mode(v, None)
+        info.append({"eigenvalue": float(mu), "mode_m": mode.m, "mode_n": mode.n})
+    perturbed(problem, [v.array_r.copy() for _, v in unstable], amplitude)
+    stab.destroy()
+    return info
+
+
+def minimise_to_stable(problem: Any, settings: MinimiseSettings | None = None, *,
+                       amplitude: float = 0.1, rounds: int = 6,
+                       monitor: Callable[[Any], None] | None = None) -> MinimiseResult:
+    """``minimise``, then confirm the end by the Hessian's inertia; from a saddle, perturb
+    along its unstable eigenvectors (``perturb_unstable``) and minimise again.
+
+    The negative eigenvalues along the state's symmetry orbit (a pattern's rotation about the
+    axis: neutral in the continuum, of either sign on a mesh) do not count
+    (``Stability.negative_count_modulo_orbit``).
+
+    Args:
+        problem: the problem (an ``Energy``), its state the start (perturbed by the caller
+            where the start is a symmetric saddle).
+        settings: as for ``minimise``.
+        amplitude: the perturbation off a saddle, RMS over the state scale.
+        rounds: at most this many minimisations.
+        monitor: as for ``minimise``.
+
+    Returns:
+        The last ``MinimiseResult``, with ``rounds``, ``negative_count`` and ``orbit_modes``;
+        the end is stable when ``converged`` and ``negative_count == orbit_modes``.
+    """
+    from dataclasses import replace
+
+    from shells.algorithms.stability import Stability
+
+    e0 = None
+    res = None
+    for r in range(1, rounds + 1):
+        res = minimise(problem, settings, monitor=monitor)
+        e0 = res.energy_start if e0 is None else e0
+        if not res.converged:
+            break
+        stab = Stability(problem)
+        neg, orbit = stab.negative_count_modulo_orbit()
+        stab.destroy()
+        res = replace(res, rounds=r, energy_start=e0, negative_count=int(neg),
+                      orbit_modes=int(orbit))
+        if neg == orbit:
+            break
+        left = perturb_unstable(problem, amplitude)
+        log.info("minimise: a saddle with %d negative eigenvalue(s) (m = %s), left along them",
+                 neg - orbit, [d["mode_m"] for d in left])
+    assert res is not None
+    return res

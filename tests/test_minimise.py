@@ -1,0 +1,111 @@
+"""Energy minimisation with TAO (``shells.algorithms.minimise``) on problems with exact answers:
+a pitchfork past its bifurcation (the fundamental state a saddle, the bifurcated pair the
+minima), on every rank count (the few unknowns distributed over the ranks), and the energy's
+consistency with the residual on the surface model (TAO's line search relies on it)."""
+
+import math
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+from shells.algorithms.minimise import minimise, minimise_to_stable, perturb_unstable, perturbed
+from shells.algorithms.settings import MinimiseSettings
+from shells.algorithms.stability import Stability
+from shells.errors import InputError
+from shells.problem.algebraic import PitchforkProblem
+
+
+def _saddle(lam: float) -> PitchforkProblem:
+    """The pitchfork (one further mode z at c = 3) on its fundamental state x = z = 0, y = λ:
+    past λ = 1 a saddle whose one unstable direction is x."""
+    p = PitchforkProblem(c=(3.0,), comm=MPI.COMM_WORLD)
+    p.set_kappa(lam)
+    w = np.array([lam, 0.0, 0.0])
+    p.state.array_w[:] = w[p.lo:p.hi]
+    return p
+
+
+@pytest.mark.parametrize("method", ["nls", "ntr"])
+@pytest.mark.parametrize("lam", [1.3, 1.8])
+def test_lands_on_the_bifurcated_minimum(method, lam):
+    """From the saddle perturbed along x: x² = 2(λ - 1), y = 2λ - 1, E = -(λ - 1)²/2, stable."""
+    p = _saddle(lam)
+    left = perturb_unstable(p, 1e-3)
+    assert len(left) == 1 and left[0]["eigenvalue"] == pytest.approx(1 - lam, rel=1e-10)
+    res = minimise(p, MinimiseSettings(method=method, gatol=1e-12))
+    w = p.gathered()
+    assert res.converged and res.gradient_norm <= 1e-12
+    assert abs(w[1]) == pytest.approx(math.sqrt(2 * (lam - 1)), rel=1e-10)
+    assert w[0] == pytest.approx(2 * lam - 1, rel=1e-10)
+    assert w[2] == pytest.approx(0.0, abs=1e-10)
+    assert res.energy == pytest.approx(-(lam - 1) ** 2 / 2, rel=1e-10)
+    assert res.energy < res.energy_start
+    stab = Stability(p)
+    assert stab.inertia()[0] == 0
+    stab.destroy()
+
+
+def test_a_saddle_reached_is_left_until_the_end_is_stable():
+    """Perturbed along x and z, Newton's line search takes the descent direction back to the
+    saddle (the stable z dominates gᵀd); ``minimise_to_stable`` finds the saddle by its
+    inertia, leaves it along x and lands on the minimum."""
+    p = _saddle(1.3)
+    d = np.array([0.0, 1.0, 0.5])
+    perturbed(p, [d[p.lo:p.hi]], 1e-3)
+    first = minimise(p, MinimiseSettings(gatol=1e-12))
+    assert first.converged and abs(p.gathered()[1]) < 1e-8  # the saddle
+    res = minimise_to_stable(p, MinimiseSettings(gatol=1e-12), amplitude=1e-3)
+    assert res.rounds == 2 and res.negative_count == 0 and res.orbit_modes == 0
+    assert abs(p.gathered()[1]) == pytest.approx(math.sqrt(0.6), rel=1e-10)
+    assert res.energy == pytest.approx(-0.045, rel=1e-10)
+
+
+def test_an_unperturbed_saddle_stays_a_saddle():
+    """The contract's reason for ``perturbed``: from the exact saddle the gradient is zero and
+    the minimiser stops there; the inertia says it is unstable."""
+    p = _saddle(1.5)
+    res = minimise(p, MinimiseSettings(gatol=1e-12))
+    assert res.converged and res.iterations == 0
+    assert res.energy == pytest.approx(0.0, abs=1e-15)
+    stab = Stability(p)
+    assert stab.inertia()[0] == 1
+    stab.destroy()
+
+
+def test_settings_are_checked():
+    for bad in ({"method": "lbfgs"}, {"gatol": 0.0}, {"max_it": 0}, {"grtol": -1.0}):
+        with pytest.raises(InputError):
+            MinimiseSettings(**bad)
+
+
+def test_surface_energy_is_consistent_with_its_residual():
+    """dE/dε along a direction v at a strained state = R·v (central differences, O(ε²)),
+    so TAO minimises the energy whose stationary points Newton and continuation compute."""
+    from shells.geometry.shapes import SphericalCap
+    from shells.surface.mesh import MeshSpec, generate
+    from shells.surface.model import ModelParameters, ShellModel
+
+    shape = SphericalCap(1.0, 0.6)
+    sm = generate(MeshSpec(shape, h=0.04, size=0.35, layer_elements=2.0), MPI.COMM_WORLD)
+    model = ShellModel(sm, ModelParameters(h=0.04, nu=0.5, degree=2, quadrature_degree=4))
+    model.set_kappa(2.0)
+    rng = np.random.default_rng(7 + MPI.COMM_WORLD.rank)
+    n = model.state.getLocalSize()
+    model.state.array_w[:] = 0.01 * rng.standard_normal(n)
+    model.zero_constrained(model.state)
+    model.sync()
+    v = model.create_vector()
+    v.array_w[:] = 0.01 * rng.standard_normal(n)
+    model.zero_constrained(v)
+    R = model.create_vector()
+    model.assemble_residual(R)
+    slope = R.dot(v)
+    w0 = model.state.array_r.copy()
+    energies = []
+    for eps in (1e-4, -1e-4):
+        model.state.array_w[:] = w0 + eps * v.array_r
+        model.sync()
+        energies.append(model.total_energy())
+    fd = (energies[0] - energies[1]) / 2e-4
+    assert fd == pytest.approx(slope, rel=1e-6)

@@ -8,23 +8,25 @@ comes back to a stable state, and a snap that breaks the symmetry leaves that pa
 problem's energy, its gradient the residual and its Hessian the Jacobian (the same UFL energy,
 ``ufl.derivative``), globalised by TAO.
 
-* ``"nls"`` (TAONLS, the default): Newton with a Moré-Thuente line search; while the Newton
-  direction is not one of descent (an indefinite Hessian) TAO shifts the Hessian by a
-  perturbation it grows and later shrinks (the PATH scheme), so that the first steps leave the
-  saddle along its negative curvature and the last ones are pure Newton steps. The shifted
-  Hessian is factored exactly (MUMPS LU, as every solve in ``shells``): a shell's Hessian is too
-  ill-conditioned (membrane against bending stiffness, (R/h)²) for Krylov methods without a
-  strong preconditioner.
-* ``"ntr"`` (TAONTR): trust-region Newton; its KSP must be a trust-region CG (STCG, NASH, GLTR),
-  preconditioned here by the same LU.
+Both TAO methods solve with the shifted Hessian H + σ M (``ShiftedFactor``, M the mass; a MUMPS
+LDLᵀ whose inertia picks the least σ that makes it positive definite): a shell's Hessian is too
+ill-conditioned (membrane against bending stiffness, (R/h)²) for Krylov methods without a
+strong preconditioner, and an indefinite one gives Newton directions that lead back to saddles.
+
+* ``"nls"`` (TAONLS, the default): the shifted Newton step, always a descent direction, with a
+  Moré-Thuente line search; on a definite Hessian (σ = 0) Newton's own step and quadratic
+  convergence.
+* ``"ntr"`` (TAONTR): trust-region Newton, the step from the Steihaug-Toint CG (STCG) on H
+  preconditioned by the shifted factor, which meets negative curvature at the trust region's
+  boundary.
 
 A start on an exactly symmetric saddle stays on it (Newton's iterates keep the symmetry), so the
-caller perturbs the start along the unstable eigenvectors first (``perturb_unstable``). And a
-line search accepts any descent direction, among them Newton directions that lead to a nearby
-saddle: ``minimise_to_stable`` checks each minimiser's end by the Hessian's inertia and leaves a
-saddle along its unstable eigenvectors, until the end is stable.
+caller perturbs the start along the unstable eigenvectors first (``perturb_unstable``); and
+``minimise_to_stable`` checks each minimiser's end by the Hessian's inertia and leaves a saddle
+along its unstable eigenvectors, until the end is stable.
 
-Options prefix ``shells_minimise_`` (TAO, its KSP and PC; ``-shells_minimise_tao_monitor``).
+Options prefixes ``shells_minimise_`` (TAO and its KSP; ``-shells_minimise_tao_monitor``) and
+``shells_minimise_shift_`` (the shifted factorisation).
 The gauge's constrained DOFs keep their values: their gradient rows are zero and their Hessian
 rows unit rows, so every step is zero there.
 """
@@ -53,11 +55,88 @@ log = logging.getLogger("shells")
 #: the options prefix of the minimiser (TAO, its KSP and PC)
 MINIMISE_PREFIX = "shells_minimise_"
 
-_FACTOR = {"pc_type": "lu", "pc_factor_mat_solver_type": "mumps", "mat_mumps_icntl_14": 200}
 _METHOD_OPTIONS: dict[str, dict[str, Any]] = {
-    "nls": {"ksp_type": "preonly", **_FACTOR},
-    "ntr": {"ksp_type": "stcg", **_FACTOR},
+    "nls": {"ksp_type": "preonly"},
+    "ntr": {"ksp_type": "stcg"},
 }
+#: the LDLᵀ that decides the shift's definiteness (its own prefix: ``shells_minimise_shift_``)
+SHIFT_PREFIX = MINIMISE_PREFIX + "shift_"
+SHIFT_OPTIONS: dict[str, Any] = {
+    "ksp_type": "preonly", "pc_type": "cholesky", "pc_factor_mat_solver_type": "mumps",
+    "mat_mumps_icntl_13": 1, "mat_mumps_icntl_24": 1, "mat_mumps_icntl_14": 200,
+}
+
+
+class ShiftedFactor:
+    """A preconditioner (petsc4py's python PC): (H + σ M)⁻¹, M the problem's mass (the
+    metric of its eigenproblems), with the least σ of 0, σ₀, 4 σ₀, 16 σ₀, ... for which the
+    shifted Hessian is positive definite (MUMPS' LDLᵀ and its inertia decide).
+
+    A positive definite preconditioner is what the trust-region CG (STCG) needs, and with it
+    a Newton step (``"nls"``) is always a descent direction: on an indefinite Hessian the
+    shift turns the step towards the negative curvature, on a definite one it is Newton's.
+    σ starts at a quarter of the previous iteration's σ, so that it follows the Hessian's
+    lowest eigenvalue (of H v = μ M v) as the iterates leave the saddle and reach the
+    minimum. The mass, not the Hessian's diagonal, measures the shift: a shell's diagonal is
+    its membrane stiffness, (R/h)² above the bending eigenvalues that go negative, and a shift
+    on that scale would stall the bending modes.
+
+    Args:
+        M: the mass matrix (the Hessian's layout or a subset of it).
+        sigma0: the first nonzero shift, in the eigenvalues' units.
+
+    Attributes:
+        sigma: the last shift (relative to |diag H|).
+        factorisations: how many LDLᵀ were computed.
+    """
+
+    def __init__(self, M: Any, sigma0: float) -> None:
+        self.M = M
+        self.sigma0 = sigma0
+        self.sigma = 0.0
+        self.factorisations = 0
+        self._ksp: Any = None
+        self._B: Any = None
+        self._options: dict[str, Any] = {}
+
+    def setUp(self, pc: Any) -> None:  # noqa: N802 - petsc4py's name
+        """Factor the least definite shift of the PC's operator."""
+        from petsc4py import PETSc
+
+        from shells.algorithms.newton import configure_factor, setup_factor
+
+        A = pc.getOperators()[0]
+        if self._B is None:
+            self._B = A.duplicate(copy=True)
+            self._ksp = PETSc.KSP().create(A.getComm())
+            self._options = apply_options(self._ksp, SHIFT_PREFIX, SHIFT_OPTIONS)
+            configure_factor(self._ksp, self._B, self._options)
+        sigma = self.sigma / 4 if self.sigma > self.sigma0 else 0.0
+        while True:
+            A.copy(self._B, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+            if sigma > 0:
+                self._B.axpy(sigma, self.M, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+            self._ksp.setOperators(self._B)
+            self.factorisations += 1
+            ok = setup_factor(self._ksp, self._B, self._options)
+            if ok and self._ksp.getPC().getFactorMatrix().getInertia()[0] == 0:
+                break
+            if sigma > 1.0e12 * self.sigma0:
+                raise RuntimeError("the shifted Hessian stays indefinite up to a shift of "
+                                   f"{sigma:.3g} times the mass")
+            sigma = max(4 * sigma, self.sigma0)
+        self.sigma = sigma
+
+    def apply(self, pc: Any, x: Any, y: Any) -> None:
+        """y = (H + σ |diag H|)⁻¹ x."""
+        self._ksp.solve(x, y)
+
+    def destroy(self, pc: Any = None) -> None:
+        """Free the factorisation."""
+        for obj in (self._ksp, self._B):
+            if obj is not None:
+                obj.destroy()
+        self._ksp = self._B = None
 
 
 @dataclass(frozen=True)
@@ -167,6 +246,29 @@ def minimise(problem: Any, settings: MinimiseSettings | None = None, *,
     tao.setSolution(x)
     tao.setTolerances(gatol=st.gatol, grtol=st.grtol, gttol=0.0)
     tao.setMaximumIterations(st.max_it)
+    R = PETSc.TAO.ConvergedReason
+    g0: list[float] = []
+
+    def converged(tao: Any) -> None:
+        # TAO's own test, and the hand-over to Newton: a small gradient where the Hessian is
+        # definite up to the least shift (a neutral orbit mode allowed) lies in the basin of a
+        # minimum, where Newton converges quadratically and TAO's shifted steps would creep
+        its, f, gnorm, *_ = tao.getSolutionStatus()
+        if not g0:
+            g0.append(gnorm)
+        if not math.isfinite(f) or not math.isfinite(gnorm):
+            tao.setConvergedReason(R.DIVERGED_NAN)
+        elif gnorm <= max(st.gatol, st.grtol * abs(f)):
+            tao.setConvergedReason(R.CONVERGED_GATOL)
+        elif (st.newton_rtol > 0 and its > 0 and gnorm <= st.newton_rtol * g0[0]
+              and shifted.sigma <= st.sigma0):
+            tao.setConvergedReason(R.CONVERGED_USER)
+        elif its >= st.max_it:
+            tao.setConvergedReason(R.DIVERGED_MAXITS)
+        else:
+            tao.setConvergedReason(R.CONTINUE_ITERATING)
+
+    tao.setConvergenceTest(converged)
     if monitor is not None:
         tao.setMonitor(monitor)
     tao.setOptionsPrefix(MINIMISE_PREFIX)
@@ -175,19 +277,41 @@ def minimise(problem: Any, settings: MinimiseSettings | None = None, *,
     ksp = tao.getKSP()
     ksp.setOptionsPrefix(MINIMISE_PREFIX)
     apply_options(ksp, MINIMISE_PREFIX, options)
+    M = problem.assemble_mass(None)
+    shifted = ShiftedFactor(M, st.sigma0)
+    pc = ksp.getPC()
+    pc.setType("python")
+    pc.setPythonContext(shifted)
     load(x)
     e0 = problem.total_energy()
     t0 = time.perf_counter()
     tao.solve()
     load(x)
     reason = tao.getConvergedReason()
+    if reason == R.CONVERGED_USER:
+        from shells.algorithms.newton import NewtonSolver
+
+        ns = NewtonSolver(problem)
+        ok, its = ns.solve(atol=st.gatol)
+        log.debug("minimise: Newton from TAO's iterate %d: %s in %d iterations",
+                  tao.getIterationNumber(), "converged" if ok else "failed", its)
+        if ok:
+            x.array_w[:] = state.array_r[: x.getLocalSize()]
+            reason = R.CONVERGED_GATOL
+        else:  # on with TAO alone
+            g0[:] = [0.0]  # no second hand-over
+            tao.setSolution(x)
+            tao.solve()
+            load(x)
+            reason = tao.getConvergedReason()
     names = {v: k for k, v in vars(PETSc.TAO.ConvergedReason).items() if isinstance(v, int)}
     problem.assemble_residual(g)
     out = MinimiseResult(converged=reason > 0, reason=names.get(reason, str(reason)),
                          iterations=int(tao.getIterationNumber()),
                          energy=problem.total_energy(), energy_start=e0,
                          gradient_norm=float(g.norm()), wall_time=time.perf_counter() - t0)
-    for obj in (tao, x, g, H):
+    shifted.destroy()
+    for obj in (tao, x, g, H, M):
         obj.destroy()
     log.debug("minimise: %s after %d iterations, E %.10g -> %.10g, |g| %.3g", out.reason,
               out.iterations, e0, out.energy, out.gradient_norm)

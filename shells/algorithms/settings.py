@@ -202,6 +202,11 @@ class MinimiseSettings:
             most ``gatol``.
         grtol: or the gradient's norm at most ``grtol`` times |E|.
         max_it: at most this many Newton iterations.
+        newton_rtol: TAO hands over to Newton (SNES, ``shells_newton_``) once the gradient
+            is below ``newton_rtol`` times its first value where the Hessian is definite up to
+            the least shift ``sigma0`` (0: TAO to the end).
+        sigma0: the least nonzero shift of the Hessian by the mass (``ShiftedFactor``), in
+            the units of its eigenvalues μ (H v = μ M v).
         options: further PETSc options under the prefix ``shells_minimise_`` (TAO, its KSP
             and PC), e.g. {"tao_monitor": None}.
 
@@ -212,7 +217,9 @@ class MinimiseSettings:
     method: str = "nls"
     gatol: float = 1.0e-9
     grtol: float = 0.0
-    max_it: int = 500
+    max_it: int = 3000
+    newton_rtol: float = 1.0e-3
+    sigma0: float = 1.0e-6
     options: tuple[tuple[str, Any], ...] = ()
 
     def __post_init__(self) -> None:
@@ -222,6 +229,10 @@ class MinimiseSettings:
             raise InputError("need gatol > 0 and grtol >= 0")
         if not (isinstance(self.max_it, int) and self.max_it >= 1):
             raise InputError(f"max_it must be a positive integer, got {self.max_it!r}")
+        if not (0 <= self.newton_rtol < 1):
+            raise InputError(f"newton_rtol must lie in [0, 1), got {self.newton_rtol!r}")
+        if not (self.sigma0 > 0 and math.isfinite(self.sigma0)):
+            raise InputError(f"sigma0 must be a positive number, got {self.sigma0!r}")
 
     def describe(self) -> dict[str, Any]:
         """The settings as a plain dict (for a run's JSON record)."""

@@ -276,8 +276,8 @@ def run(cfg: SnapConfig, outdir: str | Path | None = None, *, render: bool = Tru
                                   meta={**meta, "stage": f"minimise {it}",
                                         "unstable": unstable})
         if comm.rank == 0 and it % SAVE_EVERY == 0:
-            log.info("snap: minimise iteration %d, energy %.10g, |gradient| %.3g", it,
-                     tao.getObjectiveValue(), tao.getGradientNorm())
+            _, f, gnorm, *_ = tao.getSolutionStatus()
+            log.info("snap: minimise iteration %d, energy %.10g, |gradient| %.3g", it, f, gnorm)
 
     res = minimise_to_stable(model, MinimiseSettings(), amplitude=cfg.amplitude, monitor=save)
     if not res.converged:

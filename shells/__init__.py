@@ -39,6 +39,7 @@ _PUBLIC = {
                                        "ellipsoid", "mesh", "meridian", "sphere", "torus")},
     **{n: "shells.api.runs" for n in ("branch", "choose_model", "critical", "knockdown",
                                       "phase_diagram", "postbuckle", "snap", "sweep")},
+    "frequencies": "shells.api.runs",
     **{n: "shells.api.results" for n in ("Result", "load")},
     **{n: "shells.geometry" for n in ("Sphere", "SphericalCap", "EllipsoidalCap", "Disk",
                                       "make_shape")},

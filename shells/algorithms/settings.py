@@ -12,7 +12,8 @@ from typing import Any
 
 from shells.errors import InputError
 
-__all__ = ["ContinuationSettings", "CriticalSettings", "MinimiseSettings", "in_arclength"]
+__all__ = ["ContinuationSettings", "CriticalSettings", "DynamicsSettings", "MinimiseSettings",
+           "in_arclength"]
 
 
 @dataclass(frozen=True)
@@ -237,3 +238,49 @@ class MinimiseSettings:
     def describe(self) -> dict[str, Any]:
         """The settings as a plain dict (for a run's JSON record)."""
         return asdict(self)
+
+
+@dataclass(frozen=True)
+class DynamicsSettings:
+    """Settings of ``shells.algorithms.dynamics.integrate`` (M ü + C u̇ + R(u; κ) = 0, PETSc
+    TS generalised-α for second-order systems), validated on construction.
+
+    Attributes:
+        t_end: the final time, in units of L √(ρ/E).
+        dt: the (initial) time step, same units.
+        rho_inf: the spectral radius at infinite step ρ∞ in [0, 1] (1: no numerical
+            dissipation, the trapezoidal rule's energy behaviour).
+        mass_damping: α of the Rayleigh damping C = α M + β K₀ (≥ 0).
+        stiffness_damping: β, K₀ the Jacobian at the start (≥ 0).
+        adaptive: adapt the step (TSAdapt "basic" on TSALPHA2's error estimate).
+        rest_tol: stop once the kinetic energy falls below this (None: run to ``t_end``).
+        max_steps: safety limit on the steps.
+
+    Raises:
+        InputError: on construction, for a setting out of its range.
+    """
+
+    t_end: float = 1.0
+    dt: float = 0.01
+    rho_inf: float = 1.0
+    mass_damping: float = 0.0
+    stiffness_damping: float = 0.0
+    adaptive: bool = False
+    rest_tol: float | None = None
+    max_steps: int = 100000
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.t_end) and self.t_end > 0):
+            raise InputError(f"t_end must be positive, got {self.t_end!r}")
+        if not (math.isfinite(self.dt) and 0 < self.dt <= self.t_end):
+            raise InputError(f"dt must lie in (0, t_end], got {self.dt!r}")
+        if not 0.0 <= self.rho_inf <= 1.0:
+            raise InputError(f"rho_inf must lie in [0, 1], got {self.rho_inf!r}")
+        for name in ("mass_damping", "stiffness_damping"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v >= 0):
+                raise InputError(f"{name} must be non-negative, got {v!r}")
+        if self.rest_tol is not None and not self.rest_tol > 0:
+            raise InputError(f"rest_tol must be positive, got {self.rest_tol!r}")
+        if not (isinstance(self.max_steps, int) and self.max_steps >= 1):
+            raise InputError(f"max_steps must be a positive integer, got {self.max_steps!r}")

@@ -26,8 +26,8 @@ from shells.errors import InputError
 from shells.geometry.shapes import kappa_length
 from shells.units import curvature
 
-__all__ = ["branch", "choose_model", "critical", "knockdown", "phase_diagram", "postbuckle",
-           "snap", "sweep"]
+__all__ = ["branch", "choose_model", "critical", "frequencies", "knockdown", "phase_diagram",
+           "postbuckle", "snap", "sweep"]
 
 
 def choose_model(shell: Shell, model: str | None = None) -> str:
@@ -204,6 +204,31 @@ def snap(shell: Shell, *, past: float = 0.01, kappa_R: float | None = None,
     cfg = analysis.SnapConfig(shape=shell.shape, h_over_r=shell.h_over_r, nu=shell.nu,
                               method=method, past=past, kappa_R=kappa_R, **options)
     return Result("snap", analysis.run(cfg, outdir, render=render), shell.describe())
+
+
+def frequencies(shell: Shell, *, kappa_R: float = 0.0, model: str | None = None,  # noqa: N803
+                count: int = 4, **options: Any) -> Result:
+    """The lowest natural frequencies of the free shell at κR = ``kappa_R``
+    (``shells frequencies``; ``shells.analyses.frequencies``).
+
+    Args:
+        shell: the shell (a uniform natural curvature).
+        kappa_R: κR of the prestressed state (reached from κ = 0 on the fundamental branch).
+        model: ``"axisym"``, ``"surface"`` or None (``choose_model``).
+        count: frequencies per Fourier block (1D model) or in all (surface model).
+        **options: ``m_max``, ``cells``, ``size``, ``degree``, ``shear_penalty``.
+
+    Returns:
+        The ``Result``: ``frequencies`` (``omega`` in units of √(E/ρ)/R, ``omega2``,
+        ``mode_m``, ``mode_n``), ``kappa_R``.
+    """
+    from shells.analyses import frequencies as analysis
+
+    if shell.kappa_field is not None and not shell.kappa_field.uniform:
+        raise InputError("frequencies take a uniform natural curvature")
+    data = analysis.run(shell.shape, shell.h_over_r, shell.nu, kappa_R=kappa_R,
+                        model=choose_model(shell, model), count=count, **options)
+    return Result("frequencies", data, shell.describe())
 
 
 def knockdown(shell: Shell | None = None, amplitudes: Sequence[float] = (0.0,), *,

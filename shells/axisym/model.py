@@ -248,6 +248,48 @@ class AxisymModel(FormProblem):
                 "b": tuple(x - y for x, y in zip(b, b0, strict=True)),
                 "slope_gap": tuple(pi - ti for pi, ti in zip(j.p, j.t, strict=True))}
 
+    def _tangents(self, j: Jet) -> tuple[tuple, tuple]:
+        """x_t (from the slope fields with ``slope_bending``, as the curvature reads it) and
+        x_φ of the deformed surface at a jet, cylindrical components."""
+        ur, uph, _ = j.val
+        xph = (j.ph[0] - uph, self.r0 + ur + j.ph[1], j.ph[2])
+        src = j.p if self.params.slope_bending else j.t
+        return (self.r0t + src[0], src[1], self.z0t + src[2]), xph
+
+    def normal_rate(self, base: Jet, rate: Jet) -> tuple:
+        """ṅ = Dn(base)[rate]: the rate of the unit normal n = c/|c|, c = x_t × x_φ, at the
+        state ``base`` under the velocity jet ``rate``: (I - n⊗n) ċ / |c|, ċ = ẋ_t × x_φ +
+        x_t × ẋ_φ (linear in ``rate``)."""
+        import ufl
+
+        xt, xph = self._tangents(base)
+        c = cross(xt, xph)
+        nn = ufl.sqrt(dot(c, c))
+        n = tuple(ci / nn for ci in c)
+        ur, uph, _ = rate.val
+        dxph = (rate.ph[0] - uph, ur + rate.ph[1], rate.ph[2])
+        dxt = rate.p if self.params.slope_bending else rate.t
+        dc = tuple(a + b for a, b in zip(cross(dxt, xph), cross(xt, dxph), strict=True))
+        dn = dot(n, dc)
+        return tuple((dci - dn * ni) / nn for dci, ni in zip(dc, n, strict=True))
+
+    def kinetic_density(self, base: Jet, a: Jet, b: Jet) -> Any:
+        """The kinetic energy's bilinear density per reference area, rates ``a`` and ``b`` (jets
+        of velocities) about the state ``base``, in units of the energy (time in L √(ρ/E)):
+        (8 (1-ν²)/L²) [u̇_a·u̇_b + (h²/12) (ṅ_a·ṅ_b + (ṗ_a - ∂_t u̇_a)·(ṗ_b - ∂_t u̇_b) / g²)],
+        ṅ the normal's rate (``normal_rate``). The last term is the rotary inertia of the slope
+        fields' departure from ∂_t u, which the penalty keeps at zero: it vanishes on every
+        Kirchhoff-Love motion and gives the slope fields' tangential part, which turns no
+        normal, a mass (a stiff mode of the penalty instead of an algebraic unknown)."""
+
+        def gap(j: Jet) -> tuple:
+            return tuple(pi - ti for pi, ti in zip(j.p, j.t, strict=True))
+
+        L = self.shape.characteristic_size()
+        c = 8 * (1 - self.nu**2) / L**2
+        rot = dot(self.normal_rate(base, a), self.normal_rate(base, b))
+        return c * (dot(a.val, b.val) + self.h**2 / 12 * (rot + dot(gap(a), gap(b)) / self.g**2))
+
     def _quad(self, A: tuple) -> Any:
         """(1-ν)|A|² + ν tr²A of a symmetric 2x2 tensor given as (A11, A12, A22)."""
         return ((1 - self.nu) * (A[0] ** 2 + 2 * A[1] ** 2 + A[2] ** 2)
@@ -733,6 +775,65 @@ class AxisymModel(FormProblem):
         if block is None:
             return self._assemble_mass(self.mass, self.bcs)
         return self._assemble_mass(self.mode_forms.mass, self.mode_forms.conditions(block))
+
+    def assemble_kinetic_mass(self, block: Any) -> Any:
+        """The kinetic mass of the free shell for block None (the axisymmetric unknowns) or
+        mode m (``shells.problem.interface.KineticMass``): the second variation of T = ½ ∫
+        ``kinetic_density`` dω at the current state, for block m of the velocity field
+        (U cos mφ, V sin mφ, W cos mφ) integrated over φ as the block's Hessian is (π, 2π for
+        m = 0), so that ω² of H_m v = ω² M_m v is the frequency of that mode. The rigid motions
+        the block's gauge removes (``rigid_motions``) carry no kinetic energy
+        (``shells.problem.kinetic.free_body_mass``)."""
+        from dolfinx.fem.petsc import assemble_matrix, set_bc
+
+        from shells.problem.kinetic import free_body_mass
+
+        if block is None:
+            if not hasattr(self, "_kinetic_form"):
+                import ufl
+                from dolfinx import fem
+
+                jets = (self.base_jet(ufl.TrialFunction(self.W)),
+                        self.base_jet(ufl.TestFunction(self.W)))
+                self._kinetic_form = fem.form(
+                    self.kinetic_density(self.base_jet(self.w), *jets) * self.area_density
+                    * self.dx, jit_options=JIT_OPTIONS)
+            form, bcs = self._kinetic_form, self.bcs
+        else:
+            mf = self.mode_forms
+            bcs = mf.set_mode(int(block))
+            form = mf.kinetic_form
+        M = self._assemble_mass(form, bcs)
+        M_full = assemble_matrix(form)
+        M_full.assemble()
+        self.__dict__.setdefault("_free_body", {})[block] = free_body_mass(
+            M, M_full, self.rigid_motions(block), lambda v: set_bc(v, bcs, alpha=0.0))
+        return self._free_body[block].mass
+
+    def free_motion(self, block: Any, v: Any) -> Any:
+        """v minus its rigid part (``shells.problem.interface.KineticMass``)."""
+        return self._free_body[block].free_part(v)
+
+    def rigid_motions(self, block: Any) -> list[Any]:
+        """The rigid motions that block's gauge removes, at the current state (vectors of the
+        block's layout): block None the translation along the axis; m = 0 that translation
+        (W = 1) and the rotation about the axis (V = r); m = 1 the translation across the
+        axis (U = 1, V = -1) and the tilt about the perpendicular axis (U = z, V = -z,
+        W = -r), r, z the deformed meridian's coordinates and the slope fields their
+        t-derivatives; none for m ≥ 2."""
+        if block is None:
+            v = self.create_vector()
+            with v.localForm() as vl:
+                vl.set(0.0)
+            _, dofs = self.W.sub(0).sub(1).collapse()
+            n = v.getLocalSize()
+            idx = np.asarray(dofs)
+            v.array_w[idx[idx < n]] = 1.0
+            return [v]
+        m = int(block)
+        if m >= 2:
+            return []
+        return self.mode_forms.rigid_motions(m)
 
     def classify_mode(self, vec: Any, block: Any) -> ModeInfo:
         """m = the block's wavenumber (0 for the Jacobian); on a closed sphere also the degree

@@ -501,6 +501,85 @@ class ModeForms:
         answers = self._chain[1].definite(E, powers, own, constrained, margin)
         return dict(zip(ms, answers, strict=True))
 
+    def amplitude_jet(self, f: Any, a: Any, b: Any) -> Jet:
+        """The jet of the perturbation whose amplitudes (S, D, W; P_S, P_D, P_W) are ``f`` (a
+        function or an argument of ``V``), at the phase (cos mφ, sin mφ) = (a, b), with the
+        mode's Constants (``set_mode``)."""
+        import ufl
+
+        c = self.c
+        q, Pq = ufl.split(f)
+        S, D, W = q[0], q[1], q[2]
+        U, V = c["cSU"] * S + c["cDU"] * D, c["cSV"] * S + c["cDV"] * D
+        PU = c["cSU"] * Pq[0] + c["cDU"] * Pq[1]
+        PV = c["cSV"] * Pq[0] + c["cDV"] * Pq[1]
+        PW = Pq[2]
+        m = c["m"]
+        d = lambda g: g.dx(0)  # noqa: E731
+        return Jet(val=(U * a, V * b, W * a), t=(d(U) * a, d(V) * b, d(W) * a),
+                   ph=(-m * U * b, m * V * a, -m * W * b),
+                   tph=(-m * d(U) * b, m * d(V) * a, -m * d(W) * b),
+                   phph=(-m**2 * U * a, -m**2 * V * b, -m**2 * W * a),
+                   p=(PU * a, PV * b, PW * a), pt=(d(PU) * a, d(PV) * b, d(PW) * a),
+                   pph=(-m * PU * b, m * PV * a, -m * PW * b))
+
+    @property
+    def kinetic_form(self) -> Any:
+        """The compiled kinetic mass of mode m (``set_mode``): π Σ over the two phases of the
+        model's ``kinetic_density`` about the base state, r° g dt (as the Hessian's φ-integral),
+        compiled on first use."""
+        if not hasattr(self, "_kinetic_form"):
+            import ufl
+            from dolfinx import fem
+
+            model, c = self.model, self.c
+            v, v_ = ufl.TestFunction(self.V), ufl.TrialFunction(self.V)
+            base = model.base_jet(model.w)
+            dens = sum(model.kinetic_density(base, self.amplitude_jet(v_, c[a], c[b]),
+                                             self.amplitude_jet(v, c[a], c[b]))
+                       for a, b in (("a0", "b0"), ("a1", "b1")))
+            self._kinetic_form = fem.form(math.pi * dens * model.r0 * model.g * model.dx,
+                                          jit_options=JIT_OPTIONS)
+        return self._kinetic_form
+
+    def rigid_motions(self, m: int) -> list[Any]:
+        """The rigid motions of mode m = 0 or 1 that its gauge removes, about the current
+        (axisymmetric) state, as vectors of ``V`` (``AxisymModel.rigid_motions``)."""
+        from dolfinx import default_scalar_type, fem
+
+        if not hasattr(self, "_rigid"):
+            import ufl
+
+            model = self.model
+            u, p = ufl.split(model.w)
+            r, z = model.r0 + u[0], model.z0 + u[1]
+            rt, zt = model.r0t + p[0], model.z0t + p[1]
+            k = {n: fem.Constant(model.mesh, default_scalar_type(0.0))
+                 for n in ("D1", "Dr", "Dz", "W1", "Wr")}
+            zero = 0.0 * model.t
+            values = ufl.as_vector([zero, k["D1"] + k["Dr"] * r + k["Dz"] * z,
+                                    k["W1"] + k["Wr"] * r])
+            slopes = ufl.as_vector([zero, k["Dr"] * rt + k["Dz"] * zt, k["Wr"] * rt])
+            parts = []
+            for i, ex in enumerate((values, slopes)):
+                Vi, dofs = self.V.sub(i).collapse()
+                parts.append((fem.Function(Vi), fem.Expression(ex, Vi.element.
+                                                               interpolation_points()),
+                              np.asarray(dofs)))
+            self._rigid = (k, parts, fem.Function(self.V))
+        k, parts, f = self._rigid
+        kinds = ({"W1": 1.0}, {"Dr": 1.0}) if m == 0 else ({"D1": 1.0}, {"Dz": 1.0, "Wr": -1.0})
+        out = []
+        for kind in kinds:
+            for name, const in k.items():
+                const.value = kind.get(name, 0.0)
+            for g, ex, dofs in parts:
+                g.interpolate(ex)
+                f.x.array[dofs] = g.x.array
+            f.x.scatter_forward()
+            out.append(f.x.petsc_vec.copy())
+        return out
+
     def radial_axial(self, f: Any) -> tuple[Any, Any]:
         """(u_r, u_z) amplitudes of a mode ``f`` in ``V`` (U and W; phases as last set)."""
         import ufl

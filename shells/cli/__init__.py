@@ -31,7 +31,17 @@ _EARLY: list[int] = []
 def _build_parser() -> argparse.ArgumentParser:
     # the subcommands (NumPy, SciPy, the geometry) are imported here, once ``main`` handles
     # signals, not when ``shells.cli`` is imported
-    from shells.cli import branch, critical, knockdown, mesh, phase_diagram, plot, postbuckle, snap
+    from shells.cli import (
+        branch,
+        critical,
+        frequencies,
+        knockdown,
+        mesh,
+        phase_diagram,
+        plot,
+        postbuckle,
+        snap,
+    )
     from shells.cli.common import Parser
 
     p = Parser(prog="shells", description="Thin elastic shells with natural curvature "
@@ -47,6 +57,7 @@ def _build_parser() -> argparse.ArgumentParser:
     postbuckle.add_subcommand(sub)
     knockdown.add_subcommand(sub)
     snap.add_subcommand(sub)
+    frequencies.add_subcommand(sub)
     plot.add_subcommand(sub)
     mesh.add_render(sub)
     return p

@@ -6,6 +6,7 @@ Modules:
   capabilities, and ``ModeInfo``;
 * ``forms``: ``FormProblem``, the assembly half of the interface for a model whose residual,
   Jacobian and dR/dκ are dolfinx forms of a UFL energy;
+* ``kinetic``: the kinetic mass of a free shell in its static gauge's coordinates;
 * ``formcache``: compiled forms derived in UFL, remembered on disk;
 * ``algebraic``: small algebraic problems with exact answers (a fold, a pitchfork) that test the
   algorithms in milliseconds.
@@ -21,6 +22,7 @@ from shells.problem.interface import (
     DefiniteBlocks,
     FactorOptions,
     HessianQuadratic,
+    KineticMass,
     ModeInfo,
     PoleFunctional,
     Problem,
@@ -30,5 +32,5 @@ from shells.problem.interface import (
 )
 
 __all__ = ["BlockFactor", "BlockInertia", "BlockInertias", "CondensedHessian", "DefiniteBlocks",
-           "FactorOptions", "HessianQuadratic", "ModeInfo", "PoleFunctional", "Problem",
-           "get_state", "orbit_cosine", "set_state"]
+           "FactorOptions", "HessianQuadratic", "KineticMass", "ModeInfo", "PoleFunctional",
+           "Problem", "get_state", "orbit_cosine", "set_state"]

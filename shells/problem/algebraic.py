@@ -194,6 +194,14 @@ class AlgebraicProblem:
         self._set_block(M, block, np.eye(self.n))
         return M
 
+    def assemble_kinetic_mass(self, block: Hashable) -> Any:
+        """The identity: a unit mass on every unknown (``KineticMass``)."""
+        return self.assemble_mass(block)
+
+    def free_motion(self, block: Hashable, v: Any) -> Any:
+        """No gauge, no rigid motion: a copy of v (``KineticMass``)."""
+        return v.copy()
+
     def classify_mode(self, vec: Any, block: Hashable) -> ModeInfo:
         if block is not None:
             return ModeInfo(m=int(block))

@@ -38,7 +38,8 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 
 __all__ = ["BlockFactor", "BlockInertia", "BlockInertias", "CondensedHessian", "DefiniteBlocks",
-           "Energy", "FactorOptions", "HessianQuadratic", "ModeInfo", "PoleFunctional", "Problem",
+           "Energy", "FactorOptions", "HessianQuadratic", "KineticMass", "ModeInfo",
+           "PoleFunctional", "Problem",
            "get_state", "orbit_cosine", "set_state"]
 
 
@@ -260,6 +261,28 @@ class Energy(Protocol):
     def total_energy(self) -> float:
         """E(w, κ) at the current state: the functional whose gradient ``assemble_residual``
         assembles (the same on every rank)."""
+
+
+@runtime_checkable
+class KineticMass(Protocol):
+    """The mass of the shell's kinetic energy, for natural frequencies and dynamics."""
+
+    def assemble_kinetic_mass(self, block: Hashable) -> Any:
+        """A new mass matrix M of the block's kinetic energy T = ½ v̇ᵀ M v̇ at the current state.
+
+        T = ½ ∫ (ρh |u̇|² + ρh³/12 |ḋ|²) dA in the units of the energy (E h / (8 (1 - ν²)) per
+        unit of ``energy_ufl``) with time in units of L √(ρ/E), L = ``length_scale()``: the
+        eigenvalues of H v = ω² M v are ω² in units of E / (ρ L²). The gauge's constrained
+        DOFs as in ``assemble_mass`` (zero rows and columns, a tiny diagonal), and the rigid
+        motions that the gauge removes carry no kinetic energy: M is the mass of the free
+        shell's motion relative to its centre of mass (``shells.problem.kinetic``), so the
+        gauge acts as no support. A PETSc matrix, possibly a MATLRC (sparse part:
+        ``shells.problem.kinetic.sparse_part``), symmetric positive definite."""
+
+    def free_motion(self, block: Hashable, v: Any) -> Any:
+        """The free shell's motion that a gauged vector v of the block stands for: v minus its
+        rigid part, M-orthogonal to the rigid motions (a new vector; M and the rigid motions
+        of the last ``assemble_kinetic_mass(block)``)."""
 
 
 @runtime_checkable

@@ -797,6 +797,69 @@ class ShellModel(FormProblem):
         """The L² mass of u and θ (``Problem.assemble_mass``)."""
         return self._assemble_mass(self.mass, self.bcs)
 
+    def assemble_kinetic_mass(self, block: Any = None) -> Any:
+        """The kinetic mass of the free shell (``shells.problem.interface.KineticMass``).
+
+        T = ½ ∫ ρh (|u̇|² + (h²/12) |θ̇|²) dA over E h / (8 (1 - ν²)) with time in units of
+        L √(ρ/E): M = (8 (1 - ν²) / L²) ∫ (u·δu + (h²/12) θ·δθ) dA. With the free director
+        d = v/|v|, v = A n° + θ, and |v| = 1 (the chart's gauge term), ḋ = (I - d⊗d) θ̇, so
+        |θ̇|² = |ḋ|² + (d·θ̇)²: the director's rotary inertia plus that of the chart's null
+        direction, which no elastic term couples to at an equilibrium (its own stiffness is
+        the gauge term's), so it adds a stiff decoupled mode and leaves the elastic ones. A
+        constant matrix. Rigid motions removed (``shells.problem.kinetic.free_body_mass``,
+        with ``rigid_motions``), the gauge's DOFs as in ``assemble_mass``."""
+        from dolfinx.fem.petsc import assemble_matrix
+
+        from shells.problem.kinetic import free_body_mass
+
+        if not hasattr(self, "_kinetic_form"):
+            import ufl
+            from dolfinx import fem
+
+            L = self.shape.characteristic_size()
+            (u, th), (du, dth) = (self.split(a) for a in (ufl.TrialFunction(self.W),
+                                                         ufl.TestFunction(self.W)))
+            c = 8 * (1 - self.nu**2) / L**2
+            self._kinetic_form = fem.form(
+                c * (ufl.dot(u, du) + self.h**2 / 12 * ufl.dot(th, dth)) * self.dx)
+        M = self._assemble_mass(self._kinetic_form, self.bcs)
+        M_full = assemble_matrix(self._kinetic_form)
+        M_full.assemble()
+        self._free_body = {None: free_body_mass(M, M_full, self.rigid_motions(),
+                                                self.zero_constrained)}
+        return self._free_body[None].mass
+
+    def free_motion(self, block: Any, v: Any) -> Any:
+        """v minus its rigid part (``shells.problem.interface.KineticMass``)."""
+        return self._free_body[None].free_part(v)
+
+    def rigid_motions(self) -> list[Any]:
+        """The six infinitesimal rigid motions of the current state (state-shaped vectors,
+        gauge DOFs included): translations u = e_i, θ = 0, and rotations u = e_i × (x + u),
+        θ = e_i × v (v = A n° + θ, the director's unnormalised vector: the rotated director)."""
+        if not hasattr(self, "_rigid"):
+            import ufl
+            from dolfinx import default_scalar_type, fem
+
+            mesh = self.shell.mesh
+            e = fem.Constant(mesh, np.zeros(3, dtype=default_scalar_type))  # the axis
+            t = fem.Constant(mesh, default_scalar_type(0.0))  # 1: translation, 0: rotation
+            u, th = self.split(self.w)
+            a, b = ufl.cross(e, self._x + u), ufl.cross(e, self.director_base * self.n0 + th)
+            ex = ufl.as_vector([t * e[i] + (1 - t) * a[i] for i in range(3)]
+                               + [(1 - t) * b[i] for i in range(3)])
+            self._rigid = (e, t, fem.Expression(ex, self.W.element.interpolation_points()),
+                           fem.Function(self.W))
+        e, t, expr, f = self._rigid
+        out = []
+        for i in range(6):
+            e.value[:] = np.eye(3)[i % 3]
+            t.value = 1.0 if i < 3 else 0.0
+            f.interpolate(expr)
+            f.x.scatter_forward()
+            out.append(f.x.petsc_vec.copy())
+        return out
+
     def hessian_quadratic(self, block: Any, v: Any) -> float:
         """vᵀ H v at the current state by quadrature of the second variation d²E(v, v)
         (``FormProblem._quadratic``; the gauge's DOFs of v taken as zero), for

@@ -1,0 +1,118 @@
+"""Natural frequencies (``shells.algorithms.frequencies``) of the free closed sphere against
+the classical values, on both models.
+
+Classical values (thin elastic sphere, Ω² = ρ R² ω² (1-ν²)/E, λ = n(n+1)): the membrane
+equations give, for the spheroidal modes of degree n, Ω⁴ - (1 + 3ν + λ) Ω² + (λ - 2)(1 - ν²) = 0
+(Baker, J. Acoust. Soc. Am. 33, 1749, 1961; Kraus, Thin Elastic Shells, 1967, ch. 8), whose
+n = 0 root is Lamb's breathing mode (1882) Ω² = 2(1 + ν), i.e. ω² = 2E/(ρR²(1 - ν)). The
+model's own energy adds bending: for the breathing mode (u = w n°, b - b° = (w/R²) a° against
+a - a° = (2w/R) a°) exactly the factor 1 + h²/(12R²), so ω² R² ρ/E = 2(1 + h²/(12R²))/(1 - ν);
+for n ≥ 2 a relative O((h/R)² λ²) above the membrane value (2e-4 at n = 2, h/R = 0.01).
+
+The 1D problem runs on MPI.COMM_SELF on every rank (differences reduced before asserting); the
+surface model is distributed over MPI.COMM_WORLD.
+"""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from mpi4py import MPI
+
+from shells.algorithms.frequencies import KineticStability, natural_frequencies
+from shells.axisym import AxisymModel, AxisymParameters
+from shells.geometry.shapes import Sphere
+from shells.problem.kinetic import sparse_part
+
+NU = 0.5
+
+
+def world_max(x: float) -> float:
+    return MPI.COMM_WORLD.allreduce(float(x), op=MPI.MAX)
+
+
+def membrane(n: int, nu: float = NU) -> float:
+    """The lower membrane root ω² R² ρ/E of degree n."""
+    lam = n * (n + 1)
+    b, c = 1 + 3 * nu + lam, (lam - 2) * (1 - nu**2)
+    return (b - math.sqrt(b * b - 4 * c)) / 2 / (1 - nu**2)
+
+
+def breathing(h: float, nu: float = NU) -> float:
+    return 2 * (1 + h * h / 12) / (1 - nu)
+
+
+def sphere_1d(h: float, cells: int = 40) -> AxisymModel:
+    return AxisymModel(Sphere(1.0), AxisymParameters(h=h, nu=NU, cells=cells), comm=MPI.COMM_SELF)
+
+
+def test_breathing_mode_is_lambs_and_the_gauge_is_no_support():
+    """The n = 0 mode of the free sphere (1D model, block None) at ω² = 2(1 + h²/12)/(1 - ν)
+    to 1e-8, the lowest mode n = 2. With the gauged mass alone (the pole's u_z held, no
+    free-body correction) the gauge acts as a point support: a spurious near-rigid mode far
+    below n = 2 (block None: the translation along the axis; block 1: across it), and no mode
+    at the breathing frequency."""
+    model = sphere_1d(0.1)
+    f = natural_frequencies(model, count=8, blocks=(None,))
+    w0 = [x.omega2 for x in f if x.mode_n == 0]
+    err = abs(w0[0] / breathing(0.1) - 1) if len(w0) == 1 else 1.0
+    assert world_max(err) < 1e-8
+    assert world_max(float(not (f[0].mode_n == 2 and f[0].omega2 > 0.5))) == 0.0
+
+    class Pinned(KineticStability):
+        def mass(self, block=None):
+            return sparse_part(super().mass(block))
+
+    for block in (None, 1):
+        stab = Pinned(model)
+        vals, _ = stab.eigenpairs(8, block=block)
+        stab.destroy()
+        assert world_max(vals[0]) < 0.1
+        assert world_max(-min(abs(v / breathing(0.1) - 1) for v in vals)) < -1e-3
+
+
+def test_sphere_n2_n3_against_the_membrane_values_in_every_block():
+    """h/R = 0.01: the lowest mode of blocks m = 0, 1, 2 is n = 2 at the membrane value (bending
+    adds 2e-4), n = 3 next (1e-3); the (2n + 1)-fold degeneracy holds across the blocks."""
+    model = sphere_1d(0.01)
+    f = natural_frequencies(model, count=2, blocks=(0, 1, 2))
+    by = {(x.block, x.mode_n): x.omega2 for x in f}
+    errs = [abs(by.get((m, 2), 0.0) / membrane(2) - 1) for m in (0, 1, 2)]
+    errs += [abs(by.get((m, 3), 0.0) / membrane(3) - 1) / 4 for m in (0, 1, 2)]
+    spread = max(abs(by.get((m, 2), 0.0) / by.get((0, 2), 1.0) - 1) for m in (1, 2))
+    assert world_max(max(errs)) < 5e-4
+    assert world_max(spread) < 1e-7
+
+
+def test_surface_sphere_agrees_with_the_1d_model():
+    """Surface model (P3, size 0.5, h/R = 0.05, distributed): the five lowest modes are n = 2
+    within 5e-4 of the 1D model's, then n = 3 (the same)."""
+    from shells.surface.mesh import MeshSpec, generate
+    from shells.surface.model import ModelParameters, ShellModel
+
+    ref, ref3 = (x.omega2 for x in natural_frequencies(sphere_1d(0.05), count=2, blocks=(0,)))
+    sm = generate(MeshSpec(Sphere(1.0), size=0.5), MPI.COMM_WORLD)
+    model = ShellModel(sm, ModelParameters(h=0.05, nu=NU, degree=3))
+    f = natural_frequencies(model, count=6)
+    assert [x.mode_n for x in f] == [2] * 5 + [3]
+    assert max(abs(x.omega2 / ref - 1) for x in f[:5]) < 5e-4
+    assert f[5].omega2 == pytest.approx(ref3, rel=5e-4)
+
+
+def test_cli_json(capsys):
+    """``shells frequencies --json``: the contract's keys, ω ascending, on rank 0."""
+    import json
+
+    from shells.cli import main
+
+    assert main(["frequencies", "--shape", "sphere", "--h-over-r", "0.05", "--count", "1",
+                 "--m-max", "2", "--cells", "40", "--json"]) == 0
+    if MPI.COMM_WORLD.rank == 0:
+        out = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+        assert out["kappa_R"] == 0.0
+        fs = out["frequencies"]
+        assert {"omega", "mode_m", "mode_n"} <= set(fs[0])
+        assert [f["mode_n"] for f in fs] == [2, 2, 2]
+        # h/R = 0.05: bending adds 0.6 % to the membrane ω² at n = 2
+        assert fs[0]["omega2"] == pytest.approx(membrane(2), rel=1e-2)

@@ -46,19 +46,26 @@ def test_lands_on_the_bifurcated_minimum(method, lam):
     stab.destroy()
 
 
-def test_a_saddle_reached_is_left_until_the_end_is_stable():
-    """Perturbed along x and z, Newton's line search takes the descent direction back to the
-    saddle (the stable z dominates gᵀd); ``minimise_to_stable`` finds the saddle by its
-    inertia, leaves it along x and lands on the minimum."""
+def test_a_perturbation_with_stable_parts_still_lands_on_the_minimum():
+    """Perturbed along x and along the stable z: a plain Newton step with a line search goes
+    back to the saddle here (the stable z dominates gᵀd); the shifted factorisation's step
+    is a descent direction that follows the negative curvature."""
     p = _saddle(1.3)
     d = np.array([0.0, 1.0, 0.5])
     perturbed(p, [d[p.lo:p.hi]], 1e-3)
-    first = minimise(p, MinimiseSettings(gatol=1e-12))
-    assert first.converged and abs(p.gathered()[1]) < 1e-8  # the saddle
+    res = minimise(p, MinimiseSettings(gatol=1e-12))
+    assert res.converged and abs(p.gathered()[1]) == pytest.approx(math.sqrt(0.6), rel=1e-10)
+
+
+def test_a_saddle_reached_is_left_until_the_end_is_stable():
+    """From the exact saddle ``minimise`` stops at once; ``minimise_to_stable`` finds the
+    saddle by its inertia, leaves it along x and lands on the minimum."""
+    p = _saddle(1.3)
     res = minimise_to_stable(p, MinimiseSettings(gatol=1e-12), amplitude=1e-3)
     assert res.rounds == 2 and res.negative_count == 0 and res.orbit_modes == 0
     assert abs(p.gathered()[1]) == pytest.approx(math.sqrt(0.6), rel=1e-10)
     assert res.energy == pytest.approx(-0.045, rel=1e-10)
+    assert res.energy_start == pytest.approx(0.0, abs=1e-15)
 
 
 def test_an_unperturbed_saddle_stays_a_saddle():

@@ -19,19 +19,22 @@ from shells.geometry.shapes import Sphere, SphericalCap
 
 def test_a_shallow_cap_lands_on_its_everted_state(shared_tmp):
     h = 0.04
+    # P3 (P2 locks: on coarse P2 meshes the minimiser finds a wrinkled m = 8 state that the
+    # default mesh does not have)
     cfg = snap.SnapConfig(shape=SphericalCap(1.0, 3.0 * math.sqrt(h)), h_over_r=h, past=0.02,
-                          size=0.3, degree=2, layer_elements=1.5)
+                          size=0.3, degree=3, layer_elements=2.0)
     res = snap.run(cfg, shared_tmp / "snap3", render=False)
     ld, ev = res["landing"], res["axisymmetric_everted"]
     assert res["start"]["kind"] == "fold"
     assert res["start"]["kappa_R"] == pytest.approx(1.02 * res["start"]["kappa_fold_R"], rel=1e-12)
     assert ld["stable"] and ld["symmetric"] and ld["mode_m"] == 0
     assert ev["negative_count"] == 0
-    # two routes to one state: the minimiser's landing and Newton from the mirrored shell
-    assert ld["energy"] == pytest.approx(ev["energy"], rel=1e-7)
-    assert ld["rim_rotation_deg"] == pytest.approx(ev["rim_rotation_deg"], abs=1e-3)
-    # everted: the rim turned by about twice the opening angle (2 θ = 39.7°)
-    assert 30 < ld["rim_rotation_deg"] < 50
+    # two routes to one state: the minimiser's landing and Newton from the mirrored shell (in
+    # the mirror chart, whose energy differs by the coarse mesh's departure from the sphere)
+    assert ld["energy"] == pytest.approx(ev["energy"], rel=3e-3)
+    assert ld["rim_rotation_deg"] == pytest.approx(ev["rim_rotation_deg"], abs=0.01)
+    # everted: the rim turned by far more than the opening angle (θ = 34.4°)
+    assert 60 < ld["rim_rotation_deg"] < 70
     assert ld["iterations"] > 0
     if MPI.COMM_WORLD.rank == 0:
         assert (shared_tmp / "snap3" / "snap.json").exists()

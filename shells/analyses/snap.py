@@ -173,11 +173,13 @@ def _to_fold(model: Any, cfg: SnapConfig, R: float) -> tuple[float, np.ndarray, 
 
 
 def _everted(sm_model: Any, params: Any, kappa: float, kappa_fold: float) -> dict[str, Any]:
-    """The axisymmetric everted state at ``kappa``: Newton from the mirrored shell, continued
-    in κ from half the fold's κ (where the mirror is close to an equilibrium)."""
+    """The axisymmetric everted state at ``kappa``: Newton from the shell mirrored through its
+    rim plane, continued in κ from where the mirror is (close to) an equilibrium: κ = 2/R on a
+    spherical cap (there the mirror is one exactly), else half the fold's κ or less."""
     from shells.algorithms.continuation import continuation
     from shells.algorithms.settings import ContinuationSettings
     from shells.algorithms.stability import Stability
+    from shells.geometry.shapes import SphericalCap
     from shells.surface.model import ShellModel
 
     ev = ShellModel(sm_model.shell, params)
@@ -185,15 +187,18 @@ def _everted(sm_model: Any, params: Any, kappa: float, kappa_fold: float) -> dic
     lam = abs(kappa_fold) * L
     nat = ContinuationSettings(method="natural", ds=0.1 * lam, ds_max=0.1 * lam,
                                ds_min=1e-4 * lam, max_newton_its=25)
-    for start in (0.5, 0.35, 0.25):
+    starts = [0.5 * kappa_fold, 0.35 * kappa_fold, 0.25 * kappa_fold]
+    if isinstance(ev.shape, SphericalCap):
+        starts.insert(0, 2.0 / ev.shape.R)
+    for start in starts:
         ev.set_everted_guess()
         reached = False
         try:
-            for q in continuation(ev, nat, kappa_start=start * kappa_fold, kappa_end=kappa,
-                                  scalars=False):
+            for q in continuation(ev, nat, kappa_start=start, kappa_end=kappa, scalars=False):
                 reached = abs(q.kappa - kappa) <= 1e-9 * abs(kappa)
         except RuntimeError as e:
-            log.info("snap: the everted state from %.2f kappa_fold not reached (%s)", start, e)
+            log.info("snap: the everted state from kappa R = %.4g not reached (%s)",
+                     start * L, e)
         if reached:
             stab = Stability(ev)
             neg = stab.inertia()[0]

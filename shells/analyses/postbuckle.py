@@ -499,7 +499,7 @@ class _Postbuckle:
 
         cfg, run = self.cfg, self.run
         bifs = []
-        # (kept open, as the run's: its locator is freed with the run)
+        # held by the run object: closed (its locator freed) when the run is released
         self.fundamental_points = follow(run.model, self.st, self.kappa_stop, self.crit,
                                          solver=run.ns)
         for p, _, found in self.fundamental_points:

@@ -123,116 +123,176 @@ def reduced_equation(problem: Any, cp: Any, solver: Any,
     Raises:
         InputError: if ``cp`` carries no state or mode, or is not a bifurcation.
     """
-    from petsc4py import PETSc
-
     if cp.state is None or cp.mode is None:
         raise InputError("this critical point carries no state/mode")
     if cp.kind != "bifurcation":
         raise InputError(f"the reduced equation needs a bifurcation, got a {cp.kind}")
-    comm = problem.comm
-    A = solver.A
-    n_loc = problem.state.getLocalSize()
-    w = problem.state.duplicate()
-    w.array_w[:] = cp.state[:n_loc]
-    phi = w.duplicate()
-    phi.array_w[:] = cp.mode[:n_loc]
-    problem.zero_constrained(phi)
-    # ξ: RMS amplitude in units of the state scale
-    unit = math.sqrt(problem.num_dofs()) * problem.state_scale()
-    phi.scale(unit / phi.norm())
-    t, rk, tmp, y, wp, wm = (w.duplicate() for _ in range(6))
-    g = None
-    ksp = PETSc.KSP().create(comm)
-    ksp.setType("preonly")
-    ksp.getPC().setType("lu")
-    ksp.getPC().setFactorSolverType("mumps")
-
-    def set_point(state: Any, kappa: float) -> None:
-        state.copy(problem.state)
-        problem.sync()
-        problem.set_kappa(kappa)
-
-    def jacobian_at(state: Any, kappa: float) -> Any:
-        set_point(state, kappa)
-        problem.assemble_jacobian(A)
-        return A
-
-    def phi_residual(state: Any, kappa: float) -> float:
-        set_point(state, kappa)
-        problem.assemble_residual(tmp)
-        return float(phi.dot(tmp))
-
-    correction = math.inf
+    red = _Reduction(problem, cp, solver)
     try:
-        # the critical point's state is a trial solve next to the located κ: its own κ is the
-        # least-squares one (the residual is affine in κ)
-        kappa = float(cp.kappa)
-        set_point(w, kappa)
-        problem.assemble_residual(tmp)
-        problem.assemble_dkappa(rk)
-        kappa -= float(tmp.dot(rk)) / float(rk.dot(rk))
+        kappa = red.start_kappa(float(cp.kappa))
+        correction, c1 = math.inf, math.nan
         for _ in range(max(1, refine)):
-            J = jacobian_at(w, kappa)
-            ksp.setOperators(J)
-            ksp.setUp()
-            # φ by inverse iteration (J is nearly singular along it), then the fundamental
-            # branch's tangent t = -J⁻¹ ∂R/∂κ with its φ-component removed (that component is
-            # the near-singular solve's, not the branch's: φᵀ ∂R/∂κ = 0 at a bifurcation)
-            for _ in range(3):
-                ksp.solve(phi, y)
-                problem.zero_constrained(y)
-                y.scale(unit / y.norm())
-                y.copy(phi)
-            problem.assemble_dkappa(rk)  # at (w, κ), set by jacobian_at
-            ksp.solve(rk, t)
-            t.scale(-1.0)
-            problem.zero_constrained(t)
-            t.axpy(-t.dot(phi) / phi.dot(phi), phi)
-            # the fundamental branch at κ ± d (Newton from the tangent's prediction: the
-            # nearest equilibria, the bifurcated branch lies ~c1 d / c2 away along φ), the
-            # Rayleigh quotient of φ there, and its zero by linear interpolation
-            d = rel_step * abs(kappa)
-            mus = []
-            for v, sign in ((wp, 1.0), (wm, -1.0)):
-                v.waxpy(sign * d, t, w)
-                set_point(v, kappa + sign * d)
-                ok, _ = solver.solve()
-                if not ok:
-                    raise RuntimeError("reduced equation: Newton failed on the fundamental "
-                                       f"branch at kappa = {kappa + sign * d:.8g}")
-                problem.state.copy(v)
-                mus.append(_rayleigh(jacobian_at(v, kappa + sign * d), phi, tmp))
-            c1 = (mus[0] - mus[1]) / (2 * d)
-            dk = -0.5 * (mus[0] + mus[1]) / c1
-            w.set(0.0)
-            w.axpy(0.5 + dk / (2 * d), wp)
-            w.axpy(0.5 - dk / (2 * d), wm)
-            kappa += dk
-            correction = abs(dk / kappa)
+            kappa, c1, correction = red.refine(kappa, rel_step)
             if correction < 1e-10:
                 break
         # c2 = ½ E'''(φ, φ, φ) from second differences of φᵀR along φ (ξ = ±amplitude)
-        r0 = phi_residual(w, kappa)
-        y.waxpy(amplitude, phi, w)
-        rp = phi_residual(y, kappa)
-        y.waxpy(-amplitude, phi, w)
-        rm = phi_residual(y, kappa)
+        r0, rp, rm = red.phi_residuals(kappa, amplitude)
         c2 = (rp + rm - 2 * r0) / (2 * amplitude**2)
-        c3 = None
-        if imperfection is not None:
-            set_point(w, kappa)
-            g = imperfection()
-            c3 = float(phi.dot(g))
+        c3 = None if imperfection is None else red.imperfection_load(kappa, imperfection)
         slope = -c2 / (c1 * kappa)
         asym = abs(rp + rm - 2 * r0) / max(abs(rp - r0), abs(rm - r0), 1e-300)
-        set_point(w, kappa)
+        red.set_point(red.w, kappa)
         return ReducedEquation(kappa_c=kappa, c1=float(c1), c2=float(c2), c3=c3,
                                kappa_c_accuracy=float(correction), slope=float(slope),
                                asymmetry=float(asym),
                                kind="symmetric" if asym < SYMMETRIC_BELOW else "asymmetric")
     finally:
-        ksp.destroy()
-        for v in (w, phi, t, rk, tmp, y, wp, wm, g):
+        red.destroy()
+
+
+class _Reduction:
+    """The vectors and the LU solver of one ``reduced_equation``: the critical state w, the
+    null vector φ (RMS ``unit``), the fundamental branch's tangent t and work vectors.
+
+    Args:
+        problem: the problem.
+        cp: the bifurcation, with its state and mode.
+        solver: the problem's Newton solver (its Jacobian matrix is used).
+    """
+
+    def __init__(self, problem: Any, cp: Any, solver: Any) -> None:
+        from petsc4py import PETSc
+
+        self.problem, self.solver = problem, solver
+        self.A = solver.A
+        n_loc = problem.state.getLocalSize()
+        self.w = problem.state.duplicate()
+        self.w.array_w[:] = cp.state[:n_loc]
+        self.phi = self.w.duplicate()
+        self.phi.array_w[:] = cp.mode[:n_loc]
+        problem.zero_constrained(self.phi)
+        # ξ: RMS amplitude in units of the state scale
+        self.unit = math.sqrt(problem.num_dofs()) * problem.state_scale()
+        self.phi.scale(self.unit / self.phi.norm())
+        self.t, self.rk, self.tmp, self.y, self.wp, self.wm = (
+            self.w.duplicate() for _ in range(6))
+        self.g = None
+        self.ksp = PETSc.KSP().create(problem.comm)
+        self.ksp.setType("preonly")
+        self.ksp.getPC().setType("lu")
+        self.ksp.getPC().setFactorSolverType("mumps")
+
+    def destroy(self) -> None:
+        """Free the solver and the vectors."""
+        self.ksp.destroy()
+        for v in (self.w, self.phi, self.t, self.rk, self.tmp, self.y, self.wp, self.wm,
+                  self.g):
             if v is not None:
                 v.destroy()
+
+    def set_point(self, state: Any, kappa: float) -> None:
+        """Set the problem's state and κ."""
+        problem = self.problem
+        state.copy(problem.state)
+        problem.sync()
+        problem.set_kappa(kappa)
+
+    def jacobian_at(self, state: Any, kappa: float) -> Any:
+        """The Jacobian matrix assembled at (``state``, ``kappa``)."""
+        self.set_point(state, kappa)
+        self.problem.assemble_jacobian(self.A)
+        return self.A
+
+    def phi_residual(self, state: Any, kappa: float) -> float:
+        """φᵀR at (``state``, ``kappa``)."""
+        self.set_point(state, kappa)
+        self.problem.assemble_residual(self.tmp)
+        return float(self.phi.dot(self.tmp))
+
+    def start_kappa(self, kappa: float) -> float:
+        """The κ of the critical state: the least-squares one (the residual is affine in κ;
+        the critical point's state is a trial solve next to the located κ)."""
+        problem, tmp, rk = self.problem, self.tmp, self.rk
+        self.set_point(self.w, kappa)
+        problem.assemble_residual(tmp)
+        problem.assemble_dkappa(rk)
+        return kappa - float(tmp.dot(rk)) / float(rk.dot(rk))
+
+    def refine(self, kappa: float, rel_step: float) -> tuple[float, float, float]:
+        """One refinement of κ_c, φ and w: φ by inverse iteration, the fundamental branch at
+        κ ± d (d = ``rel_step`` |κ|), and the zero of φ's Rayleigh quotient between them.
+
+        Returns:
+            (the new κ_c, c1, the correction's relative size).
+
+        Raises:
+            RuntimeError: if Newton fails on the fundamental branch.
+        """
+        self.null_vector(kappa)
+        # the fundamental branch at κ ± d (Newton from the tangent's prediction: the
+        # nearest equilibria, the bifurcated branch lies ~c1 d / c2 away along φ), the
+        # Rayleigh quotient of φ there, and its zero by linear interpolation
+        d = rel_step * abs(kappa)
+        mus = [self.branch_rayleigh(v, kappa, sign * d)
+               for v, sign in ((self.wp, 1.0), (self.wm, -1.0))]
+        c1 = (mus[0] - mus[1]) / (2 * d)
+        dk = -0.5 * (mus[0] + mus[1]) / c1
+        w = self.w
+        w.set(0.0)
+        w.axpy(0.5 + dk / (2 * d), self.wp)
+        w.axpy(0.5 - dk / (2 * d), self.wm)
+        kappa += dk
+        return kappa, c1, abs(dk / kappa)
+
+    def null_vector(self, kappa: float) -> None:
+        """φ by inverse iteration with J at (w, κ) (nearly singular along it), then the
+        fundamental branch's tangent t = -J⁻¹ ∂R/∂κ with its φ-component removed (that
+        component is the near-singular solve's, not the branch's: φᵀ ∂R/∂κ = 0 at a
+        bifurcation)."""
+        problem, ksp, phi, y, t = self.problem, self.ksp, self.phi, self.y, self.t
+        J = self.jacobian_at(self.w, kappa)
+        ksp.setOperators(J)
+        ksp.setUp()
+        for _ in range(3):
+            ksp.solve(phi, y)
+            problem.zero_constrained(y)
+            y.scale(self.unit / y.norm())
+            y.copy(phi)
+        problem.assemble_dkappa(self.rk)  # at (w, κ), set by jacobian_at
+        ksp.solve(self.rk, t)
+        t.scale(-1.0)
+        problem.zero_constrained(t)
+        t.axpy(-t.dot(phi) / phi.dot(phi), phi)
+
+    def branch_rayleigh(self, v: Any, kappa: float, dk: float) -> float:
+        """The fundamental branch's state at κ + ``dk`` into ``v`` (Newton from w + dk t)
+        and φ's Rayleigh quotient of the Jacobian there.
+
+        Raises:
+            RuntimeError: if Newton fails.
+        """
+        v.waxpy(dk, self.t, self.w)
+        self.set_point(v, kappa + dk)
+        ok, _ = self.solver.solve()
+        if not ok:
+            raise RuntimeError("reduced equation: Newton failed on the fundamental "
+                               f"branch at kappa = {kappa + dk:.8g}")
+        self.problem.state.copy(v)
+        return _rayleigh(self.jacobian_at(v, kappa + dk), self.phi, self.tmp)
+
+    def phi_residuals(self, kappa: float, amplitude: float) -> tuple[float, float, float]:
+        """φᵀR at w and at w ± ``amplitude`` φ, all at ``kappa``."""
+        w, y, phi = self.w, self.y, self.phi
+        r0 = self.phi_residual(w, kappa)
+        y.waxpy(amplitude, phi, w)
+        rp = self.phi_residual(y, kappa)
+        y.waxpy(-amplitude, phi, w)
+        rm = self.phi_residual(y, kappa)
+        return r0, rp, rm
+
+    def imperfection_load(self, kappa: float, imperfection: Callable[[], Any]) -> float:
+        """c3 = φᵀ ∂R/∂δ at (w, ``kappa``)."""
+        self.set_point(self.w, kappa)
+        self.g = imperfection()
+        return float(self.phi.dot(self.g))
 

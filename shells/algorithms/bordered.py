@@ -217,127 +217,202 @@ def bordered_newton(ar: Arclength, st: ContinuationSettings, lam_p: float,
         ``ar.drift`` how far it moved since the factorisation the solver holds. The residual
         bound is ``Arclength.residual_bound``.
     """
-    ns, w = ar.ns, ar.w
-    tw, tl, wp = plane if plane is not None else (ar.tw, ar.tl, ar.wp)
-    k = len(pins)
-    s = np.zeros(k)
-    lam = lam_p if lam_start is None else lam_start
-    ar.set_lambda(lam)
-    dlam_max = 10.0 * max(1.0, abs(lam_p)) if max_dlam is None else max_dlam
-    F = ns.b
-    xs = [ar.b, *(w.duplicate() for _ in range(k))]  # the solves J x = -R_λ, -ψ_j
-    keep = singular_ok if keep_best is None else keep_best
-    best_w = w.duplicate() if keep else None
-    best = (math.inf, lam, s)  # (residual, λ, s) of the best iterate, its state in best_w
-    best_updates = 0  # the Newton updates that led to it
-    # the state's movement since the factorisation held (inf: factor at the next iteration),
-    # and the last increment, whose contraction decides whether a chord step may follow
-    # (not with ``singular_ok``: its acceptance after 3 iterations takes the residual bound
-    # alone, which a chord iterate meets farther from the solution than Newton's third)
-    reuse = 0.0 if singular_ok else st.factor_reuse
-    drift, last_dw = math.inf, math.inf
-    ar.drift = math.inf
-    n_sqrt = math.sqrt(w.getSize())
+    corrector = _Corrector(ar, st, lam_p, lam_start, singular_ok, deflate, plane, pins, wc,
+                           max_dlam, keep_best)
+    try:
+        return corrector.run()
+    finally:
+        corrector.destroy()
 
-    def residual() -> float:
-        ns.assemble_residual(F)
-        for j in range(k):
-            F.axpy(s[j], pins[j])
-        return F.norm()
 
-    def fail(it: int) -> Correction:
-        # kept only if it is what singular_ok would accept (3 updates at least): an earlier
-        # iterate can be within the bound of the branch but not on it (docs/design-notes.md,
-        # "Corrector: the kept iterate")
-        if best_w is None or best_updates < 3 or not best[0] <= ar.residual_bound(st, best[1]):
-            return Correction(False, it, lam, s)
-        best_w.copy(w)
+class _Corrector:
+    """One call of ``bordered_newton``: its unknowns (w in ``ar``, λ, s), the solves' vectors
+    and the iterate of smallest residual. The arguments are ``bordered_newton``'s."""
+
+    def __init__(self, ar: Arclength, st: ContinuationSettings, lam_p: float,
+                 lam_start: float | None, singular_ok: bool, deflate: Any,
+                 plane: tuple[Any, float, Any] | None, pins: Sequence[Any], wc: Any,
+                 max_dlam: float | None, keep_best: bool | None) -> None:
+        self.ar, self.st, self.ns, self.w = ar, st, ar.ns, ar.w
+        self.tw, self.tl, self.wp = plane if plane is not None else (ar.tw, ar.tl, ar.wp)
+        self.pins, self.wc, self.k = pins, wc, len(pins)
+        self.singular_ok, self.deflate, self.lam_p = singular_ok, deflate, lam_p
+        self.s = np.zeros(self.k)
+        self.lam = lam_p if lam_start is None else lam_start
+        ar.set_lambda(self.lam)
+        self.dlam_max = 10.0 * max(1.0, abs(lam_p)) if max_dlam is None else max_dlam
+        self.F = self.ns.b
+        # the solves J x = -R_λ, -ψ_j
+        self.xs = [ar.b, *(self.w.duplicate() for _ in range(self.k))]
+        keep = singular_ok if keep_best is None else keep_best
+        self.best_w = self.w.duplicate() if keep else None
+        # (residual, λ, s) of the best iterate, its state in best_w
+        self.best = (math.inf, self.lam, self.s)
+        self.best_updates = 0  # the Newton updates that led to it
+        # the state's movement since the factorisation held (inf: factor at the next
+        # iteration), and the last increment, whose contraction decides whether a chord step
+        # may follow (not with ``singular_ok``: its acceptance after 3 iterations takes the
+        # residual bound alone, which a chord iterate meets farther from the solution than
+        # Newton's third)
+        self.reuse = 0.0 if singular_ok else st.factor_reuse
+        self.drift, self.last_dw = math.inf, math.inf
+        ar.drift = math.inf
+        self.n_sqrt = math.sqrt(self.w.getSize())
+        self.rms = math.inf  # the last increment's RMS over L
+
+    def destroy(self) -> None:
+        """Free the pins' solve vectors and the best iterate's state."""
+        for v in self.xs[1:]:
+            v.destroy()
+        if self.best_w is not None:
+            self.best_w.destroy()
+
+    def run(self) -> Correction:
+        """Newton iterations up to ``max_newton_its``.
+
+        Returns:
+            The converged ``Correction``, or ``fail``'s.
+        """
+        for it in range(1, self.st.max_newton_its + 1):
+            done = self.iterate(it)
+            if done is not None:
+                return done
+        return self.fail(self.st.max_newton_its)
+
+    def residual(self) -> float:
+        """||R(w, λ) + Σ s_j ψ_j||, the residual left in ``F``."""
+        self.ns.assemble_residual(self.F)
+        for j in range(self.k):
+            self.F.axpy(self.s[j], self.pins[j])
+        return self.F.norm()
+
+    def fail(self, it: int) -> Correction:
+        """The outcome of a corrector that did not converge by iteration ``it``.
+
+        Returns:
+            The best iterate as converged (the problem set to it) if it is what
+            ``singular_ok`` would accept (3 updates at least: an earlier iterate can be within
+            the bound of the branch but not on it; docs/design-notes.md, "Corrector: the kept
+            iterate"); else a failed ``Correction`` at the current λ and s.
+        """
+        ar, best = self.ar, self.best
+        if self.best_w is None or self.best_updates < 3 \
+                or not best[0] <= ar.residual_bound(self.st, best[1]):
+            return Correction(False, it, self.lam, self.s)
+        self.best_w.copy(self.w)
         ar.sync()
         ar.set_lambda(best[1])
         log.debug("corrector: diverged; kept the iterate of residual %.3e", best[0])
         return Correction(True, it, best[1], best[2])
 
-    try:
-        for it in range(1, st.max_newton_its + 1):
-            fn = residual()
-            if not np.isfinite(fn):
-                return fail(it)
-            if not drift <= reuse:
-                if not ns.factor():
-                    return fail(it)
-                drift = 0.0
-            if best_w is not None and fn < best[0]:
-                w.copy(best_w)
-                best, best_updates = (fn, lam, s.copy()), it - 1
-            elif best_w is not None and it > 3 and fn > 1e3 * best[0]:
-                return fail(it)  # diverging from a good iterate: more steps only go further
-            F.scale(-1.0)
-            ns.lin_solve(F, ar.a)
-            ar.dres_dlambda()
+    def iterate(self, it: int) -> Correction | None:
+        """Newton iteration ``it``: factor if needed, solve, update, test convergence.
+
+        Returns:
+            The outcome if the corrector ends at this iteration, else None.
+        """
+        fn = self.residual()
+        if not np.isfinite(fn):
+            return self.fail(it)
+        if not self.drift <= self.reuse:
+            if not self.ns.factor():
+                return self.fail(it)
+            self.drift = 0.0
+        if self.best_w is not None and fn < self.best[0]:
+            self.w.copy(self.best_w)
+            self.best, self.best_updates = (fn, self.lam, self.s.copy()), it - 1
+        elif self.best_w is not None and it > 3 and fn > 1e3 * self.best[0]:
+            return self.fail(it)  # diverging from a good iterate: more steps only go further
+        self.solve_directions()
+        c = self.constraint_solution()
+        if c is None or not np.all(np.isfinite(c)):
+            return self.fail(it)
+        if not self.update(c):
+            return self.fail(it)
+        if abs(self.lam - self.lam_p) > self.dlam_max:
+            return self.fail(it)  # diverging: its iterates would only poison the factor
+        st = self.st
+        small = (self.rms < st.newton_tol
+                 and abs(c[0]) < st.newton_tol * max(1.0, abs(self.lam)))
+        if (small or (self.singular_ok and it >= 3)) \
+                and self.residual() <= self.ar.residual_bound(st, self.lam):
+            self.ar.drift = self.drift
+            return Correction(True, it, self.lam, self.s)
+        return None
+
+    def solve_directions(self) -> None:
+        """The solves with the factored J: a = -J⁻¹ F (F holding the residual), b = -J⁻¹ R_λ,
+        x_j = -J⁻¹ ψ_j, then the optional ``deflate`` of them."""
+        ar, ns = self.ar, self.ns
+        self.F.scale(-1.0)
+        ns.lin_solve(self.F, ar.a)
+        ar.dres_dlambda()
+        ar.Fl.scale(-1.0)
+        ns.lin_solve(ar.Fl, ar.b)
+        for j in range(self.k):
+            self.pins[j].copy(ar.Fl)
             ar.Fl.scale(-1.0)
-            ns.lin_solve(ar.Fl, ar.b)
-            for j in range(k):
-                pins[j].copy(ar.Fl)
-                ar.Fl.scale(-1.0)
-                ns.lin_solve(ar.Fl, xs[j + 1])
-            if deflate is not None:
-                deflate(ar.a, *xs)
-            # the constraints' rows in (δλ, δs_1, ...): the hyperplane, then the pins
+            ns.lin_solve(ar.Fl, self.xs[j + 1])
+        if self.deflate is not None:
+            self.deflate(ar.a, *self.xs)
+
+    def constraint_solution(self) -> np.ndarray | None:
+        """(δλ, δs_1, ...) from the constraints' rows: the hyperplane, then the pins.
+
+        Returns:
+            The coefficients, or None if the pinned system is singular.
+        """
+        ar, w, k, xs, tw, tl = self.ar, self.w, self.k, self.xs, self.tw, self.tl
+        w.copy(ar.Fl)
+        ar.Fl.axpy(-1.0, self.wp)
+        A = np.empty((k + 1, k + 1))
+        r = np.empty(k + 1)
+        A[0] = [ar.cw * tw.dot(x) for x in xs]
+        A[0, 0] += tl
+        # (k = 0 keeps the bordered formula's order of operations, k > 0 the pinned one's:
+        # next to a closed sphere's cluster of singular modes the state along the nearly
+        # singular directions is set by round-off, and the branch switched onto from it
+        # depends on it; docs/design-notes.md, "Corrector: order of operations")
+        dlam = self.lam - self.lam_p
+        r[0] = -(ar.cw * (tw.dot(ar.Fl) + tw.dot(ar.a)) + tl * dlam) if k else \
+            -((ar.cw * tw.dot(ar.Fl) + tl * dlam) + ar.cw * tw.dot(ar.a))
+        if k:
             w.copy(ar.Fl)
-            ar.Fl.axpy(-1.0, wp)
-            A = np.empty((k + 1, k + 1))
-            r = np.empty(k + 1)
-            A[0] = [ar.cw * tw.dot(x) for x in xs]
-            A[0, 0] += tl
-            # (k = 0 keeps the bordered formula's order of operations, k > 0 the pinned one's:
-            # next to a closed sphere's cluster of singular modes the state along the nearly
-            # singular directions is set by round-off, and the branch switched onto from it
-            # depends on it; docs/design-notes.md, "Corrector: order of operations")
-            r[0] = -(ar.cw * (tw.dot(ar.Fl) + tw.dot(ar.a)) + tl * (lam - lam_p)) if k else \
-                -((ar.cw * tw.dot(ar.Fl) + tl * (lam - lam_p)) + ar.cw * tw.dot(ar.a))
-            if k:
-                w.copy(ar.Fl)
-                ar.Fl.axpy(-1.0, wc)
-            for j in range(k):
-                A[j + 1] = [ar.cw * pins[j].dot(x) for x in xs]
-                r[j + 1] = -ar.cw * (pins[j].dot(ar.Fl) + pins[j].dot(ar.a))
-            if k == 0:
-                c = np.array([r[0] / A[0, 0]]) if A[0, 0] != 0 else np.array([math.nan])
-            else:
-                try:
-                    c = np.linalg.solve(A, r)
-                except np.linalg.LinAlgError:
-                    return fail(it)
-            if not np.all(np.isfinite(c)):
-                return fail(it)
-            if k == 0:
-                w.axpy(1.0, ar.a)
-                w.axpy(c[0], ar.b)
-                ar.a.axpy(c[0], ar.b)
-            else:
-                for j in range(k + 1):
-                    ar.a.axpy(c[j], xs[j])  # the full state increment
-                w.axpy(1.0, ar.a)
-            lam += c[0]
-            s = s + c[1:]
-            ar.sync()
-            ar.set_lambda(lam)
-            a_norm = ar.a.norm()
-            rms = a_norm / n_sqrt / ar.L
-            if not (math.isfinite(rms) and math.isfinite(lam)):
-                return fail(it)
-            dw = max(a_norm / n_sqrt / ar.h, abs(c[0]) / max(1.0, abs(lam)))
-            drift = drift + dw if dw <= 0.1 * last_dw else math.inf
-            last_dw = dw
-            if abs(lam - lam_p) > dlam_max:
-                return fail(it)  # diverging: its iterates would only poison the factor
-            small = rms < st.newton_tol and abs(c[0]) < st.newton_tol * max(1.0, abs(lam))
-            if (small or (singular_ok and it >= 3)) and residual() <= ar.residual_bound(st, lam):
-                ar.drift = drift
-                return Correction(True, it, lam, s)
-        return fail(st.max_newton_its)
-    finally:
-        for v in xs[1:]:
-            v.destroy()
-        if best_w is not None:
-            best_w.destroy()
+            ar.Fl.axpy(-1.0, self.wc)
+        for j in range(k):
+            A[j + 1] = [ar.cw * self.pins[j].dot(x) for x in xs]
+            r[j + 1] = -ar.cw * (self.pins[j].dot(ar.Fl) + self.pins[j].dot(ar.a))
+        if k == 0:
+            return np.array([r[0] / A[0, 0]]) if A[0, 0] != 0 else np.array([math.nan])
+        try:
+            return np.linalg.solve(A, r)
+        except np.linalg.LinAlgError:
+            return None
+
+    def update(self, c: np.ndarray) -> bool:
+        """Apply the increments (δλ, δs) = ``c`` and the state's; record the drift.
+
+        Returns:
+            False if the increment or λ is not finite.
+        """
+        ar, w, k = self.ar, self.w, self.k
+        if k == 0:
+            w.axpy(1.0, ar.a)
+            w.axpy(c[0], ar.b)
+            ar.a.axpy(c[0], ar.b)
+        else:
+            for j in range(k + 1):
+                ar.a.axpy(c[j], self.xs[j])  # the full state increment
+            w.axpy(1.0, ar.a)
+        self.lam += c[0]
+        self.s = self.s + c[1:]
+        ar.sync()
+        ar.set_lambda(self.lam)
+        a_norm = ar.a.norm()
+        self.rms = a_norm / self.n_sqrt / ar.L
+        if not (math.isfinite(self.rms) and math.isfinite(self.lam)):
+            return False
+        dw = max(a_norm / self.n_sqrt / ar.h, abs(c[0]) / max(1.0, abs(self.lam)))
+        self.drift = self.drift + dw if dw <= 0.1 * self.last_dw else math.inf
+        self.last_dw = dw
+        return True

@@ -319,129 +319,217 @@ def arclength_steps(ar: Arclength, st: ContinuationSettings, lam: float, lam_end
     Raises:
         ValueError: if ``control`` is given without ``secant_from``.
     """
-    w = ar.w
-    secant = secant_from is not None
-    if control is not None and not secant:
+    if control is not None and secant_from is None:
         raise ValueError("a control parameter needs secant tangents (secant_from)")
-    plane_c = scratch = None
-    if control is not None:  # cw plane_c·x = e·x: the hyperplane e·(w - w_p) = 0
-        plane_c = control.copy()
-        plane_c.scale(1.0 / ar.cw)
-        scratch = w.duplicate()
-    # the previous point's state (secant tangent) or tangent (Jacobian tangent: its orientation)
-    prev = w.duplicate()
-    zero = w.duplicate()
-    zero.set(0.0)
-    if secant:
-        secant_from[0].copy(prev)
-        lam_prev = secant_from[1]
-    # the Newton start: the predictor plus the quadratic term of the branch through the last
-    # point (x(s) = x_0 + s τ_0 + s² c, x(-h) the point before: c = (x_-1 - x_0 + h τ_0)/h²),
-    # an error of O(s³) instead of O(s²) (the hyperplane stays the predictor's: the same point)
-    quadratic = st.predictor == "quadratic" and not secant and control is None
-    last: tuple[Any, float, float] | None = None  # (w, λ, step) of the point before
-    curve = w.duplicate() if quadratic else None
-    if quadratic and previous is not None and previous[2] > 0:
-        last = (w.duplicate(), float(previous[1]), float(previous[2]))
-        last[0].array_w[:] = np.asarray(previous[0])[: w.getLocalSize()]
-    ds = st.ds
-    n = 0
+    loop = _ArclengthLoop(ar, st, lam, lam_end, direction, secant_from, reject, control,
+                          previous, corrector)
     try:
+        yield from loop.points()
+    finally:
+        loop.destroy()
+
+
+class _ArclengthLoop:
+    """One run of ``arclength_steps``: its position (λ, the step ``ds``), the previous
+    point's state and work vectors. The arguments are ``arclength_steps``'s."""
+
+    def __init__(self, ar: Arclength, st: ContinuationSettings, lam: float, lam_end: float,
+                 direction: float, secant_from: tuple[Any, float] | None,
+                 reject: Callable[[], bool] | None, control: Any,
+                 previous: tuple[np.ndarray, float, float] | None,
+                 corrector: dict[str, Any]) -> None:
+        self.ar, self.st, self.lam, self.lam_end, self.direction = ar, st, lam, lam_end, direction
+        self.reject, self.control, self.corrector = reject, control, corrector
+        w = ar.w
+        self.secant = secant_from is not None
+        self.plane_c = self.scratch = None
+        if control is not None:  # cw plane_c·x = e·x: the hyperplane e·(w - w_p) = 0
+            self.plane_c = control.copy()
+            self.plane_c.scale(1.0 / ar.cw)
+            self.scratch = w.duplicate()
+        # the previous point's state (secant tangent) or tangent (Jacobian tangent: its
+        # orientation)
+        self.prev = w.duplicate()
+        self.zero = w.duplicate()
+        self.zero.set(0.0)
+        self.lam_prev = math.nan
+        if secant_from is not None:
+            secant_from[0].copy(self.prev)
+            self.lam_prev = secant_from[1]
+        # the Newton start: the predictor plus the quadratic term of the branch through the
+        # last point (x(s) = x_0 + s τ_0 + s² c, x(-h) the point before: c = (x_-1 - x_0 +
+        # h τ_0)/h²), an error of O(s³) instead of O(s²) (the hyperplane stays the
+        # predictor's: the same point)
+        self.quadratic = st.predictor == "quadratic" and not self.secant and control is None
+        self.last: tuple[Any, float, float] | None = None  # (w, λ, step) of the point before
+        self.curve = w.duplicate() if self.quadratic else None
+        if self.quadratic and previous is not None and previous[2] > 0:
+            self.last = (w.duplicate(), float(previous[1]), float(previous[2]))
+            self.last[0].array_w[:] = np.asarray(previous[0])[: w.getLocalSize()]
+        self.ds = st.ds
+
+    def destroy(self) -> None:
+        """Free the work vectors."""
+        self.prev.destroy()
+        self.zero.destroy()
+        for v in (self.plane_c, self.scratch, self.curve,
+                  None if self.last is None else self.last[0]):
+            if v is not None:
+                v.destroy()
+
+    def points(self) -> Iterator[tuple[int, float, float, np.ndarray]]:
+        """The loop: a tangent, a converged step, the bookkeeping, per point.
+
+        Yields:
+            (iterations, step, τ_λ, the pins' multipliers) per point.
+        """
+        ar, st = self.ar, self.st
+        n = 0
         while n < st.max_steps:
-            if secant:
-                w.copy(ar.tw)
-                ar.tw.axpy(-1.0, prev)
-                tl = lam - lam_prev
-                if control is None:
-                    norm = math.sqrt(ar.cw * ar.tw.dot(ar.tw) + tl * tl)
-                else:
-                    norm = abs(control.dot(ar.tw))
-                    if not norm > 0.0:
-                        log.info("continuation: the control parameter stopped moving at "
-                                 "kappa L = %.6g", lam)
-                        return
-                ar.tw.scale(1.0 / norm)
-                ar.tl = tl / norm
-            w.copy(ar.w_old)
-            jumps = 0
-            ds_first = ds  # the step's first attempt (a retry after a failure: the predictor)
-            while True:
-                lam_p = lam + ds * ar.tl
-                landing = (lam_p - lam_end) * direction >= 0 and ar.tl * direction > 0
-                step = ds * ((lam_end - lam) / (lam_p - lam) if landing else 1.0)
-                ar.w_old.copy(w)
-                w.axpy(step, ar.tw)
-                w.copy(ar.wp)
-                lam_start = None
-                if last is not None and not landing and jumps == 0 and step == ds_first:
-                    h = last[2]
-                    last[0].copy(curve)  # c h² = x_-1 - x_0 + h τ_0
-                    curve.axpy(-1.0, ar.w_old)
-                    curve.axpy(h, ar.tw)
-                    w.axpy((step / h) ** 2, curve)
-                    lam_start = lam_p + (step / h) ** 2 * (last[1] - lam + h * ar.tl)
-                ar.sync()
-                if landing:  # λ = λ_end: the hyperplane τ = (0, 1)
-                    c = bordered_newton(ar, st, lam_end, plane=(zero, 1.0, zero), **corrector)
-                else:
-                    c = bordered_newton(ar, st, lam_p, lam_start, plane=None if plane_c is None
-                                         else (plane_c, 0.0, ar.wp), **corrector)
-                if c.ok and not landing and (c.lam - lam_end) * direction > 0:
-                    # the corrector crossed λ_end: land on it from the chord's interpolant
-                    f = (lam_end - lam) / (c.lam - lam)
-                    w.copy(ar.wp)
-                    ar.wp.axpy(-1.0, ar.w_old)
-                    ar.w_old.copy(w)
-                    w.axpy(f, ar.wp)
-                    ar.sync()
-                    landing = True
-                    step *= f
-                    c = bordered_newton(ar, st, lam_end, plane=(zero, 1.0, zero), **corrector)
-                if c.ok and jumped(w, ar.w_old, step * float(ar.tw.norm())):
-                    log.debug("continuation: a jump at kappa L = %.6g refused; step cut", c.lam)
-                    c = c._replace(ok=False)
-                if c.ok and control is not None and not landing and _turned(
-                        ar, scratch, c.lam - lam, step):
-                    # past a fold of the control there is no solution at the predictor's c
-                    # nearby: Newton lands on another part of the branch with that c
-                    log.debug("continuation: a turn at kappa L = %.6g refused; step cut", c.lam)
-                    c = c._replace(ok=False)
-                if c.ok and (reject is None or jumps >= 3 or not reject()):
-                    if secant:
-                        break
-                    ar.tw.copy(prev)
-                    if ar.tangent((prev, ar.tl), direction,
-                                  reuse=ar.drift <= st.factor_reuse):
-                        break
-                    # no tangent at the new point (its Jacobian not factored): cut the step
-                    log.debug("continuation: no tangent at kappa L = %.6g; step cut", c.lam)
-                elif c.ok:
-                    jumps += 1
-                ar.restore(lam)
-                ds *= 0.5
-                if ds < st.ds_min:
-                    log.info("continuation: step below ds_min at kappa L = %.6g", lam)
-                    return
-            if secant:
-                ar.w_old.copy(prev)
-                lam_prev = lam
-            elif quadratic:
-                if last is None:
-                    last = (w.duplicate(), 0.0, 0.0)
-                ar.w_old.copy(last[0])
-                last = (last[0], lam, step)
-            lam = c.lam
+            if self.secant and not self.secant_tangent():
+                return
+            got = self.next_point()
+            if got is None:
+                return
+            c, step, landing = got
+            if self.secant:
+                ar.w_old.copy(self.prev)
+                self.lam_prev = self.lam
+            elif self.quadratic:
+                if self.last is None:
+                    self.last = (ar.w.duplicate(), 0.0, 0.0)
+                ar.w_old.copy(self.last[0])
+                self.last = (self.last[0], self.lam, step)
+            self.lam = c.lam
             n += 1
             yield c.its, step, ar.tl, c.multipliers
             if landing:
                 return
-            ds = min(st.ds_max, max(st.ds_min, ds * _growth(c.its, st.target_newton_its)))
-    finally:
-        prev.destroy()
-        zero.destroy()
-        for v in (plane_c, scratch, curve, None if last is None else last[0]):
-            if v is not None:
-                v.destroy()
+            self.ds = min(st.ds_max, max(st.ds_min,
+                                         self.ds * _growth(c.its, st.target_newton_its)))
+
+    def secant_tangent(self) -> bool:
+        """The unit secant tangent through the last two points into (``tw``, ``tl``), or with
+        a control its scaling to a unit change of c.
+
+        Returns:
+            False if the control parameter stopped moving (the run ends).
+        """
+        ar, control = self.ar, self.control
+        ar.w.copy(ar.tw)
+        ar.tw.axpy(-1.0, self.prev)
+        tl = self.lam - self.lam_prev
+        if control is None:
+            norm = math.sqrt(ar.cw * ar.tw.dot(ar.tw) + tl * tl)
+        else:
+            norm = abs(control.dot(ar.tw))
+            if not norm > 0.0:
+                log.info("continuation: the control parameter stopped moving at "
+                         "kappa L = %.6g", self.lam)
+                return False
+        ar.tw.scale(1.0 / norm)
+        ar.tl = tl / norm
+        return True
+
+    def next_point(self) -> tuple[Any, float, bool] | None:
+        """The next point: steps tried, halved after each failure or refusal, until one is
+        accepted (with the Jacobian's tangent: its tangent computed too).
+
+        Returns:
+            (the ``Correction``, the step, whether it landed on λ_end); None when the step
+            fell below ``ds_min`` (the problem back at the last point).
+        """
+        ar, st, reject = self.ar, self.st, self.reject
+        ar.w.copy(ar.w_old)
+        jumps = 0
+        ds_first = self.ds  # the step's first attempt (a retry after a failure: the predictor)
+        while True:
+            c, step, landing = self.correct(self.ds, ds_first, jumps)
+            if c.ok and (reject is None or jumps >= 3 or not reject()):
+                if self.secant:
+                    return c, step, landing
+                ar.tw.copy(self.prev)
+                if ar.tangent((self.prev, ar.tl), self.direction,
+                              reuse=ar.drift <= st.factor_reuse):
+                    return c, step, landing
+                # no tangent at the new point (its Jacobian not factored): cut the step
+                log.debug("continuation: no tangent at kappa L = %.6g; step cut", c.lam)
+            elif c.ok:
+                jumps += 1
+            ar.restore(self.lam)
+            self.ds *= 0.5
+            if self.ds < st.ds_min:
+                log.info("continuation: step below ds_min at kappa L = %.6g", self.lam)
+                return None
+
+    def correct(self, ds: float, ds_first: float, jumps: int) -> tuple[Any, float, bool]:
+        """One attempt of step ``ds`` from the last point (``ar.w_old``): predictor,
+        corrector, a landing on λ_end if the step crosses it, and the refusal of a jump (or,
+        with a control, of a turn).
+
+        Args:
+            ds: the step tried.
+            ds_first: the step's first attempt (only it starts from the quadratic predictor).
+            jumps: the attempts of this step refused by ``reject`` so far.
+
+        Returns:
+            (the ``Correction``, the step taken, whether it lands on λ_end).
+        """
+        ar, st, lam, lam_end, corrector = self.ar, self.st, self.lam, self.lam_end, self.corrector
+        w = ar.w
+        lam_p = lam + ds * ar.tl
+        landing = (lam_p - lam_end) * self.direction >= 0 and ar.tl * self.direction > 0
+        step = ds * ((lam_end - lam) / (lam_p - lam) if landing else 1.0)
+        ar.w_old.copy(w)
+        w.axpy(step, ar.tw)
+        w.copy(ar.wp)
+        lam_start = None
+        if self.last is not None and not landing and jumps == 0 and step == ds_first:
+            lam_start = self.quadratic_start(step, lam_p)
+        ar.sync()
+        if landing:  # λ = λ_end: the hyperplane τ = (0, 1)
+            c = bordered_newton(ar, st, lam_end, plane=(self.zero, 1.0, self.zero), **corrector)
+        else:
+            c = bordered_newton(ar, st, lam_p, lam_start, plane=None if self.plane_c is None
+                                else (self.plane_c, 0.0, ar.wp), **corrector)
+        if c.ok and not landing and (c.lam - lam_end) * self.direction > 0:
+            # the corrector crossed λ_end: land on it from the chord's interpolant
+            f = (lam_end - lam) / (c.lam - lam)
+            w.copy(ar.wp)
+            ar.wp.axpy(-1.0, ar.w_old)
+            ar.w_old.copy(w)
+            w.axpy(f, ar.wp)
+            ar.sync()
+            landing = True
+            step *= f
+            c = bordered_newton(ar, st, lam_end, plane=(self.zero, 1.0, self.zero), **corrector)
+        if c.ok and jumped(w, ar.w_old, step * float(ar.tw.norm())):
+            log.debug("continuation: a jump at kappa L = %.6g refused; step cut", c.lam)
+            c = c._replace(ok=False)
+        if c.ok and self.control is not None and not landing and _turned(
+                ar, self.scratch, c.lam - lam, step):
+            # past a fold of the control there is no solution at the predictor's c nearby:
+            # Newton lands on another part of the branch with that c
+            log.debug("continuation: a turn at kappa L = %.6g refused; step cut", c.lam)
+            c = c._replace(ok=False)
+        return c, step, landing
+
+    def quadratic_start(self, step: float, lam_p: float) -> float:
+        """Add the quadratic term to the predicted state (``ar.w``).
+
+        Args:
+            step: the step taken.
+            lam_p: the predictor's λ.
+
+        Returns:
+            The λ Newton starts from, on the same quadratic.
+        """
+        ar, (w_last, lam_last, h) = self.ar, self.last
+        w_last.copy(self.curve)  # c h² = x_-1 - x_0 + h τ_0
+        self.curve.axpy(-1.0, ar.w_old)
+        self.curve.axpy(h, ar.tw)
+        ar.w.axpy((step / h) ** 2, self.curve)
+        return lam_p + (step / h) ** 2 * (lam_last - self.lam + h * ar.tl)
 
 
 #: with a ``control``, a step is refused whose secant turns from the predictor's direction by

@@ -84,111 +84,181 @@ def follow(problem: Any, settings: ContinuationSettings, kappa_end: float,
         raise InputError("locating critical points needs the arclength method (folds)")
     if resume is not None and resume.ended:
         return
-    blocks = (None,) if blocks is None else tuple(blocks)
-    L = problem.length_scale()
-    lam_end = kappa_end * L
-    prev: tuple[Point, np.ndarray, dict[Hashable, int]] | None = None
-    n_found = 0
-    folds_only = False
-    tl0: float | None = None  # the first point's dκ/ds (steps in κL: converted with it)
-    start: dict[str, Any] = dict(kappa_start=kappa_start)
-    st = settings
-    if resume is not None:
+    run = _Follow(problem, settings, kappa_end, crit, solver, nev=nev, blocks=blocks,
+                  locate_when=locate_when, locate_points=locate_points,
+                  kappa_start=kappa_start, resume=resume, track=track, scalars=scalars)
+    try:
+        yield from run.points()
+    finally:
+        run.destroy()
+
+
+class _Follow:
+    """One run of ``follow``: the continuation's start, the last point (point, state,
+    counts), the critical points found so far and the locator. The arguments are
+    ``follow``'s."""
+
+    def __init__(self, problem: Any, settings: ContinuationSettings, kappa_end: float,
+                 crit: CriticalSettings, solver: NewtonSolver | None, *, nev: int,
+                 blocks: Iterable[Hashable] | None,
+                 locate_when: Callable[[Point, dict[Hashable, int], dict[Hashable, int]], bool]
+                 | None, locate_points: bool, kappa_start: float,
+                 resume: FollowResume | None, track: Callable[[FollowResume], None] | None,
+                 scalars: bool) -> None:
+        self.problem, self.settings, self.kappa_end, self.crit = problem, settings, kappa_end, crit
+        self.nev, self.locate_when, self.locate_points = nev, locate_when, locate_points
+        self.track, self.scalars = track, scalars
+        self.blocks = (None,) if blocks is None else tuple(blocks)
+        self.L = problem.length_scale()
+        self.lam_end = kappa_end * self.L
+        self.prev: tuple[Point, np.ndarray, dict[Hashable, int]] | None = None
+        self.n_found = 0
+        self.folds_only = False
+        self.tl0: float | None = None  # the first point's dκ/ds (steps in κL: converted with it)
+        self.start: dict[str, Any] = dict(kappa_start=kappa_start)
+        self.st = settings
+        if resume is not None:
+            self.resume_from(resume)
+        self.own_solver = solver is None
+        self.ns = solver or NewtonSolver(problem)
+        self.stab = Stability(problem)
+        self.loc = Locator(problem, settings, crit, self.stab)
+        self.held: list[np.ndarray] = []  # the tangent the next step follows (for ``track``)
+
+    def destroy(self) -> None:
+        """Free the locator, the stability and a solver of the run's own."""
+        self.loc.destroy()
+        self.stab.destroy()
+        if self.own_solver:
+            self.ns.destroy()
+
+    def resume_from(self, r: FollowResume) -> None:
+        """The start after the point of ``r``: its state, settings, first tangent and step,
+        the point before, and the critical points found so far."""
         from mpi4py import MPI
 
-        r = resume
-        tl0 = r.tl0
-        st = replace(in_arclength(settings, r.tl0), max_steps=max(1, settings.max_steps - r.index))
+        problem, L, settings = self.problem, self.L, self.settings
+        self.tl0 = r.tl0
+        self.st = replace(in_arclength(settings, r.tl0),
+                          max_steps=max(1, settings.max_steps - r.index))
         set_state(problem, r.state)
         secant = r.state - r.state_prev
         dlam = (r.kappa - r.kappa_prev) * L
         moved = problem.comm.allreduce(bool(np.any(secant)), op=MPI.LOR) or dlam != 0
-        start = dict(kappa_start=r.kappa, start_index=r.index + 1, skip_first=True,
-                     initial_tangent=(secant, dlam) if moved else None, initial_ds=r.ds,
-                     tangent=None if r.tangent is None else (r.tangent, r.dkappa_ds),
-                     # the point before, for a quadratic predictor's first step
-                     previous=(r.state_prev, r.kappa_prev, r.step) if r.index > 0 else None)
-        prev = (Point(index=r.index, kappa=r.kappa, kappa_L=r.kappa * L,
-                      newton_its=r.newton_its, step=r.step, dkappa_ds=r.dkappa_ds,
-                      wall_time=0.0), r.state.copy(), dict(r.counts))
-        n_found, folds_only = r.found, r.folds_only
-    ns = solver or NewtonSolver(problem)
-    stab = Stability(problem)
-    loc = Locator(problem, settings, crit, stab)
-    held: list[np.ndarray] = []  # the tangent the next step follows (for ``track``)
+        self.start = dict(
+            kappa_start=r.kappa, start_index=r.index + 1, skip_first=True,
+            initial_tangent=(secant, dlam) if moved else None, initial_ds=r.ds,
+            tangent=None if r.tangent is None else (r.tangent, r.dkappa_ds),
+            # the point before, for a quadratic predictor's first step
+            previous=(r.state_prev, r.kappa_prev, r.step) if r.index > 0 else None)
+        self.prev = (Point(index=r.index, kappa=r.kappa, kappa_L=r.kappa * L,
+                           newton_its=r.newton_its, step=r.step, dkappa_ds=r.dkappa_ds,
+                           wall_time=0.0), r.state.copy(), dict(r.counts))
+        self.n_found, self.folds_only = r.found, r.folds_only
 
-    def hold(tw: np.ndarray, tl: float) -> None:
-        held[:] = [tw]
+    def hold(self, tw: np.ndarray, tl: float) -> None:
+        """Keep the tangent the next step follows (``continuation``'s ``on_tangent``)."""
+        self.held[:] = [tw]
 
-    try:
-        for p in continuation(problem, st, kappa_end=kappa_end, solver=ns, **start,
-                              on_tangent=None if track is None else hold, scalars=scalars):
-            if folds_only:
-                counts = dict(prev[2]) if prev is not None else {}
-                res = StabilityResult(stable=False, negative_count=negative_total(counts),
-                                      zero_count=0, counts=None)
-            elif blocks == (None,):
-                res = stab.check(nev=nev)
-                counts = {None: res.negative_count}
-                res.counts = counts
-            else:
-                counts = stab.negative_counts(blocks)
-                if prev is not None and locate_points and counts != prev[2] \
-                        and stab.rayleigh_quotients:
-                    counts = _confirmed_counts(stab, prev[2], counts)
-                vals = stab.eigenpairs(nev)[0] if nev > 0 else []
-                total = negative_total(counts)
-                res = StabilityResult(stable=total == 0, negative_count=total, zero_count=0,
-                                      eigenvalues=vals, counts=counts)
-            found: list[CriticalPoint] = []
-            if prev is not None and locate_points:
-                fold = (prev[0].dkappa_ds >= 0) != (p.dkappa_ds >= 0)
-                wanted = (locate_when(p, prev[2], counts) if locate_when is not None
-                          else counts != prev[2])
-                if fold or (wanted and not folds_only):
-                    w1 = get_state(problem)
-                    k1 = problem.get_kappa()
-                    left = (None if crit.max_critical is None
-                            else crit.max_critical - n_found)
-                    found = locate(loc, prev[0], prev[1], prev[2], p,
-                                   None if folds_only or not wanted else counts, w1,
-                                   limit=left)
-                    if crit.max_critical is not None:
-                        found = found[:left]
-                    n_found += len(found)
-                    # back to the branch point: the continuation goes on from it
-                    set_state(problem, w1)
-                    problem.set_kappa(k1)
+    def points(self) -> Iterator[tuple[Point, StabilityResult, list[CriticalPoint]]]:
+        """The continuation, with each point's stability and the critical points in its step.
+
+        Yields:
+            ``follow``'s triples.
+        """
+        crit, problem = self.crit, self.problem
+        for p in continuation(problem, self.st, kappa_end=self.kappa_end, solver=self.ns,
+                              **self.start, on_tangent=None if self.track is None else self.hold,
+                              scalars=self.scalars):
+            res, counts = self.stability()
+            found = self.locate_step(p, counts)
             stop = bool(found) and (
                 crit.stop_at_first or (crit.stop_at_fold and any(c.kind == "fold" for c in found))
-                or (crit.max_critical is not None and n_found >= crit.max_critical))
+                or (crit.max_critical is not None and self.n_found >= crit.max_critical))
             if crit.folds_only_after_first and any(c.kind != "fold" for c in found):
-                folds_only = True
+                self.folds_only = True
             state = get_state(problem)
-            if tl0 is None:
-                tl0 = p.dkappa_ds
-            if track is not None:
-                # the next step: the arclength loop's (the first: the settings' own)
-                st_arc = in_arclength(st, tl0)
-                ds = st_arc.ds if prev is None else next_step(st_arc, p.step, p.newton_its)
-                landed = abs(p.kappa_L - lam_end) <= 1e-12 * abs(lam_end)
-                track(FollowResume(
-                    index=p.index, kappa=p.kappa,
-                    kappa_prev=p.kappa if prev is None else prev[0].kappa,
-                    dkappa_ds=p.dkappa_ds, newton_its=p.newton_its, step=p.step, ds=ds,
-                    tl0=tl0, counts=dict(counts), found=n_found, folds_only=folds_only,
-                    ended=stop or landed, state=state,
-                    state_prev=state if prev is None else prev[1],
-                    tangent=held[-1] if held else None))
-            prev = (p, state, counts)
+            if self.tl0 is None:
+                self.tl0 = p.dkappa_ds
+            if self.track is not None:
+                self.checkpoint(p, counts, state, stop)
+            self.prev = (p, state, counts)
             yield p, res, found
             if stop:
                 return
-    finally:
-        loc.destroy()
-        stab.destroy()
-        if solver is None:
-            ns.destroy()
+
+    def stability(self) -> tuple[StabilityResult, dict[Hashable, int]]:
+        """The stability at the current point: the negative counts of the blocks (the last
+        point's, unchecked, once only folds are located).
+
+        Returns:
+            (the ``StabilityResult``, the counts by block).
+        """
+        prev, stab = self.prev, self.stab
+        if self.folds_only:
+            counts = dict(prev[2]) if prev is not None else {}
+            res = StabilityResult(stable=False, negative_count=negative_total(counts),
+                                  zero_count=0, counts=None)
+        elif self.blocks == (None,):
+            res = stab.check(nev=self.nev)
+            counts = {None: res.negative_count}
+            res.counts = counts
+        else:
+            counts = stab.negative_counts(self.blocks)
+            if prev is not None and self.locate_points and counts != prev[2] \
+                    and stab.rayleigh_quotients:
+                counts = _confirmed_counts(stab, prev[2], counts)
+            vals = stab.eigenpairs(self.nev)[0] if self.nev > 0 else []
+            total = negative_total(counts)
+            res = StabilityResult(stable=total == 0, negative_count=total, zero_count=0,
+                                  eigenvalues=vals, counts=counts)
+        return res, counts
+
+    def locate_step(self, p: Point, counts: dict[Hashable, int]) -> list[CriticalPoint]:
+        """The critical points in the step that ended at ``p`` (a fold where dκ/ds changed
+        sign; bifurcations where ``locate_when``, or a change of the counts, says so), at
+        most ``max_critical`` in all; the problem is left at ``p``.
+
+        Returns:
+            The critical points, in branch order.
+        """
+        prev, crit, problem = self.prev, self.crit, self.problem
+        if prev is None or not self.locate_points:
+            return []
+        fold = (prev[0].dkappa_ds >= 0) != (p.dkappa_ds >= 0)
+        wanted = (self.locate_when(p, prev[2], counts) if self.locate_when is not None
+                  else counts != prev[2])
+        if not (fold or (wanted and not self.folds_only)):
+            return []
+        w1 = get_state(problem)
+        k1 = problem.get_kappa()
+        left = None if crit.max_critical is None else crit.max_critical - self.n_found
+        found = locate(self.loc, prev[0], prev[1], prev[2], p,
+                       None if self.folds_only or not wanted else counts, w1, limit=left)
+        if crit.max_critical is not None:
+            found = found[:left]
+        self.n_found += len(found)
+        # back to the branch point: the continuation goes on from it
+        set_state(problem, w1)
+        problem.set_kappa(k1)
+        return found
+
+    def checkpoint(self, p: Point, counts: dict[Hashable, int], state: np.ndarray,
+                   stop: bool) -> None:
+        """``track`` the point ``p`` (its counts and state; ``stop``: the run ends there)."""
+        prev = self.prev
+        # the next step: the arclength loop's (the first: the settings' own)
+        st_arc = in_arclength(self.st, self.tl0)
+        ds = st_arc.ds if prev is None else next_step(st_arc, p.step, p.newton_its)
+        landed = abs(p.kappa_L - self.lam_end) <= 1e-12 * abs(self.lam_end)
+        self.track(FollowResume(
+            index=p.index, kappa=p.kappa,
+            kappa_prev=p.kappa if prev is None else prev[0].kappa,
+            dkappa_ds=p.dkappa_ds, newton_its=p.newton_its, step=p.step, ds=ds,
+            tl0=self.tl0, counts=dict(counts), found=self.n_found, folds_only=self.folds_only,
+            ended=stop or landed, state=state,
+            state_prev=state if prev is None else prev[1],
+            tangent=self.held[-1] if self.held else None))
 
 
 def state_kappa(ns: NewtonSolver, ar: Arclength, lam: float) -> float:

@@ -654,48 +654,81 @@ def _locate_crossing(loc: Locator, p0: Point, w0: np.ndarray, lo: _Eval, hi: _Ev
     bracket's high end, until |κ_hi - κ_lo| < ``rel_tol`` |κ|, or until that eigenvalue's
     root, interpolated through the samples nearest it, is that accurate and no other block
     moved inside the bracket. The point's block is that block."""
-    t0 = time.perf_counter()
-    crit = loc.crit
-    loc.start(w0, p0.kappa_L, p0.dkappa_ds, fold=False)
-    nev = crit.nev
-    # the crossing eigenvalues at both ends, from their converged states (no corrector):
-    # secant steps from the start. Not samples for the root's quadratic fit: a step's end can
-    # lie far from the crossing (past an imperfect bifurcation, near the other branch)
-    lo = replace(lo, counts={b: c0[b] for b in blocks}, eigs={})
-    hi = replace(hi, counts={b: c1[b] for b in blocks}, eigs={})
-    lo0 = lo
+    return _CrossingSearch(loc, p0, w0, lo, hi, blocks, c0, c1).run()
 
-    def moved_at(e: _Eval) -> list[Hashable]:
+
+class _CrossingSearch:
+    """One call of ``_locate_crossing``: the bracket (``lo``, ``hi``), the blocks suspected
+    of having crossed, the samples of the crossing eigenvalue and the trial counts. The
+    arguments are ``_locate_crossing``'s."""
+
+    def __init__(self, loc: Locator, p0: Point, w0: np.ndarray, lo: _Eval, hi: _Eval,
+                 blocks: tuple[Hashable, ...], c0: dict[Hashable, int],
+                 c1: dict[Hashable, int]) -> None:
+        self.t0 = time.perf_counter()
+        self.loc, self.p0, self.blocks, self.c0, self.c1 = loc, p0, blocks, c0, c1
+        self.crit = loc.crit
+        loc.start(w0, p0.kappa_L, p0.dkappa_ds, fold=False)
+        self.nev = self.crit.nev
+        # the crossing eigenvalues at both ends, from their converged states (no corrector):
+        # secant steps from the start. Not samples for the root's quadratic fit: a step's end
+        # can lie far from the crossing (past an imperfect bifurcation, near the other branch)
+        self.lo = replace(lo, counts={b: c0[b] for b in blocks}, eigs={})
+        self.hi = replace(hi, counts={b: c1[b] for b in blocks}, eigs={})
+        self.lo0 = self.lo
+        # the blocks that may have crossed by the high end: those moved at the last high end
+        # whose counts are all known. Trials check these only, and stop at the first that
+        # moved (a high side trial then costs one factorisation, not one per block)
+        self.suspects = self.moved_at(self.hi)
+        # the eigenvalues are Rayleigh quotients by quadrature (``Stability.eigenpairs``): their
+        # sign may overrule the inertia's next to 0 (``crossing``, ``settle``)
+        self.refined = loc.stab.rayleigh_quotients
+        self.samples: list[_Eval] = []
+        self.evals, self.failures = 0, 0
+        self.sides: list[bool] = []  # the side (low: True) each trial landed on
+        self.interpolated: tuple[float, float] | None = None
+        self.s_fail: float | None = None
+
+    def run(self) -> CriticalPoint:
+        """Trials until the bracket or the eigenvalue's root is accurate (or no trial
+        converges closer), then the critical point."""
+        while self.evals < self.crit.max_evaluations:
+            if self.done():
+                break
+            e = self.trial(self.next_sigma())
+            if e is None:
+                if self.failures < 5:
+                    continue
+                self.give_up()
+                break
+            self.accept(e)
+        return self.result()
+
+    def moved_at(self, e: _Eval) -> list[Hashable]:
         """The blocks known to have a count other than c0 at ``e`` (all, if none)."""
-        return [b for b in blocks if e.counts.get(b, c0[b]) != c0[b]] or list(blocks)
+        c0 = self.c0
+        return [b for b in self.blocks if e.counts.get(b, c0[b]) != c0[b]] or list(self.blocks)
 
-    # the blocks that may have crossed by the high end: those moved at the last high end whose
-    # counts are all known. Trials check these only, and stop at the first that moved (a high
-    # side trial then costs one factorisation, not one per block)
-    suspects = moved_at(hi)
-    # the eigenvalues are Rayleigh quotients by quadrature (``Stability.eigenpairs``): their
-    # sign may overrule the inertia's next to 0 (``crossing``, ``settle``)
-    refined = loc.stab.rayleigh_quotients
-
-    def complete(e: _Eval) -> None:
+    def complete(self, e: _Eval) -> None:
         """The counts of every suspect at ``e``."""
         if not e.complete:
-            missing = tuple(b for b in suspects if b not in e.counts)
-            e.counts.update(loc.counts_at(e, missing))
+            missing = tuple(b for b in self.suspects if b not in e.counts)
+            e.counts.update(self.loc.counts_at(e, missing))
             e.complete = True
 
-    def crossing(e: _Eval, b: Hashable) -> float:
+    def crossing(self, e: _Eval, b: Hashable) -> float:
         """The eigenvalue of block b that crosses 0, counted from 0 by the inertia (the
         nearest-0 eigenvalues computed need not hold the most negative ones): a count rising
         from c0, k = count - c0 past it: the smallest positive one before (k = 0), the k-th
         negative one counted from 0 after; a falling count: the mirror image. NaN where that
         eigenvalue was not computed."""
+        c0, nev = self.c0, self.nev
         k = e.counts.get(b, c0[b]) - c0[b]
-        rising = c1[b] >= c0[b]
+        rising = self.c1[b] >= c0[b]
         if abs(k) > nev - 1:
             return math.nan  # far past its crossing: not among the nearest-0 eigenvalues
         if b not in e.eigs:  # on demand: a few of the blocks need them, near the crossing
-            e.eigs.update(loc.eigs_at(e, nev, (b,)))
+            e.eigs.update(self.loc.eigs_at(e, nev, (b,)))
         vals = e.eigs[b]
         if rising and k <= 0 and sum(v < 0 for v in vals) > e.counts.get(b, c0[b]):
             # more negative eigenvalues than the inertia counts: the one nearest 0 lies at
@@ -712,7 +745,7 @@ def _locate_crossing(loc: Locator, p0: Point, w0: np.ndarray, lo: _Eval, hi: _Ev
             pos = [v for v in vals if v >= 0]
             if len(neg) >= k:
                 out = neg[k - 1]
-            elif refined and len(neg) == k - 1 and pos:
+            elif self.refined and len(neg) == k - 1 and pos:
                 # one negative fewer than the inertia counts: the crossing eigenvalue's
                 # Rayleigh quotient (``Stability.eigenpairs``) is still positive, the
                 # factorisation's sign being round-off this close to 0
@@ -721,21 +754,22 @@ def _locate_crossing(loc: Locator, p0: Point, w0: np.ndarray, lo: _Eval, hi: _Ev
                 out = math.nan  # unknown: not computed
         return out if rising else -out
 
-    def settle(e: _Eval) -> None:
+    def settle(self, e: _Eval) -> None:
         """The side of ``e`` for the followed block, where its count changes by one across
         the step, decided by the sign of its crossing eigenvalue where that is known and
         disagrees with the inertia: the eigenvalue is a Rayleigh quotient, accurate to far
         below the factorisation's round-off (``Stability.eigenpairs``), which decides the
         inertia's sign within about ε ||H|| of 0, large on the 1D model's stiff blocks (a
         bracket decided by it would exclude the root that its eigenvalue samples give)."""
-        b = moved_at(hi)[0]
+        c0, c1 = self.c0, self.c1
+        b = self.moved_at(self.hi)[0]
         # the trial at most one count past c0: the crossing eigenvalue is the first to cross
         # (a closed sphere's m = 0 block gains 148 in one step at h/R = 1e-4: its first
         # crossing decides the side as well, and its count one past c0 can be round-off)
-        if not refined or c1[b] == c0[b] or b not in e.counts \
+        if not self.refined or c1[b] == c0[b] or b not in e.counts \
                 or abs(e.counts[b] - c0[b]) > 1:
             return
-        f = crossing(e, b)
+        f = self.crossing(e, b)
         if not math.isfinite(f):
             return
         rising = c1[b] > c0[b]
@@ -745,144 +779,174 @@ def _locate_crossing(loc: Locator, p0: Point, w0: np.ndarray, lo: _Eval, hi: _Ev
                       "not the inertia (count %d)", f, b, e.counts[b])
             e.counts[b] = (c0[b] + (1 if rising else -1)) if crossed else c0[b]
 
-    def is_low(e: _Eval) -> bool:
-        return all(e.counts[b] == c0[b] for b in e.counts)
+    def is_low(self, e: _Eval) -> bool:
+        """Whether every count known at ``e`` is still c0's."""
+        return all(e.counts[b] == self.c0[b] for b in e.counts)
 
-    def tracked() -> tuple[Hashable, float | None]:
+    def tracked(self) -> tuple[Hashable, float | None]:
         """The block followed, and the linear root (κL) of its crossing eigenvalue in the
         bracket (None if unknown): the first of the blocks whose count changed by the high end.
         The inertia of all of them decides the bracket, so it closes on the first crossing of
         any; eigenvalues are computed for the followed block only (a closed sphere's multiplet
         spreads over dozens of Fourier blocks)."""
-        b = moved_at(hi)[0]
-        fh = crossing(hi, b)
-        fl = crossing(lo, b) if math.isfinite(fh) else math.nan
+        lo, hi = self.lo, self.hi
+        b = self.moved_at(hi)[0]
+        fh = self.crossing(hi, b)
+        fl = self.crossing(lo, b) if math.isfinite(fh) else math.nan
         if math.isfinite(fl) and math.isfinite(fh) and fl * fh < 0:
             return b, lo.lam + fl * (hi.lam - lo.lam) / (fl - fh)
         return b, None
 
-    samples: list[_Eval] = []
-
-    def eig_root() -> tuple[float, float] | None:
+    def eig_root(self) -> tuple[float, float] | None:
         """Root of the first crossing eigenvalue in κL: linear in the bracket, quadratic
         through the three samples nearest it; their difference estimates the error."""
-        b, lin = tracked()
+        b, lin = self.tracked()
         if lin is None:
             return None
-        pts = sorted((q for q in samples if math.isfinite(crossing(q, b))),
+        pts = sorted((q for q in self.samples if math.isfinite(self.crossing(q, b))),
                      key=lambda q: abs(q.lam - lin))[:3]
         if len(pts) < 3 or len({q.lam for q in pts}) < 3:
             return None
-        c = np.polyfit([q.lam - lin for q in pts], [crossing(q, b) for q in pts], 2)
+        c = np.polyfit([q.lam - lin for q in pts], [self.crossing(q, b) for q in pts], 2)
         roots = np.roots(c)
         roots = roots[np.abs(roots.imag) < 1e-14].real + lin
+        lo, hi = self.lo, self.hi
         roots = roots[(roots - min(lo.lam, hi.lam)) * (roots - max(lo.lam, hi.lam)) <= 0]
         if roots.size == 0:
             return None
         quad = float(roots[np.argmin(np.abs(roots - lin))])
         return quad, abs(quad - lin)
 
-    evals, failures = 0, 0
-    sides: list[bool] = []  # the side (low: True) each trial landed on
-    interpolated: tuple[float, float] | None = None
-    s_fail: float | None = None
-    while evals < crit.max_evaluations:
+    def done(self) -> bool:
+        """Whether the search ends before another trial: the bracket is accurate, the
+        crossing lies at its low end, it has shrunk to nothing in arclength, or the
+        eigenvalue's root is accurate and no other block crossed in it (``interpolated``
+        set by the last two)."""
+        lo, hi, crit, c0, c1 = self.lo, self.hi, self.crit, self.c0, self.c1
         width = hi.sigma - lo.sigma
-        if abs(hi.lam - lo.lam) <= crit.rel_tol * abs(lo.lam) * 0.5 and evals >= 1:
-            break
-        b_t = tracked()[0]
-        fl, fh = crossing(lo, b_t), crossing(hi, b_t)
+        if abs(hi.lam - lo.lam) <= crit.rel_tol * abs(lo.lam) * 0.5 and self.evals >= 1:
+            return True
+        b_t = self.tracked()[0]
+        fl, fh = self.crossing(lo, b_t), self.crossing(hi, b_t)
         if fl * fh > 0 and (fl < 0) == (c1[b_t] > c0[b_t]):
             # the crossing eigenvalue has crossed at the low end already (its inertia there
             # was decided by round-off): the crossing lies just before it, extrapolated
             # linearly with the eigenvalue's slope over the bracket
             slope = (fh - fl) / (hi.lam - lo.lam)
-            interpolated = (lo.lam - fl / slope, abs(fl / slope))
+            self.interpolated = (lo.lam - fl / slope, abs(fl / slope))
             log.info("critical point at the bracket's low end kappa L = %.8g: its crossing "
                      "eigenvalue %.3e has the sign of the high end", lo.lam, fl)
-            break
+            return True
         if width <= 1e-7 * max(hi.sigma, 1e-300):
             # κ jumps across a vanishing arclength interval: the path turns sharply, as at a
             # bifurcation made imperfect by the mesh's broken rotational symmetry; the
             # crossing cannot be pinned closer than this jump (reported as accuracy)
-            break
-        r = eig_root()
+            return True
+        r = self.eig_root()
         if r is not None and r[1] <= 0.25 * crit.rel_tol * abs(r[0]):
             # accurate, if no other block crossed in the bracket (it might cross first)
-            complete(hi)
-            if len(moved_at(hi)) == 1:
-                interpolated = eig_root()
-                break
-            suspects = moved_at(hi)
-        b_t = tracked()[0]
-        s = _secant(lo, hi, crossing(lo, b_t), crossing(hi, b_t), sides)
-        if s_fail is not None and s >= s_fail:
+            self.complete(hi)
+            if len(self.moved_at(hi)) == 1:
+                self.interpolated = self.eig_root()
+                return True
+            self.suspects = self.moved_at(hi)
+        return False
+
+    def next_sigma(self) -> float:
+        """The next trial's σ: a secant step on the followed block's crossing eigenvalue,
+        halfway to the nearest failed trial if it lies beyond that."""
+        lo, hi = self.lo, self.hi
+        b_t = self.tracked()[0]
+        s = _secant(lo, hi, self.crossing(lo, b_t), self.crossing(hi, b_t), self.sides)
+        if self.s_fail is not None and s >= self.s_fail:
             # the corrector failed there: approach the critical point from the near side,
             # where the Jacobian is better conditioned
-            s = lo.sigma + 0.5 * (s_fail - lo.sigma)
+            s = lo.sigma + 0.5 * (self.s_fail - lo.sigma)
+        return s
+
+    def trial(self, s: float) -> _Eval | None:
+        """The trial at σ = ``s``, its counts checked for the suspects (those moved at the
+        high end first).
+
+        Returns:
+            The trial, or None if its corrector failed (counted in ``failures``).
+        """
+        c0, hi, suspects = self.c0, self.hi, self.suspects
         first = [b for b in suspects if hi.counts.get(b, c0[b]) != c0[b]]
-        e = _trial(loc, s, lo, hi, tuple(first + [b for b in suspects if b not in first]), c0)
+        e = _trial(self.loc, s, self.lo, hi,
+                   tuple(first + [b for b in suspects if b not in first]), c0)
         if e is None:
             # right next to a bifurcation (a nearby bifurcated branch, a nearly singular
-            # Jacobian) Newton may not converge: retry nearer the low end; in the end keep
-            # what is known, the bracket (and the eigenvalue interpolation), and report its
-            # width as the accuracy
-            failures += 1
-            s_fail = s if s_fail is None else min(s_fail, s)
-            if failures < 5:
-                continue
-            interpolated = eig_root()
-            if interpolated is not None:
-                log.info("critical point at kappa L = %.8g from the eigenvalue samples "
-                         "(+- %.2g): the corrector does not converge closer to it",
-                         *interpolated)
-            else:
-                log.info("critical point located to the bracket kappa L in [%.6g, %.6g] only: "
-                         "the corrector does not converge closer to it", lo.lam, hi.lam)
-            break
-        evals += 1
-        samples.append(e)
-        settle(e)
-        sides.append(is_low(e))
-        if sides[-1]:
-            lo = e
+            # Jacobian) Newton may not converge: retry nearer the low end
+            self.failures += 1
+            self.s_fail = s if self.s_fail is None else min(self.s_fail, s)
+        return e
+
+    def give_up(self) -> None:
+        """After 5 failed trials keep what is known: the bracket (and the eigenvalue
+        interpolation), its width reported as the accuracy."""
+        self.interpolated = self.eig_root()
+        if self.interpolated is not None:
+            log.info("critical point at kappa L = %.8g from the eigenvalue samples "
+                     "(+- %.2g): the corrector does not converge closer to it",
+                     *self.interpolated)
         else:
-            hi = e
-            if hi.complete:
-                suspects = moved_at(hi)
-    block, lin = tracked()
-    if interpolated is not None:
-        lam_star, accuracy = interpolated
-    elif lin is not None:
-        lam_star, accuracy = lin, abs(hi.lam - lo.lam)
-    else:
-        lam_star = 0.5 * (lo.lam + hi.lam)
-        accuracy = abs(hi.lam - lo.lam) / 2
-    # the mode at the trial point nearest the critical point (on the near side)
-    near = lo if lo.sigma > lo0.sigma else hi
-    fl, fh = crossing(lo, block), crossing(hi, block)
-    if math.isfinite(fl) and math.isfinite(fh) and fl != fh and hi.lam != lo.lam \
-            and not refined:
-        # no better than the round-off of the crossing eigenvalue allows. Not measured where
-        # the eigenvalues are Rayleigh quotients by quadrature (``Stability.eigenpairs``):
-        # their round-off lies below the interpolation's error, and measuring it costs 2
-        # solves and 2 eigensolves (docs/design-notes.md, "Locator: round-off of the
-        # crossing eigenvalue")
-        accuracy = max(accuracy, loc.eigenvalue_roundoff(near, block)
-                       * abs(hi.lam - lo.lam) / abs(fh - fl))
-    if interpolated is not None and hi.lam != lo.lam:
-        # the root was interpolated from eigenvalue samples: its nearest trial state may lie
-        # well away from it (a branch switch starts from the state); one trial at the root
-        s_star = lo.sigma + (lam_star - lo.lam) / (hi.lam - lo.lam) * (hi.sigma - lo.sigma)
-        try:
-            e_star = loc.evaluate(s_star)
-            evals += 1
-            if abs(e_star.lam - lam_star) < abs(near.lam - lam_star):
-                near = e_star
-        except RuntimeError:
-            pass
-    return _critical_point(loc, "bifurcation", lam_star, (lo.lam, hi.lam), accuracy, near,
-                           block, c0[block], c1[block], evals, p0, t0)
+            log.info("critical point located to the bracket kappa L in [%.6g, %.6g] only: "
+                     "the corrector does not converge closer to it", self.lo.lam, self.hi.lam)
+
+    def accept(self, e: _Eval) -> None:
+        """A converged trial: a sample of the eigenvalue, and the new low or high end."""
+        self.evals += 1
+        self.samples.append(e)
+        self.settle(e)
+        self.sides.append(self.is_low(e))
+        if self.sides[-1]:
+            self.lo = e
+        else:
+            self.hi = e
+            if e.complete:
+                self.suspects = self.moved_at(e)
+
+    def result(self) -> CriticalPoint:
+        """The critical point: the root (interpolated, linear, or the bracket's middle),
+        its accuracy, and the mode of the trial nearest it (one more trial at an
+        interpolated root)."""
+        lo, hi, loc = self.lo, self.hi, self.loc
+        block, lin = self.tracked()
+        if self.interpolated is not None:
+            lam_star, accuracy = self.interpolated
+        elif lin is not None:
+            lam_star, accuracy = lin, abs(hi.lam - lo.lam)
+        else:
+            lam_star = 0.5 * (lo.lam + hi.lam)
+            accuracy = abs(hi.lam - lo.lam) / 2
+        # the mode at the trial point nearest the critical point (on the near side)
+        near = lo if lo.sigma > self.lo0.sigma else hi
+        fl, fh = self.crossing(lo, block), self.crossing(hi, block)
+        if math.isfinite(fl) and math.isfinite(fh) and fl != fh and hi.lam != lo.lam \
+                and not self.refined:
+            # no better than the round-off of the crossing eigenvalue allows. Not measured
+            # where the eigenvalues are Rayleigh quotients by quadrature
+            # (``Stability.eigenpairs``): their round-off lies below the interpolation's
+            # error, and measuring it costs 2 solves and 2 eigensolves (docs/design-notes.md,
+            # "Locator: round-off of the crossing eigenvalue")
+            accuracy = max(accuracy, loc.eigenvalue_roundoff(near, block)
+                           * abs(hi.lam - lo.lam) / abs(fh - fl))
+        if self.interpolated is not None and hi.lam != lo.lam:
+            # the root was interpolated from eigenvalue samples: its nearest trial state may
+            # lie well away from it (a branch switch starts from the state); one trial at the
+            # root
+            s_star = lo.sigma + (lam_star - lo.lam) / (hi.lam - lo.lam) * (hi.sigma - lo.sigma)
+            try:
+                e_star = loc.evaluate(s_star)
+                self.evals += 1
+                if abs(e_star.lam - lam_star) < abs(near.lam - lam_star):
+                    near = e_star
+            except RuntimeError:
+                pass
+        return _critical_point(loc, "bifurcation", lam_star, (lo.lam, hi.lam), accuracy,
+                               near, block, self.c0[block], self.c1[block], self.evals,
+                               self.p0, self.t0)
 
 
 def _secant(lo: _Eval, hi: _Eval, fl: float, fh: float, sides: list[bool]) -> float:

@@ -547,6 +547,19 @@ class Stability:
             petsc4py.PETSc.Error: if the solve fails (an exactly singular block); the
                 layout's EPS is then replaced at the next solve.
         """
+        eps, H, nev = self._solve_eigenproblem(block, nev, ncv, assemble)
+        return self._eigenpairs_of(eps, H, nev, block, modes, refine)
+
+    def _solve_eigenproblem(self, block: Hashable, nev: int, ncv: int | None,
+                            assemble: bool) -> tuple[Any, Any, int]:
+        """The shift-invert solve of ``eigenpairs`` (its arguments).
+
+        Returns:
+            (the solved EPS, the block's matrix H, nev bounded by the block's size).
+
+        Raises:
+            petsc4py.PETSc.Error: as ``eigenpairs``.
+        """
         b = self.block_solvers(block)
         eps = b.eigensolver()
         # the problem's own factorisation where it has one (``block_factor``; not with a
@@ -592,6 +605,12 @@ class Stability:
             log.warning("SLEPc: %d of the %d eigenpairs nearest 0 converged (reason %d, %d "
                         "iterations)", eps.getConverged(), nev, int(eps.getConvergedReason()),
                         eps.getIterationNumber())
+        return eps, H, nev
+
+    def _eigenpairs_of(self, eps: Any, H: Any, nev: int, block: Hashable, modes: bool,
+                       refine: bool) -> tuple[list[float], list[Any]]:
+        """The first ``nev`` converged pairs of the solved ``eps``, as ``eigenpairs`` returns
+        them (Rayleigh quotients with ``refine``, eigenvectors with ``modes``)."""
         quadratic = (self.problem.hessian_quadratic if refine and self.rayleigh_quotients
                      else None)
         M = self.mass(block) if quadratic is not None else None

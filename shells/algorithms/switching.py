@@ -225,148 +225,266 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
         raise InputError(f"the first amplitude ds must be positive, got {ds}")
     if settings.ds_unit != "arclength":
         raise InputError("switch_branch takes its steps in arclength (ds_unit='arclength')")
-    ns = solver or NewtonSolver(problem)
-    L = problem.length_scale()
-    ar = Arclength(ns, L, settings.state_weight)
-    n = ar.w.getLocalSize()
-    wc = ar.w.duplicate()
-    wp = wc.duplicate()
-    dirs: list[Any] = []
-    amp_dir = tangent = pred = defl_stab = steps = resume_prev = None
-    extra: list[Any] = []
-    t_start = time.perf_counter()
+    sw = _Switch(problem, cp, settings, kappa_end, solver, ds=ds, sign=sign, pinned=pinned,
+                 factors=factors, min_amplitude=min_amplitude, release_pins=release_pins,
+                 deflate=deflate, resume=resume, track=track, control=control,
+                 cluster=cluster, response=response, phase=phase)
     try:
-        ar.w.array_w[:] = cp.state[:n]
+        yield from sw.run()
+    finally:
+        sw.destroy()
+
+
+class _Switch:
+    """One run of ``switch_branch``: its critical state, directions, correctors and the
+    position along the bifurcated branch. The arguments are ``switch_branch``'s."""
+
+    def __init__(self, problem: Any, cp: CriticalPoint, settings: ContinuationSettings,
+                 kappa_end: float, solver: NewtonSolver | None, *, ds: float, sign: float,
+                 pinned: int | None, factors: tuple[float, ...], min_amplitude: float,
+                 release_pins: int | None, deflate: int, resume: SwitchResume | None,
+                 track: Callable[[SwitchResume], None] | None, control: Any, cluster: int,
+                 response: bool, phase: Sequence[Any]) -> None:
+        self.problem, self.cp, self.settings, self.kappa_end = problem, cp, settings, kappa_end
+        self.ds, self.sign, self.pinned, self.factors = ds, sign, pinned, factors
+        self.min_amplitude, self.release_pins, self.deflate = min_amplitude, release_pins, deflate
+        self.resume, self.track, self.control = resume, track, control
+        self.cluster, self.response, self.phase = cluster, response, phase
+        self.own_solver = solver is None
+        self.ns = solver or NewtonSolver(problem)
+        self.L = problem.length_scale()
+        self.ar = Arclength(self.ns, self.L, settings.state_weight)
+        self.n = self.ar.w.getLocalSize()
+        self.wc = self.ar.w.duplicate()
+        self.wp = self.wc.duplicate()
+        self.dirs: list[Any] = []
+        self.amp_dir = self.tangent = self.pred = self.defl_stab = self.steps = None
+        self.resume_prev = None
+        self.extra: list[Any] = []
+        self.t_start = time.perf_counter()
+
+    def destroy(self) -> None:
+        """Close the arclength loop and free every vector and solver the run made."""
+        if self.steps is not None:
+            self.steps.close()
+        for v in (self.wc, self.wp, *self.dirs,
+                  *([] if self.resume_prev is None else [self.resume_prev]), *self.extra):
+            v.destroy()
+        for obj in (self.amp_dir, self.tangent, self.pred, self.defl_stab):
+            if obj is not None:
+                obj.destroy()
+        if self.own_solver:
+            self.ns.destroy()
+
+    def run(self) -> Iterator[Point]:
+        """The stages in order: the critical state and its directions, the first point (or
+        the resumed one), the arclength steps.
+
+        Yields:
+            The points (``switch_branch``'s).
+        """
+        self.critical_state()
+        self.set_directions()
+        self.set_correctors()
+        c = self.first_point()
+        if self.resume is None:
+            yield self.start_fresh(c)
+        else:
+            self.start_resumed()
+        yield from self.follow()
+
+    def critical_state(self) -> None:
+        """The critical state w_c (into ``wc``) and its λ_c by least squares; the range."""
+        ar = self.ar
+        ar.w.array_w[:] = self.cp.state[:self.n]
         ar.sync()
-        lam_c = state_kappa(ns, ar, cp.kappa_L)
-        lam_end = kappa_end * L
-        ar.lam_ref = 0.01 * max(abs(lam_c), abs(lam_end))
-        max_dlam = 2.0 * abs(lam_end - lam_c) + 0.1 * abs(lam_c)
-        ar.w.copy(wc)
+        self.lam_c = state_kappa(self.ns, ar, self.cp.kappa_L)
+        self.lam_end = self.kappa_end * self.L
+        ar.lam_ref = 0.01 * max(abs(self.lam_c), abs(self.lam_end))
+        self.max_dlam = 2.0 * abs(self.lam_end - self.lam_c) + 0.1 * abs(self.lam_c)
+        ar.w.copy(self.wc)
+
+    def set_directions(self) -> None:
+        """The critical eigenspace, the pins, the deflation, and the amplitude's direction
+        φ̂_0 with the fundamental branch's tangent and the first predictor."""
+        problem, control = self.problem, self.control
+        cp, pinned = self.cp, self.pinned
         k = 1 if control is not None else max(1, cp.multiplicity if pinned is None else pinned)
-        dirs, vals = _critical_directions(problem, ar, cp.mode,
-                                          max(k, cluster) if control is not None else k)
-        pins = list(phase) if control is not None else dirs[1:k]  # (k = 1 with a control)
-        defl_stab = Stability(problem) if deflate else None
-        defl = Deflation(problem, defl_stab, deflate, keep=dirs[0]) if deflate else None
-        log.info("switch: critical state at kappa L = %.6g, eigenvalues %s", lam_c,
-                 ", ".join(f"{v:.3e}" for v in vals))
+        self.dirs, self.vals = _critical_directions(
+            problem, self.ar, cp.mode, max(k, self.cluster) if control is not None else k)
+        # (k = 1 with a control)
+        self.pins = list(self.phase) if control is not None else self.dirs[1:k]
+        self.defl_stab = Stability(problem) if self.deflate else None
+        self.defl = (Deflation(problem, self.defl_stab, self.deflate, keep=self.dirs[0])
+                     if self.deflate else None)
+        log.info("switch: critical state at kappa L = %.6g, eigenvalues %s", self.lam_c,
+                 ", ".join(f"{v:.3e}" for v in self.vals))
+        # the amplitude is taken along φ_0 made orthogonal (in the continuation norm's
+        # inner product) to the fundamental branch's tangent at w_c: the DOF inner product is
+        # not the physical one (the 1D model's unknowns carry no area weight), so φ_0 itself
+        # can overlap the fundamental branch's direction, whose own motion in κ would then
+        # meet the amplitude condition (docs/design-notes.md, "Branch switching")
+        self.amp_dir, self.tangent = _off_branch_direction(problem, self.ns, self.ar,
+                                                           self.dirs[0])
+        self.pred = self.dirs[0].copy()
+        self.pred.scale(1.0 / (self.ar.cw * self.amp_dir.dot(self.dirs[0])))
+
+    def set_correctors(self) -> None:
+        """The correctors' settings and keywords (first point, along the branch, strict),
+        and the control's bookkeeping (its value at w_c; from ``resume`` if given)."""
+        settings, ar, resume = self.settings, self.ar, self.resume
         # the first corrector starts off the branch, from the mode's linear prediction
-        st_first = replace(settings, max_newton_its=max(settings.max_newton_its, 30))
-        corrector = dict(pins=pins, wc=wc, singular_ok=True, deflate=defl, max_dlam=max_dlam,
-                         keep_best=False)
+        self.st_first = replace(settings, max_newton_its=max(settings.max_newton_its, 30))
+        self.corrector = dict(pins=self.pins, wc=self.wc, singular_ok=True, deflate=self.defl,
+                              max_dlam=self.max_dlam, keep_best=False)
         # with a control, each point off the first corrector's is converged by plain Newton to
         # ``newton_tol``: at fixed c the Jacobian is regular on the branch, and the
         # corrector's acceptance of a stalled Newton (``singular_ok``: the residual bound
         # after 3 iterations) kept states off the branch there; the deflation, which removes
         # the cluster's components from every increment, bent the branch onto others
         # (docs/design-notes.md, "Branch switching")
-        strict = dict(corrector, singular_ok=False, deflate=None)
+        self.strict = dict(self.corrector, singular_ok=False, deflate=None)
         # the first point, a small amplitude along the mode, lies next to κ_c: a corrector
         # that went farther than a quarter of κ_c (plus 1 % of the range) converged onto
         # another branch (docs/model.md, "The 1D model's closed sphere"); it is refused like a
         # failure and the next amplitude is tried
-        first_corrector = dict(corrector, max_dlam=min(max_dlam,
-                                                       0.25 * abs(lam_c) + ar.lam_ref))
-        sgn = 1.0 if sign >= 0 else -1.0
-
-        # the amplitude is taken along φ_0 made orthogonal (in the continuation norm's
-        # inner product) to the fundamental branch's tangent at w_c: the DOF inner product is
-        # not the physical one (the 1D model's unknowns carry no area weight), so φ_0 itself
-        # can overlap the fundamental branch's direction, whose own motion in κ would then
-        # meet the amplitude condition (docs/design-notes.md, "Branch switching")
-        amp_dir, tangent = _off_branch_direction(problem, ns, ar, dirs[0])
-        pred = dirs[0].copy()
-        pred.scale(1.0 / (ar.cw * amp_dir.dot(dirs[0])))
-
-        def amplitude() -> float:
-            ar.w.copy(wp)
-            wp.axpy(-1.0, wc)
-            return ar.cw * amp_dir.dot(wp)
-
-        c_c = 0.0 if control is None else control.dot(wc)
-        by_arc = [resume is not None and resume.by_arclength]  # past a fold of the control
-        arc_max = [0.0 if resume is None else resume.ds_max]  # the arclength steps' ds_max
+        self.first_corrector = dict(self.corrector, max_dlam=min(
+            self.max_dlam, 0.25 * abs(self.lam_c) + ar.lam_ref))
+        self.sgn = 1.0 if self.sign >= 0 else -1.0
+        self.c_c = 0.0 if self.control is None else self.control.dot(self.wc)
+        self.by_arc = resume is not None and resume.by_arclength  # past a fold of the control
+        self.arc_max = 0.0 if resume is None else resume.ds_max  # the arclength steps' ds_max
         # the smallest arclength per unit change of c: near a fold of c it grows without bound
-        stretch_min = [math.inf if resume is None or not resume.stretch_min > 0
-                       else resume.stretch_min]
+        self.stretch_min = (math.inf if resume is None or not resume.stretch_min > 0
+                            else resume.stretch_min)
 
-        def side_amplitude() -> float:
-            """What decides the side: the amplitude along φ_0, or c - c_c with a control."""
-            return amplitude() if control is None else control.dot(ar.w) - c_c
+    def amplitude(self) -> float:
+        """The amplitude cw φ̂_0·(w - w_c); leaves w - w_c in ``wp``."""
+        self.ar.w.copy(self.wp)
+        self.wp.axpy(-1.0, self.wc)
+        return self.ar.cw * self.amp_dir.dot(self.wp)
 
-        def deviation() -> float:
-            """The distance (continuation norm) of the state from the fundamental branch's
-            linear prediction w_c + (λ - λ_c) z: unlike the amplitude along φ_0 it stays
-            large on a branch that has left the mode's shape (a dimple localised at one pole
-            of a sphere, whose projection on P_n can shrink and change sign)."""
-            ar.w.copy(wp)
-            wp.axpy(-1.0, wc)
-            wp.axpy(-(ar.get_lambda() - lam_c), tangent)
-            return math.sqrt(max(ar.cw * wp.dot(wp), 0.0))
+    def side_amplitude(self) -> float:
+        """What decides the side: the amplitude along φ_0, or c - c_c with a control."""
+        if self.control is None:
+            return self.amplitude()
+        return self.control.dot(self.ar.w) - self.c_c
 
-        def crossed(amp: float, dev: float) -> bool:
-            """On the other side of the mode: the amplitude changed sign and the state lies
-            along -φ_0 (its deviation ``dev`` is mostly that amplitude), i.e. a step jumped
-            across the fundamental branch, not a branch that left the mode's shape."""
-            if control is not None:  # (past a fold of c, c - c_c may change sign freely)
-                return amp * a1 < 0 and not by_arc[0]
-            return amp * a1 < 0 and abs(amp) >= 0.5 * dev
+    def deviation(self) -> float:
+        """The distance (continuation norm) of the state from the fundamental branch's
+        linear prediction w_c + (λ - λ_c) z: unlike the amplitude along φ_0 it stays
+        large on a branch that has left the mode's shape (a dimple localised at one pole
+        of a sphere, whose projection on P_n can shrink and change sign)."""
+        ar, wp = self.ar, self.wp
+        ar.w.copy(wp)
+        wp.axpy(-1.0, self.wc)
+        wp.axpy(-(ar.get_lambda() - self.lam_c), self.tangent)
+        return math.sqrt(max(ar.cw * wp.dot(wp), 0.0))
 
-        def point(index: int, its: int, step: float, tl: float, s: np.ndarray) -> Point:
-            sc = problem.scalars()
-            sc["mode_amplitude"] = amplitude()
-            sc["kappa_c"] = lam_c / L  # where the branch leaves the fundamental one
-            info = problem.classify_mode(wp, None)  # wp: w - w_c (left by amplitude())
-            sc["deviation_m"], sc["deviation_n"] = info.m, info.n
-            wp.set(0.0)
-            for j, pin in enumerate(pins):
-                wp.axpy(s[j], pin)
-            sc["pin_force"] = float(wp.norm())
-            sc["residual"] = ns.residual_norm()
-            # (with the corrector's last Jacobian and ∂R/∂λ)
-            sc["residual_bound"] = ar.residual_bound(settings, ar.get_lambda())
-            if control is not None:  # 1: at a fixed c, 0: by arclength past a fold of c
-                sc["control_parameter"] = 0.0 if by_arc[0] else 1.0
-            return Point(index=index, kappa=ar.get_lambda() / L, kappa_L=ar.get_lambda(),
-                         newton_its=its, step=step, dkappa_ds=tl,
-                         wall_time=time.perf_counter() - t_start, scalars=sc)
+    def crossed(self, amp: float, dev: float) -> bool:
+        """On the other side of the mode: the amplitude changed sign and the state lies
+        along -φ_0 (its deviation ``dev`` is mostly that amplitude), i.e. a step jumped
+        across the fundamental branch, not a branch that left the mode's shape."""
+        if self.control is not None:  # (past a fold of c, c - c_c may change sign freely)
+            return amp * self.a1 < 0 and not self.by_arc
+        return amp * self.a1 < 0 and abs(amp) >= 0.5 * dev
 
-        # first point: amplitude a along φ_0 (or c - c_c = a along the cluster's direction of
-        # largest c), λ free
-        first = None
-        plane_dir, preds = amp_dir, [pred]
-        if control is not None and resume is None:
-            plane_dir = control.copy()
-            plane_dir.scale(1.0 / ar.cw)
-            preds = []
-            if response:
-                preds.append(_response_direction(problem, control,
-                                                 max(abs(v) for v in vals)))
-            for size in sorted({min(cluster, len(dirs)), min(2, len(dirs)), 1}, reverse=True):
-                d = dirs[0].duplicate()
-                d.set(0.0)
-                for v in dirs[:size]:
-                    d.axpy(control.dot(v) / v.dot(v), v)
-                cd = control.dot(d)
-                if abs(cd) > 0.0:
-                    d.scale(1.0 / cd)  # unit change of c
-                    preds.append(d)
-                else:
-                    d.destroy()
-        for f in (() if resume is not None else factors):
-            a = sgn * ds * f
+    def jumped(self) -> bool:
+        """A corrector that crossed to the -φ_0 side, or fell to a quarter of the last
+        point's distance in one step, jumped to another branch (a long step next to a
+        cluster of bifurcations; docs/design-notes.md, "Branch switching"): refused, the
+        step is shortened."""
+        dev = self.deviation()
+        return self.crossed(self.side_amplitude(), dev) or dev < 0.25 * self.last
+
+    def point(self, index: int, its: int, step: float, tl: float, s: np.ndarray) -> Point:
+        """The ``Point`` at the current state, with the scalars ``switch_branch`` adds.
+
+        Args:
+            index: the point's index.
+            its: the corrector's iterations.
+            step: the step that led to it.
+            tl: τ_λ there.
+            s: the pins' multipliers.
+        """
+        problem, ar, wp = self.problem, self.ar, self.wp
+        sc = problem.scalars()
+        sc["mode_amplitude"] = self.amplitude()
+        sc["kappa_c"] = self.lam_c / self.L  # where the branch leaves the fundamental one
+        info = problem.classify_mode(wp, None)  # wp: w - w_c (left by amplitude())
+        sc["deviation_m"], sc["deviation_n"] = info.m, info.n
+        wp.set(0.0)
+        for j, pin in enumerate(self.pins):
+            wp.axpy(s[j], pin)
+        sc["pin_force"] = float(wp.norm())
+        sc["residual"] = self.ns.residual_norm()
+        # (with the corrector's last Jacobian and ∂R/∂λ)
+        sc["residual_bound"] = ar.residual_bound(self.settings, ar.get_lambda())
+        if self.control is not None:  # 1: at a fixed c, 0: by arclength past a fold of c
+            sc["control_parameter"] = 0.0 if self.by_arc else 1.0
+        return Point(index=index, kappa=ar.get_lambda() / self.L, kappa_L=ar.get_lambda(),
+                     newton_its=its, step=step, dkappa_ds=tl,
+                     wall_time=time.perf_counter() - self.t_start, scalars=sc)
+
+    def first_predictors(self) -> tuple[Any, list[Any]]:
+        """The first corrector's hyperplane direction and its predictors (unit amplitude).
+
+        Returns:
+            (φ̂_0, [the mode's predictor]); with a control (and no ``resume``), new vectors:
+            e / cw, and the response (if asked) and the combinations of the ``cluster``
+            (then 2, 1) eigenvectors nearest 0 of largest c, each scaled to a unit change
+            of c.
+        """
+        control, dirs = self.control, self.dirs
+        if control is None or self.resume is not None:
+            return self.amp_dir, [self.pred]
+        plane_dir = control.copy()
+        plane_dir.scale(1.0 / self.ar.cw)
+        preds = []
+        if self.response:
+            preds.append(_response_direction(self.problem, control,
+                                             max(abs(v) for v in self.vals)))
+        for size in sorted({min(self.cluster, len(dirs)), min(2, len(dirs)), 1}, reverse=True):
+            d = dirs[0].duplicate()
+            d.set(0.0)
+            for v in dirs[:size]:
+                d.axpy(control.dot(v) / v.dot(v), v)
+            cd = control.dot(d)
+            if abs(cd) > 0.0:
+                d.scale(1.0 / cd)  # unit change of c
+                preds.append(d)
+            else:
+                d.destroy()
+        return plane_dir, preds
+
+    def first_point(self) -> Any:
+        """The first point: amplitude a along φ_0 (or c - c_c = a along the cluster's
+        direction of largest c), λ free, for each amplitude of ``factors`` and each predictor
+        in turn until one converges; sets the first point's amplitude and distance (from
+        ``resume`` when resuming).
+
+        Returns:
+            The converged ``Correction`` (None when resuming).
+
+        Raises:
+            RuntimeError: if no amplitude converges.
+        """
+        ar, wc, wp, control, resume = self.ar, self.wc, self.wp, self.control, self.resume
+        first = c = None
+        plane_dir, preds = self.first_predictors()
+        for f in (() if resume is not None else self.factors):
+            a = self.sgn * self.ds * f
             for d in preds:
                 wc.copy(wp)
                 wp.axpy(a, d)
                 wp.copy(ar.w)
                 ar.sync()
-                c = bordered_newton(ar, st_first, lam_c, plane=(plane_dir, 0.0, wp),
-                                     **first_corrector)
+                c = bordered_newton(ar, self.st_first, self.lam_c, plane=(plane_dir, 0.0, wp),
+                                    **self.first_corrector)
                 if c.ok and control is not None:  # converged to newton_tol from there
                     ar.w.copy(wp)
-                    c = bordered_newton(ar, st_first, c.lam, plane=(plane_dir, 0.0, wp),
-                                         **strict)
+                    c = bordered_newton(ar, self.st_first, c.lam, plane=(plane_dir, 0.0, wp),
+                                        **self.strict)
                 log.info("switch: amplitude %.4g: %s in %d its, kappa L = %.6g", a,
                          "converged" if c.ok else "failed", c.its, c.lam)
                 if c.ok:
@@ -380,124 +498,155 @@ def switch_branch(problem: Any, cp: CriticalPoint, settings: ContinuationSetting
             plane_dir.destroy()
         if first is None and resume is None:
             raise RuntimeError("branch switching: the corrector did not converge off the "
-                               f"fundamental branch at amplitudes {ds} x {factors}")
+                               f"fundamental branch at amplitudes {self.ds} x {self.factors}")
         if resume is None:
-            a1, dev1 = (first if control is None else side_amplitude()), deviation()
+            self.a1 = first if control is None else self.side_amplitude()
+            self.dev1 = self.deviation()
         else:
-            a1, dev1 = resume.first_amplitude, resume.first_distance
-        last = [dev1 if resume is None else resume.distance]  # the last accepted point's
+            self.a1, self.dev1 = resume.first_amplitude, resume.first_distance
+        self.last = self.dev1 if resume is None else resume.distance  # the last point's
+        return c
 
-        def jumped() -> bool:
-            """A corrector that crossed to the -φ_0 side, or fell to a quarter of the last
-            point's distance in one step, jumped to another branch (a long step next to a
-            cluster of bifurcations; docs/design-notes.md, "Branch switching"): refused, the
-            step is shortened."""
-            dev = deviation()
-            return crossed(side_amplitude(), dev) or dev < 0.25 * last[0]
+    def checkpoint(self, p: Point, lam: float, ds_next: float) -> None:
+        """``track`` the point ``p`` at λ = ``lam`` (the loop's), the next step
+        ``ds_next``; the previous point's state and λ in ``prev``."""
+        if self.track is not None:
+            state = self.ar.w.array_r.copy()
+            self.track(SwitchResume(
+                index=p.index, lam=lam, lam_prev=self.prev[1], ds=ds_next,
+                direction=self.direction, first_amplitude=self.a1,
+                first_distance=self.dev1, distance=self.last, state=state,
+                state_prev=self.prev[0], by_arclength=self.by_arc, ds_max=self.arc_max,
+                stretch_min=(self.stretch_min if math.isfinite(self.stretch_min) else 0.0)))
+            self.prev = [state, lam]
 
-        def checkpoint(p: Point, lam: float, ds_next: float) -> None:
-            """``track`` the point ``p`` at λ = ``lam`` (the loop's), the next step
-            ``ds_next``; the previous point's state and λ in ``prev``."""
-            if track is not None:
-                state = ar.w.array_r.copy()
-                track(SwitchResume(index=p.index, lam=lam, lam_prev=prev[1], ds=ds_next,
-                                   direction=direction, first_amplitude=a1,
-                                   first_distance=dev1, distance=last[0], state=state,
-                                   state_prev=prev[0], by_arclength=by_arc[0],
-                                   ds_max=arc_max[0],
-                                   stretch_min=(stretch_min[0] if math.isfinite(stretch_min[0])
-                                                else 0.0)))
-                prev[:] = [state, lam]
+    def start_fresh(self, c: Any) -> Point:
+        """The first point's position and record, from its ``Correction`` ``c``.
 
-        if resume is None:
-            direction = 1.0 if lam_end >= c.lam else -1.0
-            index, lam, ds_next = 0, c.lam, min(max(abs(a1), settings.ds_min), settings.ds_max)
-            prev = [wc.array_r.copy() if track is not None else None, lam_c]
-            secant_w, lam_prev = wc, lam_c
-            p = point(index, c.its, abs(a1), 0.0, c.multipliers)
-            checkpoint(p, lam, ds_next)
-            yield p
-        else:  # after the point of ``resume``
-            direction, index, lam, ds_next = (resume.direction, resume.index, resume.lam,
-                                              resume.ds)
-            secant_w = resume_prev = wc.duplicate()
-            resume_prev.array_w[:] = resume.state_prev[:n]
-            lam_prev = resume.lam_prev
-            ar.w.array_w[:] = resume.state[:n]
-            ar.sync()
-            ar.set_lambda(lam)
-            prev = [resume.state, lam]
-            if release_pins is not None and index >= release_pins:
-                pins.clear()
+        Returns:
+            The first point (tracked).
+        """
+        settings, a1 = self.settings, self.a1
+        self.direction = 1.0 if self.lam_end >= c.lam else -1.0
+        self.index, self.lam = 0, c.lam
+        self.ds_next = min(max(abs(a1), settings.ds_min), settings.ds_max)
+        self.prev = [self.wc.array_r.copy() if self.track is not None else None, self.lam_c]
+        self.secant_w, self.lam_prev = self.wc, self.lam_c
+        p = self.point(self.index, c.its, abs(a1), 0.0, c.multipliers)
+        self.checkpoint(p, self.lam, self.ds_next)
+        return p
+
+    def start_resumed(self) -> None:
+        """The position after the point of ``resume``: its state, λ and the point before."""
+        r, ar = self.resume, self.ar
+        self.direction, self.index, self.lam, self.ds_next = r.direction, r.index, r.lam, r.ds
+        self.secant_w = self.resume_prev = self.wc.duplicate()
+        self.resume_prev.array_w[:] = r.state_prev[:self.n]
+        self.lam_prev = r.lam_prev
+        ar.w.array_w[:] = r.state[:self.n]
+        ar.sync()
+        ar.set_lambda(self.lam)
+        self.prev = [r.state, self.lam]
+        if self.release_pins is not None and self.index >= self.release_pins:
+            self.pins.clear()
+
+    def pass_settings(self) -> ContinuationSettings:
+        """The settings of the next pass of arclength steps (by arclength past a fold of the
+        control: steps up to the largest a step of c took)."""
+        settings = self.settings
+        if self.by_arc:
+            return replace(settings, ds=self.ds_next, ds_max=self.arc_max,
+                           ds_min=1e-6 * self.arc_max, max_steps=settings.max_steps - self.index)
+        return replace(settings, ds=self.ds_next, max_steps=settings.max_steps - self.index)
+
+    def follow(self) -> Iterator[Point]:
+        """Secant pseudo-arclength steps to λ_end, with a control first at fixed steps of c,
+        then (past a fold of c) by arclength.
+
+        Yields:
+            The points after the first (or the resumed) one.
+
+        Raises:
+            RuntimeError: if the branch leads back to the fundamental branch.
+        """
+        ar, settings, control = self.ar, self.settings, self.control
         # the last two points (their secant starts the arclength loop past a fold of c)
-        cur, before = ar.w.copy(), secant_w.copy()
-        extra += [cur, before]
-        lam_before = lam_prev
+        self.cur, self.before = ar.w.copy(), self.secant_w.copy()
+        self.extra += [self.cur, self.before]
+        self.lam_before = self.lam_prev
         while True:
-            if by_arc[0]:
-                st = replace(settings, ds=ds_next, ds_max=arc_max[0], ds_min=1e-6 * arc_max[0],
-                             max_steps=settings.max_steps - index)
-            else:
-                st = replace(settings, ds=ds_next, max_steps=settings.max_steps - index)
+            st = self.pass_settings()
             # with a control the loop neither deflates nor accepts a stalled Newton (``strict``)
-            steps = arclength_steps(ar, st, lam, lam_end, direction,
-                                    secant_from=(before, lam_before), reject=jumped,
-                                    control=None if by_arc[0] else control,
-                                    **(corrector if control is None else strict))
-            arc_last = 0.0
-            for its, step, tl, s in steps:
-                index += 1
-                turning = False
-                if control is not None and not by_arc[0]:  # what a switch to arclength needs
-                    cur.copy(before)
-                    ar.w.copy(cur)
-                    lam_before, lam = lam, ar.get_lambda()
-                    before.copy(wp)
-                    wp.axpy(-1.0, cur)
-                    arc_last = math.sqrt(max(ar.cw * wp.dot(wp), 0.0)
-                                         + (lam - lam_before) ** 2)
-                    arc_max[0] = max(arc_max[0], arc_last)
-                    dc = abs(control.dot(wp))
-                    stretch = arc_last / dc if dc > 0 else math.inf
-                    turning = stretch > FOLD_STRETCH * stretch_min[0]
-                    stretch_min[0] = min(stretch_min[0], stretch)
-                p = point(index, its, step, tl, s)
-                amp = side_amplitude()
-                dev = deviation()
-                log.debug("switch: point %d at kappa L = %.8g: amplitude %.4g, distance %.4g "
-                          "(first point %.4g, %.4g)", index, p.kappa_L, amp, dev, a1, dev1)
-                last[0] = dev
-                if dev < min_amplitude * dev1 or crossed(amp, dev):
-                    raise RuntimeError(
-                        f"branch switching: back on the fundamental branch at kappa = "
-                        f"{p.kappa:.6g} (mode amplitude {amp:.3g}, distance {dev:.3g}; first "
-                        f"point {a1:.3g}, {dev1:.3g})")
-                checkpoint(p, p.kappa_L, next_step(st, step, its))
+            self.steps = arclength_steps(ar, st, self.lam, self.lam_end, self.direction,
+                                         secant_from=(self.before, self.lam_before),
+                                         reject=self.jumped,
+                                         control=None if self.by_arc else control,
+                                         **(self.corrector if control is None else self.strict))
+            self.arc_last = 0.0
+            for its, step, tl, s in self.steps:
+                self.index += 1
+                turning = self.control_stretch() if control is not None and not self.by_arc \
+                    else False
+                p = self.point(self.index, its, step, tl, s)
+                self.check_side(p)
+                self.checkpoint(p, p.kappa_L, next_step(st, step, its))
                 yield p
-                if release_pins is not None and index >= release_pins and pins:
-                    pins.clear()
+                if self.release_pins is not None and self.index >= self.release_pins \
+                        and self.pins:
+                    self.pins.clear()
                 if turning:  # c is about to turn: on by arclength before the steps crawl
                     break
-            steps.close()
-            landed = abs(ar.get_lambda() - lam_end) <= 1e-12 * max(1.0, abs(lam_end))
-            if (control is None or by_arc[0] or landed or index >= settings.max_steps
-                    or not arc_max[0] > 0):
+            self.steps.close()
+            landed = abs(ar.get_lambda() - self.lam_end) <= 1e-12 * max(1.0, abs(self.lam_end))
+            if (control is None or self.by_arc or landed or self.index >= settings.max_steps
+                    or not self.arc_max > 0):
                 break
             # c stopped moving, or is about to (a fold of c on the branch: its Jacobian at
             # fixed c is singular there): the branch goes on by arclength from the last two
             # points, steps up to the largest a step of c took (strict corrector still)
-            by_arc[0] = True
+            self.by_arc = True
             # (the last steps in c were cut towards the fold: not below a tenth of the largest)
-            ds_next = min(max(arc_last, 0.1 * arc_max[0]), arc_max[0])
+            self.ds_next = min(max(self.arc_last, 0.1 * self.arc_max), self.arc_max)
             log.info("switch: the control parameter turns at kappa L = %.6g; the branch goes "
-                     "on by arclength", lam)
-    finally:
-        if steps is not None:
-            steps.close()
-        for v in (wc, wp, *dirs, *([] if resume_prev is None else [resume_prev]), *extra):
-            v.destroy()
-        for obj in (amp_dir, tangent, pred, defl_stab):
-            if obj is not None:
-                obj.destroy()
-        if solver is None:
-            ns.destroy()
+                     "on by arclength", self.lam)
+
+    def control_stretch(self) -> bool:
+        """After a step at fixed c: the last two points, the step's arclength and its
+        arclength per unit change of c (what a switch to arclength needs).
+
+        Returns:
+            Whether c is about to turn (``FOLD_STRETCH``).
+        """
+        ar, wp, cur, before = self.ar, self.wp, self.cur, self.before
+        cur.copy(before)
+        ar.w.copy(cur)
+        self.lam_before, self.lam = self.lam, ar.get_lambda()
+        before.copy(wp)
+        wp.axpy(-1.0, cur)
+        self.arc_last = math.sqrt(max(ar.cw * wp.dot(wp), 0.0)
+                                  + (self.lam - self.lam_before) ** 2)
+        self.arc_max = max(self.arc_max, self.arc_last)
+        dc = abs(self.control.dot(wp))
+        stretch = self.arc_last / dc if dc > 0 else math.inf
+        turning = stretch > FOLD_STRETCH * self.stretch_min
+        self.stretch_min = min(self.stretch_min, stretch)
+        return turning
+
+    def check_side(self, p: Point) -> None:
+        """Record the point's distance from the fundamental branch.
+
+        Raises:
+            RuntimeError: if the branch is back on the fundamental branch (its distance
+                below ``min_amplitude`` times the first point's, or the state along -φ_0).
+        """
+        amp = self.side_amplitude()
+        dev = self.deviation()
+        log.debug("switch: point %d at kappa L = %.8g: amplitude %.4g, distance %.4g "
+                  "(first point %.4g, %.4g)", self.index, p.kappa_L, amp, dev, self.a1,
+                  self.dev1)
+        self.last = dev
+        if dev < self.min_amplitude * self.dev1 or self.crossed(amp, dev):
+            raise RuntimeError(
+                f"branch switching: back on the fundamental branch at kappa = "
+                f"{p.kappa:.6g} (mode amplitude {amp:.3g}, distance {dev:.3g}; first "
+                f"point {self.a1:.3g}, {self.dev1:.3g})")

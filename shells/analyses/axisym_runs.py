@@ -427,27 +427,43 @@ def critical(shape: Shape, h_over_r: float, nu: float = 0.5, direction: str = "u
     crit = CriticalSettings(rel_tol=cfg.rel_tol, stop_at_fold=True,
                             max_critical=cfg.max_critical,
                             deflate=0)
-    found: list[Any] = []
-    last = None
     try:
-        for p, _, cps in run.follow(crit, scalars=False):  # its points' scalars unused
-            last = p
-            found.extend(cps)
-        stop = bool(found) and (found[-1].kind == "fold" or (
-            cfg.max_critical is not None and len(found) >= cfg.max_critical))
-        lam_end = cfg.kappa_end * L
-        if not stop and (last is None or abs(last.kappa_L - lam_end) > 1e-9 * abs(lam_end)):
-            # the continuation gave up (step below ds_min, or max_steps) short of the end:
-            # the critical points beyond are unknown, "none" would be a false claim
-            reached = None if last is None else last.kappa * cfg.R
-            raise RuntimeError(f"the axisymmetric continuation stopped at kappa R = {reached} "
-                               f"before the end of the range, kappa R = "
-                               f"{cfg.kappa_end * cfg.R:.6g}; critical points beyond it are "
-                               "not known")
+        found = _located(run, cfg, crit, L)
         dofs = run.model.num_dofs()
         penalty = run.penalty
     finally:
         run.destroy()
+    return _critical_result(cfg, found, dofs, penalty)
+
+
+def _located(run: _Run, cfg: RunConfig, crit: Any, L: float) -> list[Any]:
+    """The critical points of ``run``'s branch (``crit``: how they are located and when the
+    run stops).
+
+    Raises:
+        RuntimeError: the continuation gave up (step below ds_min, or max_steps) short of the
+            end: the critical points beyond are unknown, "none" would be a false claim.
+    """
+    found: list[Any] = []
+    last = None
+    for p, _, cps in run.follow(crit, scalars=False):  # its points' scalars unused
+        last = p
+        found.extend(cps)
+    stop = bool(found) and (found[-1].kind == "fold" or (
+        cfg.max_critical is not None and len(found) >= cfg.max_critical))
+    lam_end = cfg.kappa_end * L
+    if not stop and (last is None or abs(last.kappa_L - lam_end) > 1e-9 * abs(lam_end)):
+        reached = None if last is None else last.kappa * cfg.R
+        raise RuntimeError(f"the axisymmetric continuation stopped at kappa R = {reached} "
+                           f"before the end of the range, kappa R = "
+                           f"{cfg.kappa_end * cfg.R:.6g}; critical points beyond it are "
+                           "not known")
+    return found
+
+
+def _critical_result(cfg: RunConfig, found: list[Any], dofs: int, penalty: float
+                     ) -> dict[str, Any]:
+    """``critical``'s result from the located points ``found``."""
     R, h = cfg.R, cfg.h
     pts = [{"kind": c.kind, "kappa_R": c.kappa * R, "kappa_h": c.kappa * h,
             "mode_m": 0 if c.kind == "fold" else c.mode_m,

@@ -229,9 +229,6 @@ def run_branch(cfg: BranchConfig, outdir: str | os.PathLike, *, comm: Any = None
     """
     from mpi4py import MPI
 
-    from shells.algorithms.newton import NewtonSolver
-    from shells.surface.model import ModelParameters, ShellModel
-
     if fields not in ("none", "last", "all"):
         raise InputError(f"fields must be none, last or all, got {fields!r}")
     comm = MPI.COMM_WORLD if comm is None else comm
@@ -241,6 +238,22 @@ def run_branch(cfg: BranchConfig, outdir: str | os.PathLike, *, comm: Any = None
     comm.barrier()
     bfile = outdir / "branch.jsonl"
     header = cfg.describe()
+    model = _branch_model(cfg, comm, shell, header, label)
+    start, done = _branch_start(outdir, model, header, comm, resume, label)
+    if comm.rank == 0:
+        # the kept points are rewritten under the header into a temporary file, renamed over
+        # the old one: a kill leaves the old file or the new one, never a torn one (a torn
+        # last line of the old file is dropped here)
+        write_header(bfile, header, done, sidecar=True)
+    yield from done
+    yield from _branch_points(cfg, outdir, model, comm, fields, label, start, done)
+
+
+def _branch_model(cfg: BranchConfig, comm: Any, shell: ShellMesh | None,
+                  header: dict[str, Any], label: str) -> Any:
+    """The surface model of ``cfg`` on ``shell`` (default: generated, or read from
+    ``mesh_file``); its DOFs go into ``header``."""
+    from shells.surface.model import ModelParameters, ShellModel
 
     t0 = time.perf_counter()
     if shell is None:
@@ -254,11 +267,24 @@ def run_branch(cfg: BranchConfig, outdir: str | os.PathLike, *, comm: Any = None
     header["dofs"] = model.num_dofs()
     log.info("%s: %s, %d DOFs on %d rank(s), set-up %.1f s", label, cfg.shape.describe(),
              header["dofs"], comm.size, time.perf_counter() - t0)
+    return model
 
+
+def _branch_start(outdir: Path, model: Any, header: dict[str, Any], comm: Any, resume: bool,
+                  label: str) -> tuple[Any, list[dict[str, Any]]]:
+    """Where a run resumes: the branch file's checkpoint, if the file is of this run and the
+    checkpoint of one of its points.
+
+    Returns:
+        (``load_branch_checkpoint``'s tuple, the points kept up to it), or (None, []).
+
+    Raises:
+        InputError: a branch file that cannot be trusted (a corrupt line).
+    """
     start = None
-    # rank 0 reads the file (it alone rewrites it below) and tells the others; a file it cannot
+    # rank 0 reads the file (it alone rewrites it) and tells the others; a file it cannot
     # trust (a corrupt line) is an error on every rank
-    why, done = resumable(bfile, header, comm, resume=resume)
+    why, done = resumable(outdir / "branch.jsonl", header, comm, resume=resume)
     if why is None:
         start = load_branch_checkpoint(outdir, model)
         if start is None or not any(d.get("index") == start[1] for d in done):
@@ -269,30 +295,25 @@ def run_branch(cfg: BranchConfig, outdir: str | os.PathLike, *, comm: Any = None
         if why not in ("there is none", "--restart"):
             log.info("%s: not resuming from the existing branch file (%s); starting afresh",
                      label, why)
-        done = []
-    else:
-        # keep only the points up to the checkpoint
-        done = [d for d in done if d["index"] <= start[1]]
-        log.info("%s: resuming after point %d at kappa = %.6g", label, start[1], start[0])
-    if comm.rank == 0:
-        # the kept points are rewritten under the header into a temporary file, renamed over
-        # the old one: a kill leaves the old file or the new one, never a torn one (a torn
-        # last line of the old file is dropped here)
-        write_header(bfile, header, done, sidecar=True)
-    yield from done
+        return None, []
+    # keep only the points up to the checkpoint
+    done = [d for d in done if d["index"] <= start[1]]
+    log.info("%s: resuming after point %d at kappa = %.6g", label, start[1], start[0])
+    return start, done
 
-    writer = FieldWriter(model, outdir / "fields.bp") if fields != "none" else None
-    ns = NewtonSolver(model)
-    progress = Progress(label, cfg.kappa_end * cfg.R, comm)
-    kappa0, index0 = (0.0, 0) if start is None else (start[0], start[1] + 1)
-    if start is not None and abs(kappa0 - cfg.kappa_end) < 1e-14 * abs(cfg.kappa_end):
-        return
+
+def _resumed_continuation(cfg: BranchConfig, comm: Any, start: Any,
+                          done: list[dict[str, Any]]) -> dict[str, Any]:
+    """``continuation``'s keywords that resume after the checkpoint ``start`` (None: none):
+    the secant of the last two points orients the run; it takes the step the interrupted run
+    would have taken next (its points are then the uninterrupted run's; not for steps given
+    in κ, converted at the start) and, for a quadratic predictor, the point before."""
+    from mpi4py import MPI
+
     tangent = None
     moved = start is not None and comm.allreduce(bool(np.any(start[2])), op=MPI.LOR)
     if start is not None and (moved or start[3] != 0):
-        tangent = (start[2], start[3] * cfg.L)  # secant of the last two points orients the run
-    # a resumed run takes the step the interrupted one would have taken next (its points are
-    # then the uninterrupted run's); not for steps given in kappa, converted at the start
+        tangent = (start[2], start[3] * cfg.L)
     st = cfg.continuation
     ds0 = previous = None
     last_rec = done[-1] if start is not None and done else {}
@@ -302,6 +323,24 @@ def run_branch(cfg: BranchConfig, outdir: str | os.PathLike, *, comm: Any = None
             ds0 = next_step(st, last_rec["step"], last_rec["newton_its"])
         # the point before and the (arclength) step from it, for a quadratic predictor
         previous = (start[5], start[6], last_rec["step"])
+    return dict(initial_tangent=tangent, initial_ds=ds0,
+                tangent=None if start is None else start[4], previous=previous)
+
+
+def _branch_points(cfg: BranchConfig, outdir: Path, model: Any, comm: Any, fields: str,
+                   label: str, start: Any, done: list[dict[str, Any]]
+                   ) -> Iterator[dict[str, Any]]:
+    """The continuation from κ = 0 or after the checkpoint ``start``: each point's record
+    appended (rank 0), checkpointed, its fields written, then yielded."""
+    from shells.algorithms.newton import NewtonSolver
+
+    writer = FieldWriter(model, outdir / "fields.bp") if fields != "none" else None
+    ns = NewtonSolver(model)
+    progress = Progress(label, cfg.kappa_end * cfg.R, comm)
+    kappa0, index0 = (0.0, 0) if start is None else (start[0], start[1] + 1)
+    if start is not None and abs(kappa0 - cfg.kappa_end) < 1e-14 * abs(cfg.kappa_end):
+        return
+    resumed = _resumed_continuation(cfg, comm, start, done)
     held: list[Any] = []  # the unit tangent the next step follows (arclength)
 
     def hold(tw: np.ndarray, tl: float) -> None:
@@ -309,9 +348,7 @@ def run_branch(cfg: BranchConfig, outdir: str | os.PathLike, *, comm: Any = None
 
     it = continuation(model, cfg.continuation, kappa_start=kappa0, kappa_end=cfg.kappa_end,
                       solver=ns, start_index=index0, skip_first=start is not None,
-                      initial_tangent=tangent, initial_ds=ds0,
-                      tangent=None if start is None else start[4], on_tangent=hold,
-                      previous=previous)
+                      on_tangent=hold, **resumed)
     last = None
     # the previous point of the next checkpoint: on resume, the checkpoint's point
     prev = None if start is None else (model.w.x.array.copy(), kappa0)
@@ -319,7 +356,7 @@ def run_branch(cfg: BranchConfig, outdir: str | os.PathLike, *, comm: Any = None
         for p in it:
             rec = point_record(p, cfg)
             if comm.rank == 0:
-                append_record(bfile, rec)  # one whole line, fsync'ed
+                append_record(outdir / "branch.jsonl", rec)  # one whole line, fsync'ed
             _save_checkpoint(outdir, model, rec, prev, held[0] if held else None)
             prev = (model.w.x.array.copy(), float(model.kappa.value))
             if writer is not None and fields == "all":

@@ -552,6 +552,47 @@ def knockdown(cfg: KnockdownConfig, outdir: str | Path | None = None
     from shells.theory import sphere_mode_n
 
     out = None if outdir is None else Path(outdir) / "points.jsonl"
+    done, perfect = _stored_points(cfg, out)
+    degree = cfg.degree if cfg.degree is not None else int(round(sphere_mode_n(cfg.h_over_r,
+                                                                               cfg.nu)))
+    if cfg.order > degree:
+        raise InputError(f"the harmonic's order m = {cfg.order} exceeds its degree n = {degree} "
+                         "(the critical degree): give --mode-n")
+    if perfect is None:
+        first = surface_first(cfg, 0.0, degree) if cfg.model == "surface" else perfect_sphere(
+            cfg, degree)
+        perfect = json.loads(json.dumps(first, default=json_default))
+        if out is not None:
+            append_record(out, {"perfect": perfect})
+    if cfg.degree is None and perfect.get("mode_n"):
+        degree = int(perfect["mode_n"])
+    yield {"perfect": perfect, "degree": degree}
+    from shells.algorithms.asymptotics import ReducedEquation
+
+    law = None if perfect["asymptotics"] is None else ReducedEquation(
+        **{k: v for k, v in perfect["asymptotics"].items()
+           if k not in ("coefficient", "kappa_c_h")})
+    for a in cfg.amplitudes:
+        if a in done:
+            yield done[a]
+            continue
+        rec = _amplitude_record(cfg, a, degree, perfect, law)
+        if out is not None:
+            append_record(out, rec)
+        yield rec
+
+
+def _stored_points(cfg: KnockdownConfig, out: Path | None
+                   ) -> tuple[dict[float, dict[str, Any]], dict[str, Any] | None]:
+    """The records of ``out`` (``points.jsonl``; written with its header if new) that a
+    rerun reuses; on the surface model, rank 0's, on every rank.
+
+    Returns:
+        ({amplitude: its record}, the perfect sphere's record or None).
+
+    Raises:
+        InputError: if the file holds another configuration.
+    """
     done: dict[float, dict[str, Any]] = {}
     # the curve's key: everything but the amplitudes (a rerun may add amplitudes), as stored
     key = {k: v for k, v in cfg.describe().items() if k != "amplitudes"}
@@ -575,58 +616,47 @@ def knockdown(cfg: KnockdownConfig, outdir: str | Path | None = None
 
         done, perfect = MPI.COMM_WORLD.bcast((done, perfect) if MPI.COMM_WORLD.rank == 0
                                              else None, root=0)
-    degree = cfg.degree if cfg.degree is not None else int(round(sphere_mode_n(cfg.h_over_r,
-                                                                               cfg.nu)))
-    if cfg.order > degree:
-        raise InputError(f"the harmonic's order m = {cfg.order} exceeds its degree n = {degree} "
-                         "(the critical degree): give --mode-n")
-    if perfect is None:
-        first = surface_first(cfg, 0.0, degree) if cfg.model == "surface" else perfect_sphere(
-            cfg, degree)
-        perfect = json.loads(json.dumps(first, default=json_default))
-        if out is not None:
-            append_record(out, {"perfect": perfect})
-    if cfg.degree is None and perfect.get("mode_n"):
-        degree = int(perfect["mode_n"])
-    yield {"perfect": perfect, "degree": degree}
-    kb = perfect["kappa_h"]
-    from shells.algorithms.asymptotics import ReducedEquation
+    return done, perfect
 
-    law = None if perfect["asymptotics"] is None else ReducedEquation(
-        **{k: v for k, v in perfect["asymptotics"].items()
-           if k not in ("coefficient", "kappa_c_h")})
-    for a in cfg.amplitudes:
-        if a in done:
-            yield done[a]
-            continue
-        pred = None if law is None else law.knockdown(a)
-        try:
-            if a == 0:
-                r = {k: perfect[k] for k in ("kind", "kappa_h", "accuracy")}
-            elif cfg.model == "surface":
-                r = surface_first(cfg, a, degree)
-            else:
-                r = fold_kappa(cfg, a, degree, pred, law.kappa_c)
-        except RuntimeError as e:  # reported with the curve, which goes on
-            log.warning("knockdown: delta/h = %g: %s", a, e)
-            r = {"kind": "none", "kappa_h": None, "accuracy": None, "error": str(e)}
-        rec = {"delta_over_h": a, "kappa_max_h": r["kappa_h"],
-               "knockdown": None if r["kappa_h"] is None else r["kappa_h"] / kb,
-               "kind": r["kind"], "accuracy": r["accuracy"], "degree": degree,
-               # the law's κ_max/κ_b (None where it predicts no fold at this order)
-               "knockdown_asymptotic": pred}
-        if "error" in r:
-            rec["error"] = r["error"]
-        if r.get("mode_m") is not None:
-            rec["mode_m"] = r["mode_m"]
-        if r.get("crossings_before"):
-            rec["crossings_before"] = r["crossings_before"]
-        if rec["knockdown"] is not None:
-            log.info("knockdown: delta/h = %g: kappa_max h = %.6f, knock-down %.4f (%s)", a,
-                     rec["kappa_max_h"], rec["knockdown"], r["kind"])
-        if out is not None:
-            append_record(out, rec)
-        yield rec
+
+def _amplitude_record(cfg: KnockdownConfig, a: float, degree: int, perfect: dict[str, Any],
+                      law: Any) -> dict[str, Any]:
+    """The record of amplitude δ/h = ``a`` (a failed search: "kind" "none" and its "error").
+
+    Args:
+        cfg: the curve.
+        a: the amplitude.
+        degree: the imperfection's degree.
+        perfect: the perfect sphere's record (κ_b h: its "kappa_h").
+        law: the perfect sphere's ``ReducedEquation``, or None.
+    """
+    kb = perfect["kappa_h"]
+    pred = None if law is None else law.knockdown(a)
+    try:
+        if a == 0:
+            r = {k: perfect[k] for k in ("kind", "kappa_h", "accuracy")}
+        elif cfg.model == "surface":
+            r = surface_first(cfg, a, degree)
+        else:
+            r = fold_kappa(cfg, a, degree, pred, law.kappa_c)
+    except RuntimeError as e:  # reported with the curve, which goes on
+        log.warning("knockdown: delta/h = %g: %s", a, e)
+        r = {"kind": "none", "kappa_h": None, "accuracy": None, "error": str(e)}
+    rec = {"delta_over_h": a, "kappa_max_h": r["kappa_h"],
+           "knockdown": None if r["kappa_h"] is None else r["kappa_h"] / kb,
+           "kind": r["kind"], "accuracy": r["accuracy"], "degree": degree,
+           # the law's κ_max/κ_b (None where it predicts no fold at this order)
+           "knockdown_asymptotic": pred}
+    if "error" in r:
+        rec["error"] = r["error"]
+    if r.get("mode_m") is not None:
+        rec["mode_m"] = r["mode_m"]
+    if r.get("crossings_before"):
+        rec["crossings_before"] = r["crossings_before"]
+    if rec["knockdown"] is not None:
+        log.info("knockdown: delta/h = %g: kappa_max h = %.6f, knock-down %.4f (%s)", a,
+                 rec["kappa_max_h"], rec["knockdown"], r["kind"])
+    return rec
 
 
 def run(cfg: KnockdownConfig, outdir: str | Path | None, figure: bool = True

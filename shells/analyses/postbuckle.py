@@ -41,7 +41,7 @@ import logging
 import math
 import os
 from collections.abc import Callable, Iterator
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -406,24 +406,103 @@ def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], 
             (a fold before the bifurcation; a non-axisymmetric bifurcation on the 1D model).
         RuntimeError: the continuation stopped short of the range, or switching failed.
     """
-    from shells.algorithms.following import follow
-    from shells.algorithms.settings import ContinuationSettings
-    from shells.algorithms.switching import switch_branch
-    from shells.problem.interface import get_state
-
-    run = _Run(cfg)
-    kappa_stop = cfg.kappa_stop
-    st, crit = _settings(cfg, kappa_stop)
-    control = None
-    phase: list[Any] = []
+    pb = _Postbuckle(cfg, on_point, on_critical, on_side_point)
     try:
-        bifs = []
+        yield from pb.records(resume)
+    finally:
+        pb.destroy()
+
+
+@dataclass
+class _Attempt:
+    """One attempt at a side (one first amplitude): its points so far, how it ended, the
+    records held back, and its locator of secondary critical points."""
+
+    secondary: SecondaryLocator
+    held: list[dict[str, Any]] = field(default_factory=list)
+    n: int = 0
+    first: float | None = None
+    last: float | None = None
+    ended: str = "stalled (step below ds_min)"
+    ended_before: str | None = None
+
+
+class _Postbuckle:
+    """One run of ``postbuckle``: the model, the fundamental branch's settings and, once the
+    bifurcation is known, the bifurcated branches' (control, pins, steps, range). The
+    arguments are ``postbuckle``'s."""
+
+    def __init__(self, cfg: PostbuckleConfig,
+                 on_point: Callable[[Any, dict[str, Any]], None] | None,
+                 on_critical: Callable[[Any, Any], None] | None,
+                 on_side_point: Callable[[Any, int, Any], None] | None) -> None:
+        self.cfg, self.on_point = cfg, on_point
+        self.on_critical, self.on_side_point = on_critical, on_side_point
+        self.run = _Run(cfg)
+        self.kappa_stop = cfg.kappa_stop
+        self.st, self.crit = _settings(cfg, self.kappa_stop)
+        self.control = None
+        self.phase: list[Any] = []
+        self.tracked: list[Any] = [None]  # the last point's SwitchResume
+        self.fundamental_points: Iterator[Any] | None = None
+
+    def destroy(self) -> None:
+        """Free the control and phase functionals and the model."""
+        for v in [self.control, *self.phase]:
+            if v is not None:
+                v.destroy()
+        self.run.destroy()
+
+    def records(self, resume: tuple[Any, ...] | None) -> Iterator[dict[str, Any]]:
+        """The run's records (``postbuckle``'s), from κ = 0 or from ``resume``."""
+        cfg = self.cfg
         cp = None if resume is None else resume[0]
         done_sides = {} if resume is None else dict(resume[1])
         inside = resume[2] if resume is not None and len(resume) > 2 else None
-        fundamental = (iter(()) if cp is not None
-                       else follow(run.model, st, kappa_stop, crit, solver=run.ns))
-        for p, _, found in fundamental:
+        if cp is None:
+            cp = yield from self.fundamental()
+        cpd = {"kind": cp.kind, "kappa": cp.kappa, "kappa_R": cp.kappa * cfg.R,
+               "kappa_h": cp.kappa * cfg.h, "mode_m": cp.mode_m, "mode_n": cp.mode_n,
+               "multiplicity": cp.multiplicity, "accuracy": cp.accuracy,
+               "kappa_R_bracket": [cp.kappa_lo * cfg.R, cp.kappa_hi * cfg.R]}
+        log.info("postbuckle: bifurcation at kappa R = %.6f (kappa h = %.6f), m = %s, n = %s",
+                 cpd["kappa_R"], cpd["kappa_h"], cp.mode_m, cp.mode_n)
+        if resume is None:
+            if self.on_critical is not None:
+                self.on_critical(self.run.model, cp)
+            yield {"critical_point": cpd}
+        else:
+            log.info("postbuckle: resumed at the critical point; side(s) %s already done",
+                     sorted(done_sides) or "none")
+        self.side_settings(cp)
+        sides = {}
+        for side in (float(s) for s in cfg.sides):
+            if int(side) in done_sides:
+                sides[int(side)] = {k: v for k, v in done_sides[int(side)].items()
+                                    if k != "side"}
+                continue
+            cont = inside if inside is not None and inside.side == int(side) else None
+            sides[int(side)] = yield from self.side(cp, side, cont)
+        yield {"summary": {"sides": sides, "dofs": self.run.model.num_dofs()}}
+
+    def fundamental(self) -> Iterator[dict[str, Any]]:
+        """The fundamental branch's records up to its ``cfg.at``-th bifurcation.
+
+        Returns:
+            That bifurcation's ``CriticalPoint``.
+
+        Raises:
+            InputError: a fold first, or (1D model) a loss of stability to m > 0 modes.
+            RuntimeError: no such bifurcation in the range.
+        """
+        from shells.algorithms.following import follow
+
+        cfg, run = self.cfg, self.run
+        bifs = []
+        # held by the run object: closed (its locator freed) when the run is released
+        self.fundamental_points = follow(run.model, self.st, self.kappa_stop, self.crit,
+                                         solver=run.ns)
+        for p, _, found in self.fundamental_points:
             rec = run.record(p, "fundamental")
             for c in found:
                 if c.kind == "fold":
@@ -437,167 +516,193 @@ def postbuckle(cfg: PostbuckleConfig, on_point: Callable[[Any, dict[str, Any]], 
                     f"the fundamental branch loses stability to the non-axisymmetric mode(s) "
                     f"m = {ms} by kappa R = {rec['kappa_R']:.5g}: the 1D model follows "
                     "axisymmetric branches only; use --model surface")
-            if on_point is not None:
-                on_point(run.model, rec)
+            if self.on_point is not None:
+                self.on_point(run.model, rec)
             yield rec
             if len(bifs) >= cfg.at:
-                cp = bifs[cfg.at - 1]
-                break
-        if cp is None:
-            raise RuntimeError(f"no bifurcation {cfg.at} on the fundamental branch up to "
-                               f"kappa R = {kappa_stop * cfg.R:.6g}")
-        cpd = {"kind": cp.kind, "kappa": cp.kappa, "kappa_R": cp.kappa * cfg.R,
-               "kappa_h": cp.kappa * cfg.h, "mode_m": cp.mode_m, "mode_n": cp.mode_n,
-               "multiplicity": cp.multiplicity, "accuracy": cp.accuracy,
-               "kappa_R_bracket": [cp.kappa_lo * cfg.R, cp.kappa_hi * cfg.R]}
-        log.info("postbuckle: bifurcation at kappa R = %.6f (kappa h = %.6f), m = %s, n = %s",
-                 cpd["kappa_R"], cpd["kappa_h"], cp.mode_m, cp.mode_n)
-        if resume is None:
-            if on_critical is not None:
-                on_critical(run.model, cp)
-            yield {"critical_point": cpd}
-        else:
-            log.info("postbuckle: resumed at the critical point; side(s) %s already done",
-                     sorted(done_sides) or "none")
+                return bifs[cfg.at - 1]
+        raise RuntimeError(f"no bifurcation {cfg.at} on the fundamental branch up to "
+                           f"kappa R = {self.kappa_stop * cfg.R:.6g}")
+
+    def side_settings(self, cp: Any) -> None:
+        """The bifurcated branches' settings at the bifurcation ``cp``: the control (a
+        closed shell's pole dimple), the phase functionals, the steps, the range, pins,
+        deflation and first amplitudes."""
+        from shells.algorithms.settings import ContinuationSettings
+
+        cfg, run = self.cfg, self.run
         lam_c = abs(cp.kappa_L)
         # a closed shell with a pole (the sphere): the dimple at the pole, its depth the
         # branch's parameter (steps in thicknesses of depth; on the 1D model arclength steps
         # slide onto other branches of the cluster, their path depending on the first
         # amplitude and on round-off; the surface model's multiplet has no preferred member)
-        dimple = (cfg.shape.closed and getattr(cfg.shape, "of_revolution", True)
-                  and getattr(cfg.shape, "has_pole", True) and cfg.mesh_file is None)
-        control = run.model.pole_functional() if dimple else None
+        self.dimple = dimple = (cfg.shape.closed and getattr(cfg.shape, "of_revolution", True)
+                                and getattr(cfg.shape, "has_pole", True)
+                                and cfg.mesh_file is None)
+        self.control = run.model.pole_functional() if dimple else None
         # the surface model's dimple could slide over the sphere (neutral; a near-null pair of
         # either sign on the mesh): its centre held at the pole, since at a fixed depth the
         # corrector is singular where that pair's eigenvalue crosses 0 (docs/model.md, "The 1D
         # model's closed sphere")
-        phase = (run.model.pole_moments() if dimple and cfg.model == "surface" else [])
-        sst = ContinuationSettings(ds=cfg.amplitude, ds_max=(4 * cfg.amplitude if dimple else
-                                                             max(4 * cfg.amplitude,
-                                                                 0.01 * lam_c)),
-                                   ds_min=1e-6 * cfg.amplitude, target_newton_its=5,
-                                   max_steps=cfg.max_points,
-                                   residual_roundoff=ROUNDOFF if cfg.model == "axisym" else 0.1)
-        k_lo, k_hi = sorted((cfg.kappa_min_ratio * cp.kappa, kappa_stop))
+        self.phase = (run.model.pole_moments() if dimple and cfg.model == "surface" else [])
+        self.sst = ContinuationSettings(
+            ds=cfg.amplitude, ds_max=(4 * cfg.amplitude if dimple else
+                                      max(4 * cfg.amplitude, 0.01 * lam_c)),
+            ds_min=1e-6 * cfg.amplitude, target_newton_its=5, max_steps=cfg.max_points,
+            residual_roundoff=ROUNDOFF if cfg.model == "axisym" else 0.1)
+        self.k_lo, self.k_hi = sorted((cfg.kappa_min_ratio * cp.kappa, self.kappa_stop))
         # the 1D model follows its one axisymmetric mode without pins: the modes of the
         # neighbouring degrees that cross next to it are other branches, not an orbit of
         # symmetry, and a localised dimple holds every degree (pinning them fails at large
         # amplitude). The surface model pins the partner of a split pair (the pattern's
         # orientation), see switch_branch
-        pinned = 1 if cfg.model == "axisym" else None
-        deflate = DEFLATE if cfg.model == "axisym" else 0
-        sides = {}
+        self.pinned = 1 if cfg.model == "axisym" else None
+        self.deflate = DEFLATE if cfg.model == "axisym" else 0
         # the 1D model's first corrector next to a cluster of bifurcations is sensitive to the
         # amplitude (docs/design-notes.md, "Post-buckling runs"): a side that returns within
         # its first 3 points is retried with other amplitudes (its points are kept back until
         # then: from the third on, they stream); the surface model takes one amplitude and
         # streams its points
-        factors = (1.0, 1.4, 2.0, 0.6) if cfg.model == "axisym" else (1.0,)
+        self.factors = (1.0, 1.4, 2.0, 0.6) if cfg.model == "axisym" else (1.0,)
 
-        def stop(kappa: float, n: int) -> str | None:
-            """How the side ends after its ``n``-th point, at ``kappa`` (None: it goes on)."""
-            if not (k_lo <= kappa <= k_hi):
-                return "range"
-            return "max_points" if n >= cfg.max_points else None
+    def stop(self, kappa: float, n: int) -> str | None:
+        """How the side ends after its ``n``-th point, at ``kappa`` (None: it goes on)."""
+        if not (self.k_lo <= kappa <= self.k_hi):
+            return "range"
+        return "max_points" if n >= self.cfg.max_points else None
 
-        def landed(kappa: float) -> bool:  # on the end of the range
-            return abs(kappa - kappa_stop) <= 1e-12 * abs(kappa_stop)
+    def landed(self, kappa: float) -> bool:
+        """Whether ``kappa`` is the end of the range."""
+        return abs(kappa - self.kappa_stop) <= 1e-12 * abs(self.kappa_stop)
 
-        tracked: list[Any] = [None]  # the last point's SwitchResume
-        track = None if on_side_point is None else (lambda r: tracked.__setitem__(0, r))
-        for side in (float(s) for s in cfg.sides):
-            if int(side) in done_sides:
-                sides[int(side)] = {k: v for k, v in done_sides[int(side)].items()
-                                    if k != "side"}
-                continue
-            cont = inside if inside is not None and inside.side == int(side) else None
-            amps = ([cont.records[0]["first_amplitude"]] if cont is not None
-                    else [f * cfg.amplitude for f in factors])
-            for i, amp in enumerate(amps):
-                held: list[dict[str, Any]] = []
-                n, first, ended = 0, None, "stalled (step below ds_min)"
-                last, ended_before = None, None
-                # the last point's (point, state, counts of the blocks searched) for locating
-                # the critical points of the bifurcated branch (``SecondaryLocator``)
-                secondary = SecondaryLocator(run, sst, closed=cfg.shape.closed)
-                if cont is not None:
-                    secondary.resume(cont.records[-1], cont.switch.state)
-                    n, first, last = (len(cont.records), cont.records[0]["kappa"],
-                                      cont.records[-1]["kappa"])
-                    ended_before = stop(last, n) or ("range" if landed(last) else None)
-                    log.info("postbuckle: side %+d resumed after its point %d (kappa R = %.6g)",
-                             side, cont.switch.index, last * cfg.R)
-                try:
-                    # landing target: the end of the range (a supercritical branch lands on
-                    # it); a subcritical one turns back and ends below kappa_min_ratio κ_c
-                    points = iter(()) if ended_before is not None else switch_branch(
-                        run.model, cp, sst, kappa_stop, ds=amp, solver=run.ns, sign=side,
-                        pinned=pinned, min_amplitude=0.1, deflate=deflate,
-                        resume=None if cont is None else cont.switch, track=track,
-                        control=control,
-                        cluster=max(CLUSTER, cp.multiplicity or 1) if dimple else 1,
-                        response=dimple and cfg.model == "surface", phase=phase)
-                    for p in points:
-                        if first is None:
-                            first = p.kappa
-                        last = p.kappa
-                        start = "down" if abs(first) < abs(cp.kappa) else "up"
-                        rec = run.record(p, "bifurcated", side=int(side), start=start,
-                                         subcritical=start == "down", first_amplitude=amp)
-                        found = secondary.step(p, get_state(run.model), rec, cp.kappa)
-                        if found:
-                            rec["critical"] = found
-                        n += 1
-                        if on_point is not None:
-                            on_point(run.model, rec)
-                        held.append(rec)
-                        if n >= 3 or i == len(amps) - 1:  # no retry can drop them now
-                            yield from held
-                            held = []
-                            if on_side_point is not None:
-                                on_side_point(run.model, int(side), tracked[0])
-                        ended_now = stop(p.kappa, n)
-                        if ended_now is not None:
-                            ended = ended_now
-                            break
-                    else:
-                        if ended_before is not None:
-                            ended = ended_before
-                        elif n and landed(last):
-                            ended = "range"
-                except RuntimeError as e:
-                    if "back on the fundamental branch" in str(e):
-                        ended = "returned to the fundamental branch"
-                    elif n == 0 and "did not converge off the fundamental branch" in str(e):
-                        # no first point at any of switch_branch's amplitudes: the next
-                        # factor, and past the last the side is reported as failed, not the
-                        # run (a first corrector next to a cluster of bifurcations can
-                        # diverge: docs/model.md, "The 1D model's closed sphere")
-                        ended = f"switching failed: {e}"
-                    else:
-                        raise
-                if not ended.startswith(("returned", "switching failed")) or n >= 3 \
-                        or i == len(amps) - 1:
+    def side(self, cp: Any, side: float, cont: SideResume | None
+             ) -> Iterator[dict[str, Any]]:
+        """One side's records: its attempts (retried at other amplitudes while one returns
+        or fails within 3 points), then its {"side_end"} record.
+
+        Args:
+            cp: the bifurcation.
+            side: +1 or -1.
+            cont: the side's ``SideResume`` (None: from the bifurcation).
+
+        Returns:
+            The side's summary (the "side_end" record without ``side``).
+        """
+        cfg = self.cfg
+        amps = ([cont.records[0]["first_amplitude"]] if cont is not None
+                else [f * cfg.amplitude for f in self.factors])
+        for i, amp in enumerate(amps):
+            a = yield from self.attempt(cp, side, amp, cont, i == len(amps) - 1)
+            if not a.ended.startswith(("returned", "switching failed")) or a.n >= 3 \
+                    or i == len(amps) - 1:
+                break
+            log.info("postbuckle: side %+d %s after %d points at amplitude %.3g: "
+                     "retried", side, "failed" if a.n == 0 else "returned", a.n, amp)
+        yield from a.held
+        located = [c for r in (cont.records if cont is not None else [])
+                   for c in r.get("critical", [])] + a.secondary.found
+        summary = {"points": a.n, "ended": a.ended, "first_amplitude": amp,
+                   "critical": located,
+                   "parameter": "psi3_pole_over_h" if self.dimple else "arclength",
+                   "start": None if a.first is None else (
+                       "down" if abs(a.first) < abs(cp.kappa) else "up")}
+        (log.warning if a.ended.startswith("switching failed") else log.info)(
+            "postbuckle: side %+d: %d points, %s", side, a.n, a.ended)
+        yield {"side_end": {"side": int(side), **summary}}
+        return summary
+
+    def attempt(self, cp: Any, side: float, amp: float, cont: SideResume | None,
+                final: bool) -> Iterator[dict[str, Any]]:
+        """One attempt at a side from first amplitude ``amp`` (or resumed from ``cont``):
+        its points streamed from the third on, or all at once if it is the ``final`` one.
+
+        Returns:
+            The ``_Attempt`` (records still held back in ``held``).
+
+        Raises:
+            RuntimeError: switching failed other than by a return to the fundamental branch
+                or (before any point) no first point.
+        """
+        cfg, run = self.cfg, self.run
+        # the last point's (point, state, counts of the blocks searched) for locating
+        # the critical points of the bifurcated branch (``SecondaryLocator``)
+        a = _Attempt(secondary=SecondaryLocator(run, self.sst, closed=cfg.shape.closed))
+        if cont is not None:
+            a.secondary.resume(cont.records[-1], cont.switch.state)
+            a.n, a.first, a.last = (len(cont.records), cont.records[0]["kappa"],
+                                    cont.records[-1]["kappa"])
+            a.ended_before = self.stop(a.last, a.n) or ("range" if self.landed(a.last) else None)
+            log.info("postbuckle: side %+d resumed after its point %d (kappa R = %.6g)",
+                     side, cont.switch.index, a.last * cfg.R)
+        try:
+            for p in self.switched_points(cp, side, amp, cont, a):
+                rec = self.side_record(p, a, cp, side, amp)
+                a.held.append(rec)
+                if a.n >= 3 or final:  # no retry can drop them now
+                    yield from a.held
+                    a.held = []
+                    if self.on_side_point is not None:
+                        self.on_side_point(run.model, int(side), self.tracked[0])
+                ended_now = self.stop(p.kappa, a.n)
+                if ended_now is not None:
+                    a.ended = ended_now
                     break
-                log.info("postbuckle: side %+d %s after %d points at amplitude %.3g: "
-                         "retried", side, "failed" if n == 0 else "returned", n, amp)
-            yield from held
-            located = [c for r in (cont.records if cont is not None else [])
-                       for c in r.get("critical", [])] + secondary.found
-            sides[int(side)] = {"points": n, "ended": ended, "first_amplitude": amp,
-                                "critical": located,
-                                "parameter": "psi3_pole_over_h" if dimple else "arclength",
-                                "start": None if first is None else (
-                                    "down" if abs(first) < abs(cp.kappa) else "up")}
-            (log.warning if ended.startswith("switching failed") else log.info)(
-                "postbuckle: side %+d: %d points, %s", side, n, ended)
-            yield {"side_end": {"side": int(side), **sides[int(side)]}}
-        yield {"summary": {"sides": sides, "dofs": run.model.num_dofs()}}
-    finally:
-        for v in [control, *phase]:
-            if v is not None:
-                v.destroy()
-        run.destroy()
+            else:
+                if a.ended_before is not None:
+                    a.ended = a.ended_before
+                elif a.n and self.landed(a.last):
+                    a.ended = "range"
+        except RuntimeError as e:
+            if "back on the fundamental branch" in str(e):
+                a.ended = "returned to the fundamental branch"
+            elif a.n == 0 and "did not converge off the fundamental branch" in str(e):
+                # no first point at any of switch_branch's amplitudes: the next factor, and
+                # past the last the side is reported as failed, not the run (a first
+                # corrector next to a cluster of bifurcations can diverge: docs/model.md,
+                # "The 1D model's closed sphere")
+                a.ended = f"switching failed: {e}"
+            else:
+                raise
+        return a
+
+    def switched_points(self, cp: Any, side: float, amp: float, cont: SideResume | None,
+                        a: _Attempt) -> Iterator[Any]:
+        """The bifurcated branch's points (``switch_branch``; none if the resumed side had
+        ended). Landing target: the end of the range (a supercritical branch lands on it);
+        a subcritical one turns back and ends below ``kappa_min_ratio`` κ_c."""
+        from shells.algorithms.switching import switch_branch
+
+        if a.ended_before is not None:
+            return iter(())
+        track = (None if self.on_side_point is None
+                 else (lambda r: self.tracked.__setitem__(0, r)))
+        return switch_branch(
+            self.run.model, cp, self.sst, self.kappa_stop, ds=amp, solver=self.run.ns,
+            sign=side, pinned=self.pinned, min_amplitude=0.1, deflate=self.deflate,
+            resume=None if cont is None else cont.switch, track=track, control=self.control,
+            cluster=max(CLUSTER, cp.multiplicity or 1) if self.dimple else 1,
+            response=self.dimple and self.cfg.model == "surface", phase=self.phase)
+
+    def side_record(self, p: Any, a: _Attempt, cp: Any, side: float, amp: float
+                    ) -> dict[str, Any]:
+        """The record of the bifurcated point ``p`` (its secondary critical points
+        located), counted in ``a`` and handed to ``on_point``."""
+        from shells.problem.interface import get_state
+
+        run = self.run
+        if a.first is None:
+            a.first = p.kappa
+        a.last = p.kappa
+        start = "down" if abs(a.first) < abs(cp.kappa) else "up"
+        rec = run.record(p, "bifurcated", side=int(side), start=start,
+                         subcritical=start == "down", first_amplitude=amp)
+        found = a.secondary.step(p, get_state(run.model), rec, cp.kappa)
+        if found:
+            rec["critical"] = found
+        a.n += 1
+        if self.on_point is not None:
+            self.on_point(run.model, rec)
+        return rec
 
 
 def read_postbuckle(path: str | os.PathLike) -> tuple[dict[str, Any], list[dict[str, Any]]]:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import logging
 import math
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -83,50 +84,12 @@ def make_figure(result: dict[str, Any], stem: Path) -> list[str]:
     tb_hi = max([p["thetabar"] for p in pts] + [5.0])
     x = np.linspace(0.5, tb_hi * 1.02, 600)
     x = x[x < 0.98 * math.pi / math.sqrt(h0)]
-    al = fits.get("alpha") or PAPER["alpha"]
-    be = fits.get("beta") or PAPER["beta"]
-    b = fits.get("b") or PAPER["b"]
-    c = fits.get("c") or PAPER["c"]
-    ts = fits.get("thetabar_s") or PAPER["thetabar_s"]
-    down = np.array([buckling_kappa_R(t, h0, b, c) for t in x])
-    mirror = 2.0 - down
     ylo = min(-6.0, float(np.nanmin([p.get("kappa_down_R") or 0 for p in pts] + [0])) - 0.5)
     yhi = max(8.0, 1.1 * float(np.nanmax([p.get("kappa_snap_R") or 0 for p in pts] + [0])))
     fig, ax = plt.subplots(figsize=(7.5, 7.2))
     _shade_computed(ax, [p for p in pts if p["h_over_R"] == h0], ylo, yhi)
-    ax.plot(x, down, "k-", lw=1.2, label="fits: Eq. (4), mirrored, snap line")
-    ax.plot(x, mirror, "k-", lw=1.2)
-    xs = x[x >= ts]
-    ax.plot(xs, be * xs - al, "k-", lw=1.2)
-    pd = np.array([buckling_kappa_R(t, h0) for t in x])
-    ax.plot(x, pd, "--", color="0.4", lw=1.0, label="paper")
-    ax.plot(x, 2.0 - pd, "--", color="0.4", lw=1.0)
-    xs = x[x >= PAPER["thetabar_s"]]
-    ax.plot(xs, snap_kappa_R(xs), "--", color="0.4", lw=1.0)
-    xp = x[x > 1.2]
-    ax.plot(xp, 1.0 + plate_a() / xp**2, ":", color="0.5", lw=1.0, label="plate limit")
-    ax.plot(xp, 1.0 - plate_a() / xp**2, ":", color="0.5", lw=1.0)
-    colors = plt.cm.viridis(np.linspace(0.0, 0.8, len(hs)))
-    for h, col in zip(hs, colors, strict=True):
-        ph = [p for p in pts if p["h_over_R"] == h]
-        sel = lambda key, cond=lambda p: True: [(p["thetabar"], p[key]) for p in ph  # noqa
-                                                 if p.get(key) is not None and cond(p)]
-        for key, mk, cond, lab in (
-                ("kappa_down_R", "v", lambda p: True, "loss of symmetry, kappa < 0"),
-                ("kappa_snap_R", "o", lambda p: p.get("up_kind") == "snap", "snap (fold)"),
-                ("kappa_snap_R", "s", lambda p: p.get("up_kind") == "bifurcation",
-                 "fold preceded by loss of symmetry"),
-                ("kappa_bif_up_R", "x", lambda p: p.get("up_kind") == "bifurcation",
-                 "loss of symmetry before the fold"),
-                ("kappa_up_R", "^", lambda p: p.get("up_kind") == "inversion",
-                 "smooth inversion, then loss of symmetry"),
-                ("kappa_everted_R", "D", lambda p: p.get("kappa_snap_R") is not None,
-                 "everted loss of symmetry (2 - kappa_b)")):
-            xy = sel(key, cond)
-            if xy:
-                xx, yy = zip(*xy, strict=True)
-                ax.plot(xx, yy, mk, ms=4.5, mfc="none" if mk not in "x" else col, mec=col,
-                        color=col, label=f"{lab}, h/R = {h:g}")
+    _draw_lines(ax, x, h0, fits)
+    _draw_points(ax, pts, hs, plt.cm.viridis(np.linspace(0.0, 0.8, len(hs))))
     ax.set_xlim(0, x[-1])
     ax.set_ylim(ylo, yhi)
     ax.axhline(0, color="0.6", lw=0.5)
@@ -144,3 +107,53 @@ def make_figure(result: dict[str, Any], stem: Path) -> list[str]:
         files.append(f)
     plt.close(fig)
     return files
+
+
+def _draw_lines(ax: Any, x: np.ndarray, h0: float, fits: dict[str, Any]) -> None:
+    """The fitted lines (solid; the paper's values where a fit is missing), the paper's
+    (dashed) and the plate limit (dotted) at h/R = ``h0`` over θ̄ = ``x``."""
+    al = fits.get("alpha") or PAPER["alpha"]
+    be = fits.get("beta") or PAPER["beta"]
+    b = fits.get("b") or PAPER["b"]
+    c = fits.get("c") or PAPER["c"]
+    ts = fits.get("thetabar_s") or PAPER["thetabar_s"]
+    down = np.array([buckling_kappa_R(t, h0, b, c) for t in x])
+    mirror = 2.0 - down
+    ax.plot(x, down, "k-", lw=1.2, label="fits: Eq. (4), mirrored, snap line")
+    ax.plot(x, mirror, "k-", lw=1.2)
+    xs = x[x >= ts]
+    ax.plot(xs, be * xs - al, "k-", lw=1.2)
+    pd = np.array([buckling_kappa_R(t, h0) for t in x])
+    ax.plot(x, pd, "--", color="0.4", lw=1.0, label="paper")
+    ax.plot(x, 2.0 - pd, "--", color="0.4", lw=1.0)
+    xs = x[x >= PAPER["thetabar_s"]]
+    ax.plot(xs, snap_kappa_R(xs), "--", color="0.4", lw=1.0)
+    xp = x[x > 1.2]
+    ax.plot(xp, 1.0 + plate_a() / xp**2, ":", color="0.5", lw=1.0, label="plate limit")
+    ax.plot(xp, 1.0 - plate_a() / xp**2, ":", color="0.5", lw=1.0)
+
+
+#: the computed points drawn: (record key, marker, which points, legend label)
+_MARKERS: tuple[tuple[str, str, Callable[[dict[str, Any]], bool], str], ...] = (
+    ("kappa_down_R", "v", lambda p: True, "loss of symmetry, kappa < 0"),
+    ("kappa_snap_R", "o", lambda p: p.get("up_kind") == "snap", "snap (fold)"),
+    ("kappa_snap_R", "s", lambda p: p.get("up_kind") == "bifurcation",
+     "fold preceded by loss of symmetry"),
+    ("kappa_bif_up_R", "x", lambda p: p.get("up_kind") == "bifurcation",
+     "loss of symmetry before the fold"),
+    ("kappa_up_R", "^", lambda p: p.get("up_kind") == "inversion",
+     "smooth inversion, then loss of symmetry"),
+    ("kappa_everted_R", "D", lambda p: p.get("kappa_snap_R") is not None,
+     "everted loss of symmetry (2 - kappa_b)"))
+
+
+def _draw_points(ax: Any, pts: list[dict[str, Any]], hs: list[float], colors: Any) -> None:
+    """The computed points, one colour per h/R of ``hs`` (``_MARKERS``)."""
+    for h, col in zip(hs, colors, strict=True):
+        ph = [p for p in pts if p["h_over_R"] == h]
+        for key, mk, cond, lab in _MARKERS:
+            xy = [(p["thetabar"], p[key]) for p in ph if p.get(key) is not None and cond(p)]
+            if xy:
+                xx, yy = zip(*xy, strict=True)
+                ax.plot(xx, yy, mk, ms=4.5, mfc="none" if mk not in "x" else col, mec=col,
+                        color=col, label=f"{lab}, h/R = {h:g}")

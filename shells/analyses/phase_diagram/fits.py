@@ -167,40 +167,16 @@ def fit_all(points: list[dict[str, Any]], nu: float = 0.5) -> dict[str, Any]:
         fits.update(b=buck["b"], c=buck["c"])
         err.update(b=buck["b_err"], c=buck["c_err"])
         extra["buckling_fit"] = buck
-    hs = sorted({p["h_over_R"] for p in points})
     per_h: dict[str, Any] = {}
     s_vals, s_errs, c_vals = [], [], []
-    for h in hs:
-        ph = sorted((p for p in points if p["h_over_R"] == h and "up_kind" in p),
-                    key=lambda p: p["thetabar"])
-        e: dict[str, Any] = {}
-        first = next((i for i, p in enumerate(ph) if p.get("kappa_snap_R") is not None), None)
-        if first is not None and first > 0:
-            lo, hi = ph[first - 1]["thetabar"], ph[first]["thetabar"]
-            e["thetabar_s_bracket"] = [lo, hi]
-            e["thetabar_s"] = 0.5 * (lo + hi)
+    for h in sorted({p["h_over_R"] for p in points}):
+        e = _per_h_over_r(points, h, snap, buck)
+        if "thetabar_s_bracket" in e:
+            lo, hi = e["thetabar_s_bracket"]
             s_vals.append(0.5 * (lo + hi))
             s_errs.append(0.5 * (hi - lo))
-        both = [p for p in ph if p.get("kappa_snap_R") is not None
-                and p.get("kappa_everted_R") is not None]
-        if len(both) >= 2:
-            x = np.array([p["thetabar"] for p in both])
-            d = np.array([p["kappa_snap_R"] - p["kappa_everted_R"] for p in both])
-            tc = _crossing(x, d)
-            e["thetabar_c"] = tc
-            if tc is not None:
-                c_vals.append(tc)
-        pre = next((p["thetabar"] for p in ph if p.get("up_kind") == "bifurcation"), None)
-        e["thetabar_bifurcation_precedes_fold"] = pre
-        e["snap_fit"] = fit_snap(ph)
-        pd = [p for p in points if p["h_over_R"] == h]
-        e["buckling_fit"] = _fit_buckling(pd)
-        e["everted_buckling_fit"] = _fit_buckling(pd, "kappa_everted_R", mirrored=True)
-        if snap and buck:
-            e["thetabar_c_from_fits"] = _thetabar_c_from_lines(snap["alpha"], snap["beta"],
-                                                               buck["b"], buck["c"], h)
-        e["thetabar_c_paper_lines"] = _thetabar_c_from_lines(
-            PAPER["alpha"], PAPER["beta"], PAPER["b"], PAPER["c"], h)
+        if e.get("thetabar_c") is not None:
+            c_vals.append(e["thetabar_c"])
         per_h[f"{h:g}"] = e
     if s_vals:
         fits["thetabar_s"] = float(np.mean(s_vals))
@@ -216,18 +192,58 @@ def fit_all(points: list[dict[str, Any]], nu: float = 0.5) -> dict[str, Any]:
         # linear interpolation over one grid step: its error is a fraction of the step
         err["thetabar_c"] = float(math.hypot(0.25 * float(spacing), spread))
     extra["per_h_over_R"] = per_h
-    # the rim's meridional curvature at the snap against the paper's (1 + ν)(-1/R + κ_s): the
-    # proportionality factor (least squares through 0) and the relative differences where
-    # (1 + ν)(κ_s R - 1) > 0.5 (near θ̄_s the snap sits at κ_s R ≈ 1, where it vanishes)
+    b11 = _b11_at_snap(points, nu)
+    if b11 is not None:
+        extra["b11_rim_at_snap"] = b11
+    return {"fits": fits, "fits_error": err, "extra": extra}
+
+
+def _per_h_over_r(points: list[dict[str, Any]], h: float, snap: dict[str, Any] | None,
+                  buck: dict[str, Any] | None) -> dict[str, Any]:
+    """The values of one h/R: θ̄_s's bracket and midpoint, θ̄_c, the first θ̄ whose
+    bifurcation precedes the fold, this h/R's fits, and θ̄_c from the fitted lines
+    (``snap``, ``buck``: the pooled fits, if any) and from the paper's."""
+    ph = sorted((p for p in points if p["h_over_R"] == h and "up_kind" in p),
+                key=lambda p: p["thetabar"])
+    e: dict[str, Any] = {}
+    first = next((i for i, p in enumerate(ph) if p.get("kappa_snap_R") is not None), None)
+    if first is not None and first > 0:
+        lo, hi = ph[first - 1]["thetabar"], ph[first]["thetabar"]
+        e["thetabar_s_bracket"] = [lo, hi]
+        e["thetabar_s"] = 0.5 * (lo + hi)
+    both = [p for p in ph if p.get("kappa_snap_R") is not None
+            and p.get("kappa_everted_R") is not None]
+    if len(both) >= 2:
+        x = np.array([p["thetabar"] for p in both])
+        d = np.array([p["kappa_snap_R"] - p["kappa_everted_R"] for p in both])
+        e["thetabar_c"] = _crossing(x, d)
+    pre = next((p["thetabar"] for p in ph if p.get("up_kind") == "bifurcation"), None)
+    e["thetabar_bifurcation_precedes_fold"] = pre
+    e["snap_fit"] = fit_snap(ph)
+    pd = [p for p in points if p["h_over_R"] == h]
+    e["buckling_fit"] = _fit_buckling(pd)
+    e["everted_buckling_fit"] = _fit_buckling(pd, "kappa_everted_R", mirrored=True)
+    if snap and buck:
+        e["thetabar_c_from_fits"] = _thetabar_c_from_lines(snap["alpha"], snap["beta"],
+                                                           buck["b"], buck["c"], h)
+    e["thetabar_c_paper_lines"] = _thetabar_c_from_lines(
+        PAPER["alpha"], PAPER["beta"], PAPER["b"], PAPER["c"], h)
+    return e
+
+
+def _b11_at_snap(points: list[dict[str, Any]], nu: float) -> dict[str, Any] | None:
+    """The rim's meridional curvature at the snap against the paper's (1 + ν)(-1/R + κ_s):
+    the proportionality factor (least squares through 0) and the relative differences where
+    (1 + ν)(κ_s R - 1) > 0.5 (near θ̄_s the snap sits at κ_s R ≈ 1, where it vanishes);
+    None without such points."""
     b11 = [(p["b11_rim_snap_R"], (1 + nu) * (-1.0 + p["kappa_snap_R"]), p["thetabar"])
            for p in points if p.get("b11_rim_snap_R") is not None]
-    if b11:
-        ours, law, _ = (np.array(v) for v in zip(*b11, strict=True))
-        keep = law > 0.5
-        rel = ours[keep] / law[keep] - 1
-        extra["b11_rim_at_snap"] = {
-            "n": int(len(ours)), "factor": float(ours @ law / (law @ law)),
+    if not b11:
+        return None
+    ours, law, _ = (np.array(v) for v in zip(*b11, strict=True))
+    keep = law > 0.5
+    rel = ours[keep] / law[keep] - 1
+    return {"n": int(len(ours)), "factor": float(ours @ law / (law @ law)),
             "n_compared": int(keep.sum()),
             "median_rel_diff": float(np.median(rel)) if rel.size else None,
             "max_abs_rel_diff": float(np.max(np.abs(rel))) if rel.size else None}
-    return {"fits": fits, "fits_error": err, "extra": extra}

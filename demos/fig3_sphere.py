@@ -87,6 +87,13 @@ if rank0:
 #    :width: 70%
 #    :alt: the sphere's post-buckling branches at three thicknesses
 #
+# The dimpled sphere at h/R = 0.01, κ = 0.74 κ_b on that branch (stored; cut open to show
+# the dimple's profile, the grey line the sphere it came from):
+#
+# .. image:: /../benchmarks/results/sphere_postbuckled_3d.png
+#    :width: 60%
+#    :alt: the closed sphere with a dimple at its pole, cut open
+#
 # Checks
 # ------
 #

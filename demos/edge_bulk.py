@@ -12,9 +12,9 @@ with Ψ3 the normal displacement, Ψ̌ the in-plane displacement, q = ∇Ψ3 −
 of an element of the shell and t the outward normal of the rim in the tangent plane. The
 bulk work is that of a pressure, the edge work that of a torque (and a membrane force)
 along the rim. With small displacements and a bending boundary layer of width √(Rh), the
-paper's scaling argument gives
+paper's scaling argument gives, for the ratio's absolute value,
 
-    |W_edge/W_bulk| ~ (R/h)^(3/2) / tan(θ/2) ≫ 1:
+    W_edge/W_bulk ~ (R/h)^(3/2) / tan(θ/2) ≫ 1:
 
 on thin caps the rim's work dominates, and the rim dictates the instabilities (the
 snapping line of Fig. 2 follows from the boundary layer alone).
@@ -43,7 +43,7 @@ import shells
 QUICK = os.environ.get("SHELLS_DEMO_QUICK") == "1" or "--quick" in sys.argv
 OUT = Path(os.environ.get("SHELLS_DEMO_OUT", "results/demos")) / "edge_bulk"
 rank0 = MPI.COMM_WORLD.rank == 0
-STORED = Path(__file__).resolve().parent.parent / "benchmarks" / "results" / "edge_bulk.json"
+STORED = Path(shells.__file__).resolve().parent.parent / "benchmarks" / "results" / "edge_bulk.json"
 
 # %% [markdown]
 # The linear response
@@ -80,10 +80,9 @@ if rank0:
 # The ratio against R/h
 # ---------------------
 #
-# Left: |W_edge/W_bulk| (points: this run; lines: the stored benchmark with the finer mesh,
-# computed by the full mode;
-# dashed: the paper's scale (R/h)^(3/2)/tan(θ/2)). Right: the local exponent
-# d ln|W_edge/W_bulk| / d ln(R/h) between successive thicknesses, against the predicted 3/2.
+# Left: the ratio ``|W_edge/W_bulk|`` (points: this run; lines: the stored benchmark on the
+# finer mesh; dashed: the paper's scale (R/h)^(3/2)/tan(θ/2)). Right: the local exponent
+# ``d ln|W_edge/W_bulk| / d ln(R/h)`` between successive thicknesses, against the predicted 3/2.
 
 # %%
 stored = json.loads(STORED.read_text())["rows"]

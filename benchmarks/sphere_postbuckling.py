@@ -4,8 +4,9 @@ Fig. 3), on the 1D model through ``shells.analyses.postbuckle``: Ψ3(pole)/h aga
 it with rotational symmetry enforced (the inward-dimple side), axisymmetric profiles and a 3D
 render of a buckled sphere. Writes JSON, PNG/PDF figures and a VTK shape, and prints a table.
 
-    scripts/in-env python3 benchmarks/sphere_postbuckling.py [OUTDIR [--figure-only]]
-    (OUTDIR: default benchmarks/results; --figure-only redraws the figure from its JSON)
+    scripts/in-env python3 benchmarks/sphere_postbuckling.py [OUTDIR [--figure-only|--render-only]]
+    (OUTDIR: default benchmarks/results; --figure-only redraws the figure, --render-only the 3D
+    render (and its .vts and profile CSV), from the JSON of a previous run)
 """
 
 from __future__ import annotations
@@ -173,34 +174,47 @@ def figure(results: list[dict], out: Path) -> list[str]:
     return paths
 
 
+def _cutaway(grid, n_phi: int):
+    """A revolved grid without the quarter of azimuths that faces the renders' camera (-y):
+    the cut meridians show the dimple's profile."""
+    q = (n_phi - 1) // 8
+    part = grid.extract_subset((0, grid.dimensions[0] - 1, q, n_phi - 1 - q, 0, 0))
+    return part.rotate_z(-90.0, inplace=False)
+
+
 def render_3d(res: dict, out: Path) -> list[str]:
-    """The buckled sphere at the deepest kept profile: VTK (.vts) and an off-screen render."""
-    import pyvista as pv
+    """The buckled sphere at the deepest kept profile: VTK (.vts) and an off-screen render
+    (the deformed shape cut open, coloured by Ψ3/h, the reference sphere's outline beside)."""
+    from shells.analyses.render import render_surface
 
-    from shells.analyses.render import ensure_display
-
-    ensure_display()
     key = min(res["profiles"], key=float)
     prof = {k: np.asarray(v) for k, v in res["profiles"][key].items()}
+    h = res["h_over_R"]
     # exaggerate nothing: the dimple is tens of thicknesses deep
     grid = revolve(prof)
     vts = write_vts(grid, out / "sphere_postbuckled.vts")
-    write_profile_csv(prof, out / "sphere_postbuckled_profile.csv", res["h_over_R"])
-    pl = pv.Plotter(off_screen=True, window_size=(700, 600))
-    pl.add_mesh(grid, scalars="normal_displacement", cmap="coolwarm", smooth_shading=True)
-    pl.camera_position = [(2.2, -2.2, 2.0), (0, 0, 0), (0, 0, 1)]
+    write_profile_csv(prof, out / "sphere_postbuckled_profile.csv", h)
+    n_phi = 193
+    shape = revolve(prof, n_phi=n_phi)
+    shape.point_data["psi3_over_h"] = shape.point_data["normal_displacement"] / h
+    reference = revolve({**prof, "ur": 0 * prof["ur"], "uz": 0 * prof["uz"]}, n_phi=n_phi)
     png = str(out / "sphere_postbuckled_3d.png")
-    pl.screenshot(png)
-    pl.close()
+    render_surface(_cutaway(shape, n_phi), png, scalars="psi3_over_h", symmetric=True,
+                   reference=_cutaway(reference, n_phi), label="normal displacement $\\Psi_3/h$",
+                   title=f"closed sphere, h/R = {h:g}: the dimpled branch at κ/κ_b = "
+                         f"{prof['kappa_over_kappa_b']:.2f} (grey: the sphere)",
+                   elevation=30.0, azimuth=0.0)
     return [vts, png]
 
 
 def main(outdir: str = "benchmarks/results", *flags: str) -> None:
     out = Path(outdir)
     out.mkdir(parents=True, exist_ok=True)
-    if "--figure-only" in flags:  # redraw from the JSON of a previous run
+    if "--figure-only" in flags or "--render-only" in flags:  # from a previous run's JSON
         results = json.loads((out / "sphere_postbuckling.json").read_text())["results"]
-        print("files:", ", ".join(figure(results, out)))
+        files = (figure(results, out) if "--figure-only" in flags else
+                 render_3d(next(r for r in results if r["h_over_R"] == 0.01), out))
+        print("files:", ", ".join(files))
         return
     results = [run_one(h, 80) for h in H_OVER_R]
     files = figure(results, out) + render_3d(next(r for r in results

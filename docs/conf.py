@@ -30,7 +30,7 @@ exclude_patterns = ["_build", "gallery/*.ipynb", "gallery/*.py", "gallery/*.zip"
                     "gallery/*.md5", "gallery/*.json", "sg_execution_times.rst"]
 html_theme = "furo"
 html_title = "shells"
-html_static_path = ["_static"]
+html_static_path: list[str] = []  # nothing of ours; MathJax is copied in by _copy_mathjax
 templates_path: list[str] = []
 
 # the equations are rendered by the MathJax 2 that Debian ships (libjs-mathjax), copied into

@@ -1,6 +1,12 @@
 """Off-screen pictures of surface meshes and of the surface model's states, deformed and coloured
 by a field, with pyvista (PNG; the state also as VTU for ParaView) (output layer).
 
+One style for every 3D figure (``render_surface``; the benchmarks' renders use it too): the
+deformed shape itself, lit and smooth-shaded, the camera fitted to the whole shape and to the
+reference shape (drawn as a thin grey outline: its silhouette and rim), the white margins
+cropped, and a matplotlib colour bar beside it whose label names the field and its unit
+(``FIELD_LABELS``).
+
 VTK needs an X display for OpenGL here; without one, a private Xvfb is started once per process
 (``xvfb`` is in the package list). Rendering happens on rank 0 from data gathered to it.
 """
@@ -19,7 +25,26 @@ import numpy as np
 if TYPE_CHECKING:
     from shells.surface.mesh import ShellMesh
 
-__all__ = ["ensure_display", "gather_vtk_mesh", "render_mesh", "render_state"]
+__all__ = ["FIELD_LABELS", "ensure_display", "gather_vtk_mesh", "render_mesh", "render_state",
+           "render_surface"]
+
+#: the colour bar's label of each field a state is coloured by: the quantity and its unit.
+#: Energies are the paper's dimensionless ones, 8(1-ν²)/(Eh) times the energy (the scaling of
+#: the pressure term, ``shells.surface.model``); lengths are in units of the shape's R.
+FIELD_LABELS = {
+    "bending_energy_density": "bending energy density $e_b$  [$Eh/8(1-\\nu^2)$]",
+    "stretching_energy_density": "stretching energy density $e_s$  [$Eh/8(1-\\nu^2)$]",
+    "mean_curvature_change": "mean curvature change $H - H^\\circ$  [$1/R$]",
+    "natural_curvature_mismatch": "mismatch with the natural curvature  [$1/R$]",
+    "normal_displacement": "normal displacement $\\Psi_3$  [$R$]",
+}
+#: the style: window (pixels), figure width (inches) and resolution, colours
+WINDOW = (1200, 960)
+FIGURE_WIDTH = 6.4
+DPI = 150
+SURFACE_COLOUR = "#8fb8de"
+REFERENCE_COLOUR = "#7f7f7f"
+REFERENCE_OPACITY = 0.15
 
 _xvfb: subprocess.Popen | None = None
 
@@ -97,13 +122,149 @@ def _unstructured(data: tuple) -> Any:
     return pyvista.UnstructuredGrid(cells, types, pts)
 
 
-def _plotter(png: str | os.PathLike) -> Any:
+def _surface(dataset: Any) -> Any:
+    """The dataset's surface as polygons (second-order cells subdivided twice), its coincident
+    points merged (the processes' shared nodes, a surface of revolution's seam)."""
     import pyvista
 
+    if isinstance(dataset, pyvista.PolyData):
+        surf = dataset
+    elif isinstance(dataset, pyvista.UnstructuredGrid):
+        surf = dataset.extract_surface(nonlinear_subdivision=2)
+    else:
+        surf = dataset.extract_surface()
+    return surf.clean(tolerance=1e-12, absolute=False)
+
+
+def _crop(img: np.ndarray, margin: float = 0.03) -> np.ndarray:
+    """The image without its white margins, but for ``margin`` of its size."""
+    ink = np.any(img[..., :3] < 250, axis=-1)
+    rows, cols = np.flatnonzero(ink.any(axis=1)), np.flatnonzero(ink.any(axis=0))
+    if rows.size == 0:
+        return img
+    pad = int(margin * max(img.shape[:2]))
+    r0, r1 = max(rows[0] - pad, 0), min(rows[-1] + pad + 1, img.shape[0])
+    c0, c1 = max(cols[0] - pad, 0), min(cols[-1] + pad + 1, img.shape[1])
+    return img[r0:r1, c0:c1]
+
+
+def render_surface(surface: Any, png: str | os.PathLike, *, scalars: str | None = None,
+                   label: str | None = None, cmap: str | None = None,
+                   clim: tuple[float, float] | None = None, symmetric: bool = False,
+                   reference: Any = None, ghost: bool = False, edges: Any = None,
+                   title: str | None = None, view: str = "xz", elevation: float = 25.0,
+                   azimuth: float = 30.0) -> None:
+    """Draw a surface in the renders' style and write it as PNG (on the calling process).
+
+    The shape is lit and smooth-shaded; the camera looks along ``view`` (a pyvista camera
+    plane: "xz" looks along y), turned up by ``elevation`` and around the axis by ``azimuth``
+    degrees, and is fitted to the whole of the shape and the reference; the colour bar is a
+    matplotlib one beside the shape, labelled with the field and its unit.
+
+    Args:
+        surface: the (deformed) shape, a pyvista dataset (its surface is drawn).
+        png: the image file.
+        scalars: the point array that colours it (None: one colour).
+        label: the colour bar's label (default: ``FIELD_LABELS`` or the array's name).
+        cmap: a matplotlib colour map (default: viridis; with ``symmetric``: RdBu_r).
+        clim: the colour range (default: the array's range).
+        symmetric: a range symmetric about zero (signed fields: displacements).
+        reference: the reference shape, drawn as a thin grey outline (its silhouette seen
+            from the camera, and its rim).
+        ghost: also draw the reference as a faint translucent surface.
+        edges: lines drawn over the shape (e.g. the mesh's edges).
+        title: the figure's title.
+        view, elevation, azimuth: the camera.
+    """
+    import matplotlib.colors as mcolors
+    import pyvista
+    from matplotlib import cm
+    from matplotlib.figure import Figure
+
+    ensure_display()
+    pyvista.OFF_SCREEN = True
+    surf = _surface(surface)
+    cmap = cmap or ("RdBu_r" if symmetric else "viridis")
+    if scalars is not None:
+        values = np.asarray(surf.point_data[scalars])
+        if clim is None:
+            lo, hi = float(values.min()), float(values.max())
+            if symmetric:
+                lo, hi = -max(abs(lo), abs(hi)), max(abs(lo), abs(hi))
+            if hi <= lo:
+                lo, hi = lo - 0.5 * (abs(lo) or 1.0), hi + 0.5 * (abs(hi) or 1.0)
+            clim = (lo, hi)
     Path(png).parent.mkdir(parents=True, exist_ok=True)
-    pl = pyvista.Plotter(off_screen=True, window_size=(900, 700))
+    pl = pyvista.Plotter(off_screen=True, window_size=WINDOW)
     pl.set_background("white")
-    return pl
+    look = {"smooth_shading": True, "ambient": 0.2, "diffuse": 0.8, "specular": 0.15,
+            "specular_power": 20}
+    if scalars is not None:
+        pl.add_mesh(surf, scalars=scalars, cmap=cmap, clim=clim, show_scalar_bar=False,
+                    **look)
+    else:
+        pl.add_mesh(surf, color=SURFACE_COLOUR, **look)
+    bounds = np.array(surf.bounds, dtype=float)
+    lines = []
+    if reference is not None:
+        ref = _surface(reference)
+        if ghost:
+            pl.add_mesh(ref, color=REFERENCE_COLOUR, opacity=REFERENCE_OPACITY,
+                        smooth_shading=True)
+            pl.enable_depth_peeling()  # the translucent ghost where it meets the shape
+        rim = ref.extract_feature_edges(boundary_edges=True, feature_edges=False,
+                                        manifold_edges=False, non_manifold_edges=False)
+        if rim.n_points:
+            lines.append((rim, REFERENCE_COLOUR, 2.0))
+        rb = np.array(ref.bounds, dtype=float)
+        bounds = np.concatenate([np.minimum(bounds[::2], rb[::2])[:, None],
+                                 np.maximum(bounds[1::2], rb[1::2])[:, None]], axis=1).ravel()
+    if edges is not None:
+        lines.append((edges, "#203040", 0.6))
+    pl.camera_position = view
+    pl.camera.elevation = elevation
+    pl.camera.azimuth = azimuth
+    pl.reset_camera(bounds=bounds)
+    if reference is not None:  # the reference's outline as seen from the camera
+        from vtkmodules.vtkFiltersHybrid import vtkPolyDataSilhouette
+
+        sil = vtkPolyDataSilhouette()
+        sil.SetInputData(ref)
+        sil.SetCamera(pl.renderer.GetActiveCamera())
+        sil.SetEnableFeatureAngle(False)
+        sil.Update()
+        outline = pyvista.wrap(sil.GetOutput())
+        if outline.n_points:
+            lines.append((outline, REFERENCE_COLOUR, 1.5))
+    # lines lie on surfaces (a rim where the shape has not moved, the mesh's edges): moved a
+    # hair towards the camera, so that the surfaces do not hide them in stripes
+    towards = np.subtract(pl.camera.position, pl.camera.focal_point)
+    towards *= 2e-3 * np.linalg.norm(bounds[1::2] - bounds[::2]) / np.linalg.norm(towards)
+    for mesh, colour, width in lines:
+        shifted = mesh.copy()
+        shifted.points = shifted.points + towards
+        pl.add_mesh(shifted, color=colour, line_width=width)
+    img = _crop(pl.screenshot(return_img=True))
+    pl.close()
+    h_px, w_px = img.shape[:2]
+    bar = 0.9 if scalars is not None else 0.0
+    width = FIGURE_WIDTH
+    height = min(max((width - bar) * h_px / w_px + (0.45 if title else 0.15), 2.5), 7.5)
+    fig = Figure(figsize=(width, height), dpi=DPI, layout="constrained")
+    ax = fig.add_subplot()
+    ax.imshow(img, interpolation="lanczos")
+    ax.set_axis_off()
+    if scalars is not None:
+        mappable = cm.ScalarMappable(mcolors.Normalize(*clim), cmap)
+        cb = fig.colorbar(mappable, ax=ax, shrink=0.8, aspect=25, pad=0.02)
+        cb.set_label(label or FIELD_LABELS.get(scalars, scalars.replace("_", " ")),
+                     fontsize=9)
+        cb.ax.tick_params(labelsize=8)
+        cb.formatter.set_powerlimits((-2, 3))
+        cb.update_ticks()
+    if title:
+        fig.suptitle(title, fontsize=10)
+    fig.savefig(png, dpi=DPI, facecolor="white")
 
 
 def render_mesh(sm: ShellMesh, png: str | os.PathLike, *, title: str | None = None) -> None:
@@ -118,21 +279,13 @@ def render_mesh(sm: ShellMesh, png: str | os.PathLike, *, title: str | None = No
     if data is None:
         return
     grid = _unstructured(data)
-    surf = grid.extract_surface(nonlinear_subdivision=2)
-    pl = _plotter(png)
-    pl.add_mesh(surf, color="#8fb8de", show_edges=False, smooth_shading=True)
-    pl.add_mesh(grid.extract_all_edges(), color="#203040", line_width=0.5)
-    if title:
-        pl.add_text(title, font_size=10, color="black")
-    pl.camera_position = "iso"
-    pl.camera.elevation = 15
-    pl.screenshot(str(png))
-    pl.close()
+    render_surface(grid, png, edges=grid.extract_all_edges(), title=title, view="iso",
+                   elevation=15.0, azimuth=0.0)
 
 
 def render_state(model: Any, png: str | os.PathLike | None, *, vtu: str | os.PathLike | None = None,
                  color_by: str = "bending_energy_density", title: str | None = None,
-                 view: str = "xz") -> None:
+                 view: str = "xz", reference: bool = True) -> None:
     """Render the surface model's current state, deformed (collective; rank 0 writes).
 
     Args:
@@ -140,9 +293,11 @@ def render_state(model: Any, png: str | os.PathLike | None, *, vtu: str | os.Pat
         png: the image file (None: no image).
         vtu: also write the deformed surface with every field as VTK XML (``.vtu``,
             ParaView's default reader).
-        color_by: the field that colours it (``shells.surface.fields.FieldWriter``'s arrays).
+        color_by: the field that colours it (``shells.surface.fields.FieldWriter``'s arrays;
+            its colour bar's label: ``FIELD_LABELS``).
         title: a title drawn on the image.
-        view: the camera's plane ("xz", ...).
+        view: the camera's plane ("xz", ...), turned 25° up and 30° around.
+        reference: draw the reference shape as a faint ghost.
     """
     from shells.surface.fields import FieldWriter
 
@@ -167,14 +322,5 @@ def render_state(model: Any, png: str | os.PathLike | None, *, vtu: str | os.Pat
         warped.save(str(vtu))
     if png is None:
         return
-    surf = warped.extract_surface(nonlinear_subdivision=2)
-    pl = _plotter(png)
-    pl.add_mesh(surf, scalars=color_by, cmap="viridis", smooth_shading=True,
-                scalar_bar_args={"title": color_by.replace("_", " "), "color": "black"})
-    if title:
-        pl.add_text(title, font_size=10, color="black")
-    pl.camera_position = view
-    pl.camera.elevation = 25
-    pl.camera.azimuth = 30
-    pl.screenshot(str(png))
-    pl.close()
+    render_surface(warped, png, scalars=color_by, title=title, view=view,
+                   reference=grid if reference else None)

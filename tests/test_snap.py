@@ -38,6 +38,11 @@ def test_a_shallow_cap_lands_on_its_everted_state(shared_tmp):
     assert ld["iterations"] > 0
     if MPI.COMM_WORLD.rank == 0:
         assert (shared_tmp / "snap3" / "snap.json").exists()
+    # a rerun resumes from the checkpoint (the minimiser's last saved iterate, no branch to
+    # follow again) and lands on the same state
+    again = snap.run(cfg, shared_tmp / "snap3", render=False)
+    assert again["landing"]["energy"] == pytest.approx(ld["energy"], rel=1e-9)
+    assert again["critical_points"] == res["critical_points"]
 
 
 def test_config_refusals():

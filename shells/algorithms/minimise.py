@@ -59,6 +59,12 @@ _METHOD_OPTIONS: dict[str, dict[str, Any]] = {
     "nls": {"ksp_type": "preonly"},
     "ntr": {"ksp_type": "stcg"},
 }
+#: hand-overs to Newton tried at most (``MinimiseSettings.newton_below``), and the TAO
+#: iterations between a failed one and the next
+MAX_NEWTON_ATTEMPTS = 3
+NEWTON_RETRY_AFTER = 10
+#: the iterations over which the energy's change is compared with ``MinimiseSettings.ftol``
+FLAT_WINDOW = 10
 #: the LDLᵀ that decides the shift's definiteness (its own prefix: ``shells_minimise_shift_``)
 SHIFT_PREFIX = MINIMISE_PREFIX + "shift_"
 SHIFT_OPTIONS: dict[str, Any] = {
@@ -126,6 +132,8 @@ class ShiftedFactor:
                                    f"{sigma:.3g} times the mass")
             sigma = max(4 * sigma, self.sigma0)
         self.sigma = sigma
+        log.debug("minimise: shift sigma = %.3g (%d factorisations so far)", sigma,
+                  self.factorisations)
 
     def apply(self, pc: Any, x: Any, y: Any) -> None:
         """y = (H + σ |diag H|)⁻¹ x."""
@@ -247,20 +255,27 @@ def minimise(problem: Any, settings: MinimiseSettings | None = None, *,
     tao.setTolerances(gatol=st.gatol, grtol=st.grtol, gttol=0.0)
     tao.setMaximumIterations(st.max_it)
     R = PETSc.TAO.ConvergedReason
-    g0: list[float] = []
+    #: the iteration before which no hand-over to Newton is tried (moved on after a failure)
+    hand_over = {"after": 0, "left": MAX_NEWTON_ATTEMPTS if st.newton_below > 0 else 0}
+    energies: list[float] = []
 
     def converged(tao: Any) -> None:
         # TAO's own test, and the hand-over to Newton: a small gradient where the Hessian is
         # definite up to the least shift (a neutral orbit mode allowed) lies in the basin of a
         # minimum, where Newton converges quadratically and TAO's shifted steps would creep
         its, f, gnorm, *_ = tao.getSolutionStatus()
-        if not g0:
-            g0.append(gnorm)
+        energies.append(f)
+        settled = (len(energies) > FLAT_WINDOW and gnorm <= st.newton_below
+                   and energies[-FLAT_WINDOW - 1] - f <= st.ftol * abs(f)
+                   and shifted.sigma <= st.sigma0)
         if not math.isfinite(f) or not math.isfinite(gnorm):
             tao.setConvergedReason(R.DIVERGED_NAN)
         elif gnorm <= max(st.gatol, st.grtol * abs(f)):
             tao.setConvergedReason(R.CONVERGED_GATOL)
-        elif (st.newton_rtol > 0 and its > 0 and gnorm <= st.newton_rtol * g0[0]
+        elif settled and hand_over["left"] < MAX_NEWTON_ATTEMPTS:
+            # Newton failed here and the energy no longer moves: a neutral valley
+            tao.setConvergedReason(R.CONVERGED_STEPTOL)
+        elif (hand_over["left"] > 0 and its > hand_over["after"] and gnorm <= st.newton_below
               and shifted.sigma <= st.sigma0):
             tao.setConvergedReason(R.CONVERGED_USER)
         elif its >= st.max_it:
@@ -285,29 +300,32 @@ def minimise(problem: Any, settings: MinimiseSettings | None = None, *,
     load(x)
     e0 = problem.total_energy()
     t0 = time.perf_counter()
-    tao.solve()
-    load(x)
-    reason = tao.getConvergedReason()
-    if reason == R.CONVERGED_USER:
+    done = 0  # TAO iterations of earlier solves (a solve after a failed hand-over restarts)
+    while True:
+        tao.solve()
+        load(x)
+        reason = tao.getConvergedReason()
+        if reason != R.CONVERGED_USER:
+            break
         from shells.algorithms.newton import NewtonSolver
 
-        ns = NewtonSolver(problem)
-        ok, its = ns.solve(atol=st.gatol)
-        log.debug("minimise: Newton from TAO's iterate %d: %s in %d iterations",
-                  tao.getIterationNumber(), "converged" if ok else "failed", its)
+        ok, its = NewtonSolver(problem).solve(atol=st.gatol)
+        done += tao.getIterationNumber()
+        log.debug("minimise: Newton from TAO's iterate %d: %s in %d iterations", done,
+                  "converged" if ok else "failed", its)
         if ok:
             x.array_w[:] = state.array_r[: x.getLocalSize()]
             reason = R.CONVERGED_GATOL
-        else:  # on with TAO alone
-            g0[:] = [0.0]  # no second hand-over
-            tao.setSolution(x)
-            tao.solve()
-            load(x)
-            reason = tao.getConvergedReason()
+            break
+        # on with TAO from its iterate (a failed solve leaves the state as it was)
+        hand_over["left"] -= 1
+        hand_over["after"] = NEWTON_RETRY_AFTER
+        tao.setMaximumIterations(max(st.max_it - done, 1))
     names = {v: k for k, v in vars(PETSc.TAO.ConvergedReason).items() if isinstance(v, int)}
+    names[R.CONVERGED_STEPTOL] = "CONVERGED_ENERGY_SETTLED"
     problem.assemble_residual(g)
     out = MinimiseResult(converged=reason > 0, reason=names.get(reason, str(reason)),
-                         iterations=int(tao.getIterationNumber()),
+                         iterations=done + int(tao.getIterationNumber()),
                          energy=problem.total_energy(), energy_start=e0,
                          gradient_norm=float(g.norm()), wall_time=time.perf_counter() - t0)
     shifted.destroy()

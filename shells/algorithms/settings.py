@@ -203,9 +203,16 @@ class MinimiseSettings:
             most ``gatol``.
         grtol: or the gradient's norm at most ``grtol`` times |E|.
         max_it: at most this many Newton iterations.
-        newton_rtol: TAO hands over to Newton (SNES, ``shells_newton_``) once the gradient
-            is below ``newton_rtol`` times its first value where the Hessian is definite up to
-            the least shift ``sigma0`` (0: TAO to the end).
+        newton_below: TAO hands over to Newton (SNES, ``shells_newton_``) once the gradient's
+            norm is below ``newton_below`` where the Hessian is definite up to the least shift
+            ``sigma0``: in the basin of a minimum Newton converges quadratically (0: TAO to the
+            end; a failed Newton solve returns to TAO).
+        ftol: where Newton failed from a small gradient (``newton_below``) with the Hessian
+            definite, the minimisation has converged once the energy changes by less than
+            ``ftol`` |E| over ten iterations: the iterates then creep along a neutral valley
+            (a pattern's rotation about the axis, neutral in the continuum and nearly so on a
+            mesh), which Newton crosses only linearly; the state is the landing state to that
+            tolerance in energy.
         sigma0: the least nonzero shift of the Hessian by the mass (``ShiftedFactor``), in
             the units of its eigenvalues μ (H v = μ M v).
         options: further PETSc options under the prefix ``shells_minimise_`` (TAO, its KSP
@@ -219,7 +226,8 @@ class MinimiseSettings:
     gatol: float = 1.0e-9
     grtol: float = 0.0
     max_it: int = 3000
-    newton_rtol: float = 1.0e-3
+    newton_below: float = 1.0e-3
+    ftol: float = 1.0e-6
     sigma0: float = 1.0e-6
     options: tuple[tuple[str, Any], ...] = ()
 
@@ -230,8 +238,11 @@ class MinimiseSettings:
             raise InputError("need gatol > 0 and grtol >= 0")
         if not (isinstance(self.max_it, int) and self.max_it >= 1):
             raise InputError(f"max_it must be a positive integer, got {self.max_it!r}")
-        if not (0 <= self.newton_rtol < 1):
-            raise InputError(f"newton_rtol must lie in [0, 1), got {self.newton_rtol!r}")
+        if not (self.newton_below >= 0 and math.isfinite(self.newton_below)):
+            raise InputError(f"newton_below must be a non-negative number, got "
+                             f"{self.newton_below!r}")
+        if not (self.ftol >= 0 and math.isfinite(self.ftol)):
+            raise InputError(f"ftol must be a non-negative number, got {self.ftol!r}")
         if not (self.sigma0 > 0 and math.isfinite(self.sigma0)):
             raise InputError(f"sigma0 must be a positive number, got {self.sigma0!r}")
 

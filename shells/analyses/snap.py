@@ -249,7 +249,9 @@ def run(cfg: SnapConfig, outdir: str | Path | None = None, *, render: bool = Tru
     if got is not None and got[0].get("header") != header:
         got = None
     if got is not None:
-        meta, states, _ = got
+        # the checkpoint's own bookkeeping (its index, its ranks) is not carried forward
+        meta = {k: v for k, v in got[0].items() if k not in ("index", "ranks")}
+        states = got[1]
         kappa_fold, cps = meta["kappa_fold"], meta["critical_points"]
         log.info("snap: resuming from the checkpoint (%s)", meta["stage"])
     else:

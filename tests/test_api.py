@@ -183,7 +183,29 @@ def test_the_command_line_takes_units(cap30, capsys):
     assert short["kappa_R_end"] == pytest.approx(1.0) and short["kind"] == "none"
 
 
+def test_the_command_line_takes_a_bilayer(cap30, capsys):
+    """``--bilayer 0.5mm,0.5mm,1MPa,1MPa,-0.05`` on a 25 mm cap: equal layers, so h = 1 mm
+    (h/R = 0.04) and κh = -1.5 Δε = 0.075 (Timoshenko), κR = 1.875; the range ends there and
+    the cap's fold (κR = 1.3934) is reached at the mismatch -0.05 × 1.3934 / 1.875."""
+    base = ["critical", "--shape", "cap", "--theta-deg", "30", "--model", "axisym", "--json",
+            "--radius", "25mm"]
+    d = _cli_json(base + ["--bilayer", "0.5mm,0.5mm,1MPa,1MPa,-0.05"], capsys)
+    b = d["bilayer"]
+    assert b["thickness"] == pytest.approx(1e-3, rel=1e-12)
+    assert b["kappa_R"] == pytest.approx(1.875, rel=1e-12)
+    assert d["kappa_R_end"] == pytest.approx(1.875, rel=1e-12)
+    assert d["kind"] == "fold" and d["kappa_R"] == pytest.approx(cap30.kappa_R, rel=1e-5)
+    assert b["mismatch_at_critical"] == pytest.approx(-0.05 * d["kappa_R"] / 1.875, rel=1e-12)
+    # the mismatch's sign is the direction: the same layers swelling the other way go down
+    down = _cli_json(base + ["--bilayer", "0.5mm,0.5mm,1MPa,1MPa,0.02"], capsys)
+    assert down["kappa_R_end"] == pytest.approx(-0.75, rel=1e-12)
+
+
 @pytest.mark.parametrize("extra, message", [
+    (["--bilayer", "0.5mm,0.5mm,1MPa,1MPa"], "five values"),
+    (["--bilayer", "0.5,0.5,1,1,0.01", "--radius", "25mm"], "need units"),
+    (["--bilayer", "0.5mm,0.5mm,1MPa,1MPa,0.01"], "--radius with units"),
+    (["--bilayer", "0.5mm,0.5mm,1MPa,1MPa,x", "--radius", "25mm"], "must be a number"),
     (["--radius", "0.025", "--h-over-r", "0.04"], "a length with units is any size"),
     (["--radius", "25mm", "--thickness", "0.001"], "--thickness needs units"),
     (["--thickness", "1mm"], "needs --radius with units"),

@@ -64,7 +64,7 @@ def emit(result: dict[str, Any], args: argparse.Namespace, human: Callable[[], N
     """Print a result on rank 0: the human summary, then (with --json) the JSON last line."""
     if rank() != 0:
         return
-    full = with_units(result, args)
+    full = with_units(with_bilayer(result, args), args)
     if getattr(args, "plot", None) or getattr(args, "csv", None):
         from shells.api.results import Result
 
@@ -75,6 +75,12 @@ def emit(result: dict[str, Any], args: argparse.Namespace, human: Callable[[], N
             res.to_csv(args.csv)
     if not getattr(args, "json", False):
         human()
+        b = full.get("bilayer")
+        if b is not None:
+            at = b.get("mismatch_at_critical")
+            print(f"bilayer: h = {b['thickness']:.4g}, natural curvature kappa R = "
+                  f"{b['kappa_R']:.6g} at mismatch {b['mismatch']:g}"
+                  + ("" if at is None else f"; the first critical point at mismatch {at:.6g}"))
     else:
         print(json.dumps(full, default=json_default), flush=True)
 
@@ -281,6 +287,13 @@ def add_shell_args(p: argparse.ArgumentParser) -> None:
     g.add_argument("--thickness", type=length("thickness", None), default=None,
                    help="instead of --h-over-r: the thickness, a length with units (1mm) with "
                    "--radius given with units, or a number in the unit of --radius")
+    g.add_argument("--bilayer", default=None, metavar="H1,H2,E1,E2,EPS",
+                   help="instead of --h-over-r: a bilayer, its outer and inner layers' "
+                   "thicknesses (lengths with units with --radius given with units, else "
+                   "numbers in its unit), Young's moduli (any one unit) and the mismatch strain "
+                   "EPS by which the outer layer expands (Timoshenko's formula; both layers take "
+                   "--nu). The thickness is the layers' sum; the kappa range, unless given, "
+                   "ends at the bilayer's natural curvature (its sign: the direction)")
     p.add_argument("--nu", type=float, default=0.5, help="Poisson ratio (default 0.5)")
 
 
@@ -397,6 +410,7 @@ def apply_units(args: argparse.Namespace) -> None:
             if isinstance(getattr(args, opt, None), SILength):
                 raise InputError(f"--{opt} with units needs --radius with units (e.g. "
                                  "--radius 25mm)")
+    apply_bilayer(args)
     thickness = getattr(args, "thickness", None)
     if thickness is not None:
         if getattr(args, "mesh", None) is not None or getattr(args, "shape", None) == "meridian":
@@ -419,6 +433,67 @@ def apply_units(args: argparse.Namespace) -> None:
             raise InputError("--kappa-max is a curvature with units (e.g. 40/m) for a "
                              "--radius with units; otherwise give --kappa-r-max")
         args.kappa_r_max = si * args.radius_m
+
+
+def apply_bilayer(args: argparse.Namespace) -> None:
+    """--bilayer H1,H2,E1,E2,EPS: the layers' thickness becomes --thickness, their natural
+    curvature ``args.bilayer_kappa_R`` (κR) the end of the κ range where none is given (and
+    its sign the direction); ``args.bilayer_record`` is what the output reports."""
+    text = getattr(args, "bilayer", None)
+    if text is None:
+        return
+    from shells.api.shell import bilayer
+
+    parts = [p.strip() for p in text.split(",")]
+    if len(parts) != 5 or not all(parts):
+        raise InputError(f"--bilayer takes H1,H2,E1,E2,EPS (five values), got {text!r}")
+
+    def value(p: str) -> Any:
+        try:
+            return float(p)
+        except ValueError:
+            return p  # a quantity with units, read by shells.bilayer
+
+    try:
+        eps = float(parts[4])
+    except ValueError:
+        raise InputError(f"--bilayer: the mismatch strain must be a number, got "
+                         f"{parts[4]!r}") from None
+    b = bilayer(h=(value(parts[0]), value(parts[1])), E=(value(parts[2]), value(parts[3])),
+                mismatch=eps, nu=args.nu)
+    with_units_h = not isinstance(value(parts[0]), float)
+    if with_units_h and args.radius_m is None:
+        raise InputError("--bilayer thicknesses with units need --radius with units (e.g. "
+                         "--radius 25mm)")
+    if not with_units_h and args.radius_m is not None:
+        raise InputError("--bilayer thicknesses need units when --radius has them (e.g. 0.5mm)")
+    scale = args.radius_m if with_units_h else args.radius
+    args.h_over_r = b.thickness / scale
+    args.bilayer_kappa_R = b.kappa * scale
+    args.bilayer_record = {**b.describe(), "kappa_R": args.bilayer_kappa_R}
+    if not math.isfinite(args.bilayer_kappa_R) or args.bilayer_kappa_R == 0:
+        raise InputError("--bilayer: the layers give no natural curvature (a zero mismatch)")
+    given = [getattr(args, k, None) for k in ("kappa_r_max", "kappa_h_max", "kappa_max")]
+    if hasattr(args, "kappa_r_max") and all(v is None for v in given):
+        if hasattr(args, "direction"):
+            args.kappa_r_max = abs(args.bilayer_kappa_R)
+            args.direction = "up" if args.bilayer_kappa_R > 0 else "down"
+        else:
+            args.kappa_r_max = args.bilayer_kappa_R
+
+
+def with_bilayer(result: dict[str, Any], args: argparse.Namespace) -> dict[str, Any]:
+    """The result with ``bilayer`` (the layers, their κ and κR) and, for a first critical
+    point, the mismatch strain at which the bilayer reaches it (``mismatch_at_critical``: the
+    natural curvature is linear in the mismatch) where --bilayer was given."""
+    rec = getattr(args, "bilayer_record", None)
+    if rec is None:
+        return result
+    rec = dict(rec)
+    kr = result.get("kappa_R")
+    if isinstance(kr, (int, float)):
+        rec["mismatch_at_critical"] = rec["mismatch"] * kr / rec["kappa_R"]
+    return {**result, "bilayer": rec}
 
 
 def with_units(result: dict[str, Any], args: argparse.Namespace) -> dict[str, Any]:

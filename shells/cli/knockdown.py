@@ -79,8 +79,9 @@ def _cmd_knockdown(args: argparse.Namespace) -> int:
             f" (pressure: p_b/E = {res['p_b_over_E']:.5g}, classical "
             f"{res['p_c_over_E_classical']:.5g})")
         m = f", m = {cfg.order}" if cfg.imperfection == "harmonic" else ""
-        print(f"closed sphere h/R = {cfg.h_over_r:g}, nu = {cfg.nu:g}, {cfg.load}, "
-              f"{cfg.imperfection} (n = {res['degree']}{m}): kappa_b h = "
+        print(f"closed sphere h/R = {cfg.h_over_r:g}, nu = {cfg.nu:g}, "
+              f"{common.model_words(args)}")
+        print(f"{cfg.load}, {cfg.imperfection} (n = {res['degree']}{m}): kappa_b h = "
               f"{res['kappa_b_h']:.6f}{load}")
         law = res["asymptotics"]
         c = law and law.get("coefficient")

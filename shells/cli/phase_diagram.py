@@ -7,7 +7,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from shells.cli.common import add_json, emit, positive_float
+from shells.cli.common import add_json, emit, model_words, positive_float
 
 __all__ = ["add_subcommand"]
 
@@ -71,7 +71,8 @@ def _cmd_phase_diagram(args: argparse.Namespace) -> int:
     def human() -> None:
         f, e = res["fits"], res["fits_error"]
         print(f"{len(res['points'])} points (h/R = {', '.join(f'{h:g}' for h in cfg.h_over_r)}),"
-              f" {res['stats']['computed']} computed in this run -> {res['points_file']}")
+              f" {res['stats']['computed']} computed in this run -> {res['points_file']}; "
+              f"{model_words(args)}")
         print(f"{'h/R':>6} {'thetabar':>8} {'up':>11} {'kappaR':>8} {'m':>3} {'snap':>8} "
               f"{'down':>8} {'m':>3} {'everted':>8}")
         fmt = lambda v: f"{v:8.3f}" if v is not None else f"{'-':>8}"  # noqa: E731

@@ -774,12 +774,20 @@ def run_postbuckle(cfg: PostbuckleConfig, outdir: str | os.PathLike | None = Non
                         {"state": r.state, "state_prev": r.state_prev},
                         {"side": side, "header": header, "switch": r.scalars()})
 
+    from shells.progress import Progress
+
     recs = list(kept)
+    # the share is not known beforehand (a side's length is its branch's): points, κ, side
+    progress = Progress("postbuckle", None, comm)
     for rec in postbuckle(cfg, on_point, on_critical=save,
                           on_side_point=None if path is None else save_side, resume=resume):
         recs.append(rec)
         if path is not None and comm.rank == 0:
             append_record(path, rec)
+        if "kappa_R" in rec and "branch" in rec:
+            progress.update(rec["kappa_R"], critical=int("critical_point" in rec),
+                            **({"side": rec["side"]} if "side" in rec else {}))
+    progress.close()
     return recs
 
 

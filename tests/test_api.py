@@ -348,3 +348,17 @@ def test_the_first_line_says_which_model_runs_and_why(capsys):
         assert "model surface: the default of this command" in first[0]
         assert "--model axisym" in first[0]
         assert given[0].endswith("model surface") and first[1:] == given[1:]
+
+
+def test_a_folder_in_use_is_refused(shared_tmp):
+    """As on the command line: a run into an output folder another run holds is refused
+    (``InputError`` naming the folder), before any work; once free, the folder is usable."""
+    from shells.files import hold_output_folder
+
+    shell = shells.Shell(shells.cap(30), h_over_r=0.04)
+    folder = shared_tmp / "held"
+    with hold_output_folder(folder, MPI.COMM_WORLD):
+        with pytest.raises(InputError, match="held"):
+            shells.critical(shell, model="axisym", outdir=folder)
+    res = shells.critical(shell, model="axisym", outdir=folder)
+    assert res.kind == "fold"

@@ -17,6 +17,7 @@ contains the first critical point.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from contextlib import AbstractContextManager, nullcontext
 from typing import Any
 
 from shells.analyses.setup import kappa_end
@@ -28,6 +29,19 @@ from shells.units import curvature
 
 __all__ = ["branch", "choose_model", "critical", "frequencies", "knockdown", "phase_diagram",
            "postbuckle", "snap", "sweep"]
+
+
+def _held(outdir: Any) -> AbstractContextManager[None]:
+    """Hold ``outdir`` for one run at a time (``shells.files.hold_output_folder``, as the
+    command line does): a second run into the same folder is refused with an ``InputError``
+    instead of interleaving its files; None: nothing to hold."""
+    if outdir is None:
+        return nullcontext()
+    from mpi4py import MPI
+
+    from shells.files import hold_output_folder
+
+    return hold_output_folder(outdir, MPI.COMM_WORLD, label="outdir")
 
 
 def choose_model(shell: Shell, model: str | None = None) -> str:
@@ -102,11 +116,11 @@ def critical(shell: Shell, direction: str = "up", *, model: str | None = None,
     m = choose_model(shell, model)
     if m == "axisym" and options:
         raise InputError(f"{', '.join(options)}: the surface model's options (model='surface')")
-    data = analysis.run(shell.shape, shell.h_over_r, shell.nu, direction=direction, model=m,
-                        kappa_end=_kappa_end(shell, kappa_max, kappa_R_max, kappa_h_max,
-                                             direction),
-                        outdir=outdir, kappa_field=shell.kappa_field, first_only=first_only,
-                        **options)
+    end = _kappa_end(shell, kappa_max, kappa_R_max, kappa_h_max, direction)
+    with _held(outdir):
+        data = analysis.run(shell.shape, shell.h_over_r, shell.nu, direction=direction,
+                            model=m, kappa_end=end, outdir=outdir,
+                            kappa_field=shell.kappa_field, first_only=first_only, **options)
     return Result("critical", data, shell.describe())
 
 
@@ -135,9 +149,11 @@ def branch(shell: Shell, *, kappa_max: Any = None, kappa_R_max: float | None = N
     if end is None:
         raise InputError("a branch needs the end of its range: kappa_R_max, kappa_h_max or "
                          "kappa_max")
-    data = analysis.run(shell.shape, shell.h_over_r, shell.nu, end,
-                        model=choose_model(shell, model), outdir=outdir,
-                        kappa_field=shell.kappa_field, fields=fields, resume=resume, **options)
+    with _held(outdir):
+        data = analysis.run(shell.shape, shell.h_over_r, shell.nu, end,
+                            model=choose_model(shell, model), outdir=outdir,
+                            kappa_field=shell.kappa_field, fields=fields, resume=resume,
+                            **options)
     return Result("branch", data, shell.describe())
 
 
@@ -171,7 +187,9 @@ def postbuckle(shell: Shell, direction: str = "up", *, at: int = 1, model: str |
         model=choose_model(shell, model), direction=direction, at=at,
         kappa_end=_kappa_end(shell, kappa_max, kappa_R_max, kappa_h_max, direction),
         kappa_field=UNIFORM if shell.kappa_field is None else shell.kappa_field, **options)
-    return Result("postbuckle", analysis.run(cfg, outdir, fields=fields), shell.describe())
+    with _held(outdir):
+        data = analysis.run(cfg, outdir, fields=fields)
+    return Result("postbuckle", data, shell.describe())
 
 
 def snap(shell: Shell, *, past: float = 0.01, kappa_R: float | None = None,
@@ -203,7 +221,9 @@ def snap(shell: Shell, *, past: float = 0.01, kappa_R: float | None = None,
         raise InputError("snap takes a uniform natural curvature")
     cfg = analysis.SnapConfig(shape=shell.shape, h_over_r=shell.h_over_r, nu=shell.nu,
                               method=method, past=past, kappa_R=kappa_R, **options)
-    return Result("snap", analysis.run(cfg, outdir, render=render), shell.describe())
+    with _held(outdir):
+        data = analysis.run(cfg, outdir, render=render)
+    return Result("snap", data, shell.describe())
 
 
 def frequencies(shell: Shell, *, kappa_R: float = 0.0, model: str | None = None,  # noqa: N803
@@ -263,7 +283,8 @@ def knockdown(shell: Shell | None = None, amplitudes: Sequence[float] = (0.0,), 
         raise InputError("give the sphere: a shell or h_over_r")
     cfg = KnockdownConfig(h_over_r=h_over_r, amplitudes=tuple(amplitudes), nu=nu,
                           imperfection=imperfection, model=model, **options)
-    data = analysis.run(cfg, outdir, figure=figure and outdir is not None)
+    with _held(outdir):
+        data = analysis.run(cfg, outdir, figure=figure and outdir is not None)
     return Result("knockdown", data, None if shell is None else shell.describe())
 
 
@@ -292,7 +313,9 @@ def phase_diagram(h_over_r: Sequence[float], thetabar_range: tuple[float, float]
 
     cfg = PhaseDiagramConfig(h_over_r=tuple(h_over_r), thetabar_range=tuple(thetabar_range),
                              points=points, nu=nu, model=model, **options)
-    return Result("phase_diagram", analysis.run(cfg, outdir, figure=figure))
+    with _held(outdir):
+        data = analysis.run(cfg, outdir, figure=figure)
+    return Result("phase_diagram", data)
 
 
 def sweep(shells: Sequence[Shell], analysis: str = "critical", *, comm: Any = None,

@@ -13,6 +13,8 @@ from mpi4py import MPI
 
 DEMOS = pathlib.Path(__file__).parent.parent / "demos"
 GALLERY = sorted(p.stem for p in DEMOS.glob("*.py") if p.stem != "main")
+#: demos whose quick mode a test of their own runs (and checks further): not run twice
+OWN_TEST = {"fig1d_snap": "tests/test_snap.py"}
 
 
 def _load(name: str):
@@ -32,10 +34,10 @@ def test_the_gallery_has_its_demos():
     """At least the demos the gallery's figure table names."""
     assert {"fig1c_buckled_cap", "fig2_phase_diagram", "fig3_sphere", "ellipsoids",
             "own_cap_cli", "own_cap_python", "own_mesh", "kappa_field", "knockdown",
-            "sweep_mpi"} <= set(GALLERY)
+            "sweep_mpi", "fig1d_snap"} <= set(GALLERY)
 
 
-@pytest.mark.parametrize("name", GALLERY)
+@pytest.mark.parametrize("name", [g for g in GALLERY if g not in OWN_TEST])
 def test_gallery_demo_quick_mode(name, shared_tmp, monkeypatch):
     """``python3 demos/NAME.py --quick``, run as a script (``__main__``): its asserts pass."""
     import matplotlib

@@ -3,9 +3,10 @@
 A shallow cap (θ̄ = 3 < θ̄_c ≈ 3.85) snaps into its axisymmetric everted state: the
 minimiser's landing, reached from the fold's state perturbed along its unstable modes, must be
 the state Newton finds from the shell mirrored through its rim plane (an independent route),
-stable and symmetric. Bad input is one line on stderr and exit status 2."""
+stable and symmetric (the gallery's Fig. 1 (d) demo in its quick mode asserts it; run here,
+not by tests/test_demos.py). A rerun resumes. Bad input is one line on stderr and exit
+status 2."""
 
-import math
 import subprocess
 
 import pytest
@@ -17,32 +18,34 @@ from shells.errors import InputError
 from shells.geometry.shapes import Sphere, SphericalCap
 
 
-def test_a_shallow_cap_lands_on_its_everted_state(shared_tmp):
-    h = 0.04
-    # P3 (P2 locks: on coarse P2 meshes the minimiser finds a wrinkled m = 8 state that the
-    # default mesh does not have)
-    cfg = snap.SnapConfig(shape=SphericalCap(1.0, 3.0 * math.sqrt(h)), h_over_r=h, past=0.02,
-                          size=0.3, degree=3, layer_elements=2.0)
-    res = snap.run(cfg, shared_tmp / "snap3", render=False)
-    ld, ev = res["landing"], res["axisymmetric_everted"]
-    assert res["start"]["kind"] == "fold"
-    assert res["start"]["kappa_R"] == pytest.approx(1.02 * res["start"]["kappa_fold_R"], rel=1e-12)
-    assert ld["stable"] and ld["symmetric"] and ld["mode_m"] == 0
-    assert ev["negative_count"] == 0
-    # two routes to one state: the minimiser's landing and Newton from the mirrored shell (in
-    # the mirror chart, whose energy differs by the coarse mesh's departure from the sphere)
-    assert ld["energy"] == pytest.approx(ev["energy"], rel=3e-3)
-    assert ld["rim_rotation_deg"] == pytest.approx(ev["rim_rotation_deg"], abs=0.01)
+def test_the_fig1d_demo_quick_mode_and_a_resumed_rerun(shared_tmp, monkeypatch):
+    """The gallery's Fig. 1 (d) demo in its quick mode (its own asserts: the θ̄ = 3 cap lands,
+    stable and symmetric, on the everted state Newton finds from the mirrored cap), then the
+    same snap again into the same folder: it resumes from the minimiser's checkpoint (no
+    branch followed again) and lands on the same state."""
+    import pathlib
+    import runpy
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import shells
+
+    demo = pathlib.Path(__file__).parent.parent / "demos" / "fig1d_snap.py"
+    monkeypatch.setenv("SHELLS_DEMO_QUICK", "1")
+    monkeypatch.setenv("SHELLS_DEMO_OUT", str(shared_tmp / "demos"))
+    ns = runpy.run_path(str(demo), run_name="__main__")
+    res = ns["res"]
+    ld = res.landing
+    assert res.start["kappa_R"] == pytest.approx(1.02 * res.start["kappa_fold_R"], rel=1e-12)
     # everted: the rim turned by far more than the opening angle (θ = 34.4°)
-    assert 60 < ld["rim_rotation_deg"] < 70
-    assert ld["iterations"] > 0
+    assert 60 < ld["rim_rotation_deg"] < 70 and ld["iterations"] > 0
+    out = shared_tmp / "demos" / "fig1d_snap"
     if MPI.COMM_WORLD.rank == 0:
-        assert (shared_tmp / "snap3" / "snap.json").exists()
-    # a rerun resumes from the checkpoint (the minimiser's last saved iterate, no branch to
-    # follow again) and lands on the same state
-    again = snap.run(cfg, shared_tmp / "snap3", render=False)
-    assert again["landing"]["energy"] == pytest.approx(ld["energy"], rel=1e-9)
-    assert again["critical_points"] == res["critical_points"]
+        assert (out / "snap.json").exists() and (out / "landing.png").stat().st_size > 0
+    again = shells.snap(ns["shell"], past=0.02, outdir=out, render=False, **ns["mesh"])
+    assert again.landing["energy"] == pytest.approx(ld["energy"], rel=1e-9)
+    assert again.critical_points == res.critical_points
 
 
 def test_config_refusals():

@@ -205,6 +205,130 @@ def perturbed(problem: Any, directions: list[np.ndarray], amplitude: float) -> N
     problem.sync()
 
 
+class _TaoRun:
+    """One ``minimise``: TAO on the problem's energy with the shifted factor as its PC, the
+    convergence test with its hand-over to Newton, and the solve loop."""
+
+    def __init__(self, problem: Any, st: MinimiseSettings,
+                 monitor: Callable[[Any], None] | None) -> None:
+        from petsc4py import PETSc
+
+        self.problem, self.st = problem, st
+        self.R = PETSc.TAO.ConvergedReason
+        self.x = problem.create_vector()
+        self.x.array_w[:] = problem.state.array_r[: self.x.getLocalSize()]
+        self.g = problem.create_vector()
+        self.H = problem.create_jacobian()
+        self.M = problem.assemble_mass(None)
+        self.shifted = ShiftedFactor(self.M, st.sigma0)
+        #: Newton hand-overs left, and the iteration of a solve before which none is tried
+        self.left = MAX_NEWTON_ATTEMPTS if st.newton_below > 0 else 0
+        self.after = 0
+        self.energies: list[float] = []
+        self.done = 0  # TAO iterations of earlier solves (a solve after a failed hand-over)
+        self.tao = self._make_tao(monitor)
+
+    def load(self, xv: Any) -> None:
+        """The iterate ``xv`` into the problem's state."""
+        self.problem.state.array_w[: xv.getLocalSize()] = xv.array_r
+        self.problem.sync()
+
+    def _objective_gradient(self, tao: Any, xv: Any, gv: Any) -> float:
+        self.load(xv)
+        self.problem.assemble_residual(gv)
+        return self.problem.total_energy()
+
+    def _hessian(self, tao: Any, xv: Any, A: Any, P: Any) -> None:
+        self.load(xv)
+        self.problem.assemble_jacobian(A)
+
+    def _make_tao(self, monitor: Callable[[Any], None] | None) -> Any:
+        """The TAO solver, its KSP and the shifted factor as the KSP's PC."""
+        from petsc4py import PETSc
+
+        st = self.st
+        tao = PETSc.TAO().create(self.problem.comm)
+        tao.setType(st.method)
+        tao.setObjectiveGradient(self._objective_gradient, self.g)
+        tao.setHessian(self._hessian, self.H)
+        tao.setSolution(self.x)
+        tao.setTolerances(gatol=st.gatol, grtol=st.grtol, gttol=0.0)
+        tao.setMaximumIterations(st.max_it)
+        tao.setConvergenceTest(self.converged)
+        if monitor is not None:
+            tao.setMonitor(monitor)
+        tao.setOptionsPrefix(MINIMISE_PREFIX)
+        options = {**_METHOD_OPTIONS[st.method], **dict(st.options)}
+        apply_options(tao, MINIMISE_PREFIX, options)
+        ksp = tao.getKSP()
+        ksp.setOptionsPrefix(MINIMISE_PREFIX)
+        apply_options(ksp, MINIMISE_PREFIX, options)
+        pc = ksp.getPC()
+        pc.setType("python")
+        pc.setPythonContext(self.shifted)
+        return tao
+
+    def converged(self, tao: Any) -> None:
+        """TAO's convergence test: its own tolerances, the hand-over to Newton (a small
+        gradient where the Hessian is definite up to the least shift lies in the basin of a
+        minimum, where Newton converges quadratically and the shifted steps would creep), and
+        the energy settled where Newton failed (a neutral valley)."""
+        st, R = self.st, self.R
+        its, f, gnorm, *_ = tao.getSolutionStatus()
+        self.energies.append(f)
+        definite = self.shifted.sigma <= st.sigma0
+        settled = (len(self.energies) > FLAT_WINDOW and gnorm <= st.newton_below and definite
+                   and self.energies[-FLAT_WINDOW - 1] - f <= st.ftol * abs(f))
+        if not math.isfinite(f) or not math.isfinite(gnorm):
+            reason = R.DIVERGED_NAN
+        elif gnorm <= max(st.gatol, st.grtol * abs(f)):
+            reason = R.CONVERGED_GATOL
+        elif settled and self.left < MAX_NEWTON_ATTEMPTS:
+            reason = R.CONVERGED_STEPTOL
+        elif self.left > 0 and its > self.after and gnorm <= st.newton_below and definite:
+            reason = R.CONVERGED_USER
+        elif its >= st.max_it:
+            reason = R.DIVERGED_MAXITS
+        else:
+            reason = R.CONTINUE_ITERATING
+        tao.setConvergedReason(reason)
+
+    def solve(self) -> int:
+        """TAO, and Newton where TAO hands over; returns the converged reason."""
+        from shells.algorithms.newton import NewtonSolver
+
+        while True:
+            self.tao.solve()
+            self.load(self.x)
+            reason = self.tao.getConvergedReason()
+            if reason != self.R.CONVERGED_USER:
+                return reason
+            ok, its = NewtonSolver(self.problem).solve(atol=self.st.gatol)
+            self.done += self.tao.getIterationNumber()
+            log.debug("minimise: Newton from TAO's iterate %d: %s in %d iterations", self.done,
+                      "converged" if ok else "failed", its)
+            if ok:
+                self.x.array_w[:] = self.problem.state.array_r[: self.x.getLocalSize()]
+                return self.R.CONVERGED_GATOL
+            # on with TAO from its iterate (a failed Newton solve leaves the state as it was)
+            self.left -= 1
+            self.after = NEWTON_RETRY_AFTER
+            self.tao.setMaximumIterations(max(self.st.max_it - self.done, 1))
+
+    def reason_name(self, reason: int) -> str:
+        """TAO's name of a converged reason (the settled energy's own)."""
+        if reason == self.R.CONVERGED_STEPTOL:
+            return "CONVERGED_ENERGY_SETTLED"
+        names = {v: k for k, v in vars(self.R).items() if isinstance(v, int)}
+        return names.get(reason, str(reason))
+
+    def destroy(self) -> None:
+        """Free the solver, its factor, vectors and matrices."""
+        self.shifted.destroy()
+        for obj in (self.tao, self.x, self.g, self.H, self.M):
+            obj.destroy()
+
+
 def minimise(problem: Any, settings: MinimiseSettings | None = None, *,
              monitor: Callable[[Any], None] | None = None) -> MinimiseResult:
     """Minimise the problem's energy at its current κ, from its current state, with TAO.
@@ -214,7 +338,8 @@ def minimise(problem: Any, settings: MinimiseSettings | None = None, *,
             is the start and is left at the final iterate.
         settings: the method and tolerances (None: ``MinimiseSettings()``).
         monitor: called with the TAO object after every iteration (``tao.getSolution()`` is
-            the iterate, ``getObjectiveValue``, ``getGradientNorm``): progress, checkpoints.
+            the iterate, ``tao.getSolutionStatus()`` its iteration, energy and gradient
+            norm): progress, checkpoints.
 
     Returns:
         The ``MinimiseResult``; ``converged`` False when TAO stopped otherwise (the caller
@@ -223,114 +348,18 @@ def minimise(problem: Any, settings: MinimiseSettings | None = None, *,
     Raises:
         InputError: for a problem without ``total_energy``.
     """
-    from petsc4py import PETSc
-
     if not isinstance(problem, Energy):
         raise InputError("this problem has no energy to minimise (no total_energy())")
-    st = settings or MinimiseSettings()
-    state = problem.state
-    x = problem.create_vector()
-    x.array_w[:] = state.array_r[: x.getLocalSize()]
-    g = problem.create_vector()
-    H = problem.create_jacobian()
-
-    def load(xv: Any) -> None:
-        state.array_w[: xv.getLocalSize()] = xv.array_r
-        problem.sync()
-
-    def objective_gradient(tao: Any, xv: Any, gv: Any) -> float:
-        load(xv)
-        problem.assemble_residual(gv)
-        return problem.total_energy()
-
-    def hessian(tao: Any, xv: Any, A: Any, P: Any) -> None:
-        load(xv)
-        problem.assemble_jacobian(A)
-
-    tao = PETSc.TAO().create(problem.comm)
-    tao.setType(st.method)
-    tao.setObjectiveGradient(objective_gradient, g)
-    tao.setHessian(hessian, H)
-    tao.setSolution(x)
-    tao.setTolerances(gatol=st.gatol, grtol=st.grtol, gttol=0.0)
-    tao.setMaximumIterations(st.max_it)
-    R = PETSc.TAO.ConvergedReason
-    #: the iteration before which no hand-over to Newton is tried (moved on after a failure)
-    hand_over = {"after": 0, "left": MAX_NEWTON_ATTEMPTS if st.newton_below > 0 else 0}
-    energies: list[float] = []
-
-    def converged(tao: Any) -> None:
-        # TAO's own test, and the hand-over to Newton: a small gradient where the Hessian is
-        # definite up to the least shift (a neutral orbit mode allowed) lies in the basin of a
-        # minimum, where Newton converges quadratically and TAO's shifted steps would creep
-        its, f, gnorm, *_ = tao.getSolutionStatus()
-        energies.append(f)
-        settled = (len(energies) > FLAT_WINDOW and gnorm <= st.newton_below
-                   and energies[-FLAT_WINDOW - 1] - f <= st.ftol * abs(f)
-                   and shifted.sigma <= st.sigma0)
-        if not math.isfinite(f) or not math.isfinite(gnorm):
-            tao.setConvergedReason(R.DIVERGED_NAN)
-        elif gnorm <= max(st.gatol, st.grtol * abs(f)):
-            tao.setConvergedReason(R.CONVERGED_GATOL)
-        elif settled and hand_over["left"] < MAX_NEWTON_ATTEMPTS:
-            # Newton failed here and the energy no longer moves: a neutral valley
-            tao.setConvergedReason(R.CONVERGED_STEPTOL)
-        elif (hand_over["left"] > 0 and its > hand_over["after"] and gnorm <= st.newton_below
-              and shifted.sigma <= st.sigma0):
-            tao.setConvergedReason(R.CONVERGED_USER)
-        elif its >= st.max_it:
-            tao.setConvergedReason(R.DIVERGED_MAXITS)
-        else:
-            tao.setConvergedReason(R.CONTINUE_ITERATING)
-
-    tao.setConvergenceTest(converged)
-    if monitor is not None:
-        tao.setMonitor(monitor)
-    tao.setOptionsPrefix(MINIMISE_PREFIX)
-    options = {**_METHOD_OPTIONS[st.method], **dict(st.options)}
-    apply_options(tao, MINIMISE_PREFIX, options)
-    ksp = tao.getKSP()
-    ksp.setOptionsPrefix(MINIMISE_PREFIX)
-    apply_options(ksp, MINIMISE_PREFIX, options)
-    M = problem.assemble_mass(None)
-    shifted = ShiftedFactor(M, st.sigma0)
-    pc = ksp.getPC()
-    pc.setType("python")
-    pc.setPythonContext(shifted)
-    load(x)
+    run = _TaoRun(problem, settings or MinimiseSettings(), monitor)
     e0 = problem.total_energy()
     t0 = time.perf_counter()
-    done = 0  # TAO iterations of earlier solves (a solve after a failed hand-over restarts)
-    while True:
-        tao.solve()
-        load(x)
-        reason = tao.getConvergedReason()
-        if reason != R.CONVERGED_USER:
-            break
-        from shells.algorithms.newton import NewtonSolver
-
-        ok, its = NewtonSolver(problem).solve(atol=st.gatol)
-        done += tao.getIterationNumber()
-        log.debug("minimise: Newton from TAO's iterate %d: %s in %d iterations", done,
-                  "converged" if ok else "failed", its)
-        if ok:
-            x.array_w[:] = state.array_r[: x.getLocalSize()]
-            reason = R.CONVERGED_GATOL
-            break
-        # on with TAO from its iterate (a failed solve leaves the state as it was)
-        hand_over["left"] -= 1
-        hand_over["after"] = NEWTON_RETRY_AFTER
-        tao.setMaximumIterations(max(st.max_it - done, 1))
-    names = {v: k for k, v in vars(PETSc.TAO.ConvergedReason).items() if isinstance(v, int)}
-    names[R.CONVERGED_STEPTOL] = "CONVERGED_ENERGY_SETTLED"
-    problem.assemble_residual(g)
-    out = MinimiseResult(converged=reason > 0, reason=names.get(reason, str(reason)),
-                         iterations=done + int(tao.getIterationNumber()),
+    reason = run.solve()
+    problem.assemble_residual(run.g)
+    out = MinimiseResult(converged=reason > 0, reason=run.reason_name(reason),
+                         iterations=run.done + int(run.tao.getIterationNumber()),
                          energy=problem.total_energy(), energy_start=e0,
-                         gradient_norm=float(g.norm()), wall_time=time.perf_counter() - t0)
-    shifted.destroy()
-    for obj in (tao, x, g, H, M):
-        obj.destroy()
+                         gradient_norm=float(run.g.norm()), wall_time=time.perf_counter() - t0)
+    run.destroy()
     log.debug("minimise: %s after %d iterations, E %.10g -> %.10g, |g| %.3g", out.reason,
               out.iterations, e0, out.energy, out.gradient_norm)
     return out

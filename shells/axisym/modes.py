@@ -91,25 +91,10 @@ class ModeForms:
         c = {k: fem.Constant(mesh, default_scalar_type(0.0))
              for k in ("m", "a0", "b0", "a1", "b1", "cSU", "cDU", "cSV", "cDV")}
         self.c = c
-        q, Pq = ufl.split(self.pert)
-        S, D, W = q[0], q[1], q[2]
-        PS, PD, PW = Pq[0], Pq[1], Pq[2]
-        U, V = c["cSU"] * S + c["cDU"] * D, c["cSV"] * S + c["cDV"] * D
-        PU, PV = c["cSU"] * PS + c["cDU"] * PD, c["cSV"] * PS + c["cDV"] * PD
-        m = c["m"]
-
-        def jet(a: Any, b: Any) -> Jet:
-            d = lambda f: f.dx(0)  # noqa: E731
-            return Jet(val=(U * a, V * b, W * a), t=(d(U) * a, d(V) * b, d(W) * a),
-                       ph=(-m * U * b, m * V * a, -m * W * b),
-                       tph=(-m * d(U) * b, m * d(V) * a, -m * d(W) * b),
-                       phph=(-m**2 * U * a, -m**2 * V * b, -m**2 * W * a),
-                       p=(PU * a, PV * b, PW * a), pt=(d(PU) * a, d(PV) * b, d(PW) * a),
-                       pph=(-m * PU * b, m * PV * a, -m * PW * b))
-
         base = model.base_jet(model.w)
-        dens = (model.energy_density(base + jet(c["a0"], c["b0"]))["total"]
-                + model.energy_density(base + jet(c["a1"], c["b1"]))["total"])
+        jet = self.amplitude_jet
+        dens = (model.energy_density(base + jet(self.pert, c["a0"], c["b0"]))["total"]
+                + model.energy_density(base + jet(self.pert, c["a1"], c["b1"]))["total"])
         energy = math.pi * dens * model.r0 * model.g * model.dx
         v, v_ = ufl.TestFunction(self.V), ufl.TrialFunction(self.V)
         self.hessian_ufl = ufl.derivative(ufl.derivative(energy, self.pert, v), self.pert, v_)

@@ -63,24 +63,25 @@ def _build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Run the command line.
+class _Interrupts:
+    """SIGINT and SIGTERM during ``main``: the run ends with one line and exit status
+    128 + the signal's number, and the same command then resumes (every file a run writes is
+    whole at any moment: appended lines, renamed checkpoints)."""
 
-    Args:
-        argv: the arguments (default ``sys.argv[1:]``).
+    def __init__(self) -> None:
+        self.signalled: list[int] = []
+        self.handlers: dict[int, Any] = {}
 
-    Returns:
-        The exit status: 0 ok, 2 bad input, 1 failure, 128 + the signal's number when
-        interrupted (the same command then resumes).
-    """
-    argv = list(sys.argv[1:] if argv is None else argv)
-    signalled: list[int] = []
+    @staticmethod
+    def message(signum: int) -> str:
+        """The one line an interrupted run prints."""
+        import signal
 
-    def _message(signum: int) -> str:
         return (f"shells: interrupted ({signal.Signals(signum).name}); rerun the same command "
                 "to resume")
 
-    def _importing(frame: Any) -> bool:
+    @staticmethod
+    def importing(frame: Any) -> bool:
         """The interrupted code is importing a module (import machinery on its stack)."""
         while frame is not None:
             if frame.f_code.co_filename.startswith("<frozen importlib"):
@@ -88,16 +89,20 @@ def main(argv: Sequence[str] | None = None) -> int:
             frame = frame.f_back
         return False
 
-    def _terminate(signum: int, frame: Any) -> None:
-        if _importing(frame):
+    def terminate(self, signum: int, frame: Any) -> None:
+        """The handler: record the signal and unwind (one rank), or end every rank (MPI)."""
+        import signal
+        import time
+
+        if self.importing(frame):
             # a KeyboardInterrupt inside a C extension's module initialisation (dolfinx's
             # nanobind module calls back into Python for its enums) can abort the process with
             # a native backtrace, or end it by SIGINT (docs/design-notes.md, "Interrupts"):
             # act once the import is done (polled every 50 ms)
-            signal.signal(signal.SIGALRM, lambda _s, f: _terminate(signum, f))
+            signal.signal(signal.SIGALRM, lambda _s, f: self.terminate(signum, f))
             signal.setitimer(signal.ITIMER_REAL, 0.05)
             return
-        signalled.append(signum)
+        self.signalled.append(signum)
         # what is logged from here on is the unwinding's, not the run's: a KeyboardInterrupt
         # raised inside a PETSc callback (the Jacobian's assembly during the start's Newton
         # solve) fails that factorisation, and its "zero pivot: MUMPS from now on" line would
@@ -113,93 +118,124 @@ def main(argv: Sequence[str] | None = None) -> int:
             # rank 0 has not ended them all within 2 s, as when only it was signalled)
             if comm.rank != 0:
                 time.sleep(2.0)
-            print(_message(signum), file=sys.stderr, flush=True)
+            print(self.message(signum), file=sys.stderr, flush=True)
             # mpirun forwards a rank's stderr through a pipe it reads in its own time; an
             # immediate Abort can lose the line (docs/design-notes.md, "Interrupts")
             time.sleep(0.5)
             comm.Abort(128 + signum)
         raise KeyboardInterrupt
 
-    import signal
-    import threading
-    import time
+    def install(self) -> None:
+        """Install the handler (main thread only) and act on a signal that came earlier."""
+        import signal
+        import threading
 
-    handlers = {}
-    if threading.current_thread() is threading.main_thread():
-        for signum in (signal.SIGINT, signal.SIGTERM):
-            handlers[signum] = signal.signal(signum, _terminate)
-        handlers[signal.SIGALRM] = signal.getsignal(signal.SIGALRM) or signal.SIG_DFL
-
-    def rank() -> int:
-        from shells.cli.common import rank
-
-        return rank()
-
-    def _interrupted() -> int:
-        # every file a run writes is whole at any moment (appended lines, renamed
-        # checkpoints): the same command resumes
-        signum = signalled[-1] if signalled else signal.SIGINT
-        if rank() == 0:
-            print(_message(signum), file=sys.stderr)
-        return 128 + signum
-    try:
-        if _EARLY and handlers:
+        if threading.current_thread() is threading.main_thread():
+            for signum in (signal.SIGINT, signal.SIGTERM):
+                self.handlers[signum] = signal.signal(signum, self.terminate)
+            self.handlers[signal.SIGALRM] = signal.getsignal(signal.SIGALRM) or signal.SIG_DFL
+        if _EARLY and self.handlers:
             # before main's handlers: handled now, the last one named, none left for later
             signum = _EARLY[-1]
             _EARLY.clear()
-            _terminate(signum, None)
-        parser = _build_parser()
-        from shells.cli import common
+            self.terminate(signum, None)
 
-        args = parser.parse_args(argv)
-        # whether the model is the subcommand's default (its human output then says so, and why)
-        args.model_given = any(a == "--model" or a.startswith("--model=") for a in argv)
-        common.setup_logging(args.verbose)
-        if args.command is None:
-            if rank() == 0:
-                parser.print_help()
-            return 0
-        from shells.progress import quiet
+    def interrupted(self) -> int:
+        """The exit status of an interrupted run, its line printed on rank 0."""
+        import signal
 
-        quiet(bool(getattr(args, "json", False)))  # --json: for a program, no bar
-        common.check_ranges(args)
-        common.check_paths(args)
-        with common.hold_output(args):  # a second run into the same folder: refused, exit 2
-            return int(args.func(args) or 0)
+        signum = self.signalled[-1] if self.signalled else signal.SIGINT
+        if _rank() == 0:
+            print(self.message(signum), file=sys.stderr)
+        return 128 + signum
+
+    def restore(self) -> None:
+        """Logging back on and the handlers as they were (no deferred interrupt after)."""
+        import signal
+
+        if self.signalled:
+            logging.disable(logging.NOTSET)
+        if self.handlers:
+            signal.setitimer(signal.ITIMER_REAL, 0.0)
+        for signum, handler in self.handlers.items():
+            signal.signal(signum, handler)
+
+
+def _rank() -> int:
+    from shells.cli.common import rank
+
+    return rank()
+
+
+def _run(argv: list[str]) -> int:
+    """Parse ``argv`` and run its subcommand (the checks of ranges and paths first)."""
+    from shells.cli import common
+    from shells.progress import quiet
+
+    parser = _build_parser()
+    args = parser.parse_args(argv)
+    # whether the model is the subcommand's default (its human output then says so, and why)
+    args.model_given = any(a == "--model" or a.startswith("--model=") for a in argv)
+    common.setup_logging(args.verbose)
+    if args.command is None:
+        if _rank() == 0:
+            parser.print_help()
+        return 0
+    quiet(bool(getattr(args, "json", False)))  # --json: for a program, no bar
+    common.check_ranges(args)
+    common.check_paths(args)
+    with common.hold_output(args):  # a second run into the same folder: refused, exit 2
+        return int(args.func(args) or 0)
+
+
+def _failed(e: Exception, argv: list[str]) -> int:
+    """A failure: one line on stderr (the traceback with -v), every rank ended (MPI)."""
+    import traceback
+
+    from mpi4py import MPI
+
+    comm = MPI.COMM_WORLD
+    if "-v" in argv or "--verbose" in argv:
+        traceback.print_exc()
+    msg = " ".join(f"{type(e).__name__}: {e}".splitlines())
+    where = f" (rank {comm.rank} of {comm.size})" if comm.size > 1 else ""
+    print(f"shells: failed{where}: {msg}", file=sys.stderr, flush=True)
+    if comm.size > 1:
+        # the other ranks may wait in a collective for this one: end them all now
+        comm.Abort(1)
+    return 1
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line.
+
+    Args:
+        argv: the arguments (default ``sys.argv[1:]``).
+
+    Returns:
+        The exit status: 0 ok, 2 bad input, 1 failure, 128 + the signal's number when
+        interrupted (the same command then resumes).
+    """
+    argv = list(sys.argv[1:] if argv is None else argv)
+    irq = _Interrupts()
+    try:
+        irq.install()
+        return _run(argv)
     except InputError as e:
         msg = " ".join(str(e).splitlines())  # one line, whatever the message holds
-        if rank() == 0:
+        if _rank() == 0:
             print(msg if msg.startswith("shells") else f"shells: error: {msg}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        return _interrupted()
+        return irq.interrupted()
     except Exception as e:  # noqa: BLE001 - a failure is one line, never a traceback
-        import traceback
-
-        if signalled:
+        if irq.signalled:
             # the KeyboardInterrupt was raised inside a PETSc callback (an assembly during a
             # solve), which turned it into a PETSc error
-            return _interrupted()
-
-        from mpi4py import MPI
-
-        comm = MPI.COMM_WORLD
-        if "-v" in argv or "--verbose" in argv:
-            traceback.print_exc()
-        msg = " ".join(f"{type(e).__name__}: {e}".splitlines())
-        where = f" (rank {comm.rank} of {comm.size})" if comm.size > 1 else ""
-        print(f"shells: failed{where}: {msg}", file=sys.stderr, flush=True)
-        if comm.size > 1:
-            # the other ranks may wait in a collective for this one: end them all now
-            comm.Abort(1)
-        return 1
+            return irq.interrupted()
+        return _failed(e, argv)
     finally:
-        if signalled:
-            logging.disable(logging.NOTSET)
-        if handlers:
-            signal.setitimer(signal.ITIMER_REAL, 0.0)  # no deferred interrupt after this
-        for signum, handler in handlers.items():
-            signal.signal(signum, handler)
+        irq.restore()
 
 
 def entry() -> None:

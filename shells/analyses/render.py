@@ -176,24 +176,14 @@ def render_surface(surface: Any, png: str | os.PathLike, *, scalars: str | None 
         title: the figure's title.
         view, elevation, azimuth: the camera.
     """
-    import matplotlib.colors as mcolors
     import pyvista
-    from matplotlib import cm
-    from matplotlib.figure import Figure
 
     ensure_display()
     pyvista.OFF_SCREEN = True
     surf = _surface(surface)
     cmap = cmap or ("RdBu_r" if symmetric else "viridis")
-    if scalars is not None:
-        values = np.asarray(surf.point_data[scalars])
-        if clim is None:
-            lo, hi = float(values.min()), float(values.max())
-            if symmetric:
-                lo, hi = -max(abs(lo), abs(hi)), max(abs(lo), abs(hi))
-            if hi <= lo:
-                lo, hi = lo - 0.5 * (abs(lo) or 1.0), hi + 0.5 * (abs(hi) or 1.0)
-            clim = (lo, hi)
+    if scalars is not None and clim is None:
+        clim = _colour_range(np.asarray(surf.point_data[scalars]), symmetric)
     Path(png).parent.mkdir(parents=True, exist_ok=True)
     pl = pyvista.Plotter(off_screen=True, window_size=WINDOW)
     pl.set_background("white")
@@ -206,46 +196,88 @@ def render_surface(surface: Any, png: str | os.PathLike, *, scalars: str | None 
         pl.add_mesh(surf, color=SURFACE_COLOUR, **look)
     bounds = np.array(surf.bounds, dtype=float)
     lines = []
+    ref = None
     if reference is not None:
         ref = _surface(reference)
-        if ghost:
-            pl.add_mesh(ref, color=REFERENCE_COLOUR, opacity=REFERENCE_OPACITY,
-                        smooth_shading=True)
-            pl.enable_depth_peeling()  # the translucent ghost where it meets the shape
-        rim = ref.extract_feature_edges(boundary_edges=True, feature_edges=False,
-                                        manifold_edges=False, non_manifold_edges=False)
-        if rim.n_points:
-            lines.append((rim, REFERENCE_COLOUR, 2.0))
-        rb = np.array(ref.bounds, dtype=float)
-        bounds = np.concatenate([np.minimum(bounds[::2], rb[::2])[:, None],
-                                 np.maximum(bounds[1::2], rb[1::2])[:, None]], axis=1).ravel()
+        bounds = _with_reference(pl, ref, bounds, ghost, lines)
     if edges is not None:
         lines.append((edges, "#203040", 0.6))
     pl.camera_position = view
     pl.camera.elevation = elevation
     pl.camera.azimuth = azimuth
     pl.reset_camera(bounds=bounds)
-    if reference is not None:  # the reference's outline as seen from the camera
-        from vtkmodules.vtkFiltersHybrid import vtkPolyDataSilhouette
+    if ref is not None:
+        _add_silhouette(pl, ref, lines)
+    _add_lines(pl, lines, bounds)
+    img = _crop(pl.screenshot(return_img=True))
+    pl.close()
+    _figure(img, png, scalars=scalars, clim=clim, cmap=cmap, title=title,
+            label=label or (FIELD_LABELS.get(scalars, scalars.replace("_", " "))
+                            if scalars is not None else None))
 
-        sil = vtkPolyDataSilhouette()
-        sil.SetInputData(ref)
-        sil.SetCamera(pl.renderer.GetActiveCamera())
-        sil.SetEnableFeatureAngle(False)
-        sil.Update()
-        outline = pyvista.wrap(sil.GetOutput())
-        if outline.n_points:
-            lines.append((outline, REFERENCE_COLOUR, 1.5))
-    # lines lie on surfaces (a rim where the shape has not moved, the mesh's edges): moved a
-    # hair towards the camera, so that the surfaces do not hide them in stripes
+
+def _colour_range(values: np.ndarray, symmetric: bool) -> tuple[float, float]:
+    """The values' range (symmetric about zero if asked), widened where it is empty."""
+    lo, hi = float(values.min()), float(values.max())
+    if symmetric:
+        lo, hi = -max(abs(lo), abs(hi)), max(abs(lo), abs(hi))
+    if hi <= lo:
+        lo, hi = lo - 0.5 * (abs(lo) or 1.0), hi + 0.5 * (abs(hi) or 1.0)
+    return lo, hi
+
+
+def _with_reference(pl: Any, ref: Any, bounds: np.ndarray, ghost: bool,
+                    lines: list[tuple[Any, str, float]]) -> np.ndarray:
+    """Draw the reference's ghost (if asked), queue its rim, and return the bounds of the
+    shape and the reference together (the camera frames both)."""
+    if ghost:
+        pl.add_mesh(ref, color=REFERENCE_COLOUR, opacity=REFERENCE_OPACITY,
+                    smooth_shading=True)
+        pl.enable_depth_peeling()  # the translucent ghost where it meets the shape
+    rim = ref.extract_feature_edges(boundary_edges=True, feature_edges=False,
+                                    manifold_edges=False, non_manifold_edges=False)
+    if rim.n_points:
+        lines.append((rim, REFERENCE_COLOUR, 2.0))
+    rb = np.array(ref.bounds, dtype=float)
+    return np.concatenate([np.minimum(bounds[::2], rb[::2])[:, None],
+                           np.maximum(bounds[1::2], rb[1::2])[:, None]], axis=1).ravel()
+
+
+def _add_silhouette(pl: Any, ref: Any, lines: list[tuple[Any, str, float]]) -> None:
+    """Queue the reference's outline as seen from the camera (set before)."""
+    import pyvista
+    from vtkmodules.vtkFiltersHybrid import vtkPolyDataSilhouette
+
+    sil = vtkPolyDataSilhouette()
+    sil.SetInputData(ref)
+    sil.SetCamera(pl.renderer.GetActiveCamera())
+    sil.SetEnableFeatureAngle(False)
+    sil.Update()
+    outline = pyvista.wrap(sil.GetOutput())
+    if outline.n_points:
+        lines.append((outline, REFERENCE_COLOUR, 1.5))
+
+
+def _add_lines(pl: Any, lines: list[tuple[Any, str, float]], bounds: np.ndarray) -> None:
+    """Draw the queued lines. They lie on surfaces (a rim where the shape has not moved, the
+    mesh's edges): moved a hair towards the camera, so that the surfaces do not hide them in
+    stripes."""
     towards = np.subtract(pl.camera.position, pl.camera.focal_point)
     towards *= 2e-3 * np.linalg.norm(bounds[1::2] - bounds[::2]) / np.linalg.norm(towards)
     for mesh, colour, width in lines:
         shifted = mesh.copy()
         shifted.points = shifted.points + towards
         pl.add_mesh(shifted, color=colour, line_width=width)
-    img = _crop(pl.screenshot(return_img=True))
-    pl.close()
+
+
+def _figure(img: np.ndarray, png: str | os.PathLike, *, scalars: str | None,
+            clim: tuple[float, float] | None, cmap: str, title: str | None,
+            label: str | None) -> None:
+    """The rendered image in a matplotlib figure with its colour bar and title, as PNG."""
+    import matplotlib.colors as mcolors
+    from matplotlib import cm
+    from matplotlib.figure import Figure
+
     h_px, w_px = img.shape[:2]
     bar = 0.9 if scalars is not None else 0.0
     width = FIGURE_WIDTH
@@ -254,11 +286,10 @@ def render_surface(surface: Any, png: str | os.PathLike, *, scalars: str | None 
     ax = fig.add_subplot()
     ax.imshow(img, interpolation="lanczos")
     ax.set_axis_off()
-    if scalars is not None:
+    if scalars is not None and clim is not None:
         mappable = cm.ScalarMappable(mcolors.Normalize(*clim), cmap)
         cb = fig.colorbar(mappable, ax=ax, shrink=0.8, aspect=25, pad=0.02)
-        cb.set_label(label or FIELD_LABELS.get(scalars, scalars.replace("_", " ")),
-                     fontsize=9)
+        cb.set_label(label or "", fontsize=9)
         cb.ax.tick_params(labelsize=8)
         cb.formatter.set_powerlimits((-2, 3))
         cb.update_ticks()

@@ -271,12 +271,15 @@ class DynamicsSettings:
         InputError: on construction, for a setting out of its range.
     """
 
+    # time: the end, the (first) step, the generalised-α's dissipation, adaptive steps
     t_end: float = 1.0
     dt: float = 0.01
     rho_inf: float = 1.0
+    adaptive: bool = False
+    # damping C = mass_damping M + stiffness_damping K
     mass_damping: float = 0.0
     stiffness_damping: float = 0.0
-    adaptive: bool = False
+    # the stops besides t_end
     rest_tol: float | None = None
     max_steps: int = 100000
 

@@ -62,12 +62,15 @@ class SnapConfig:
         shear_penalty: the Kirchhoff-Love penalty factor.
 
     Raises:
-        InputError: on construction, for a parameter out of range or a closed shape.
+        InputError: on construction, for a parameter out of range, a closed shape (which
+            buckles, it does not snap) or a method other than those named.
     """
 
+    # the shell
     shape: Any
     h_over_r: float
     nu: float = 0.5
+    # the snap: where it lands and how
     method: str = "minimise"
     past: float = 0.01
     kappa_R: float | None = None  # noqa: N815

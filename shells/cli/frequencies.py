@@ -21,12 +21,11 @@ __all__ = ["add_subcommand"]
 
 def add_subcommand(sub: Any) -> argparse.ArgumentParser:
     """Add ``shells frequencies`` to ``sub`` (the CLI's subparsers); returns its parser."""
-    p = sub.add_parser("frequencies", help="lowest natural frequencies at a natural curvature",
-                       description="Take the shell by Newton from kappa = 0 along its "
-                       "fundamental branch to kappa R, and compute the lowest natural "
-                       "frequencies of the prestressed free shell about that state (omega in "
-                       "units of sqrt(E/rho)/R; rigid motions excluded), each with its mode "
-                       "(n on a closed sphere, m otherwise).")
+    description = ("The lowest natural frequencies of the free shell prestressed at kappa R "
+                   "(reached by Newton from kappa = 0), omega in units of sqrt(E/rho)/R, "
+                   "rigid motions excluded, each with its mode (n on a sphere, else m).")
+    p = sub.add_parser("frequencies", description=description,
+                       help="lowest natural frequencies at a natural curvature")
     common.add_shape_args(p, positional=False)
     common.add_shell_args(p)
     p.add_argument("--kappa-R", dest="kappa_R", type=float, default=0.0,

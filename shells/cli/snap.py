@@ -28,12 +28,12 @@ __all__ = ["add_subcommand"]
 
 def add_subcommand(sub: Any) -> argparse.ArgumentParser:
     """Add ``shells snap`` to ``sub`` (the CLI's subparsers); returns its parser."""
-    p = sub.add_parser("snap", help="where a cap lands when it snaps through (surface model)",
-                       description="Follow the fundamental branch (surface model) to its snap "
-                       "fold, step past it, perturb the state along its unstable modes and "
-                       "minimise the energy at that kappa (PETSc TAO, Newton with negative "
-                       "curvature): the landing state, its stability and symmetry, against the "
-                       "axisymmetric everted state.")
+    p = sub.add_parser(
+        "snap", help="where a cap lands when it snaps through (surface model)",
+        description="Follow the fundamental branch (surface model) to its snap fold, step past "
+        "it, perturb the state along its unstable modes and minimise the energy at that kappa "
+        "(PETSc TAO, Newton with negative curvature): the landing state, its stability and "
+        "symmetry, against the axisymmetric everted state.")
     common.add_shape_args(p, positional=False)
     common.add_shell_args(p)
     g = p.add_mutually_exclusive_group()

@@ -1,5 +1,5 @@
 """Fig. 1 (d): where a snapping cap lands
-=====================================
+======================================
 
 Under a *positive* natural curvature κ a spherical cap wants to curve more than it does. A
 shallow cap inverts smoothly, but a cap deeper than θ̄_s ≈ 2 (θ̄ = θ/√(h/R), its depth in

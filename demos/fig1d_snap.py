@@ -80,7 +80,14 @@ if rank0:
 # ``landing.png`` (and ``landing.vtu`` for ParaView) shows the landed shell coloured by its
 # bending energy density, the reference cap as a grey outline. For θ̄ = 5 the cap curls into
 # a two-lobed (m = 2) shape, the paper's Fig. 1 (d); the axisymmetric everted state at the
-# same κ is unstable (``everted.png``).
+# same κ is unstable (``everted.png``). The full mode's render:
+#
+# .. image:: /../benchmarks/results/snap/fig1d_thetabar5_landing.png
+#    :width: 60%
+#    :alt: the snapped theta-bar 5 cap, curled into two lobes (m = 2)
+#
+# (stored: ``shells snap`` with this demo's full-mode settings, ``fig1d_thetabar5.json`` beside it; the
+# quick mode's θ̄ = 3 cap lands on its everted state instead.)
 
 # %% [markdown]
 # Checks

@@ -116,3 +116,32 @@ def test_cli_json(capsys):
         assert [f["mode_n"] for f in fs] == [2, 2, 2]
         # h/R = 0.05: bending adds 0.6 % to the membrane ω² at n = 2
         assert fs[0]["omega2"] == pytest.approx(membrane(2), rel=1e-2)
+
+
+def test_frequencies_fall_to_zero_at_the_critical_point(shared_tmp, capsys):
+    """The vibration-correlation technique: the sphere's (h/R = 0.05) frequencies followed to
+    κR = 27, 28, 29, the first mode's ω² extrapolated to zero, predict its buckling at
+    κ_b h = 1.482659 (``shells critical --model axisym``) to 1e-3; the CLI gives the same
+    from ``--kappa-R 27 28 29`` and draws ω² against κR."""
+    import json
+
+    from shells.analyses import frequencies
+    from shells.cli import main
+    from shells.geometry.shapes import Sphere
+
+    res = frequencies.along(Sphere(1.0), 0.05, 0.5, kappa_R=[27, 28, 29], m_max=0, count=4)
+    est = res["critical_estimate"]
+    assert est["kappa_R"] * 0.05 == pytest.approx(1.482659, rel=1e-3)
+    assert est["mode_n"] == 9 and len(res["points"]) == 3 and res["kappa_R"] == 29
+    # the critical mode's ω² falls with κ, nearly linearly
+    w2 = frequencies.modes_along(res["points"])[(0, 9)]
+    assert w2[0] > w2[1] > w2[2] > 0
+    png = shared_tmp / "omega2.png"
+    assert main(["frequencies", "--shape", "sphere", "--h-over-r", "0.05", "--m-max", "0",
+                 "--kappa-R", "27", "28", "29", "--plot", str(png), "--json"]) == 0
+    if MPI.COMM_WORLD.rank == 0:
+        out = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+        assert out["critical_estimate"]["kappa_R"] == pytest.approx(est["kappa_R"], rel=1e-12)
+        assert png.stat().st_size > 0
+    assert main(["frequencies", "--shape", "sphere", "--h-over-r", "0.05", "--kappa-R",
+                 "27", "--plot", str(png)]) == 2

@@ -383,7 +383,7 @@ PATH_ARGS: dict[str, list[tuple[str, str, str, str | None]]] = {
                    ("meridian", "--meridian", "in", None), ("mesh", "--mesh", "in", None)],
     "knockdown": [("output", "-o", "dir", None)],
     "snap": [("output", "-o", "dir", None), ("meridian", "--meridian", "in", None)],
-    "frequencies": [("meridian", "--meridian", "in", None)],
+    "frequencies": [("meridian", "--meridian", "in", None), ("figure", "--plot", "png", None)],
 }
 
 

@@ -35,15 +35,20 @@ class Progress:
         kappa_end: the end of the range in the run's κ unit (κR); None: the share is not
             shown.
         comm: the run's communicator (None: one process).
+        interval: seconds between log lines when stderr is not a terminal; the first comes
+            after one interval, so a short run (or one refused after its first point) logs
+            none.
     """
 
-    def __init__(self, label: str, kappa_end: float | None, comm: Any = None) -> None:
+    def __init__(self, label: str, kappa_end: float | None, comm: Any = None,
+                 interval: float = 10.0) -> None:
         self.label = label
         self.end = abs(kappa_end) if kappa_end else None
         self.on = comm is None or comm.rank == 0
         self.points = 0
         self.critical = 0
-        self.last = 0.0
+        self.interval = interval
+        self.last = time.monotonic()
         self.bar = None
         if self.on and not _QUIET and sys.stderr.isatty():
             from tqdm import tqdm
@@ -73,7 +78,7 @@ class Progress:
             self.bar.set_postfix_str(text, refresh=True)
             return
         now = time.monotonic()
-        if now - self.last > 10.0:
+        if now - self.last >= self.interval:
             pct = f"{100 * share:.0f} % of the range, " if share is not None else ""
             log.info("%s: %s%s", self.label, pct, text)
             self.last = now

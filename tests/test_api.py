@@ -314,7 +314,7 @@ def test_progress_is_a_bar_on_a_terminal_and_quiet_under_json(monkeypatch, caplo
     assert "|" not in term.getvalue()  # no bar (a log line may go to the log's handler)
     monkeypatch.setattr("sys.stderr", io.StringIO())  # not a terminal
     with caplog.at_level(logging.INFO, logger="shells"):
-        lines = progress.Progress("critical", 4.0)
+        lines = progress.Progress("critical", 4.0, interval=0.0)
         lines.update(1.0)
     assert "critical: 25 % of the range, point 1" in caplog.text
 

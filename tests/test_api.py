@@ -333,21 +333,29 @@ def test_one_kappa_b_for_the_sphere_from_every_command():
 
 
 def test_the_first_line_says_which_model_runs_and_why(capsys):
-    """Subcommands differ in their default model (critical and branch: surface; postbuckle
-    and knockdown: axisym): where --model is not given, the first line of the output names the
-    model, that it is the command's default, and the other one."""
-    from shells.cli import main
+    """Subcommands differ in their default model (critical and branch: surface; postbuckle,
+    knockdown, phase-diagram, frequencies: axisym): where --model is not given, the first line
+    of the output names the model, that it is the command's default, and the other one; with
+    --model the same run says only the model."""
+    import argparse
 
-    base = ["critical", "--shape", "cap", "--theta-deg", "30", "--h-over-r", "0.04",
-            "--first-only", "--size", "0.5"]
+    from shells.cli import main
+    from shells.cli.common import model_words
+
+    default = model_words(argparse.Namespace(model="surface", model_given=False))
+    assert default.startswith("model surface: the default of this command")
+    assert "--model axisym" in default
+    assert model_words(argparse.Namespace(model="surface", model_given=True)) == "model surface"
+    base = ["knockdown", "--h-over-r", "0.05", "--imperfection", "dimple", "--amplitudes", "0.1",
+            "--no-figure"]
     assert main(base) == 0
     first = capsys.readouterr().out.splitlines()
-    assert main([*base, "--model", "surface"]) == 0
+    assert main([*base, "--model", "axisym"]) == 0
     given = capsys.readouterr().out.splitlines()
     if MPI.COMM_WORLD.rank == 0:
-        assert "model surface: the default of this command" in first[0]
-        assert "--model axisym" in first[0]
-        assert given[0].endswith("model surface") and first[1:] == given[1:]
+        assert "model axisym: the default of this command" in first[0]
+        assert "--model surface" in first[0]
+        assert given[0].endswith("model axisym") and first[1:] == given[1:]
 
 
 def test_a_folder_in_use_is_refused(shared_tmp):

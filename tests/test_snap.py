@@ -43,6 +43,8 @@ def test_the_fig1d_demo_quick_mode_and_a_resumed_rerun(shared_tmp, monkeypatch):
     out = shared_tmp / "demos" / "fig1d_snap"
     if MPI.COMM_WORLD.rank == 0:
         assert (out / "snap.json").exists() and (out / "landing.png").stat().st_size > 0
+    if MPI.COMM_WORLD.size > 1:
+        return  # the resumed rerun is checked in the serial pass (the snap itself on both)
     again = shells.snap(ns["shell"], past=0.02, outdir=out, render=False, **ns["mesh"])
     assert again.landing["energy"] == pytest.approx(ld["energy"], rel=1e-9)
     assert again.critical_points == res.critical_points

@@ -49,7 +49,8 @@ def test_config_refusals():
     cap = SphericalCap(1.0, 0.6)
     with pytest.raises(InputError, match="open shell"):
         snap.SnapConfig(shape=Sphere(1.0), h_over_r=0.01)
-    for bad in ({"past": 0.0}, {"past": 2.0}, {"amplitude": -1.0}, {"method": "dynamics"},
+    for bad in ({"past": 0.0}, {"past": 2.0}, {"amplitude": -1.0}, {"method": "newton"},
+                {"damping": -1.0},
                 {"h_over_r": 0.9}):
         with pytest.raises(InputError):
             snap.SnapConfig(**{"shape": cap, "h_over_r": 0.04, **bad})

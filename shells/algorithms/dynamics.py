@@ -20,6 +20,7 @@ removes is never accelerated by a reaction. The rigid motions are those of the s
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -43,8 +44,8 @@ class DynamicsResult:
         times: t in units of L √(ρ/E).
         kinetic: ½ u̇ᵀ M u̇.
         elastic: the energy E(u, κ) (NaN where the problem has no ``Energy``).
-        reason: "time" (reached t_end), "rest" (kinetic energy below ``rest_tol``), or
-            "diverged".
+        reason: "time" (reached t_end), "rest" (kinetic energy below ``rest_tol``),
+            "monitor" (the monitor asked to stop), or "diverged".
         steps: the accepted steps.
     """
 
@@ -89,7 +90,9 @@ class _Jacobian:
 
 
 def integrate(problem: Any, settings: DynamicsSettings, velocity: Any = None,
-              block: Any = None) -> DynamicsResult:
+              block: Any = None,
+              monitor: Callable[[float, Any, float], bool | None] | None = None
+              ) -> DynamicsResult:
     """Integrate the equations of motion from the problem's state at its κ.
 
     Args:
@@ -98,6 +101,9 @@ def integrate(problem: Any, settings: DynamicsSettings, velocity: Any = None,
         settings: the ``DynamicsSettings``.
         velocity: the start velocity (a state-shaped vector; None: at rest).
         block: the block whose kinetic mass is used: the state's own (None).
+        monitor: called as ``monitor(t, problem, kinetic)`` at the start and after every
+            accepted step, the problem holding the state at t (synced), ``kinetic`` the kinetic
+            energy there; a true return stops the run (reason "monitor").
 
     Returns:
         The ``DynamicsResult``; the problem holds the final state.
@@ -181,6 +187,8 @@ def integrate(problem: Any, settings: DynamicsSettings, velocity: Any = None,
     ts.setMaxTime(s.t_end)
     ts.setMaxSteps(s.max_steps)
     ts.setExactFinalTime(PETSc.TS.ExactFinalTime.MATCHSTEP)
+    if s.adaptive:  # a failed Newton solve retries with a smaller step
+        ts.setMaxSNESFailures(-1)
     snes = ts.getSNES()
     snes.setTolerances(rtol=1e-10, atol=1e-14, max_it=25)
     ksp = snes.getKSP()
@@ -208,6 +216,8 @@ def integrate(problem: Any, settings: DynamicsSettings, velocity: Any = None,
         out.elastic.append(problem.total_energy() if energy else float("nan"))
 
     record(0.0, u0, v0)
+    if monitor is not None:
+        monitor(0.0, problem, out.kinetic[-1])
 
     def post_step(ts: Any) -> None:
         u, v = ts.getSolution2()
@@ -215,6 +225,9 @@ def integrate(problem: Any, settings: DynamicsSettings, velocity: Any = None,
         out.steps += 1
         if s.rest_tol is not None and out.kinetic[-1] < s.rest_tol and out.steps > 1:
             out.reason = "rest"
+            ts.setConvergedReason(PETSc.TS.ConvergedReason.CONVERGED_USER)
+        elif monitor is not None and monitor(float(ts.getTime()), problem, out.kinetic[-1]):
+            out.reason = "monitor"
             ts.setConvergedReason(PETSc.TS.ConvergedReason.CONVERGED_USER)
 
     ts.setPostStep(post_step)

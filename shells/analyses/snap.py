@@ -12,10 +12,18 @@ azimuthal spectrum of its normal displacement (``symmetric`` when no m ≥ 1 car
 axisymmetric everted state at the same κ (Newton from the shell mirrored through its rim plane,
 continued in κ from half the fold's κ).
 
-Output folder (rank 0 writes): ``snap.json`` (the result), ``landing.png`` and ``landing.vtu``
-(the landing shape coloured by the bending energy density), ``everted.png``, and
-``checkpoint/`` (the fold's state, then the minimiser's iterate every ``SAVE_EVERY``
-iterations): a rerun of the same configuration resumes from the latest.
+With ``method="dynamics"`` the start is integrated in time instead (``snap_dynamics``: the
+equations of motion with mass-proportional damping, TSALPHA2, fixed steps) until the kinetic
+energy has fallen to ``REST_FRACTION`` of its peak; the rest state is then polished by the same
+minimiser (it lies in the minimum's basin: the polish changes its energy by the residual motion
+only), and ``snap_time`` is when the pole's displacement crosses halfway from the start's to
+the rest state's.
+
+Output folder (rank 0 writes): ``snap.json`` (the result), ``snap_series.csv`` (dynamics),
+``landing.png`` and ``landing.vtu`` (the landing shape coloured by the bending energy density),
+``everted.png``, and
+``checkpoint/`` (the fold's state, the rest state of the dynamics, then the minimiser's iterate
+every ``SAVE_EVERY`` iterations): a rerun of the same configuration resumes from the latest.
 """
 
 from __future__ import annotations
@@ -34,7 +42,8 @@ from shells.errors import InputError
 from shells.files import json_default, write_atomic
 from shells.parameters import check_h_over_r, check_nu
 
-__all__ = ["SAVE_EVERY", "SYMMETRY_TOL", "SnapConfig", "classify_landing", "run"]
+__all__ = ["DAMPING", "METHODS", "REST_FRACTION", "SAVE_EVERY", "SERIES_COLUMNS",
+           "SYMMETRY_TOL", "SnapConfig", "classify_landing", "run", "snap_dynamics"]
 
 log = logging.getLogger("shells")
 
@@ -42,6 +51,19 @@ log = logging.getLogger("shells")
 SYMMETRY_TOL = 1.0e-2
 #: the minimiser's iterate is checkpointed every this many iterations
 SAVE_EVERY = 10
+#: the methods of ``SnapConfig``
+METHODS = ("minimise", "dynamics")
+#: dynamics: the mass-proportional damping α (C = α M, units √(E/ρ)/R) of a run that sets none
+DAMPING = 1.0
+#: dynamics: at rest once the kinetic energy has fallen below this fraction of its peak
+REST_FRACTION = 1.0e-8
+#: dynamics: the time step (units R √(ρ/E); fixed: an adaptive step follows the ringing of
+#: the stiff membrane modes the start excites, and crawls), the spectral radius ρ∞ at infinite
+#: step (numerical dissipation, which removes those unresolved modes within a few steps) and the
+#: time after which a run that has not come to rest stops (its state is polished all the same)
+DT_STEP = 0.05
+RHO_INF = 0.5
+T_MAX = 5000.0
 
 
 @dataclass(frozen=True)
@@ -52,7 +74,8 @@ class SnapConfig:
         shape: an open shell of revolution (a cap, an ellipsoidal cap).
         h_over_r: thickness over the shape's length scale.
         nu: Poisson's ratio.
-        method: "minimise" (TAO; the landing state at κ_start).
+        method: "minimise" (TAO; the landing state at κ_start) or "dynamics" (the equations
+            of motion integrated from the start to rest, then polished by TAO).
         past: κ_start = (1 + past) κ_fold, where ``kappa_R`` is None.
         kappa_R: κ_start R, past the fold (None: from ``past``).
         amplitude: the perturbation along each unstable eigenvector, RMS over the thickness.
@@ -60,6 +83,8 @@ class SnapConfig:
         size, degree: the mesh (None: ``default_discretisation``).
         layer_elements: elements across the rim's boundary layer.
         shear_penalty: the Kirchhoff-Love penalty factor.
+        damping: dynamics: the mass-proportional damping α, C = α M, in units √(E/ρ)/R
+            (None: ``DAMPING``; 0: none, the run then stops at ``T_MAX``).
 
     Raises:
         InputError: on construction, for a parameter out of range, a closed shape (which
@@ -80,6 +105,7 @@ class SnapConfig:
     degree: int | None = None
     layer_elements: float = 4.0
     shear_penalty: float = 1.0e3
+    damping: float | None = None
 
     def __post_init__(self) -> None:
         check_h_over_r(self.h_over_r)
@@ -87,8 +113,12 @@ class SnapConfig:
         if getattr(self.shape, "closed", False):
             raise InputError("snap needs an open shell (a cap): a closed sphere buckles, it "
                              "does not snap through")
-        if self.method != "minimise":
-            raise InputError(f"method must be 'minimise', got {self.method!r}")
+        if self.method not in METHODS:
+            raise InputError(f"method must be one of {', '.join(METHODS)}, got "
+                             f"{self.method!r}")
+        if self.damping is not None and not (math.isfinite(self.damping)
+                                             and self.damping >= 0):
+            raise InputError(f"damping must be a non-negative number, got {self.damping!r}")
         if not (0 < self.past <= 1):
             raise InputError(f"past must lie in (0, 1], got {self.past!r}")
         if not (self.amplitude > 0 and math.isfinite(self.amplitude)):
@@ -98,6 +128,8 @@ class SnapConfig:
         """Everything that decides the run's numbers, as plain data."""
         d = asdict(self)
         d["shape"] = self.shape.describe()
+        if self.method == "minimise":  # no bearing on it (and the header of earlier runs)
+            d.pop("damping")
         return d
 
 
@@ -127,6 +159,82 @@ def classify_landing(model: Any) -> dict[str, Any]:
             "mode_m": 0 if symmetric else int(1 + np.argmax(amp[1:])),
             "spectrum": [float(a) for a in amp], "rim_rotation_deg": s.get("rim_rotation_deg"),
             "psi3_pole_over_h": s.get("psi3_pole_over_h")}
+
+
+#: the columns of ``snap_series.csv`` (``snap_dynamics``): time in units of R √(ρ/E),
+#: energies in units of E R³, Ψ3 at the pole over h, the rim's rotation in degrees, and the
+#: amplitudes of the azimuthal modes m = 1..4 of the normal displacement relative to m = 0's
+SERIES_COLUMNS = ("time", "kinetic", "elastic", "psi3_pole_over_h", "rim_rotation_deg",
+                  "amp_m1", "amp_m2", "amp_m3", "amp_m4")
+
+
+def snap_dynamics(model: Any, damping: float, t_max: float = T_MAX) -> dict[str, Any]:
+    """Integrate the equations of motion from the model's state at its κ, at rest, to rest
+    (collective).
+
+    Mass-proportional damping C = α M (``damping``), TSALPHA2 with ρ∞ = ``RHO_INF``, steps
+    ``DT_STEP``. At rest: the kinetic energy below ``REST_FRACTION`` of
+    its peak, after the peak.
+
+    Args:
+        model: the surface model, its state the (perturbed) start; left at the final state.
+        damping: α, in units √(E/ρ)/R (0: none).
+        t_max: the run stops at this time if not at rest before.
+
+    Returns:
+        ``series`` (one row per accepted step, ``SERIES_COLUMNS``), ``reason`` ("rest" or
+        "time"), ``steps``, ``snap_time`` (the time at which Ψ3 at the pole crosses halfway
+        from its start value to its final one, linearly interpolated; None where it does not
+        move by 1e-3 h), ``kinetic_peak_time``, ``rest_energy`` (the elastic energy at the
+        end), ``damping``.
+    """
+    from shells.algorithms.dynamics import integrate
+    from shells.algorithms.settings import DynamicsSettings
+    from shells.geometry.shapes import kappa_length
+
+    tscale = kappa_length(model.shape)  # R √(ρ/E) in the model's units (E = ρ = 1)
+    rows: list[list[float]] = []
+    peak = {"k": 0.0, "passed": False}
+
+    def monitor(t: float, p: Any, kinetic: float) -> bool:
+        s = p.scalars()
+        power = p.azimuthal_spectrum(p.state, m_max=4)
+        amp = np.sqrt(power / max(float(power[0]), 1e-300))
+        rows.append([t / tscale, kinetic, s["energy"], s.get("psi3_pole_over_h", math.nan),
+                     s.get("rim_rotation_deg", math.nan), *(float(a) for a in amp[1:5])])
+        if len(rows) % 100 == 0:
+            log.info("snap: dynamics step %d, t = %.5g, kinetic %.3g, psi3(pole)/h %.4f",
+                     len(rows) - 1, rows[-1][0], kinetic, rows[-1][3])
+        if kinetic > peak["k"]:
+            peak["k"] = kinetic
+        elif kinetic < 0.5 * peak["k"]:
+            peak["passed"] = True
+        return peak["passed"] and kinetic < REST_FRACTION * peak["k"]
+
+    st = DynamicsSettings(t_end=t_max * tscale, dt=DT_STEP * tscale, rho_inf=RHO_INF,
+                          mass_damping=damping / tscale, max_steps=1000000)
+    res = integrate(model, st, monitor=monitor)
+    if res.reason == "diverged":
+        raise RuntimeError(f"the time integration diverged at t = {rows[-1][0]:.4g} R sqrt("
+                           "rho/E)")
+    a = np.array(rows)
+    t, x = a[:, 0], a[:, 3]
+    half = 0.5 * (x[0] + x[-1])
+    snap_time = None
+    if abs(x[-1] - x[0]) > 1e-3:
+        side = np.sign(x - half) != np.sign(x[0] - half)
+        i = int(np.argmax(side))
+        snap_time = float(t[i - 1] + (half - x[i - 1]) / (x[i] - x[i - 1]) * (t[i] - t[i - 1]))
+    return {"series": rows, "reason": "rest" if res.reason == "monitor" else res.reason,
+            "steps": res.steps, "snap_time": snap_time,
+            "kinetic_peak_time": float(t[int(np.argmax(a[:, 1]))]),
+            "rest_energy": float(a[-1, 2]), "damping": damping}
+
+
+def _write_series(path: Path, rows: list[list[float]]) -> None:
+    """``snap_series.csv``."""
+    lines = [",".join(SERIES_COLUMNS)] + [",".join(f"{v:.12g}" for v in r) for r in rows]
+    write_atomic(path, "\n".join(lines) + "\n")
 
 
 def _model(cfg: SnapConfig, comm: Any) -> tuple[Any, Any, dict[str, Any]]:
@@ -227,7 +335,10 @@ def run(cfg: SnapConfig, outdir: str | Path | None = None, *, render: bool = Tru
         mode_m}]}), ``method``, ``landing`` (``classify_landing`` plus ``kappa_R``,
         ``iterations``, ``converged``), ``axisymmetric_everted`` ({"energy",
         "negative_count", "rim_rotation_deg"}), ``snap_time`` (None: minimisation has no
-        time), ``critical_points``, ``dofs``, ``mesh``, ``wall_time``.
+        time; dynamics: ``snap_dynamics``' in units of R √(ρ/E)), ``dynamics``
+        (``snap_dynamics``' result without its series; None for minimisation; the landing then
+        carries ``rest_energy``, the energy at rest before the polish), ``critical_points``,
+        ``dofs``, ``mesh``, ``wall_time``.
 
     Raises:
         InputError: no fold in the range, or κ_start not past the fold.
@@ -289,6 +400,22 @@ def run(cfg: SnapConfig, outdir: str | Path | None = None, *, render: bool = Tru
             _, f, gnorm, *_ = tao.getSolutionStatus()
             log.info("snap: minimise iteration %d, energy %.10g, |gradient| %.3g", it, f, gnorm)
 
+    dyn = meta.get("dynamics")
+    if cfg.method == "dynamics" and dyn is None:
+        damping = DAMPING if cfg.damping is None else cfg.damping
+        log.info("snap: integrating in time from kappa R = %.6f, damping %g", kappa * R,
+                 damping)
+        got_dyn = snap_dynamics(model, damping)
+        rows = got_dyn.pop("series")
+        dyn = got_dyn
+        if out is not None and comm.rank == 0:
+            _write_series(out / "snap_series.csv", rows)
+        log.info("snap: %s after %d steps, snap time %s, rest energy %.10g", dyn["reason"],
+                 dyn["steps"], dyn["snap_time"], dyn["rest_energy"])
+        meta = {**meta, "dynamics": dyn, "unstable": unstable}
+        if ck is not None:
+            save_state_checkpoint(ck, model, 1, {"w": model.state.array_r.copy()},
+                                  meta={**meta, "stage": "dynamics"})
     res = minimise_to_stable(model, MinimiseSettings(), amplitude=cfg.amplitude, monitor=save)
     if not res.converged:
         raise RuntimeError(f"the minimiser stopped without converging ({res.reason}, "
@@ -296,6 +423,8 @@ def run(cfg: SnapConfig, outdir: str | Path | None = None, *, render: bool = Tru
                            "iterations): rerun to resume, or use a smaller --past")
     landing = {"kappa_R": kappa * R, **classify_landing(model), "iterations": res.iterations,
                "converged": res.converged, "gradient_norm": res.gradient_norm}
+    if dyn is not None:  # the dynamic rest state's energy, before the polish
+        landing["rest_energy"] = dyn["rest_energy"]
     log.info("snap: landed at energy %.10g: %s, %s, negative %d (orbit %d)", landing["energy"],
              "stable" if landing["stable"] else "UNSTABLE",
              "symmetric" if landing["symmetric"] else f"m = {landing['mode_m']}",
@@ -316,7 +445,8 @@ def run(cfg: SnapConfig, outdir: str | Path | None = None, *, render: bool = Tru
     result = {"start": {"kappa_R": kappa * R, "kind": "fold", "kappa_fold_R": kappa_fold * R,
                         "unstable": unstable},
               "method": cfg.method, "landing": landing, "axisymmetric_everted": ev,
-              "snap_time": None, "critical_points": cps, "dofs": model.num_dofs(),
+              "snap_time": None if dyn is None else dyn["snap_time"],
+              "dynamics": dyn, "critical_points": cps, "dofs": model.num_dofs(),
               "mesh": mesh, "config": header, "wall_time": time.perf_counter() - t0}
     if out is not None and comm.rank == 0:
         write_atomic(out / "snap.json", json.dumps(result, indent=1, default=json_default))

@@ -199,21 +199,25 @@ def snap(shell: Shell, *, past: float = 0.01, kappa_R: float | None = None,
 
     Follows the fundamental branch to its snap fold, steps ``past`` beyond it (κ = (1 + past)
     κ_fold, or ``kappa_R``), perturbs the state along its unstable modes and minimises the
-    energy there (``shells.analyses.snap``).
+    energy there, or integrates the equations of motion to rest and polishes the rest state
+    by the same minimiser (``shells.analyses.snap``).
 
     Args:
         shell: an open shell (a cap).
         past: the relative step past the fold.
         kappa_R: κR of the landing instead (past the fold).
-        method: ``"minimise"``.
-        outdir: a folder for ``snap.json``, the renders and the checkpoint (None: none).
+        method: ``"minimise"`` or ``"dynamics"``.
+        outdir: a folder for ``snap.json``, the renders, the checkpoint and (dynamics)
+            ``snap_series.csv`` (None: none).
         render: draw the landing and everted states (with ``outdir``).
         **options: ``SnapConfig`` numerics (``amplitude``, ``kappa_R_max``, ``size``,
-            ``degree``, ``layer_elements``, ``shear_penalty``).
+            ``degree``, ``layer_elements``, ``shear_penalty``, ``damping``: dynamics' α of
+            C = α M in units √(E/ρ)/R).
 
     Returns:
         The ``Result``: ``start``, ``method``, ``landing`` (``energy``, ``stable``,
-        ``symmetric``, ``mode_m``, ...), ``axisymmetric_everted``, ``snap_time``.
+        ``symmetric``, ``mode_m``, ...), ``axisymmetric_everted``, ``snap_time`` (dynamics:
+        in units of R √(ρ/E)), ``dynamics``.
     """
     from shells.analyses import snap as analysis
 

@@ -137,6 +137,20 @@ def add_table_args(p: argparse.ArgumentParser) -> None:
 # --------------------------------------------------------------------------------------------
 # argument types and shared arguments
 # --------------------------------------------------------------------------------------------
+def nonnegative_float(name: str) -> Callable[[str], float]:
+    """An argparse type: a finite number ≥ 0 (the message names ``name``)."""
+    def conv(text: str) -> float:
+        try:
+            v = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} must be a number, got {text!r}") from None
+        if not (math.isfinite(v) and v >= 0):
+            raise argparse.ArgumentTypeError(f"{name} must be non-negative, got {text}")
+        return v
+
+    return conv
+
+
 def positive_float(name: str) -> Callable[[str], float]:
     def conv(text: str) -> float:
         try:

@@ -2,17 +2,24 @@
 run is ``shells.analyses.snap.run``.
 
     shells snap --shape cap --theta-deg T --h-over-r H [--nu NU] [--past P | --kappa-R K]
-        [--amplitude A] [--size S] [--degree D] [-o DIR] [--json]
+        [--amplitude A] [--method minimise|dynamics] [--damping ALPHA] [--size S] [--degree D]
+        [-o DIR] [--json]
 
 Follows the fundamental branch (the surface model) to its snap fold, steps past it and
-minimises the energy there (TAO) from the fold's state perturbed along its unstable modes.
+minimises the energy there (TAO) from the fold's state perturbed along its unstable modes;
+with ``--method dynamics`` integrates the equations of motion from there to rest (damping
+C = ALPHA M, ALPHA in units of √(E/ρ)/R) and polishes the rest state by the same minimiser.
 JSON (last line with --json): ``start`` {``kappa_R``, ``kind``, ``kappa_fold_R``,
 ``unstable``}, ``method``, ``landing`` {``kappa_R``, ``energy``, ``stable``,
 ``negative_count``, ``orbit_modes``, ``mode_m``, ``symmetric``, ``spectrum``,
 ``rim_rotation_deg``, ``psi3_pole_over_h``, ``iterations``}, ``axisymmetric_everted``
-{``energy``, ``negative_count``, ``rim_rotation_deg``}, ``snap_time`` (null for minimisation),
-``critical_points``, ``dofs``, ``mesh``. With -o DIR: snap.json, landing.png/.vtu, everted.png
-and a checkpoint a rerun resumes from.
+{``energy``, ``negative_count``, ``rim_rotation_deg``}, ``snap_time`` (null for minimisation;
+in units of R √(ρ/E)), ``dynamics`` (null for minimisation; ``reason``, ``steps``,
+``snap_time``, ``kinetic_peak_time``, ``rest_energy``, ``damping``; ``landing.rest_energy`` is
+the energy at rest before the polish), ``critical_points``, ``dofs``, ``mesh``. With -o DIR:
+snap.json, landing.png/.vtu, everted.png, snap_series.csv (dynamics: time, kinetic and elastic
+energy, Ψ3 at the pole, rim rotation, m = 1..4 amplitudes) and a checkpoint a rerun resumes
+from.
 """
 
 from __future__ import annotations
@@ -41,8 +48,12 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
                    help="land at kappa = (1 + PAST) kappa_fold (default 0.01)")
     g.add_argument("--kappa-R", dest="kappa_R", type=float, default=None,
                    help="land at this kappa R instead (past the fold)")
-    p.add_argument("--method", default="minimise", choices=("minimise",),
-                   help="minimise: the energy's local minimum reached by TAO (default)")
+    p.add_argument("--method", default="minimise", choices=("minimise", "dynamics"),
+                   help="minimise: the energy's local minimum reached by TAO (default); "
+                   "dynamics: the equations of motion integrated to rest, then polished")
+    p.add_argument("--damping", type=common.nonnegative_float("damping"), default=None,
+                   help="dynamics: mass-proportional damping alpha in sqrt(E/rho)/R "
+                   "(default 1)")
     p.add_argument("--amplitude", type=common.positive_float("amplitude"), default=0.1,
                    help="the perturbation along each unstable mode, RMS / h (default 0.1)")
     p.add_argument("--kappa-R-max", dest="kappa_R_max", type=common.positive_float("kappa-R-max"),
@@ -66,7 +77,8 @@ def _cmd_snap(args: argparse.Namespace) -> int:
     cfg = snap.SnapConfig(shape=shape, h_over_r=args.h_over_r, nu=args.nu, past=args.past,
                           kappa_R=args.kappa_R, amplitude=args.amplitude,
                           kappa_R_max=args.kappa_R_max, size=args.size, degree=args.degree,
-                          layer_elements=args.layer_elements, method=args.method)
+                          layer_elements=args.layer_elements, method=args.method,
+                          damping=args.damping)
     result = snap.run(cfg, args.output, render=not args.no_render)
     st, ld, ev = result["start"], result["landing"], result["axisymmetric_everted"]
 
@@ -81,6 +93,12 @@ def _cmd_snap(args: argparse.Namespace) -> int:
         print(f"landing: {'stable' if ld['stable'] else 'UNSTABLE'}, {sym}, energy "
               f"{ld['energy']:.8g}, rim rotation {ld['rim_rotation_deg']:.1f} deg, "
               f"Psi3(pole)/h = {ld['psi3_pole_over_h']:.3f}")
+        if result.get("dynamics"):
+            d = result["dynamics"]
+            t = "none" if d["snap_time"] is None else f"{d['snap_time']:.4g}"
+            print(f"dynamics: damping {d['damping']:g}, {d['reason']} after {d['steps']} "
+                  f"steps, snap time {t} R sqrt(rho/E), energy at rest "
+                  f"{d['rest_energy']:.10g} (polished {ld['energy']:.10g})")
         if ev["energy"] is not None:
             print(f"axisymmetric everted state: energy {ev['energy']:.8g}, negative "
                   f"{ev['negative_count']}")

@@ -7,6 +7,7 @@ stable and symmetric (the gallery's Fig. 1 (d) demo in its quick mode asserts it
 not by tests/test_demos.py). A rerun resumes. Bad input is one line on stderr and exit
 status 2."""
 
+import math
 import subprocess
 
 import pytest

@@ -320,6 +320,151 @@ def _everted(sm_model: Any, params: Any, kappa: float, kappa_fold: float) -> dic
     return {"energy": None, "negative_count": None, "model": None}
 
 
+class _SnapRun:
+    """One ``run``: the model, the output folder and its checkpoint, the start, the landing
+    (dynamics and/or minimisation), the everted state and the result. Arguments as ``run``'s."""
+
+    def __init__(self, cfg: SnapConfig, outdir: str | Path | None, render: bool) -> None:
+        from mpi4py import MPI
+
+        from shells.geometry.shapes import kappa_length
+
+        self.cfg, self.render = cfg, render
+        self.comm = MPI.COMM_WORLD
+        self.t0 = time.perf_counter()
+        self.R = kappa_length(cfg.shape)
+        self.model, self.params, self.mesh = _model(cfg, self.comm)
+        self.out = Path(outdir) if outdir is not None else None
+        self.ck = self.out / "checkpoint" if self.out is not None else None
+        self.header = json.loads(json.dumps(cfg.describe(), default=json_default))
+        self.meta: dict[str, Any] = {}
+        self.unstable: list[dict[str, Any]] | None = None
+
+    def save(self, index: int, w: np.ndarray, stage: str, **extra: Any) -> None:
+        """Checkpoint the state ``w`` at ``stage`` (with the run's meta and ``extra``)."""
+        from shells.analyses.store import save_state_checkpoint
+
+        if self.ck is not None:
+            save_state_checkpoint(self.ck, self.model, index, {"w": w},
+                                  meta={**self.meta, "stage": stage, **extra})
+
+    def start(self, resume: bool) -> float:
+        """The start: the checkpoint's state, or the fold's (followed to); sets the state and
+        κ (perturbed along the unstable modes at a fresh start); returns κ."""
+        from shells.algorithms.minimise import perturb_unstable
+        from shells.analyses.store import load_state_checkpoint
+        from shells.problem.interface import set_state
+
+        cfg, R = self.cfg, self.R
+        got = (load_state_checkpoint(self.ck, self.model, ("w",))
+               if self.ck is not None and resume else None)
+        if got is not None and got[0].get("header") == self.header:
+            # the checkpoint's own bookkeeping (its index, its ranks) is not carried forward
+            self.meta = {k: v for k, v in got[0].items() if k not in ("index", "ranks")}
+            w = got[1]["w"]
+            log.info("snap: resuming from the checkpoint (%s)", self.meta["stage"])
+        else:
+            log.info("snap: %s, %d DOFs: following the fundamental branch to its snap fold",
+                     cfg.shape.describe(), self.model.num_dofs())
+            kappa_fold, w, cps = _to_fold(self.model, cfg, R)
+            self.meta = {"header": self.header, "kappa_fold": kappa_fold,
+                         "critical_points": cps, "stage": "fold"}
+            self.save(0, w, "fold")
+        kappa_fold = self.meta["kappa_fold"]
+        kappa = cfg.kappa_R / R if cfg.kappa_R is not None else (1.0 + cfg.past) * kappa_fold
+        if not kappa * np.sign(kappa_fold) > abs(kappa_fold):
+            raise InputError(f"kappa R = {kappa * R:g} is not past the snap fold at kappa R = "
+                             f"{kappa_fold * R:.6g}")
+        set_state(self.model, w)
+        self.model.set_kappa(kappa)
+        self.unstable = self.meta.get("unstable")
+        if self.meta["stage"] == "fold":
+            self.unstable = perturb_unstable(self.model, cfg.amplitude)
+            log.info("snap: at kappa R = %.6f (%.3g past the fold), %d unstable direction(s): "
+                     "m = %s", kappa * R, kappa / kappa_fold - 1, len(self.unstable),
+                     [u["mode_m"] for u in self.unstable])
+        return kappa
+
+    def integrate(self, kappa: float) -> dict[str, Any] | None:
+        """The dynamics to rest (``method`` "dynamics", unless a checkpoint has them)."""
+        dyn = self.meta.get("dynamics")
+        if self.cfg.method != "dynamics" or dyn is not None:
+            return dyn
+        damping = DAMPING if self.cfg.damping is None else self.cfg.damping
+        log.info("snap: integrating in time from kappa R = %.6f, damping %g", kappa * self.R,
+                 damping)
+        dyn = snap_dynamics(self.model, damping)
+        rows = dyn.pop("series")
+        if self.out is not None and self.comm.rank == 0:
+            _write_series(self.out / "snap_series.csv", rows)
+        log.info("snap: %s after %d steps, snap time %s, rest energy %.10g", dyn["reason"],
+                 dyn["steps"], dyn["snap_time"], dyn["rest_energy"])
+        self.meta = {**self.meta, "dynamics": dyn, "unstable": self.unstable}
+        self.save(1, self.model.state.array_r.copy(), "dynamics")
+        return dyn
+
+    def monitor(self, tao: Any) -> None:
+        """The minimiser's progress and checkpoints, every ``SAVE_EVERY`` iterations."""
+        it = tao.getIterationNumber()
+        if it % SAVE_EVERY:
+            return
+        if it > 0:
+            self.save(it, tao.getSolution().array_r.copy(), f"minimise {it}",
+                      unstable=self.unstable)
+        if self.comm.rank == 0:
+            _, f, gnorm, *_ = tao.getSolutionStatus()
+            log.info("snap: minimise iteration %d, energy %.10g, |gradient| %.3g", it, f, gnorm)
+
+    def land(self, kappa: float, dyn: dict[str, Any] | None) -> dict[str, Any]:
+        """Minimise to a stable state (after dynamics: polish its rest state); classified."""
+        from shells.algorithms.minimise import minimise_to_stable
+        from shells.algorithms.settings import MinimiseSettings
+
+        res = minimise_to_stable(self.model, MinimiseSettings(), amplitude=self.cfg.amplitude,
+                                 monitor=self.monitor)
+        if not res.converged:
+            raise RuntimeError(f"the minimiser stopped without converging ({res.reason}, "
+                               f"|gradient| {res.gradient_norm:.3g} after {res.iterations} "
+                               "iterations): rerun to resume, or use a smaller --past")
+        landing = {"kappa_R": kappa * self.R, **classify_landing(self.model),
+                   "iterations": res.iterations, "converged": res.converged,
+                   "gradient_norm": res.gradient_norm}
+        if dyn is not None:  # the dynamic rest state's energy, before the polish
+            landing["rest_energy"] = dyn["rest_energy"]
+        log.info("snap: landed at energy %.10g: %s, %s, negative %d (orbit %d)",
+                 landing["energy"], "stable" if landing["stable"] else "UNSTABLE",
+                 "symmetric" if landing["symmetric"] else f"m = {landing['mode_m']}",
+                 landing["negative_count"], landing["orbit_modes"])
+        self.draw(self.model, "landing", f"landing state, kappa R = {kappa * self.R:.4f}"
+                  + ("" if landing["symmetric"] else f", m = {landing['mode_m']}"), vtu=True)
+        return landing
+
+    def draw(self, model: Any, name: str, title: str, vtu: bool = False) -> None:
+        """``DIR/name.png`` (and ``.vtu``) of the model's state, where asked."""
+        if self.out is None or not self.render or model is None:
+            return
+        from shells.analyses.render import render_state
+
+        render_state(model, self.out / f"{name}.png",
+                     vtu=self.out / f"{name}.vtu" if vtu else None, title=title)
+
+    def result(self, kappa: float, landing: dict[str, Any], ev: dict[str, Any],
+               dyn: dict[str, Any] | None) -> dict[str, Any]:
+        """The run's result (``run``'s), written to ``DIR/snap.json``."""
+        kf = self.meta["kappa_fold"]
+        result = {"start": {"kappa_R": kappa * self.R, "kind": "fold",
+                            "kappa_fold_R": kf * self.R, "unstable": self.unstable},
+                  "method": self.cfg.method, "landing": landing, "axisymmetric_everted": ev,
+                  "snap_time": None if dyn is None else dyn["snap_time"], "dynamics": dyn,
+                  "critical_points": self.meta["critical_points"],
+                  "dofs": self.model.num_dofs(), "mesh": self.mesh, "config": self.header,
+                  "wall_time": time.perf_counter() - self.t0}
+        if self.out is not None and self.comm.rank == 0:
+            write_atomic(self.out / "snap.json",
+                         json.dumps(result, indent=1, default=json_default))
+        return result
+
+
 def run(cfg: SnapConfig, outdir: str | Path | None = None, *, render: bool = True,
         resume: bool = True) -> dict[str, Any]:
     """Where the shell of ``cfg`` lands when it snaps (the surface model; collective).
@@ -344,110 +489,11 @@ def run(cfg: SnapConfig, outdir: str | Path | None = None, *, render: bool = Tru
         InputError: no fold in the range, or κ_start not past the fold.
         RuntimeError: the minimiser stopped without converging.
     """
-    from mpi4py import MPI
-
-    from shells.algorithms.minimise import minimise_to_stable, perturb_unstable
-    from shells.algorithms.settings import MinimiseSettings
-    from shells.analyses.store import load_state_checkpoint, save_state_checkpoint
-    from shells.geometry.shapes import kappa_length
-    from shells.problem.interface import set_state
-
-    comm = MPI.COMM_WORLD
-    t0 = time.perf_counter()
-    R = kappa_length(cfg.shape)
-    model, params, mesh = _model(cfg, comm)
-    out = Path(outdir) if outdir is not None else None
-    ck = out / "checkpoint" if out is not None else None
-    header = json.loads(json.dumps(cfg.describe(), default=json_default))
-    got = (load_state_checkpoint(ck, model, ("w",)) if ck is not None and resume else None)
-    if got is not None and got[0].get("header") != header:
-        got = None
-    if got is not None:
-        # the checkpoint's own bookkeeping (its index, its ranks) is not carried forward
-        meta = {k: v for k, v in got[0].items() if k not in ("index", "ranks")}
-        states = got[1]
-        kappa_fold, cps = meta["kappa_fold"], meta["critical_points"]
-        log.info("snap: resuming from the checkpoint (%s)", meta["stage"])
-    else:
-        log.info("snap: %s, %d DOFs: following the fundamental branch to its snap fold",
-                 cfg.shape.describe(), model.num_dofs())
-        kappa_fold, w_fold, cps = _to_fold(model, cfg, R)
-        meta = {"header": header, "kappa_fold": kappa_fold, "critical_points": cps,
-                "stage": "fold"}
-        states = {"w": w_fold}
-        if ck is not None:
-            save_state_checkpoint(ck, model, 0, states, meta=meta)
-    kappa = cfg.kappa_R / R if cfg.kappa_R is not None else (1.0 + cfg.past) * kappa_fold
-    if not kappa * np.sign(kappa_fold) > abs(kappa_fold):
-        raise InputError(f"kappa R = {kappa * R:g} is not past the snap fold at kappa R = "
-                         f"{kappa_fold * R:.6g}")
-    set_state(model, states["w"])
-    model.set_kappa(kappa)
-    unstable = meta.get("unstable")
-    if meta["stage"] == "fold":
-        unstable = perturb_unstable(model, cfg.amplitude)
-        log.info("snap: at kappa R = %.6f (%.3g past the fold), %d unstable direction(s): "
-                 "m = %s", kappa * R, kappa / kappa_fold - 1, len(unstable),
-                 [u["mode_m"] for u in unstable])
-
-    def save(tao: Any) -> None:
-        it = tao.getIterationNumber()
-        if ck is not None and it % SAVE_EVERY == 0 and it > 0:
-            save_state_checkpoint(ck, model, it, {"w": tao.getSolution().array_r.copy()},
-                                  meta={**meta, "stage": f"minimise {it}",
-                                        "unstable": unstable})
-        if comm.rank == 0 and it % SAVE_EVERY == 0:
-            _, f, gnorm, *_ = tao.getSolutionStatus()
-            log.info("snap: minimise iteration %d, energy %.10g, |gradient| %.3g", it, f, gnorm)
-
-    dyn = meta.get("dynamics")
-    if cfg.method == "dynamics" and dyn is None:
-        damping = DAMPING if cfg.damping is None else cfg.damping
-        log.info("snap: integrating in time from kappa R = %.6f, damping %g", kappa * R,
-                 damping)
-        got_dyn = snap_dynamics(model, damping)
-        rows = got_dyn.pop("series")
-        dyn = got_dyn
-        if out is not None and comm.rank == 0:
-            _write_series(out / "snap_series.csv", rows)
-        log.info("snap: %s after %d steps, snap time %s, rest energy %.10g", dyn["reason"],
-                 dyn["steps"], dyn["snap_time"], dyn["rest_energy"])
-        meta = {**meta, "dynamics": dyn, "unstable": unstable}
-        if ck is not None:
-            save_state_checkpoint(ck, model, 1, {"w": model.state.array_r.copy()},
-                                  meta={**meta, "stage": "dynamics"})
-    res = minimise_to_stable(model, MinimiseSettings(), amplitude=cfg.amplitude, monitor=save)
-    if not res.converged:
-        raise RuntimeError(f"the minimiser stopped without converging ({res.reason}, "
-                           f"|gradient| {res.gradient_norm:.3g} after {res.iterations} "
-                           "iterations): rerun to resume, or use a smaller --past")
-    landing = {"kappa_R": kappa * R, **classify_landing(model), "iterations": res.iterations,
-               "converged": res.converged, "gradient_norm": res.gradient_norm}
-    if dyn is not None:  # the dynamic rest state's energy, before the polish
-        landing["rest_energy"] = dyn["rest_energy"]
-    log.info("snap: landed at energy %.10g: %s, %s, negative %d (orbit %d)", landing["energy"],
-             "stable" if landing["stable"] else "UNSTABLE",
-             "symmetric" if landing["symmetric"] else f"m = {landing['mode_m']}",
-             landing["negative_count"], landing["orbit_modes"])
-    if out is not None and render:
-        from shells.analyses.render import render_state
-
-        render_state(model, out / "landing.png", vtu=out / "landing.vtu",
-                     title=f"landing state, kappa R = {kappa * R:.4f}"
-                     + ("" if landing["symmetric"] else f", m = {landing['mode_m']}"))
-    ev = _everted(model, params, kappa, kappa_fold)
-    ev_model = ev.pop("model")
-    if out is not None and render and ev_model is not None:
-        from shells.analyses.render import render_state
-
-        render_state(ev_model, out / "everted.png",
-                     title=f"axisymmetric everted state, kappa R = {kappa * R:.4f}")
-    result = {"start": {"kappa_R": kappa * R, "kind": "fold", "kappa_fold_R": kappa_fold * R,
-                        "unstable": unstable},
-              "method": cfg.method, "landing": landing, "axisymmetric_everted": ev,
-              "snap_time": None if dyn is None else dyn["snap_time"],
-              "dynamics": dyn, "critical_points": cps, "dofs": model.num_dofs(),
-              "mesh": mesh, "config": header, "wall_time": time.perf_counter() - t0}
-    if out is not None and comm.rank == 0:
-        write_atomic(out / "snap.json", json.dumps(result, indent=1, default=json_default))
-    return result
+    run = _SnapRun(cfg, outdir, render)
+    kappa = run.start(resume)
+    dyn = run.integrate(kappa)
+    landing = run.land(kappa, dyn)
+    ev = _everted(run.model, run.params, kappa, run.meta["kappa_fold"])
+    run.draw(ev.pop("model"), "everted",
+             f"axisymmetric everted state, kappa R = {kappa * run.R:.4f}")
+    return run.result(kappa, landing, ev, dyn)

@@ -111,133 +111,172 @@ def integrate(problem: Any, settings: DynamicsSettings, velocity: Any = None,
     Raises:
         InputError: a problem without a kinetic mass.
     """
-    from petsc4py import PETSc
-
-    from shells.problem.kinetic import sparse_part
-
     if not isinstance(problem, KineticMass):
         raise InputError("this problem has no kinetic mass (assemble_kinetic_mass)")
-    s = settings
-    comm = problem.state.getComm()
-    M = problem.assemble_kinetic_mass(block)
-    Ms = sparse_part(M)
-    lowrank = _LowRank(M, Ms) if M.getType() == "lrc" else None
-    K0 = problem.create_jacobian()
-    problem.assemble_jacobian(K0)
-    Cs = None
-    if s.mass_damping or s.stiffness_damping:
-        Cs = K0.copy()
-        Cs.scale(s.stiffness_damping)
-        Cs.axpy(s.mass_damping, Ms, structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
-    P = problem.create_jacobian()
-    ctx = _Jacobian(P, lowrank)
-    n_loc, n = problem.state.getLocalSize(), problem.state.getSize()
-    J = PETSc.Mat().createPython(((n_loc, n), (n_loc, n)), ctx, comm=comm)
-    J.setUp()
-    work, tmp = problem.create_vector(), problem.create_vector()
+    run = _Integration(problem, settings, block, monitor)
+    try:
+        return run.solve(velocity)
+    finally:
+        run.destroy()
 
-    def set_state(u: Any) -> None:
-        u.copy(problem.state)
-        problem.sync()
 
-    def residual(ts: Any, t: float, u: Any, v: Any, a: Any, F: Any) -> None:
-        set_state(u)
-        problem.assemble_residual(work)
-        work.copy(F)
-        M.mult(a, tmp)
-        F.axpy(1.0, tmp)
-        if Cs is not None:
-            Cs.mult(v, tmp)
-            F.axpy(1.0, tmp)
-            if lowrank is not None and s.mass_damping:
-                lowrank.mult(v, tmp)
-                F.axpy(s.mass_damping, tmp)
+class _Integration:
+    """One ``integrate``: the mass, damping and Jacobian matrices, the residual and Jacobian
+    of M ü + C u̇ + R(u), the TS, and the record of each step. Arguments as ``integrate``'s."""
 
-    def jacobian(ts: Any, t: float, u: Any, v: Any, a: Any, shift_v: float, shift_a: float,
-                 Jm: Any, Pm: Any) -> None:
-        set_state(u)
-        problem.assemble_jacobian(P)
-        P.axpy(shift_a, Ms, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
-        if Cs is not None:
-            P.axpy(shift_v, Cs, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
-        ctx.scale = shift_a + shift_v * s.mass_damping
+    def __init__(self, problem: Any, s: DynamicsSettings, block: Any,
+                 monitor: Callable[[float, Any, float], bool | None] | None) -> None:
+        from petsc4py import PETSc
+
+        from shells.problem.kinetic import sparse_part
+
+        self.problem, self.s, self.monitor = problem, s, monitor
+        self.comm = problem.state.getComm()
+        self.M = problem.assemble_kinetic_mass(block)
+        self.Ms = sparse_part(self.M)
+        self.lowrank = _LowRank(self.M, self.Ms) if self.M.getType() == "lrc" else None
+        self.K0 = problem.create_jacobian()
+        problem.assemble_jacobian(self.K0)
+        self.Cs = None
+        if s.mass_damping or s.stiffness_damping:
+            self.Cs = self.K0.copy()
+            self.Cs.scale(s.stiffness_damping)
+            self.Cs.axpy(s.mass_damping, self.Ms,
+                         structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
+        self.P = problem.create_jacobian()
+        self.ctx = _Jacobian(self.P, self.lowrank)
+        n_loc, n = problem.state.getLocalSize(), problem.state.getSize()
+        self.J = PETSc.Mat().createPython(((n_loc, n), (n_loc, n)), self.ctx, comm=self.comm)
+        self.J.setUp()
+        self.work, self.tmp = problem.create_vector(), problem.create_vector()
+        self.u0 = problem.state.copy()
+        self.v0 = problem.create_vector()
+        self.ts: Any = None
+        self.out = DynamicsResult()
+        self.energy = isinstance(problem, Energy)
+
+    def set_state(self, u: Any) -> None:
+        """The problem's state from ``u``."""
+        u.copy(self.problem.state)
+        self.problem.sync()
+
+    def residual(self, ts: Any, t: float, u: Any, v: Any, a: Any, F: Any) -> None:
+        """F = R(u) + M a + C v (TS's I2Function)."""
+        self.set_state(u)
+        self.problem.assemble_residual(self.work)
+        self.work.copy(F)
+        self.M.mult(a, self.tmp)
+        F.axpy(1.0, self.tmp)
+        if self.Cs is not None:
+            self.Cs.mult(v, self.tmp)
+            F.axpy(1.0, self.tmp)
+            if self.lowrank is not None and self.s.mass_damping:
+                self.lowrank.mult(v, self.tmp)
+                F.axpy(self.s.mass_damping, self.tmp)
+
+    def jacobian(self, ts: Any, t: float, u: Any, v: Any, a: Any, shift_v: float,
+                 shift_a: float, Jm: Any, Pm: Any) -> None:
+        """K(u) + shift_a M + shift_v C: its sparse part into P, the low-rank part scaled in
+        the shell matrix (TS's I2Jacobian)."""
+        from petsc4py import PETSc
+
+        self.set_state(u)
+        self.problem.assemble_jacobian(self.P)
+        self.P.axpy(shift_a, self.Ms, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+        if self.Cs is not None:
+            self.P.axpy(shift_v, self.Cs, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+        self.ctx.scale = shift_a + shift_v * self.s.mass_damping
         Jm.assemble()
 
-    u0 = problem.state.copy()
-    v0 = problem.create_vector()
-    if velocity is None:
-        v0.set(0.0)
-    else:
-        velocity.copy(v0)
-        problem.zero_constrained(v0)
-    ts = PETSc.TS().create(comm=comm)
-    ts.setOptionsPrefix(DYNAMICS_PREFIX)
-    ts.setType("alpha2")
-    opts = PETSc.Options()
-    ours = []
-    for k, val in (("ts_alpha_radius", s.rho_inf),
-                   ("ts_adapt_type", "basic" if s.adaptive else "none")):
-        if not opts.hasName(f"{DYNAMICS_PREFIX}{k}"):  # a user's option wins
-            opts[f"{DYNAMICS_PREFIX}{k}"] = val
-            ours.append(f"{DYNAMICS_PREFIX}{k}")
-    ts.setI2Function(residual, problem.create_vector())
-    ts.setI2Jacobian(jacobian, J, P)
-    ts.setTime(0.0)
-    ts.setTimeStep(s.dt)
-    ts.setMaxTime(s.t_end)
-    ts.setMaxSteps(s.max_steps)
-    ts.setExactFinalTime(PETSc.TS.ExactFinalTime.MATCHSTEP)
-    if s.adaptive:  # a failed Newton solve retries with a smaller step
-        ts.setMaxSNESFailures(-1)
-    snes = ts.getSNES()
-    snes.setTolerances(rtol=1e-10, atol=1e-14, max_it=25)
-    ksp = snes.getKSP()
-    if lowrank is None:
-        ksp.setType("preonly")
-    else:
-        ksp.setType("gmres")
-        ksp.setTolerances(rtol=1e-12, atol=1e-30)
-    pc = ksp.getPC()
-    pc.setType("lu")
-    pc.setFactorSolverType("mumps")
-    ts.setFromOptions()
-    for k in ours:  # the settings' values for this run only
-        opts.delValue(k)
-    ts.setSolution2(u0, v0)
+    def make_ts(self) -> Any:
+        """TSALPHA2 under ``DYNAMICS_PREFIX``, the settings' values unless the user set them."""
+        from petsc4py import PETSc
 
-    out = DynamicsResult()
-    energy = isinstance(problem, Energy)
+        s = self.s
+        ts = PETSc.TS().create(comm=self.comm)
+        ts.setOptionsPrefix(DYNAMICS_PREFIX)
+        ts.setType("alpha2")
+        opts = PETSc.Options()
+        ours = []
+        for k, val in (("ts_alpha_radius", s.rho_inf),
+                       ("ts_adapt_type", "basic" if s.adaptive else "none")):
+            if not opts.hasName(f"{DYNAMICS_PREFIX}{k}"):  # a user's option wins
+                opts[f"{DYNAMICS_PREFIX}{k}"] = val
+                ours.append(f"{DYNAMICS_PREFIX}{k}")
+        ts.setI2Function(self.residual, self.problem.create_vector())
+        ts.setI2Jacobian(self.jacobian, self.J, self.P)
+        ts.setTime(0.0)
+        ts.setTimeStep(s.dt)
+        ts.setMaxTime(s.t_end)
+        ts.setMaxSteps(s.max_steps)
+        ts.setExactFinalTime(PETSc.TS.ExactFinalTime.MATCHSTEP)
+        if s.adaptive:  # a failed Newton solve retries with a smaller step
+            ts.setMaxSNESFailures(-1)
+        snes = ts.getSNES()
+        snes.setTolerances(rtol=1e-10, atol=1e-14, max_it=25)
+        ksp = snes.getKSP()
+        if self.lowrank is None:
+            ksp.setType("preonly")
+        else:
+            ksp.setType("gmres")
+            ksp.setTolerances(rtol=1e-12, atol=1e-30)
+        pc = ksp.getPC()
+        pc.setType("lu")
+        pc.setFactorSolverType("mumps")
+        ts.setFromOptions()
+        for k in ours:  # the settings' values for this run only
+            opts.delValue(k)
+        return ts
 
-    def record(t: float, u: Any, v: Any) -> None:
-        set_state(u)
-        M.mult(v, tmp)
-        out.times.append(float(t))
-        out.kinetic.append(0.5 * float(v.dot(tmp)))
-        out.elastic.append(problem.total_energy() if energy else float("nan"))
+    def record(self, t: float, u: Any, v: Any) -> None:
+        """The time, kinetic and elastic energy at (u, v); the problem left at u."""
+        self.set_state(u)
+        self.M.mult(v, self.tmp)
+        self.out.times.append(float(t))
+        self.out.kinetic.append(0.5 * float(v.dot(self.tmp)))
+        self.out.elastic.append(self.problem.total_energy() if self.energy else float("nan"))
 
-    record(0.0, u0, v0)
-    if monitor is not None:
-        monitor(0.0, problem, out.kinetic[-1])
+    def post_step(self, ts: Any) -> None:
+        """Record the accepted step; stop at rest or where the monitor says."""
+        from petsc4py import PETSc
 
-    def post_step(ts: Any) -> None:
         u, v = ts.getSolution2()
-        record(ts.getTime(), u, v)
+        self.record(ts.getTime(), u, v)
+        out, s = self.out, self.s
         out.steps += 1
         if s.rest_tol is not None and out.kinetic[-1] < s.rest_tol and out.steps > 1:
             out.reason = "rest"
             ts.setConvergedReason(PETSc.TS.ConvergedReason.CONVERGED_USER)
-        elif monitor is not None and monitor(float(ts.getTime()), problem, out.kinetic[-1]):
+        elif self.monitor is not None and self.monitor(float(ts.getTime()), self.problem,
+                                                       out.kinetic[-1]):
             out.reason = "monitor"
             ts.setConvergedReason(PETSc.TS.ConvergedReason.CONVERGED_USER)
 
-    ts.setPostStep(post_step)
-    try:
-        ts.solve(u0)
-    finally:
-        if int(ts.getConvergedReason()) < 0:
-            out.reason = "diverged"
-        u, _ = ts.getSolution2()
-        set_state(u)
-        for o in (ts, J, P, K0, work, tmp, v0, u0, *(x for x in (Cs, lowrank) if x)):
-            o.destroy()
-    return out
+    def solve(self, velocity: Any) -> DynamicsResult:
+        """Integrate from the problem's state with ``velocity`` (None: at rest)."""
+        if velocity is None:
+            self.v0.set(0.0)
+        else:
+            velocity.copy(self.v0)
+            self.problem.zero_constrained(self.v0)
+        self.ts = self.make_ts()
+        self.ts.setSolution2(self.u0, self.v0)
+        self.record(0.0, self.u0, self.v0)
+        if self.monitor is not None:
+            self.monitor(0.0, self.problem, self.out.kinetic[-1])
+        self.ts.setPostStep(self.post_step)
+        try:
+            self.ts.solve(self.u0)
+        finally:
+            if int(self.ts.getConvergedReason()) < 0:
+                self.out.reason = "diverged"
+            u, _ = self.ts.getSolution2()
+            self.set_state(u)
+        return self.out
+
+    def destroy(self) -> None:
+        """Free the solver, matrices and vectors."""
+        for o in (self.ts, self.J, self.P, self.K0, self.work, self.tmp, self.v0, self.u0,
+                  self.Cs, self.lowrank):
+            if o is not None:
+                o.destroy()

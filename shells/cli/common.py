@@ -137,31 +137,30 @@ def add_table_args(p: argparse.ArgumentParser) -> None:
 # --------------------------------------------------------------------------------------------
 # argument types and shared arguments
 # --------------------------------------------------------------------------------------------
-def nonnegative_float(name: str) -> Callable[[str], float]:
-    """An argparse type: a finite number ≥ 0 (the message names ``name``)."""
+def _number_type(name: str, zero: bool) -> Callable[[str], float]:
+    """An argparse type: a finite number > 0 (≥ 0 with ``zero``), the message naming
+    ``name``."""
     def conv(text: str) -> float:
         try:
             v = float(text)
         except ValueError:
             raise argparse.ArgumentTypeError(f"{name} must be a number, got {text!r}") from None
-        if not (math.isfinite(v) and v >= 0):
-            raise argparse.ArgumentTypeError(f"{name} must be non-negative, got {text}")
+        if not (math.isfinite(v) and (v >= 0 if zero else v > 0)):
+            raise argparse.ArgumentTypeError(
+                f"{name} must be {'non-negative' if zero else 'positive'}, got {text}")
         return v
 
     return conv
+
+
+def nonnegative_float(name: str) -> Callable[[str], float]:
+    """An argparse type: a finite number ≥ 0 (the message names ``name``)."""
+    return _number_type(name, zero=True)
 
 
 def positive_float(name: str) -> Callable[[str], float]:
-    def conv(text: str) -> float:
-        try:
-            v = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} must be a number, got {text!r}") from None
-        if not (math.isfinite(v) and v > 0):
-            raise argparse.ArgumentTypeError(f"{name} must be positive, got {text}")
-        return v
-
-    return conv
+    """An argparse type: a finite number > 0 (the message names ``name``)."""
+    return _number_type(name, zero=False)
 
 
 #: Accepted --radius (and --r3 up to the upper bound). Every result is dimensionless (kappa R,

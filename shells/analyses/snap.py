@@ -133,11 +133,13 @@ class SnapConfig:
         return d
 
 
-def classify_landing(model: Any) -> dict[str, Any]:
+def classify_landing(model: Any, counts: tuple[int, int] | None = None) -> dict[str, Any]:
     """The landing state's stability, symmetry and shape (collective).
 
     Args:
         model: the surface model holding the state.
+        counts: (negative count, orbit modes among them) of this state where the caller has
+            them (``minimise_to_stable``'s result); None: computed here.
 
     Returns:
         ``energy``, ``negative_count`` (all negative eigenvalues), ``orbit_modes`` (those along
@@ -147,9 +149,11 @@ def classify_landing(model: Any) -> dict[str, Any]:
     """
     from shells.algorithms.stability import Stability
 
-    stab = Stability(model)
-    neg, orbit = stab.negative_count_modulo_orbit()
-    stab.destroy()
+    if counts is None:
+        stab = Stability(model)
+        counts = stab.negative_count_modulo_orbit()
+        stab.destroy()
+    neg, orbit = counts
     power = model.azimuthal_spectrum(model.state)
     amp = np.sqrt(power / max(power[0], 1e-300))
     symmetric = bool(np.max(amp[1:]) < SYMMETRY_TOL)
@@ -426,7 +430,12 @@ class _SnapRun:
             raise RuntimeError(f"the minimiser stopped without converging ({res.reason}, "
                                f"|gradient| {res.gradient_norm:.3g} after {res.iterations} "
                                "iterations): rerun to resume, or use a smaller --past")
-        landing = {"kappa_R": kappa * self.R, **classify_landing(self.model),
+        # a stable end's inertia is minimise_to_stable's, counted on this very state (an
+        # unstable one was perturbed after its count: counted again)
+        counts = ((res.negative_count, res.orbit_modes)
+                  if res.negative_count is not None and res.negative_count == res.orbit_modes
+                  else None)
+        landing = {"kappa_R": kappa * self.R, **classify_landing(self.model, counts),
                    "iterations": res.iterations, "converged": res.converged,
                    "gradient_norm": res.gradient_norm}
         if dyn is not None:  # the dynamic rest state's energy, before the polish

@@ -80,8 +80,6 @@ def test_dynamics_comes_to_rest_where_minimisation_lands(shared_tmp, monkeypatch
     a discretisation artefact, but both methods must find the same state): the damped motion
     comes to rest, the polish changes the rest state's energy by less than 1e-6 of it, and the
     landing is the minimiser's to 1e-6. Steps of 0.1 (not the default 0.05) keep it short."""
-    if MPI.COMM_WORLD.size > 1:
-        pytest.skip("on 2 ranks the time steps' parallel solves outlast the test's timeout")
     monkeypatch.setattr(snap, "DT_STEP", 0.1)
     h = 0.04
     common = dict(shape=SphericalCap(1.0, 3.0 * math.sqrt(h)), h_over_r=h, past=0.3, size=0.6,

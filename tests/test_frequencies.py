@@ -31,6 +31,7 @@ from mpi4py import MPI
 
 from shells.algorithms.frequencies import KineticStability, natural_frequencies
 from shells.axisym import AxisymModel, AxisymParameters
+from shells.errors import InputError
 from shells.geometry.shapes import Disk, Sphere, SphericalCap
 from shells.problem.kinetic import sparse_part
 from shells.theory import (
@@ -124,6 +125,9 @@ def test_free_plate_roots_are_the_flat_disks():
     nu33 = [free_plate_lambda2(n, 0.33) for n in (2, 0, 3)]
     assert nu33 == pytest.approx([5.26204, 9.06890, 12.2439], abs=1e-4)
     assert free_plate_lambda2(1, 0.33, 2) == pytest.approx(59.859, abs=1e-3)
+    for bad in ((-1, NU, 1), (2, NU, 0), (2, 0.6, 1)):
+        with pytest.raises(InputError):
+            free_plate_lambda2(*bad)
     h = 0.01
     model = AxisymModel(Disk(1.0), AxisymParameters(h=h, nu=NU, cells=40), comm=MPI.COMM_SELF)
     f = {x.block: x.omega2 for x in natural_frequencies(model, count=1, blocks=(0, 2, 3))}

@@ -79,8 +79,10 @@ def test_dynamics_comes_to_rest_where_minimisation_lands(shared_tmp, monkeypatch
     """``--method dynamics`` on a coarse cap (P2, 1398 DOFs; it wrinkles at m = 8 on this mesh,
     a discretisation artefact, but both methods must find the same state): the damped motion
     comes to rest, the polish changes the rest state's energy by less than 1e-6 of it, and the
-    landing is the minimiser's to 1e-6. Steps of 0.1 (not the default 0.05) keep it short."""
+    landing is the minimiser's to 1e-6, on 1 and 2 ranks. A first step of 0.1 and a step tolerance
+    of 3e-3 (not the defaults 0.05 and 1e-3) keep it short: the polish decides the landing."""
     monkeypatch.setattr(snap, "DT_STEP", 0.1)
+    monkeypatch.setattr(snap, "STEP_TOL", 3e-3)
     h = 0.04
     common = dict(shape=SphericalCap(1.0, 3.0 * math.sqrt(h)), h_over_r=h, past=0.3, size=0.6,
                   degree=2, layer_elements=1.0)
@@ -103,4 +105,4 @@ def test_dynamics_comes_to_rest_where_minimisation_lands(shared_tmp, monkeypatch
         assert lines[0].split(",") == list(snap.SERIES_COLUMNS)
         assert len(lines) == d["steps"] + 2
         t = [float(r.split(",")[0]) for r in lines[1:]]
-        assert t[0] == 0.0 and t[-1] == pytest.approx(0.1 * d["steps"], rel=1e-9)
+        assert t[0] == 0.0 and all(b > a for a, b in zip(t, t[1:], strict=False))

@@ -38,6 +38,7 @@ from typing import Any
 
 import numpy as np
 
+from shells.analyses.setup import open_shell_kappa_R_max
 from shells.errors import InputError
 from shells.files import json_default, write_atomic
 from shells.parameters import check_h_over_r, check_nu
@@ -85,7 +86,7 @@ class SnapConfig:
         past: κ_start = (1 + past) κ_fold, where ``kappa_R`` is None.
         kappa_R: κ_start R, past the fold (None: from ``past``).
         amplitude: the perturbation along each unstable eigenvector, RMS over the thickness.
-        kappa_R_max: the fold is searched up to this κR (None: 2 θ̄ + 6, as ``critical``).
+        kappa_R_max: the fold is searched up to this κR (None: ``open_shell_kappa_R_max``).
         size, degree: the mesh (None: ``default_discretisation``).
         layer_elements: elements across the rim's boundary layer.
         shear_penalty: the Kirchhoff-Love penalty factor.
@@ -272,8 +273,8 @@ def _to_fold(model: Any, cfg: SnapConfig, R: float) -> tuple[float, np.ndarray, 
     from shells.progress import Progress
 
     L = cfg.shape.characteristic_size()
-    tb = cfg.shape.theta / math.sqrt(cfg.h_over_r) if hasattr(cfg.shape, "theta") else 5.0
-    kR_end = cfg.kappa_R_max if cfg.kappa_R_max is not None else 2.0 * tb + 6.0
+    kR_end = (cfg.kappa_R_max if cfg.kappa_R_max is not None
+              else open_shell_kappa_R_max(cfg.shape, cfg.h_over_r))
     lam_end = kR_end / R * L
     st = ContinuationSettings(ds=lam_end / 16, ds_max=lam_end / 10, ds_min=1e-7 * lam_end,
                               factor_reuse=REUSE_SURFACE, ds_unit="kappa")

@@ -56,17 +56,15 @@ SAVE_EVERY = 10
 METHODS = ("minimise", "dynamics")
 #: dynamics: the mass-proportional damping α (C = α M, units √(E/ρ)/R) of a run that sets none
 DAMPING = 1.0
-#: dynamics: at rest once the kinetic energy has fallen below this fraction of its peak (the
-#: velocities below 1e-3 of theirs; the adaptive steps' error leaves a kinetic energy of about
-#: 1e-7 of the peak in a state at rest, whose energy is then the polished one's to 1e-9)
-REST_FRACTION = 1.0e-6
-#: dynamics: the first time step (units R √(ρ/E)) and the adaptive step's tolerance on the
+#: dynamics: at rest once the kinetic energy has fallen below this fraction of its peak
+REST_FRACTION = 1.0e-8
+#: dynamics: the least time step (units R √(ρ/E)) and the adaptive step's tolerance on the
 #: local error, the spectral radius ρ∞ at infinite step (numerical dissipation, which removes
 #: the unresolved stiff membrane modes the start excites within a few steps) and the time after
-#: which a run that has not come to rest stops (its state is polished all the same). At a
-#: tolerance of 1e-4 the steps follow the ringing of those membrane modes and crawl; at 1e-3
-#: they do not, and the snap time on a θ̄ = 3 cap lies within 1 % of fixed steps of 0.05
-#: (benchmarks/results/snap_dynamics_steps.json)
+#: which a run that has not come to rest stops (its state is polished all the same). Steps
+#: never shorter than DT_STEP: shorter ones would follow the ringing of those membrane modes,
+#: which the steps of DT_STEP dissipate, and crawl; longer ones where the local error allows
+#: (benchmarks/results/snap_dynamics_steps.json compares them with fixed steps)
 DT_STEP = 0.05
 STEP_TOL: float | None = 1.0e-3  # None: fixed steps of DT_STEP
 RHO_INF = 0.5
@@ -184,7 +182,7 @@ def snap_dynamics(model: Any, damping: float, t_max: float = T_MAX) -> dict[str,
     (collective).
 
     Mass-proportional damping C = α M (``damping``), TSALPHA2 with ρ∞ = ``RHO_INF``, adaptive
-    steps (the first ``DT_STEP``, tolerance ``STEP_TOL``). At rest: the kinetic energy below
+    steps (the least ``DT_STEP``, tolerance ``STEP_TOL``). At rest: the kinetic energy below
     ``REST_FRACTION`` of its peak, after the peak.
 
     Args:
@@ -224,6 +222,7 @@ def snap_dynamics(model: Any, damping: float, t_max: float = T_MAX) -> dict[str,
 
     st = DynamicsSettings(t_end=t_max * tscale, dt=DT_STEP * tscale, rho_inf=RHO_INF,
                           adaptive=STEP_TOL is not None, step_tol=STEP_TOL or 1.0e-4,
+                          dt_min=DT_STEP * tscale,
                           mass_damping=damping / tscale,
                           max_steps=1000000)
     res = integrate(model, st, monitor=monitor)

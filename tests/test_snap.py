@@ -57,7 +57,7 @@ def test_config_refusals():
         snap.SnapConfig(shape=Sphere(1.0), h_over_r=0.01)
     for bad in ({"past": 0.0}, {"past": 2.0}, {"amplitude": -1.0}, {"method": "newton"},
                 {"damping": -1.0},
-                {"h_over_r": 0.9}):
+                {"step_tol": 0.0}, {"step_tol": 1.0}, {"h_over_r": 0.9}):
         with pytest.raises(InputError):
             snap.SnapConfig(**{"shape": cap, "h_over_r": 0.04, **bad})
 
@@ -80,17 +80,16 @@ def test_dynamics_comes_to_rest_where_minimisation_lands(shared_tmp, monkeypatch
     a discretisation artefact, but both methods must find the same state): the damped motion
     comes to rest, the polish changes the rest state's energy by less than 1e-6 of it, and the
     landing is the minimiser's to 1e-6, on 1 and 2 ranks. A first step of 0.1 and a step tolerance
-    of 3e-3 (not the defaults 0.05 and 1e-3) keep it short: the polish decides the landing."""
+    of 1e-3 (not the defaults 0.05 and 1e-4) keep it short: the polish decides the landing."""
     monkeypatch.setattr(snap, "DT_STEP", 0.1)
-    monkeypatch.setattr(snap, "STEP_TOL", 3e-3)
     h = 0.04
     common = dict(shape=SphericalCap(1.0, 3.0 * math.sqrt(h)), h_over_r=h, past=0.3, size=0.6,
                   degree=2, layer_elements=1.0)
-    dyn = snap.run(snap.SnapConfig(**common, method="dynamics", damping=2.0),
+    dyn = snap.run(snap.SnapConfig(**common, method="dynamics", damping=2.0, step_tol=1e-3),
                    shared_tmp / "dyn", render=False, resume=False)
     d, ld = dyn["dynamics"], dyn["landing"]
     assert dyn["method"] == "dynamics" and d["reason"] == "rest" and d["damping"] == 2.0
-    assert dyn["snap_time"] == d["snap_time"] and d["snap_time"] > 0
+    assert dyn["snap_time"] == d["snap_time"] and d["snap_time"] > 0 and d["step_tol"] == 1e-3
     assert ld["stable"]
     assert abs(ld["rest_energy"] - ld["energy"]) < 1e-6 * abs(ld["energy"])
     # the same on every rank

@@ -64,9 +64,10 @@ REST_FRACTION = 1.0e-8
 #: which a run that has not come to rest stops (its state is polished all the same). Steps
 #: never shorter than DT_STEP: shorter ones would follow the ringing of those membrane modes,
 #: which the steps of DT_STEP dissipate, and crawl; longer ones where the local error allows
-#: (benchmarks/results/snap_dynamics_steps.json compares them with fixed steps)
+#: (on a θ̄ = 3 cap the snap time at a tolerance of 1e-4 lies within 1e-3 of fixed steps,
+#: in a quarter of the steps: benchmarks/results/snap_dynamics_steps.json)
 DT_STEP = 0.05
-STEP_TOL: float | None = 1.0e-3  # None: fixed steps of DT_STEP
+STEP_TOL: float | None = 1.0e-4  # None: fixed steps of DT_STEP
 RHO_INF = 0.5
 T_MAX = 5000.0
 
@@ -90,6 +91,8 @@ class SnapConfig:
         shear_penalty: the Kirchhoff-Love penalty factor.
         damping: dynamics: the mass-proportional damping α, C = α M, in units √(E/ρ)/R
             (None: ``DAMPING``; 0: none, the run then stops at ``T_MAX``).
+        step_tol: dynamics: the adaptive steps' tolerance on the local error (None:
+            ``STEP_TOL``).
 
     Raises:
         InputError: on construction, for a parameter out of range, a closed shape (which
@@ -111,6 +114,7 @@ class SnapConfig:
     layer_elements: float = 4.0
     shear_penalty: float = 1.0e3
     damping: float | None = None
+    step_tol: float | None = None
 
     def __post_init__(self) -> None:
         check_h_over_r(self.h_over_r)
@@ -124,6 +128,9 @@ class SnapConfig:
         if self.damping is not None and not (math.isfinite(self.damping)
                                              and self.damping >= 0):
             raise InputError(f"damping must be a non-negative number, got {self.damping!r}")
+        if self.step_tol is not None and not (math.isfinite(self.step_tol)
+                                              and 0 < self.step_tol < 1):
+            raise InputError(f"step_tol must lie in (0, 1), got {self.step_tol!r}")
         if not (0 < self.past <= 1):
             raise InputError(f"past must lie in (0, 1], got {self.past!r}")
         if not (self.amplitude > 0 and math.isfinite(self.amplitude)):
@@ -177,7 +184,8 @@ SERIES_COLUMNS = ("time", "kinetic", "elastic", "psi3_pole_over_h", "rim_rotatio
                   "amp_m1", "amp_m2", "amp_m3", "amp_m4")
 
 
-def snap_dynamics(model: Any, damping: float, t_max: float = T_MAX) -> dict[str, Any]:
+def snap_dynamics(model: Any, damping: float, t_max: float = T_MAX,
+                  step_tol: float | None = None) -> dict[str, Any]:
     """Integrate the equations of motion from the model's state at its κ, at rest, to rest
     (collective).
 
@@ -189,6 +197,7 @@ def snap_dynamics(model: Any, damping: float, t_max: float = T_MAX) -> dict[str,
         model: the surface model, its state the (perturbed) start; left at the final state.
         damping: α, in units √(E/ρ)/R (0: none).
         t_max: the run stops at this time if not at rest before.
+        step_tol: the adaptive steps' tolerance (None: ``STEP_TOL``).
 
     Returns:
         ``series`` (one row per accepted step, ``SERIES_COLUMNS``), ``reason`` ("rest" or
@@ -220,8 +229,9 @@ def snap_dynamics(model: Any, damping: float, t_max: float = T_MAX) -> dict[str,
             peak["passed"] = True
         return peak["passed"] and kinetic < REST_FRACTION * peak["k"]
 
+    tol = step_tol if step_tol is not None else STEP_TOL
     st = DynamicsSettings(t_end=t_max * tscale, dt=DT_STEP * tscale, rho_inf=RHO_INF,
-                          adaptive=STEP_TOL is not None, step_tol=STEP_TOL or 1.0e-4,
+                          adaptive=tol is not None, step_tol=tol or 1.0e-4,
                           dt_min=DT_STEP * tscale,
                           mass_damping=damping / tscale,
                           max_steps=1000000)
@@ -240,7 +250,7 @@ def snap_dynamics(model: Any, damping: float, t_max: float = T_MAX) -> dict[str,
     return {"series": rows, "reason": "rest" if res.reason == "monitor" else res.reason,
             "steps": res.steps, "snap_time": snap_time,
             "kinetic_peak_time": float(t[int(np.argmax(a[:, 1]))]),
-            "rest_energy": float(a[-1, 2]), "damping": damping}
+            "rest_energy": float(a[-1, 2]), "damping": damping, "step_tol": tol}
 
 
 def _write_series(path: Path, rows: list[list[float]]) -> None:
@@ -405,7 +415,7 @@ class _SnapRun:
         damping = DAMPING if self.cfg.damping is None else self.cfg.damping
         log.info("snap: integrating in time from kappa R = %.6f, damping %g", kappa * self.R,
                  damping)
-        dyn = snap_dynamics(self.model, damping)
+        dyn = snap_dynamics(self.model, damping, step_tol=self.cfg.step_tol)
         rows = dyn.pop("series")
         if self.out is not None and self.comm.rank == 0:
             _write_series(self.out / "snap_series.csv", rows)

@@ -212,7 +212,7 @@ def snap(shell: Shell, *, past: float = 0.01, kappa_R: float | None = None,
         render: draw the landing and everted states (with ``outdir``).
         **options: ``SnapConfig`` numerics (``amplitude``, ``kappa_R_max``, ``size``,
             ``degree``, ``layer_elements``, ``shear_penalty``, ``damping``: dynamics' α of
-            C = α M in units √(E/ρ)/R).
+            C = α M in units √(E/ρ)/R, ``step_tol``: dynamics' adaptive step tolerance).
 
     Returns:
         The ``Result``: ``start``, ``method``, ``landing`` (``energy``, ``stable``,

@@ -2,8 +2,8 @@
 run is ``shells.analyses.snap.run``.
 
     shells snap --shape cap --theta-deg T --h-over-r H [--nu NU] [--past P | --kappa-R K]
-        [--amplitude A] [--method minimise|dynamics] [--damping ALPHA] [--size S] [--degree D]
-        [-o DIR] [--json]
+        [--amplitude A] [--method minimise|dynamics] [--damping ALPHA] [--step-tol T]
+        [--size S] [--degree D] [-o DIR] [--json]
 
 Follows the fundamental branch (the surface model) to its snap fold, steps past it and
 minimises the energy there (TAO) from the fold's state perturbed along its unstable modes;
@@ -51,6 +51,9 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
     p.add_argument("--method", default="minimise", choices=("minimise", "dynamics"),
                    help="minimise: the energy's local minimum reached by TAO (default); "
                    "dynamics: the equations of motion integrated to rest, then polished")
+    p.add_argument("--step-tol", type=common.positive_float("step-tol"), default=None,
+                   help="dynamics: the adaptive time steps' tolerance on the local error "
+                        "(default 1e-4; the steps never fall below 0.05 R sqrt(rho/E))")
     p.add_argument("--damping", type=common.nonnegative_float("damping"), default=None,
                    help="dynamics: mass-proportional damping alpha in sqrt(E/rho)/R "
                    "(default 1)")
@@ -78,7 +81,7 @@ def _cmd_snap(args: argparse.Namespace) -> int:
                           kappa_R=args.kappa_R, amplitude=args.amplitude,
                           kappa_R_max=args.kappa_R_max, size=args.size, degree=args.degree,
                           layer_elements=args.layer_elements, method=args.method,
-                          damping=args.damping)
+                          damping=args.damping, step_tol=args.step_tol)
     result = snap.run(cfg, args.output, render=not args.no_render)
     st, ld, ev = result["start"], result["landing"], result["axisymmetric_everted"]
 

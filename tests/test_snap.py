@@ -5,14 +5,23 @@ minimiser's landing, reached from the fold's state perturbed along its unstable 
 the state Newton finds from the shell mirrored through its rim plane (an independent route),
 stable and symmetric (the gallery's Fig. 1 (d) demo in its quick mode asserts it; run here,
 not by tests/test_demos.py). A rerun resumes. Bad input is one line on stderr and exit
-status 2."""
+status 2.
 
+``--method dynamics`` comes to rest where the minimiser lands; its motion is written for
+ParaView (``snap.bp``, read back with ADIOS2: one frame per kept step, at the CSV's times) and
+as an animation (``snap.gif``, read back with Pillow); an interrupted integration continues
+from its checkpoint and takes the very steps of a run that was never stopped."""
+
+import json
 import math
+import os
 import subprocess
 
+import numpy as np
 import pytest
 from conftest import child_env
 from mpi4py import MPI
+from petsc4py import PETSc
 
 from shells.analyses import snap
 from shells.errors import InputError
@@ -75,34 +84,242 @@ def test_cli_refusals_are_one_line(args):
     assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1, r.stderr
 
 
-def test_dynamics_comes_to_rest_where_minimisation_lands(shared_tmp, monkeypatch):
-    """``--method dynamics`` on a coarse cap (P2, 1398 DOFs; it wrinkles at m = 8 on this mesh,
-    a discretisation artefact, but both methods must find the same state): the damped motion
-    comes to rest, the polish changes the rest state's energy by less than 1e-6 of it, and the
-    landing is the minimiser's to 1e-6. Steps of 0.1 (not the default 0.05) keep it short."""
-    if MPI.COMM_WORLD.size > 1:
-        pytest.skip("on 2 ranks the time steps' parallel solves outlast the test's timeout")
-    monkeypatch.setattr(snap, "DT_STEP", 0.1)
-    h = 0.04
-    common = dict(shape=SphericalCap(1.0, 3.0 * math.sqrt(h)), h_over_r=h, past=0.3, size=0.6,
-                  degree=2, layer_elements=1.0)
-    dyn = snap.run(snap.SnapConfig(**common, method="dynamics", damping=2.0),
-                   shared_tmp / "dyn", render=False, resume=False)
+#: the coarse cap of the dynamics tests (P2, 1398 DOFs; it wrinkles at m = 8 on this mesh, a
+#: discretisation artefact, but both methods must find the same state), damping 2
+_H = 0.04
+_CAP = dict(shape=SphericalCap(1.0, 3.0 * math.sqrt(_H)), h_over_r=_H, past=0.3, size=0.6,
+            degree=2, layer_elements=1.0)
+_SERIAL = pytest.mark.skipif(MPI.COMM_WORLD.size > 1, reason="on 2 ranks the time steps' "
+                             "parallel solves of a run to rest outlast the test's timeout")
+
+
+def _series(folder):
+    """``snap_series.csv`` of a run's folder."""
+    return np.loadtxt(folder / "snap_series.csv", delimiter=",", skiprows=1, ndmin=2)
+
+
+def _same_series(a, b):
+    """Whether two series are one: time, energies, Ψ3 and rim rotation to 1e-10 of their
+    column's largest magnitude (the CSV's 12 digits), the amplitudes of m = 1..4 (relative to
+    m = 0's; on this mesh up to 2e-5, their roundoff ~1e-12 as sums that nearly cancel) to
+    1e-10."""
+    tol = np.maximum(1e-10 * np.abs(a).max(axis=0), [0.0] * 5 + [1e-10] * 4)
+    return a.shape == b.shape and bool(np.all(np.abs(a - b) <= tol))
+
+
+def _vtx_times(bp):
+    """The times of the steps of a VTX (ADIOS2) file and its point arrays, read on this rank
+    alone."""
+    os.environ.setdefault("ADIOS2_ALWAYS_USE_MPI", "1")  # Debian's bindings: the MPI build
+    import adios2
+
+    with adios2.FileReader(str(bp), comm=MPI.COMM_SELF) as f:
+        names = set(f.available_variables())
+        n = int(f.available_variables()["step"]["AvailableStepsCount"])
+        times = np.atleast_1d(f.read("step", step_selection=[0, n]))
+    return times, names
+
+
+def _gif_frames(path):
+    """(frame count, the frames' sizes, the frames' durations in ms) of a GIF."""
+    from PIL import Image
+
+    with Image.open(path) as im:
+        sizes, durations = set(), []
+        for k in range(im.n_frames):
+            im.seek(k)
+            sizes.add(im.size)
+            durations.append(im.info.get("duration"))
+        return im.n_frames, sizes, durations
+
+
+def _expected_frames(steps, every):
+    """The steps that ``snap.bp`` holds: multiples of the stride, and the last."""
+    return sorted(set(range(0, steps + 1, every)) | {steps})
+
+
+class _InterruptedError(Exception):
+    """The interruption of a run (a kill) simulated in the tests."""
+
+
+#: what an interrupted run raises: the interruption, or PETSc's error around it (raised in the
+#: time stepper's callback)
+_STOPPED = (_InterruptedError, PETSc.Error)
+
+
+def _interrupt_at(monkeypatch, t_stop):
+    """Make the time integration fail once its time passes ``t_stop`` (R √(ρ/E)): a run
+    stopped mid-segment, after its checkpoints before then."""
+    from shells.algorithms import dynamics
+
+    real = dynamics.integrate
+
+    def interrupted(problem, settings, velocity=None, block=None, monitor=None, *, t0=0.0):
+        def stop(t, p, kinetic):
+            if t > t_stop * 1.0000001:
+                raise _InterruptedError(t)
+            return monitor(t, p, kinetic)
+
+        return real(problem, settings, velocity, block, stop, t0=t0)
+
+    monkeypatch.setattr(dynamics, "integrate", interrupted)
+    return lambda: monkeypatch.setattr(dynamics, "integrate", real)
+
+
+@pytest.fixture(scope="module")
+def dynamics_run(tmp_path_factory):
+    """``--method dynamics`` on ``_CAP`` to rest, with an output folder (steps of 0.1, not the
+    default 0.05, keep it short; at most 10 frames in the animation): (its result, its
+    folder). Serial."""
+    out = tmp_path_factory.mktemp("dyn")
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(snap, "DT_STEP", 0.1)
+        mp.setattr(snap, "ANIMATION_FRAMES", 10)
+        res = snap.run(snap.SnapConfig(**_CAP, method="dynamics", damping=2.0), out,
+                       render=True, resume=False)
+    return res, out
+
+
+@_SERIAL
+def test_dynamics_comes_to_rest_where_minimisation_lands(dynamics_run):
+    """The damped motion comes to rest, the polish changes the rest state's energy by less
+    than 1e-6 of it, and the landing is the minimiser's to 1e-6; one CSV row per step."""
+    dyn, out = dynamics_run
     d, ld = dyn["dynamics"], dyn["landing"]
     assert dyn["method"] == "dynamics" and d["reason"] == "rest" and d["damping"] == 2.0
     assert dyn["snap_time"] == d["snap_time"] and d["snap_time"] > 0
     assert ld["stable"]
     assert abs(ld["rest_energy"] - ld["energy"]) < 1e-6 * abs(ld["energy"])
-    # the same on every rank
-    for x in (d["snap_time"], ld["energy"]):
-        assert MPI.COMM_WORLD.allreduce(x, op=MPI.MAX) - MPI.COMM_WORLD.allreduce(
-            x, op=MPI.MIN) <= 1e-12 * abs(x)
-    mini = snap.run(snap.SnapConfig(**common), None, render=False)
-    assert mini["snap_time"] is None and mini["dynamics"] is None
+    mini = snap.run(snap.SnapConfig(**_CAP), None, render=False)
+    assert mini["snap_time"] is None and mini["dynamics"] is None and mini["files"] == {}
     assert ld["energy"] == pytest.approx(mini["landing"]["energy"], rel=1e-6)
-    if MPI.COMM_WORLD.rank == 0:
-        lines = (shared_tmp / "dyn" / "snap_series.csv").read_text().splitlines()
-        assert lines[0].split(",") == list(snap.SERIES_COLUMNS)
-        assert len(lines) == d["steps"] + 2
-        t = [float(r.split(",")[0]) for r in lines[1:]]
-        assert t[0] == 0.0 and t[-1] == pytest.approx(0.1 * d["steps"], rel=1e-9)
+    lines = (out / "snap_series.csv").read_text().splitlines()
+    assert lines[0].split(",") == list(snap.SERIES_COLUMNS)
+    assert len(lines) == d["steps"] + 2
+    t = [float(r.split(",")[0]) for r in lines[1:]]
+    assert t[0] == 0.0 and t[-1] == pytest.approx(0.1 * d["steps"], rel=1e-9)
+    assert dyn["files"] == {"result": "snap.json", "series": "snap_series.csv",
+                            "fields": "snap.bp", "animation": "snap.gif",
+                            "landing_image": "landing.png", "landing_fields": "landing.vtu",
+                            "everted_image": "everted.png"}
+    assert all((out / f).exists() for f in dyn["files"].values())
+    # done: the checkpoint keeps the rest state, not the frames
+    assert not any((out / "checkpoint" / "frames").iterdir())
+
+
+@_SERIAL
+def test_dynamics_fields_over_time_for_paraview(dynamics_run):
+    """``snap.bp`` holds every k-th step from the start (k a power of 2 that keeps at most
+    ``FRAMES_MAX`` of them) and the last, each at its CSV row's time, with the fields that
+    ``landing.vtu`` has."""
+    dyn, out = dynamics_run
+    d = dyn["dynamics"]
+    times, names = _vtx_times(out / "snap.bp")
+    rows = _series(out)
+    every = d["frame_every"]
+    steps = _expected_frames(d["steps"], every)
+    assert every & (every - 1) == 0 and len(steps) - 1 <= snap.FRAMES_MAX
+    assert d["steps"] // every + 1 > snap.FRAMES_MAX // 2  # no coarser than needed
+    assert len(times) == len(steps) == d["frames"]
+    np.testing.assert_allclose(times, rows[steps, 0], rtol=0, atol=1e-12)
+    assert {"displacement", "director", "bending_energy_density",
+            "stretching_energy_density", "mean_curvature_change"} <= names
+
+
+@_SERIAL
+def test_dynamics_animation(dynamics_run):
+    """``snap.gif``: at most ``ANIMATION_FRAMES`` (10 here) evenly spaced frames of
+    ``snap.bp``'s and its last, all of one size, the last held longest."""
+    dyn, out = dynamics_run
+    d = dyn["dynamics"]
+    frames = _expected_frames(d["steps"], d["frame_every"])
+    every = math.ceil(len(frames) / 10)
+    expected = len(set(frames[::every]) | {frames[-1]})
+    n, sizes, durations = _gif_frames(out / "snap.gif")
+    assert n == expected == d["animation_frames"] and 10 <= n <= 11
+    assert len(sizes) == 1 and durations[-1] > durations[0]
+
+
+@_SERIAL
+def test_an_interrupted_dynamics_run_continues_where_it_stopped(dynamics_run, tmp_path,
+                                                               monkeypatch):
+    """Stopped between its checkpoints (at t = 15.05, after the one at step 100), the run's
+    rerun continues from step 100 (no fold followed again) and ends where the uninterrupted
+    run ends: the same series, the same frames, the same rest and landing energies (1e-9)."""
+    dyn, ref = dynamics_run
+    monkeypatch.setattr(snap, "DT_STEP", 0.1)
+    cfg = snap.SnapConfig(**_CAP, method="dynamics", damping=2.0)
+    restore = _interrupt_at(monkeypatch, 15.05)
+    with pytest.raises(_STOPPED):
+        snap.run(cfg, tmp_path, render=False)
+    restore()
+    meta = json.loads((tmp_path / "checkpoint" / "meta.json").read_text())
+    assert meta["stage"] == "dynamics 100" and meta["progress"]["t"] == pytest.approx(10.0)
+    assert not (tmp_path / "snap_series.csv").exists()
+    res = snap.run(cfg, tmp_path, render=False)
+    assert res["critical_points"] == dyn["critical_points"]
+    d, d0 = res["dynamics"], dyn["dynamics"]
+    assert (d["steps"], d["reason"], d["frames"], d["frame_every"]) == (
+        d0["steps"], d0["reason"], d0["frames"], d0["frame_every"])
+    assert d["rest_energy"] == pytest.approx(d0["rest_energy"], rel=1e-9)
+    assert res["landing"]["energy"] == pytest.approx(dyn["landing"]["energy"], rel=1e-9)
+    a, b = _series(ref), _series(tmp_path)
+    assert _same_series(a, b), np.abs(a - b).max(axis=0) if a.shape == b.shape else b.shape
+    times, _ = _vtx_times(tmp_path / "snap.bp")
+    np.testing.assert_array_equal(times, _vtx_times(ref / "snap.bp")[0])
+    assert "animation" not in res["files"] and not (tmp_path / "snap.gif").exists()
+
+
+def test_dynamics_outputs_and_resume_on_any_rank_count(shared_tmp, monkeypatch):
+    """A short integration (to t = 2, 20 steps, checkpointed every 5; at most 4 frames, 3 in
+    the animation; then polished) on any rank count, stopped at t = 0.75 and continued from
+    step 5 twice from copies of its folder: once to the end, once stopped again at t = 1.35 and
+    continued from step 10. Both end alike: the same series, the same landing; the frames'
+    stride doubled to 8 (steps 0, 8, 16 and the last, 20), ``snap.bp`` holds them at their CSV
+    times, ``snap.gif`` 3 of them. The same on every rank."""
+    import shutil
+
+    comm = MPI.COMM_WORLD
+    for name, value in (("DT_STEP", 0.1), ("T_MAX", 2.0), ("DYNAMICS_SAVE_EVERY", 5),
+                        ("FRAMES_MAX", 4), ("ANIMATION_FRAMES", 3)):
+        monkeypatch.setattr(snap, name, value)
+    cfg = snap.SnapConfig(**_CAP, method="dynamics", damping=2.0)
+    a, b = shared_tmp / "a", shared_tmp / "b"
+
+    def stage(folder):
+        """The stage of the checkpoint in ``folder``."""
+        meta = (json.loads((folder / "checkpoint" / "meta.json").read_text())
+                if comm.rank == 0 else None)
+        return comm.bcast(meta, root=0)["stage"]
+
+    def interrupted(folder, stop):
+        restore = _interrupt_at(monkeypatch, stop)
+        with pytest.raises(_STOPPED):
+            snap.run(cfg, folder)
+        restore()
+
+    interrupted(a, 0.75)
+    assert stage(a) == "dynamics 5"
+    if comm.rank == 0:
+        shutil.copytree(a, b)
+    comm.barrier()
+    res = snap.run(cfg, a)
+    d = res["dynamics"]
+    assert (d["reason"], d["steps"], d["frame_every"], d["frames"], d["animation_frames"]) == (
+        "time", 20, 8, 4, 3)
+    interrupted(b, 1.35)
+    assert stage(b) == "dynamics 10"
+    res2 = snap.run(cfg, b)
+    assert res2["dynamics"] == pytest.approx(d, rel=1e-12)
+    assert res2["landing"]["energy"] == pytest.approx(res["landing"]["energy"], rel=1e-12)
+    assert res2["files"] == res["files"] and {"fields", "animation"} <= set(res["files"])
+    checks = None
+    if comm.rank == 0:
+        rows, rows2 = _series(a), _series(b)
+        times, times2 = _vtx_times(a / "snap.bp")[0], _vtx_times(b / "snap.bp")[0]
+        checks = {"series": _same_series(rows, rows2),
+                  "times": bool(np.allclose(times, rows[[0, 8, 16, 20], 0], rtol=0, atol=1e-12)
+                                and np.array_equal(times, times2)),
+                  "gif": _gif_frames(a / "snap.gif")[0]}
+    checks = comm.bcast(checks, root=0)
+    assert checks == {"series": True, "times": True, "gif": 3}

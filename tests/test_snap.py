@@ -154,13 +154,13 @@ def _interrupt_at(monkeypatch, t_stop):
 
     real = dynamics.integrate
 
-    def interrupted(problem, settings, velocity=None, block=None, monitor=None, *, t0=0.0):
+    def interrupted(*args, monitor, **kwargs):
         def stop(t, p, kinetic):
             if t > t_stop * 1.0000001:
                 raise _InterruptedError(t)
             return monitor(t, p, kinetic)
 
-        return real(problem, settings, velocity, block, stop, t0=t0)
+        return real(*args, monitor=stop, **kwargs)
 
     monkeypatch.setattr(dynamics, "integrate", interrupted)
     return lambda: monkeypatch.setattr(dynamics, "integrate", real)

@@ -816,9 +816,11 @@ def write_doc(data: dict[str, Any], path: Path) -> None:
 
 def refresh(data: dict[str, Any], outdir: str) -> None:
     """Fits and figure of the stored diagram with the current ``shells.analyses.phase_diagram``."""
-    from shells.analyses.phase_diagram import fit_all, make_figure
+    from shells.analyses.phase_diagram import fit_all, make_figure, read_landings
 
     d = data["diagram"]
+    if (RESULTS / "snap").is_dir():  # where the snap_landing.py runs landed
+        d["landings"] = read_landings([RESULTS / "snap"])
     fit = fit_all(d["points"], d["config"]["nu"])
     d.update(fits=fit["fits"], fits_error=fit["fits_error"], fits_extra=fit["extra"])
     Path(outdir).mkdir(parents=True, exist_ok=True)

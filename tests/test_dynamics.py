@@ -84,8 +84,24 @@ def test_rest_stops_a_damped_vibration():
     assert r.reason == "rest" and r.times[-1] < 200.0 and r.kinetic[-1] < 1e-12
 
 
+def test_adaptive_steps_keep_to_dt_min():
+    """A tight tolerance shortens the adaptive steps below the first one; ``dt_min`` bounds
+    them (the steps at it are accepted), and the run still comes to rest."""
+    steps = {}
+    for dt_min in (None, 0.05):
+        p = FoldProblem(comm=MPI.COMM_SELF)
+        p.state.array_w[:] += 1e-2 * (np.arange(p.lo, p.hi) == 0)
+        r = integrate(p, DynamicsSettings(t_end=200.0, dt=0.05, rho_inf=0.5, mass_damping=1.0,
+                                          adaptive=True, step_tol=1e-9, dt_min=dt_min,
+                                          rest_tol=1e-12))
+        assert r.reason == "rest"
+        steps[dt_min] = np.diff(r.times)
+    assert steps[None].min() < 0.02
+    assert steps[0.05].min() >= 0.05 * (1 - 1e-9)
+
+
 def test_settings_are_checked():
     for bad in ({"dt": 0.0}, {"rho_inf": 1.5}, {"mass_damping": -1.0}, {"rest_tol": 0.0},
-                {"t_end": -1.0}):
+                {"t_end": -1.0}, {"dt_min": 0.0}, {"dt_min": 0.5}, {"step_tol": 0.0}):
         with pytest.raises(InputError):
             DynamicsSettings(**bad)

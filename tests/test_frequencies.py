@@ -9,6 +9,14 @@ model's own energy adds bending: for the breathing mode (u = w n°, b - b° = (w
 a - a° = (2w/R) a°) exactly the factor 1 + h²/(12R²), so ω² R² ρ/E = 2(1 + h²/(12R²))/(1 - ν);
 for n ≥ 2 a relative O((h/R)² λ²) above the membrane value (2e-4 at n = 2, h/R = 0.01).
 
+The free spherical cap (radius R, θ̄ = θ/√(h/R)) tends, as it flattens, to the free circular
+Kirchhoff plate of radius a = R sin θ: Ω² = ω² a⁴ ρh/D → λ⁴ (``shells.theory.free_plate_lambda2``,
+the roots of the free edge's characteristic equation), approached as Ω² = λ⁴ (1 - G (h/a)²/12)
++ q 12 (1 - ν²) θ̄⁴: the rotary inertia of the models' kinetic mass (Rayleigh's, first order,
+``free_plate_rotary_inertia``) and the shallow shell's stretching q E/(ρR²)
+(``free_cap_membrane_factor``: Reissner's q = 1 for the axisymmetric modes, q = 1.07e-3 and
+4.5e-3 for the nearly inextensional m = 2, 3 modes).
+
 The 1D problem runs on MPI.COMM_SELF on every rank (differences reduced before asserting); the
 surface model is distributed over MPI.COMM_WORLD.
 """
@@ -17,13 +25,21 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 from mpi4py import MPI
 
 from shells.algorithms.frequencies import KineticStability, natural_frequencies
 from shells.axisym import AxisymModel, AxisymParameters
-from shells.geometry.shapes import Sphere
+from shells.errors import InputError
+from shells.geometry.shapes import Disk, Sphere, SphericalCap
 from shells.problem.kinetic import sparse_part
+from shells.theory import (
+    free_cap_membrane_factor,
+    free_cap_omega2,
+    free_plate_lambda2,
+    free_plate_rotary_inertia,
+)
 
 NU = 0.5
 
@@ -98,6 +114,99 @@ def test_surface_sphere_agrees_with_the_1d_model():
     assert [x.mode_n for x in f] == [2] * 5 + [3]
     assert max(abs(x.omega2 / ref - 1) for x in f[:5]) < 5e-4
     assert f[5].omega2 == pytest.approx(ref3, rel=5e-4)
+
+
+def test_free_plate_roots_are_the_flat_disks():
+    """The characteristic equation's λ² at ν = 0.33 (5.26204, 9.06890, 12.2439; Leissa's table
+    has 5.253, 9.084, 12.23, 0.1-0.2 % off) and ν = 1/2 (4.64037, 9.41367, 10.9405); the 1D
+    model's free disk (h/a = 0.01, 40 cells) gives the lowest ω of m = 2, 0, 3 at ν = 1/2 as
+    λ² √(1 - G (h/a)²/12) to 1e-7 (measured 1.4e-8; without the rotary inertia G they are
+    5e-5 to 9e-5 below λ²)."""
+    nu33 = [free_plate_lambda2(n, 0.33) for n in (2, 0, 3)]
+    assert nu33 == pytest.approx([5.26204, 9.06890, 12.2439], abs=1e-4)
+    assert free_plate_lambda2(1, 0.33, 2) == pytest.approx(59.859, abs=1e-3)
+    for bad in ((-1, NU, 1), (2, NU, 0), (2, 0.6, 1)):
+        with pytest.raises(InputError):
+            free_plate_lambda2(*bad)
+    h = 0.01
+    model = AxisymModel(Disk(1.0), AxisymParameters(h=h, nu=NU, cells=40), comm=MPI.COMM_SELF)
+    f = {x.block: x.omega2 for x in natural_frequencies(model, count=1, blocks=(0, 2, 3))}
+    errs = []
+    for m in (2, 0, 3):
+        big = math.sqrt(f[m] * 12 * (1 - NU**2)) / h  # ω a² √(ρh/D), a = L = 1
+        ref = free_plate_lambda2(m, NU) * math.sqrt(1 - free_plate_rotary_inertia(m, NU)
+                                                    * h * h / 12)
+        errs.append(abs(big / ref - 1))
+    assert world_max(max(errs)) < 1e-7
+
+
+#: the flattening caps: h/R = 1e-5 (the smallest the analyses accept; at θ̄ = 0.6 the cap's
+#: θ = 0.109°, near the smallest cap, 0.1°), θ̄ = 0.6 to 1.2, a/h = 190 to 380
+CAP_H = 1e-5
+CAP_THETABARS = (0.6, 0.8, 1.0, 1.2)
+
+
+def test_free_cap_tends_to_the_free_plate():
+    """The lowest ω of m = 0, 2, 3 of free caps (1D model, ``frequencies.run``, 40 cells)
+    flattening at h/R = 1e-5, in plate units Ω² = ω² a⁴ρh/D (a = R sin θ), the rotary inertia's
+    first-order share added back (λ⁴ G (h/a)²/12), against the free plate's λ⁴:
+
+    * Ω² - λ⁴ ∝ θ̄^p: p = 4.0004 (m = 0), 4.005 (m = 2), 4.013 (m = 3) measured, held to 2e-3
+      and 0.03. The m = 2, 3 modes stretch little (q ~ 1e-3: nearly the inextensional
+      rⁿ cos nφ), so the non-shallow O(θ̄² h/R) term is a percent of theirs: with a = R θ
+      instead of R sin θ the same fit gives p = 3.96, 3.95.
+    * Ω² = A + B θ̄⁴ fitted: √A = λ² to 2.3e-6 measured (either a), held to 1e-5; B against
+      12 (1-ν²) q: 8e-5 (m = 0, Reissner's q = 1), 2.0 % and 1.1 % (m = 2, 3, q = 1.0698e-3,
+      4.5073e-3; the same non-shallow term), held to 1e-3 and 0.05.
+
+    At 40 cells and the default penalty 1e4, ω is converged to 3e-8 (against 80 cells, and
+    against penalty 1e3); a penalty of 100 lowers it by 5e-7, of 1 by up to 4e-5."""
+    from shells.analyses import frequencies
+
+    c = 12 * (1 - NU**2)
+    big = {0: [], 2: [], 3: []}
+    for tb in CAP_THETABARS:
+        theta = tb * math.sqrt(CAP_H)
+        res = frequencies.run(SphericalCap(1.0, theta), CAP_H, NU, m_max=3, count=1, cells=40)
+        a = math.sin(theta)
+        for m in big:
+            w2 = next(f["omega2"] for f in res["frequencies"] if f["mode_m"] == m)
+            lam4 = free_plate_lambda2(m, NU) ** 2
+            rot = lam4 * free_plate_rotary_inertia(m, NU) * (CAP_H / a) ** 2 / 12
+            big[m].append(w2 * c * a**4 / CAP_H**2 + rot)
+    tb = np.array(CAP_THETABARS)
+    errs = {}
+    for m, tol_p, tol_b in ((0, 2e-3, 1e-3), (2, 0.03, 0.05), (3, 0.03, 0.05)):
+        lam4 = free_plate_lambda2(m, NU) ** 2
+        p = np.polyfit(np.log(tb), np.log(np.array(big[m]) - lam4), 1)[0]
+        B, A = np.polyfit(tb**4, big[m], 1)
+        errs[m] = (abs(p - 4) / tol_p, abs(math.sqrt(A / lam4) - 1) / 1e-5,
+                   abs(B / (c * free_cap_membrane_factor(m, NU)) - 1) / tol_b)
+    worst = world_max(max(max(e) for e in errs.values()))
+    assert worst < 1.0, errs
+
+
+def test_surface_cap_agrees_with_the_1d_model():
+    """The θ̄ = 0.8 cap at h/R = 1e-5 (a/h = 253) on the surface model (P3, size θ/10 = a/10,
+    23k DOFs, distributed): the five lowest modes are m = 2, 2, 0, 3, 3 within 2e-4 of the 1D
+    model's (measured -4.7e-5, 1.5e-5, -7.3e-5 at the default quadrature degree 4, which the
+    sphere's test compiles; 2.7e-5, 5.1e-5, 9.6e-5 at degree 6), and the 1D model's are
+    ``free_cap_omega2``'s to 3e-5 (measured 8e-6)."""
+    from shells.surface.mesh import MeshSpec, generate
+    from shells.surface.model import ModelParameters, ShellModel
+
+    theta = 0.8 * math.sqrt(CAP_H)
+    cap = SphericalCap(1.0, theta)
+    one_d = AxisymModel(cap, AxisymParameters(h=CAP_H, nu=NU, cells=40), comm=MPI.COMM_SELF)
+    ref = {x.block: x.omega2 for x in natural_frequencies(one_d, count=1, blocks=(0, 2, 3))}
+    classical = max(abs(ref[m] / free_cap_omega2(0.8, CAP_H, m, NU) - 1) for m in ref)
+    sm = generate(MeshSpec(cap, size=theta / 10), MPI.COMM_WORLD)
+    model = ShellModel(sm, ModelParameters(h=CAP_H, nu=NU, degree=3))
+    f = natural_frequencies(model, count=5)
+    modes = [x.mode_m for x in f]
+    err = max(abs(x.omega2 / ref[x.mode_m] - 1) for x in f) if modes == [2, 2, 0, 3, 3] else 1.0
+    assert world_max(err) < 2e-4, modes
+    assert world_max(classical) < 3e-5
 
 
 def test_cli_json(capsys):

@@ -171,3 +171,42 @@ def test_cli_contract_and_bad_input(diagram, capsys):
     with pytest.raises(InputError):
         PhaseDiagramConfig(h_over_r=(0.04,), thetabar_range=(1, 2), points=2, model="beam")
     assert isinstance(parser, argparse.ArgumentParser)
+
+
+def test_landings_of_snap_runs_in_the_figure_and_the_result(diagram, capsys, tmp_path):
+    """``--landings``: the snap runs kept in benchmarks/results/snap (surface model, h/R =
+    0.04) are read, sorted by θ̄, listed in the JSON with their symmetry (symmetric up to θ̄ =
+    3.875, m = 2 from θ̄ = 4: the bracket of θ̄_c) and drawn; a folder without snap.json and a
+    file that is not one are refused."""
+    from pathlib import Path
+
+    from shells.cli.common import Parser as _Parser
+    from shells.cli.phase_diagram import add_subcommand
+
+    _, out, *_ = diagram
+    snaps = Path(__file__).resolve().parent.parent / "benchmarks" / "results" / "snap"
+    parser = _Parser(prog="shells")
+    sub = parser.add_subparsers(dest="command", parser_class=_Parser)
+    add_subcommand(sub)
+    args = parser.parse_args(["phase-diagram", "--h-over-r", "0.04", "--thetabar-range", "1.5",
+                              "3.5", "--points", "3", "--refine", "1", "--m-max", "6", "-o",
+                              out, "--json", "--landings", str(snaps)])
+    assert args.func(args) == 0
+    lines = capsys.readouterr().out.strip().splitlines()
+    ok = True
+    if MPI.COMM_WORLD.rank == 0:
+        res = json.loads(lines[-1])
+        marks = res["landings"]
+        tbs = [r["thetabar"] for r in marks]
+        ok = (tbs == sorted(tbs) and len(marks) >= 7
+              and all(r["symmetric"] == (r["thetabar"] < 3.9) for r in marks)
+              and all(r["mode_m"] == 2 for r in marks if not r["symmetric"])
+              and all(r["kappa_R"] > r["kappa_fold_R"] for r in marks)
+              and (Path(out) / "phase_diagram.png").stat().st_size > 0)
+    assert MPI.COMM_WORLD.allreduce(ok, op=MPI.LAND)
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    (tmp_path / "other.json").write_text('{"points": []}')
+    for bad in (empty, tmp_path / "other.json", tmp_path / "missing"):
+        with pytest.raises(InputError):
+            phase_diagram.read_landings([bad])

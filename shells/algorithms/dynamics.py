@@ -9,11 +9,12 @@ adaptive step (TSAdapt "basic").
 
 The gauge is no support: the kinetic mass is the free shell's relative to its centre of mass
 (``shells.problem.kinetic``), its rigid part a rank-k term -U Uᵀ (a MATLRC). The Newton
-systems J = a M + b C + K are solved by GMRES preconditioned by the LU of the sparse part (the
-low-rank term adds at most k iterations). The gauge's constrained DOFs keep zero (unit rows of
-K, zero residual). A free shell's centre of mass thus keeps its momentum (zero in this frame):
-the gauged coordinates describe the motion relative to it, and the rigid motion that the gauge
-removes is never accelerated by a reaction. The rigid motions are those of the start state
+systems J = a M + b C + K are solved by GMRES preconditioned by their exact inverse
+(``LowRankInverse``: the LU of the sparse part, the Woodbury identity for the rank-k term).
+The gauge's constrained DOFs keep zero (unit rows of K, zero residual). A free shell's
+centre of mass thus keeps its momentum (zero in this frame): the gauged coordinates describe
+the motion relative to it, and the rigid motion that the gauge removes is never accelerated
+by a reaction. The rigid motions are those of the start state
 (exact for translations; rotations linearised there).
 """
 
@@ -24,11 +25,13 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
+
 from shells.algorithms.settings import DynamicsSettings
 from shells.errors import InputError
 from shells.problem.interface import Energy, KineticMass
 
-__all__ = ["DYNAMICS_PREFIX", "DynamicsResult", "integrate"]
+__all__ = ["DYNAMICS_PREFIX", "DynamicsResult", "LowRankInverse", "integrate"]
 
 log = logging.getLogger("shells")
 
@@ -49,6 +52,7 @@ class DynamicsResult:
         steps: the accepted steps.
         velocity: the velocity at the end (a state-shaped PETSc vector, the caller's; with the
             final state and time, what a later ``integrate`` continues from).
+        dt: the step the stepper would take next (adaptive: its proposal).
     """
 
     times: list[float] = field(default_factory=list)
@@ -57,6 +61,7 @@ class DynamicsResult:
     reason: str = "time"
     steps: int = 0
     velocity: Any = None
+    dt: float = 0.0
 
 
 class _LowRank:
@@ -74,6 +79,81 @@ class _LowRank:
 
     def destroy(self) -> None:
         pass
+
+
+class LowRankInverse:
+    """A preconditioner (petsc4py's python PC): the exact inverse of the time step's Jacobian
+    J = P + s U diag(c) Uᵀ, P the sparse matrix (the PC's Pmat), U diag(c) Uᵀ the low-rank
+    part of a MATLRC mass (``shells.problem.kinetic.free_body_mass``: c = -1) and s its
+    scale in J (``_Jacobian.scale``), by the Woodbury identity
+
+        J⁻¹ = P⁻¹ - W (diag(1/(s c)) + UᵀW)⁻¹ Wᵀ,   W = P⁻¹ U,
+
+    with one LU of P (MUMPS; options prefix ``shells_dynamics_lowrank_``) and k extra solves
+    per factorisation (k the rank). GMRES around it (``integrate``) converges in one or two
+    iterations; it mops up the rounding of the k×k system, which cancels when s M dominates K.
+
+    Args:
+        M: the MATLRC mass.
+        jacobian: the ``_Jacobian`` context whose ``scale`` is s.
+    """
+
+    PREFIX = "shells_dynamics_lowrank_"
+
+    def __init__(self, M: Any, jacobian: Any) -> None:
+        _, U, c, _ = M.getLRCMats()
+        self.c = c.getArray().copy()
+        dense = U.getDenseArray()
+        self.U = []
+        for j in range(dense.shape[1]):
+            u = U.createVecLeft()
+            u.array_w[:] = dense[:, j]
+            self.U.append(u)
+        self.W: list[Any] = []
+        self.jacobian = jacobian
+        self.Sinv: np.ndarray | None = None
+        self._ksp: Any = None
+
+    def setUp(self, pc: Any) -> None:  # noqa: N802 - petsc4py's name
+        """Factor P, and W and the k×k system for the present scale."""
+        from petsc4py import PETSc
+
+        P = pc.getOperators()[1]
+        if self._ksp is None:
+            self._ksp = PETSc.KSP().create(P.getComm())
+            self._ksp.setOptionsPrefix(self.PREFIX)
+            self._ksp.setType("preonly")
+            self._ksp.getPC().setType("lu")
+            self._ksp.getPC().setFactorSolverType("mumps")
+            self._ksp.setFromOptions()
+        self._ksp.setOperators(P)
+        self._ksp.setUp()
+        if not self.W:
+            self.W = [u.duplicate() for u in self.U]
+        for u, w in zip(self.U, self.W, strict=True):
+            self._ksp.solve(u, w)
+        s = self.jacobian.scale
+        if s == 0.0:
+            self.Sinv = None
+            return
+        G = np.array([[float(u.dot(w)) for w in self.W] for u in self.U])
+        self.Sinv = np.linalg.inv(np.diag(1.0 / (s * self.c)) + 0.5 * (G + G.T))
+
+    def apply(self, pc: Any, x: Any, y: Any) -> None:
+        """y = J⁻¹ x."""
+        self._ksp.solve(x, y)
+        if self.Sinv is None:
+            return
+        a = self.Sinv @ np.array([float(u.dot(y)) for u in self.U])
+        for w, aj in zip(self.W, a, strict=True):
+            y.axpy(-float(aj), w)
+
+    def destroy(self, pc: Any = None) -> None:
+        """Free the factorisation and the vectors."""
+        for o in (self._ksp, *self.U, *self.W):
+            if o is not None:
+                o.destroy()
+        self._ksp, self.U, self.W = None, [], []
 
 
 class _Jacobian:
@@ -160,6 +240,7 @@ class _Integration:
         self.u0 = problem.state.copy()
         self.v0 = problem.create_vector()
         self.ts: Any = None
+        self.pc_ctx: LowRankInverse | None = None
         self.out = DynamicsResult()
         self.energy = isinstance(problem, Energy)
 
@@ -207,7 +288,9 @@ class _Integration:
         opts = PETSc.Options()
         ours = []
         for k, val in (("ts_alpha_radius", s.rho_inf),
-                       ("ts_adapt_type", "basic" if s.adaptive else "none")):
+                       ("ts_adapt_type", "basic" if s.adaptive else "none"),
+                       ("ts_rtol", s.step_tol), ("ts_atol", s.step_tol),
+                       *((("ts_adapt_dt_min", s.dt_min),) if s.dt_min is not None else ())):
             if not opts.hasName(f"{DYNAMICS_PREFIX}{k}"):  # a user's option wins
                 opts[f"{DYNAMICS_PREFIX}{k}"] = val
                 ours.append(f"{DYNAMICS_PREFIX}{k}")
@@ -223,14 +306,17 @@ class _Integration:
         snes = ts.getSNES()
         snes.setTolerances(rtol=1e-10, atol=1e-14, max_it=25)
         ksp = snes.getKSP()
+        pc = ksp.getPC()
         if self.lowrank is None:
             ksp.setType("preonly")
+            pc.setType("lu")
+            pc.setFactorSolverType("mumps")
         else:
             ksp.setType("gmres")
-            ksp.setTolerances(rtol=1e-12, atol=1e-30)
-        pc = ksp.getPC()
-        pc.setType("lu")
-        pc.setFactorSolverType("mumps")
+            ksp.setTolerances(rtol=1e-12, atol=1e-30, max_it=50)
+            pc.setType("python")
+            self.pc_ctx = LowRankInverse(self.M, self.ctx)
+            pc.setPythonContext(self.pc_ctx)
         ts.setFromOptions()
         for k in ours:  # the settings' values for this run only
             opts.delValue(k)
@@ -282,11 +368,12 @@ class _Integration:
             u, v = self.ts.getSolution2()
             self.set_state(u)
             self.out.velocity = v.copy()
+            self.out.dt = float(self.ts.getTimeStep())
         return self.out
 
     def destroy(self) -> None:
         """Free the solver, matrices and vectors."""
         for o in (self.ts, self.J, self.P, self.K0, self.work, self.tmp, self.v0, self.u0,
-                  self.Cs, self.lowrank):
+                  self.Cs, self.lowrank, self.pc_ctx):
             if o is not None:
                 o.destroy()

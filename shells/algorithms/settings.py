@@ -264,6 +264,9 @@ class DynamicsSettings:
         mass_damping: α of the Rayleigh damping C = α M + β K₀ (≥ 0).
         stiffness_damping: β, K₀ the Jacobian at the start (≥ 0).
         adaptive: adapt the step (TSAdapt "basic" on TSALPHA2's error estimate).
+        step_tol: the adaptive step's tolerance on the local error (TS's rtol and atol).
+        dt_min: the adaptive step's least value (None: no bound); a step at it is accepted
+            whatever its error estimate (TSAdapt's rule).
         rest_tol: stop once the kinetic energy falls below this (None: run to ``t_end``).
         max_steps: safety limit on the steps.
 
@@ -276,6 +279,8 @@ class DynamicsSettings:
     dt: float = 0.01
     rho_inf: float = 1.0
     adaptive: bool = False
+    step_tol: float = 1.0e-4
+    dt_min: float | None = None
     # damping C = mass_damping M + stiffness_damping K
     mass_damping: float = 0.0
     stiffness_damping: float = 0.0
@@ -294,6 +299,11 @@ class DynamicsSettings:
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0):
                 raise InputError(f"{name} must be non-negative, got {v!r}")
+        if self.dt_min is not None and not (math.isfinite(self.dt_min)
+                                            and 0 < self.dt_min <= self.dt):
+            raise InputError(f"dt_min must lie in (0, dt], got {self.dt_min!r}")
+        if not (math.isfinite(self.step_tol) and self.step_tol > 0):
+            raise InputError(f"step_tol must be positive, got {self.step_tol!r}")
         if self.rest_tol is not None and not self.rest_tol > 0:
             raise InputError(f"rest_tol must be positive, got {self.rest_tol!r}")
         if not (isinstance(self.max_steps, int) and self.max_steps >= 1):

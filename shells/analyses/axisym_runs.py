@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from shells.analyses.setup import open_shell_kappa_R_max
 from shells.axisym.kinematics import is_sphere
 from shells.axisym.mesh import check_supported
 from shells.axisym.model import SNES_OPTIONS, AxisymModel, AxisymParameters
@@ -269,8 +270,7 @@ class RunConfig(RunScales):
         elif is_sphere(self.shape):
             mag = 1.25 * sphere_kappa_b_h(self.nu) / self.h
         else:
-            tb = getattr(self.shape, "theta", 1.0) / math.sqrt(self.h_over_r)
-            mag = (2.0 * tb + 6.0) / self.R
+            mag = open_shell_kappa_R_max(self.shape, self.h_over_r) / self.R
         return mag if self.direction == "up" else -mag
 
     def params(self) -> AxisymParameters:

@@ -20,7 +20,7 @@ from shells.theory import (
     sphere_kappa_b_h,
 )
 
-__all__ = ["KAPPA_H_LIMIT", "default_kappa_range", "kappa_end"]
+__all__ = ["KAPPA_H_LIMIT", "default_kappa_range", "kappa_end", "open_shell_kappa_R_max"]
 
 
 def default_kappa_range(shape: object, h_over_r: float, nu: float, direction: str) -> float:
@@ -53,6 +53,22 @@ def default_kappa_range(shape: object, h_over_r: float, nu: float, direction: st
             return (1.6 * max(kr, 1.0) + 0.5) / shape.R
         return (1.6 * min(buckling_kappa_R(tb, h_over_r), -1.0) - 0.5) / shape.R
     return sign * 8.0 / kappa_length(shape)  # type: ignore[arg-type]
+
+
+def open_shell_kappa_R_max(shape: Any, h_over_r: float) -> float:  # noqa: N802 - κR
+    """|κ| R up to which the 1D runs and ``snap`` follow an open shell: 2 θ̄ + 6.
+
+    Every cap's first critical point lies below it in both directions (the snap line and
+    Eq. (4) of the paper are below 2 θ̄ + 2 for θ̄ ≥ 1), with room for the branch beyond.
+
+    Args:
+        shape: the shell's shape; its opening angle θ (radians) where it has one, else θ = 1.
+        h_over_r: thickness over the shape's length scale.
+
+    Returns:
+        2 θ̄ + 6 with θ̄ = θ / √(h/R).
+    """
+    return 2.0 * getattr(shape, "theta", 1.0) / math.sqrt(h_over_r) + 6.0
 
 
 def kappa_end(shape: Any, h_over_r: float, kappa_h: float | None, kappa_r: float | None,

@@ -13,7 +13,8 @@ axisymmetric everted state at the same κ (Newton from the shell mirrored throug
 continued in κ from half the fold's κ).
 
 With ``method="dynamics"`` the start is integrated in time instead (``snap_dynamics``: the
-equations of motion with mass-proportional damping, TSALPHA2, fixed steps) until the kinetic
+equations of motion with mass-proportional damping, TSALPHA2, adaptive steps no shorter than
+``DT_STEP``) until the kinetic
 energy has fallen to ``REST_FRACTION`` of its peak; the rest state is then polished by the same
 minimiser (it lies in the minimum's basin: the polish changes its energy by the residual motion
 only), and ``snap_time`` is when the pole's displacement crosses halfway from the start's to
@@ -48,6 +49,7 @@ from typing import Any
 
 import numpy as np
 
+from shells.analyses.setup import open_shell_kappa_R_max
 from shells.errors import InputError
 from shells.files import json_default, write_atomic
 from shells.parameters import check_h_over_r, check_nu
@@ -69,11 +71,15 @@ METHODS = ("minimise", "dynamics")
 DAMPING = 1.0
 #: dynamics: at rest once the kinetic energy has fallen below this fraction of its peak
 REST_FRACTION = 1.0e-8
-#: dynamics: the time step (units R √(ρ/E); fixed: an adaptive step follows the ringing of
-#: the stiff membrane modes the start excites, and crawls), the spectral radius ρ∞ at infinite
-#: step (numerical dissipation, which removes those unresolved modes within a few steps) and the
-#: time after which a run that has not come to rest stops (its state is polished all the same)
+#: dynamics: the least time step (units R √(ρ/E)) and the adaptive step's tolerance on the
+#: local error, the spectral radius ρ∞ at infinite step (numerical dissipation, which removes
+#: the unresolved stiff membrane modes the start excites within a few steps) and the time after
+#: which a run that has not come to rest stops (its state is polished all the same). Steps
+#: never shorter than DT_STEP: shorter ones would follow the ringing of those membrane modes,
+#: which the steps of DT_STEP dissipate, and crawl; longer ones where the local error allows
+#: (benchmarks/results/snap_dynamics_steps.json compares them with fixed steps)
 DT_STEP = 0.05
+STEP_TOL: float | None = 1.0e-3  # None: fixed steps of DT_STEP
 RHO_INF = 0.5
 T_MAX = 5000.0
 #: dynamics: the run's progress is checkpointed every this many steps (state, velocity, time,
@@ -102,7 +108,7 @@ class SnapConfig:
         past: κ_start = (1 + past) κ_fold, where ``kappa_R`` is None.
         kappa_R: κ_start R, past the fold (None: from ``past``).
         amplitude: the perturbation along each unstable eigenvector, RMS over the thickness.
-        kappa_R_max: the fold is searched up to this κR (None: 2 θ̄ + 6, as ``critical``).
+        kappa_R_max: the fold is searched up to this κR (None: ``open_shell_kappa_R_max``).
         size, degree: the mesh (None: ``default_discretisation``).
         layer_elements: elements across the rim's boundary layer.
         shear_penalty: the Kirchhoff-Love penalty factor.
@@ -204,7 +210,8 @@ class DynamicsProgress:
         rows: the series so far (``SERIES_COLUMNS``), one row per accepted step from the start
             (step 0); the last row is the current state's.
         t: the time reached, in the model's units (the last row's time, unrounded).
-        dt: the time step, in the model's units (None: ``DT_STEP``).
+        dt: the time step the run takes next, in the model's units (the adaptive step's
+            proposal; None: ``DT_STEP``).
         velocity: the velocity at ``t``, this rank's owned values (None: at rest).
         frames: the steps kept as frames so far (multiples of ``frame_every``, at most
             ``FRAMES_MAX``).
@@ -245,11 +252,11 @@ def snap_dynamics(model: Any, damping: float, t_max: float | None = None, *,
     """Integrate the equations of motion from the model's state at its κ, at rest, to rest
     (collective).
 
-    Mass-proportional damping C = α M (``damping``), TSALPHA2 with ρ∞ = ``RHO_INF``, steps
-    ``DT_STEP``, in segments of ``DYNAMICS_SAVE_EVERY`` steps (each a fresh ``integrate``
-    from the last one's state, velocity and time: the kinetic mass and the start
-    acceleration computed there). At rest: the kinetic energy below ``REST_FRACTION`` of
-    its peak, after the peak.
+    Mass-proportional damping C = α M (``damping``), TSALPHA2 with ρ∞ = ``RHO_INF``, adaptive
+    steps (the least ``DT_STEP``, tolerance ``STEP_TOL``), in segments of
+    ``DYNAMICS_SAVE_EVERY`` steps (each a fresh ``integrate`` from the last one's state,
+    velocity, time and next step: the kinetic mass and the start acceleration computed there).
+    At rest: the kinetic energy below ``REST_FRACTION`` of its peak, after the peak.
 
     Args:
         model: the surface model, its state the (perturbed) start, or ``resume``'s state;
@@ -314,19 +321,27 @@ def snap_dynamics(model: Any, damping: float, t_max: float | None = None, *,
         return at_rest(kinetic)
 
     t_max = T_MAX if t_max is None else t_max
-    st = DynamicsSettings(t_end=t_max * tscale, dt=prog.dt, rho_inf=RHO_INF,
-                          mass_damping=damping / tscale, max_steps=DYNAMICS_SAVE_EVERY)
+    dt_min = DT_STEP * tscale
+
+    def settings() -> Any:
+        """A segment's: from the step the last one would have taken next."""
+        return DynamicsSettings(t_end=t_max * tscale, dt=max(prog.dt, dt_min), rho_inf=RHO_INF,
+                                adaptive=STEP_TOL is not None, step_tol=STEP_TOL or 1.0e-4,
+                                dt_min=dt_min, mass_damping=damping / tscale,
+                                max_steps=DYNAMICS_SAVE_EVERY)
+
     velocity = None
     if prog.velocity is not None:
         velocity = model.create_vector()
         velocity.array_w[:] = prog.velocity[:velocity.getLocalSize()]
     while True:
         segment_start["skip"] = bool(rows)
+        st = settings()
         res = integrate(model, st, velocity=velocity, monitor=monitor, t0=prog.t)
         if res.reason == "diverged":
             raise RuntimeError(f"the time integration diverged at t = {rows[-1][0]:.4g} R "
                                "sqrt(rho/E)")
-        prog.t = res.times[-1]
+        prog.t, prog.dt = res.times[-1], res.dt
         velocity = res.velocity
         if res.reason == "monitor" or prog.t >= st.t_end * (1 - 1e-12):
             break
@@ -380,8 +395,8 @@ def _to_fold(model: Any, cfg: SnapConfig, R: float) -> tuple[float, np.ndarray, 
     from shells.progress import Progress
 
     L = cfg.shape.characteristic_size()
-    tb = cfg.shape.theta / math.sqrt(cfg.h_over_r) if hasattr(cfg.shape, "theta") else 5.0
-    kR_end = cfg.kappa_R_max if cfg.kappa_R_max is not None else 2.0 * tb + 6.0
+    kR_end = (cfg.kappa_R_max if cfg.kappa_R_max is not None
+              else open_shell_kappa_R_max(cfg.shape, cfg.h_over_r))
     lam_end = kR_end / R * L
     st = ContinuationSettings(ds=lam_end / 16, ds_max=lam_end / 10, ds_min=1e-7 * lam_end,
                               factor_reuse=REUSE_SURFACE, ds_unit="kappa")

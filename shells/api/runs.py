@@ -297,7 +297,7 @@ def knockdown(shell: Shell | None = None, amplitudes: Sequence[float] = (0.0,), 
 def phase_diagram(h_over_r: Sequence[float], thetabar_range: tuple[float, float],
                   points: int, *, nu: float = 0.5, model: str = "axisym",
                   outdir: Any = "results/phase-diagram", figure: bool = True,
-                  **options: Any) -> Result:
+                  landings: Sequence[Any] | None = None, **options: Any) -> Result:
     """The phase diagram of open spherical caps in (θ̄, κR) with the paper's fits
     (``shells phase-diagram``); points run in parallel, one per MPI process.
 
@@ -309,6 +309,9 @@ def phase_diagram(h_over_r: Sequence[float], thetabar_range: tuple[float, float]
         model: ``"axisym"`` or ``"surface"`` (spot checks).
         outdir: the run's folder (``points.jsonl``, ``phase_diagram.json``, the figure).
         figure: draw ``outdir/phase_diagram.png``.
+        landings: ``shells.snap`` output folders (or their ``snap.json``): where those caps
+            landed is marked in the figure (symmetric or broken, with m) and listed in the
+            result's ``landings``.
         **options: ``PhaseDiagramConfig`` fields (``m_max``, ``rel_tol``, ``refine``, ...).
 
     Returns:
@@ -319,8 +322,9 @@ def phase_diagram(h_over_r: Sequence[float], thetabar_range: tuple[float, float]
 
     cfg = PhaseDiagramConfig(h_over_r=tuple(h_over_r), thetabar_range=tuple(thetabar_range),
                              points=points, nu=nu, model=model, **options)
+    marks = analysis.read_landings(list(landings)) if landings is not None else None
     with _held(outdir):
-        data = analysis.run(cfg, outdir, figure=figure)
+        data = analysis.run(cfg, outdir, figure=figure, landings=marks)
     return Result("phase_diagram", data)
 
 

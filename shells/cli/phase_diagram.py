@@ -49,6 +49,9 @@ def add_subcommand(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--layer-elements", type=positive_float("layer-elements"), default=4.0,
                    help="surface model: elements across sqrt(R h) (default 4)")
     p.add_argument("--no-figure", action="store_true", help="skip the figure")
+    p.add_argument("--landings", nargs="+", metavar="PATH", default=None,
+                   help="show where caps landed in these `shells snap` outputs (snap.json "
+                        "files or folders searched for them)")
     p.add_argument("-o", "--output", default="results/phase-diagram",
                    help="output directory (default results/phase-diagram)")
     add_json(p)
@@ -66,7 +69,9 @@ def _cmd_phase_diagram(args: argparse.Namespace) -> int:
         rel_tol=args.rel_tol, refine=args.refine,
         discretisation=phase_diagram.Discretisation(cells=args.cells, size=args.size,
                                                     layer_elements=args.layer_elements))
-    res = phase_diagram.run(cfg, args.output, figure=not args.no_figure)
+    landings = (phase_diagram.read_landings(args.landings) if args.landings is not None
+                else None)
+    res = phase_diagram.run(cfg, args.output, figure=not args.no_figure, landings=landings)
 
     def human() -> None:
         f, e = res["fits"], res["fits_error"]
@@ -85,6 +90,10 @@ def _cmd_phase_diagram(args: argparse.Namespace) -> int:
         for k in ("alpha", "beta", "b", "c", "thetabar_s", "thetabar_c"):
             v = f"{f[k]:.4g} ± {e[k]:.2g}" if f.get(k) is not None else "n/a"
             print(f"  {k:>10}: {v:>20} | {PAPER[k]}")
+        for r in res.get("landings", []):
+            print(f"landing: thetabar {r['thetabar']:.4g} (h/R = {r['h_over_R']:g}) snapped at "
+                  f"kappa R = {r['kappa_R']:.5g}: "
+                  + ("symmetric" if r["symmetric"] else f"broken symmetry, m = {r['mode_m']}"))
         for fig in res.get("figures", []):
             print(f"wrote {fig}")
 

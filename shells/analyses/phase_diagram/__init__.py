@@ -26,15 +26,17 @@ writes ``DIR/phase_diagram.json`` and the figure ``DIR/phase_diagram.{png,pdf}``
 (``shells.algorithms.following.follow``) for spot checks (much slower; no everted-branch check).
 
 Modules: ``config`` (configuration and tasks), ``tracing`` (one branch), ``jobs`` (claims, the
-points file, the run), ``fits`` (merged points and fits), ``figure``.
+points file, the run), ``fits`` (merged points and fits), ``figure``, ``landings`` (where
+``shells snap`` runs landed, shown in the figure: ``--landings``).
 """
 
 from shells.analyses.phase_diagram.config import Discretisation, PhaseDiagramConfig, Task, tasks_of
 from shells.analyses.phase_diagram.figure import make_figure
 from shells.analyses.phase_diagram.fits import fit_all, merge_points
 from shells.analyses.phase_diagram.jobs import RunStats, run
+from shells.analyses.phase_diagram.landings import read_landings
 from shells.analyses.phase_diagram.tracing import compute_task, everted_check
 
 __all__ = ["Discretisation", "PhaseDiagramConfig", "RunStats", "Task", "compute_task",
-           "everted_check", "fit_all", "make_figure", "merge_points", "run",
+           "everted_check", "fit_all", "make_figure", "merge_points", "read_landings", "run",
            "tasks_of"]

@@ -81,7 +81,7 @@ def make_figure(result: dict[str, Any], stem: Path) -> list[str]:
     fits = result["fits"]
     hs = sorted({p["h_over_R"] for p in pts}) or [0.01]
     h0 = hs[0]
-    tb_hi = max([p["thetabar"] for p in pts] + [5.0])
+    tb_hi = max([p["thetabar"] for p in pts + (result.get("landings") or [])] + [5.0])
     x = np.linspace(0.5, tb_hi * 1.02, 600)
     x = x[x < 0.98 * math.pi / math.sqrt(h0)]
     ylo = min(-6.0, float(np.nanmin([p.get("kappa_down_R") or 0 for p in pts] + [0])) - 0.5)
@@ -90,6 +90,7 @@ def make_figure(result: dict[str, Any], stem: Path) -> list[str]:
     _shade_computed(ax, [p for p in pts if p["h_over_R"] == h0], ylo, yhi)
     _draw_lines(ax, x, h0, fits)
     _draw_points(ax, pts, hs, plt.cm.viridis(np.linspace(0.0, 0.8, len(hs))))
+    _draw_landings(ax, result.get("landings") or [])
     ax.set_xlim(0, x[-1])
     ax.set_ylim(ylo, yhi)
     ax.axhline(0, color="0.6", lw=0.5)
@@ -157,3 +158,22 @@ def _draw_points(ax: Any, pts: list[dict[str, Any]], hs: list[float], colors: An
                 xx, yy = zip(*xy, strict=True)
                 ax.plot(xx, yy, mk, ms=4.5, mfc="none" if mk not in "x" else col, mec=col,
                         color=col, label=f"{lab}, h/R = {h:g}")
+
+
+def _draw_landings(ax: Any, landings: list[dict[str, Any]]) -> None:
+    """Where snapped caps landed (``landings.read_landings``), at (θ̄, κR of the snap):
+    symmetric filled circles, broken symmetry stars labelled with their m."""
+    sym = [(r["thetabar"], r["kappa_R"]) for r in landings if r["symmetric"]]
+    broken = [r for r in landings if not r["symmetric"]]
+    hs = ", ".join(f"{h:g}" for h in sorted({r["h_over_R"] for r in landings}))
+    if sym:
+        xx, yy = zip(*sym, strict=True)
+        ax.plot(xx, yy, "o", ms=7, color="k", mfc="white", mew=1.2,
+                label=f"a snap lands symmetric (shells snap), h/R = {hs}")
+    if broken:
+        ax.plot([r["thetabar"] for r in broken], [r["kappa_R"] for r in broken], "*", ms=11,
+                color="#c0392b", mec="k", mew=0.6,
+                label=f"a snap lands with broken symmetry, h/R = {hs}")
+        for r in broken:
+            ax.annotate(f"m={r['mode_m']}", (r["thetabar"], r["kappa_R"]), fontsize=6,
+                        xytext=(4, -9), textcoords="offset points")

@@ -111,7 +111,8 @@ def _progress_line(r: dict[str, Any], k: int, n: int) -> str:
 
 def run(cfg: PhaseDiagramConfig, outdir: str | Path, comm: Any = None,
                       limit: int | None = None, figure: bool = True,
-                      progress: Callable[[str], None] | None = None) -> dict[str, Any]:
+                      progress: Callable[[str], None] | None = None,
+                      landings: list[dict[str, Any]] | None = None) -> dict[str, Any]:
     """Compute (or complete) a phase diagram in ``outdir``.
 
     Args:
@@ -123,6 +124,8 @@ def run(cfg: PhaseDiagramConfig, outdir: str | Path, comm: Any = None,
             interrupted run, for tests); the result then covers what exists.
         figure: also draw the figure.
         progress: called with one line per finished task (rank 0; default: the log).
+        landings: where snapped caps landed (``read_landings``), shown in the figure and kept
+            in the result (``landings``).
 
     Returns:
         The result, on every rank; ``result["stats"]`` says how many tasks this run computed
@@ -174,6 +177,8 @@ def run(cfg: PhaseDiagramConfig, outdir: str | Path, comm: Any = None,
                                                   "thetabar_c")},
                   "stats": asdict(RunStats(computed=computed, wall_time=time.perf_counter() - t0,
                                            per_rank=per_rank))}
+        if landings:
+            result["landings"] = landings
         if figure:
             result["figures"] = make_figure(result, out / "phase_diagram")
         write_atomic(out / "phase_diagram.json",

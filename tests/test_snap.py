@@ -5,14 +5,24 @@ minimiser's landing, reached from the fold's state perturbed along its unstable 
 the state Newton finds from the shell mirrored through its rim plane (an independent route),
 stable and symmetric (the gallery's Fig. 1 (d) demo in its quick mode asserts it; run here,
 not by tests/test_demos.py). A rerun resumes. Bad input is one line on stderr and exit
-status 2."""
+status 2.
 
+``--method dynamics`` comes to rest where the minimiser lands; its motion is written for
+ParaView (``snap.bp``, read back with ADIOS2: one frame per kept step, at the CSV's times) and
+as an animation (``snap.gif``, read back with Pillow); an interrupted integration continues
+from its checkpoint and takes the very steps of a run that was never stopped."""
+
+import json
 import math
+import os
 import subprocess
+from pathlib import Path
 
+import numpy as np
 import pytest
 from conftest import child_env
 from mpi4py import MPI
+from petsc4py import PETSc
 
 from shells.analyses import snap
 from shells.errors import InputError
@@ -75,6 +85,119 @@ def test_cli_refusals_are_one_line(args):
     assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1, r.stderr
 
 
+#: the coarse cap of the dynamics tests (P2, 1398 DOFs; it wrinkles at m = 8 on this mesh, a
+#: discretisation artefact, but both methods must find the same state), damping 2
+_H = 0.04
+_CAP = dict(shape=SphericalCap(1.0, 3.0 * math.sqrt(_H)), h_over_r=_H, past=0.3, size=0.6,
+            degree=2, layer_elements=1.0)
+#: the output tests' run to rest: fixed steps of 0.1 (not adaptive ones from 0.05: short, and
+#: at rest in 232 steps), checkpointed every 100
+_STEPS = (("DT_STEP", 0.1), ("STEP_TOL", None))
+
+
+def _series(folder):
+    """``snap_series.csv`` of a run's folder."""
+    return np.loadtxt(folder / "snap_series.csv", delimiter=",", skiprows=1, ndmin=2)
+
+
+def _same_series(a, b):
+    """Whether two series are one: time, energies, Ψ3 and rim rotation to 1e-10 of their
+    column's largest magnitude (the CSV's 12 digits), the amplitudes of m = 1..4 (relative to
+    m = 0's; on this mesh up to 2e-5, their roundoff ~1e-12 as sums that nearly cancel) to
+    1e-10."""
+    tol = np.maximum(1e-10 * np.abs(a).max(axis=0), [0.0] * 5 + [1e-10] * 4)
+    return a.shape == b.shape and bool(np.all(np.abs(a - b) <= tol))
+
+
+def _vtx_times(bp):
+    """The times of the steps of a VTX (ADIOS2) file and its point arrays, read on this rank
+    alone."""
+    os.environ.setdefault("ADIOS2_ALWAYS_USE_MPI", "1")  # Debian's bindings: the MPI build
+    import adios2
+
+    with adios2.FileReader(str(bp), comm=MPI.COMM_SELF) as f:
+        names = set(f.available_variables())
+        n = int(f.available_variables()["step"]["AvailableStepsCount"])
+        times = np.atleast_1d(f.read("step", step_selection=[0, n]))
+    return times, names
+
+
+def _gif_frames(path):
+    """(frame count, the frames' sizes, the frames' durations in ms) of a GIF."""
+    from PIL import Image
+
+    with Image.open(path) as im:
+        sizes, durations = set(), []
+        for k in range(im.n_frames):
+            im.seek(k)
+            sizes.add(im.size)
+            durations.append(im.info.get("duration"))
+        return im.n_frames, sizes, durations
+
+
+def _expected_frames(steps, every):
+    """The steps that ``snap.bp`` holds: multiples of the stride, and the last."""
+    return sorted(set(range(0, steps + 1, every)) | {steps})
+
+
+def _stage(folder):
+    """The stage of the checkpoint in ``folder`` (read on rank 0, told to all)."""
+    comm = MPI.COMM_WORLD
+    meta = (json.loads((folder / "checkpoint" / "meta.json").read_text())
+            if comm.rank == 0 else None)
+    return comm.bcast(meta, root=0)["stage"]
+
+
+class _InterruptedError(Exception):
+    """The interruption of a run (a kill) simulated in the tests."""
+
+
+#: what an interrupted run raises: the interruption, or PETSc's error around it (raised in the
+#: time stepper's callback)
+_STOPPED = (_InterruptedError, PETSc.Error)
+
+
+def _interrupted(monkeypatch, cfg, folder, steps):
+    """``snap.run`` of ``cfg`` in ``folder`` (resumed), its time integration failing after
+    ``steps`` steps of this run: a run killed mid-segment, after its checkpoints before then.
+    On every rank alike."""
+    from shells.algorithms import dynamics
+
+    real, done = dynamics.integrate, {"steps": 0}
+
+    def interrupted(*args, monitor, **kwargs):
+        start = {"call": True}
+
+        def stop(t, p, kinetic):
+            if not start.pop("call", False):
+                done["steps"] += 1
+                if done["steps"] > steps:
+                    raise _InterruptedError(t)
+            return monitor(t, p, kinetic)
+
+        return real(*args, monitor=stop, **kwargs)
+
+    monkeypatch.setattr(dynamics, "integrate", interrupted)
+    with pytest.raises(_STOPPED):
+        snap.run(cfg, folder)
+    monkeypatch.setattr(dynamics, "integrate", real)
+
+
+@pytest.fixture(scope="module")
+def dynamics_run(tmp_path_factory):
+    """``--method dynamics`` on ``_CAP`` to rest with an output folder (``_STEPS``; at most 10
+    frames in the animation): (its result, its folder, the same on every rank)."""
+    comm = MPI.COMM_WORLD
+    out = Path(comm.bcast(str(tmp_path_factory.mktemp("dyn")) if comm.rank == 0 else None))
+    with pytest.MonkeyPatch.context() as mp:
+        for name, value in (*_STEPS, ("ANIMATION_FRAMES", 10)):
+            mp.setattr(snap, name, value)
+        res = snap.run(snap.SnapConfig(**_CAP, method="dynamics", damping=2.0), out,
+                       render=True, resume=False)
+    comm.barrier()  # snap.json written
+    return res, out
+
+
 def test_dynamics_comes_to_rest_where_minimisation_lands(shared_tmp, monkeypatch):
     """``--method dynamics`` on a coarse cap (P2, 1398 DOFs; it wrinkles at m = 8 on this mesh,
     a discretisation artefact, but both methods must find the same state): the damped motion
@@ -105,3 +228,132 @@ def test_dynamics_comes_to_rest_where_minimisation_lands(shared_tmp, monkeypatch
         assert len(lines) == d["steps"] + 2
         t = [float(r.split(",")[0]) for r in lines[1:]]
         assert t[0] == 0.0 and all(b > a for a, b in zip(t, t[1:], strict=False))
+
+
+def test_dynamics_writes_its_files(dynamics_run):
+    """A run to rest (fixed steps) with an output folder: one CSV row per step, ``files``
+    names what the folder holds, the checkpoint keeps the rest state, not the frames; the same
+    on every rank."""
+    dyn, out = dynamics_run
+    d = dyn["dynamics"]
+    assert d["reason"] == "rest" and d["steps"] == 232
+    for x in (d["snap_time"], dyn["landing"]["energy"]):
+        assert MPI.COMM_WORLD.allreduce(x, op=MPI.MAX) - MPI.COMM_WORLD.allreduce(
+            x, op=MPI.MIN) <= 1e-12 * abs(x)
+    lines = (out / "snap_series.csv").read_text().splitlines()
+    assert lines[0].split(",") == list(snap.SERIES_COLUMNS)
+    assert len(lines) == d["steps"] + 2
+    t = [float(r.split(",")[0]) for r in lines[1:]]
+    assert t[0] == 0.0 and t[-1] == pytest.approx(0.1 * d["steps"], rel=1e-9)
+    assert dyn["files"] == {"result": "snap.json", "series": "snap_series.csv",
+                            "fields": "snap.bp", "animation": "snap.gif",
+                            "landing_image": "landing.png", "landing_fields": "landing.vtu",
+                            "everted_image": "everted.png"}
+    assert all((out / f).exists() for f in dyn["files"].values())
+    assert not any((out / "checkpoint" / "frames").iterdir())
+    assert snap.run(snap.SnapConfig(**_CAP), None, render=False)["files"] == {}
+
+
+def test_dynamics_fields_over_time_for_paraview(dynamics_run):
+    """``snap.bp`` holds every k-th step from the start (k the least power of 2 that keeps at
+    most ``FRAMES_MAX`` of them) and the last, each at its CSV row's time, with the fields
+    that ``landing.vtu`` has."""
+    dyn, out = dynamics_run
+    d = dyn["dynamics"]
+    times, names = _vtx_times(out / "snap.bp")
+    rows = _series(out)
+    every = d["frame_every"]
+    steps = _expected_frames(d["steps"], every)
+    assert every & (every - 1) == 0 and len(steps) - 1 <= snap.FRAMES_MAX
+    assert every == 1 or d["steps"] // (every // 2) + 1 > snap.FRAMES_MAX
+    assert len(times) == len(steps) == d["frames"]
+    np.testing.assert_allclose(times, rows[steps, 0], rtol=1e-11, atol=1e-12)  # the CSV: 12 digits
+    assert {"displacement", "director", "bending_energy_density",
+            "stretching_energy_density", "mean_curvature_change"} <= names
+
+
+def test_dynamics_animation(dynamics_run):
+    """``snap.gif``: at most ``ANIMATION_FRAMES`` (10 here) evenly spaced frames of
+    ``snap.bp``'s and its last, all of one size, the last held longest."""
+    dyn, out = dynamics_run
+    d = dyn["dynamics"]
+    frames = _expected_frames(d["steps"], d["frame_every"])
+    every = math.ceil(len(frames) / 10)
+    expected = len(set(frames[::every]) | {frames[-1]})
+    n, sizes, durations = _gif_frames(out / "snap.gif")
+    assert n == expected == d["animation_frames"] and 10 <= n <= 11
+    assert len(sizes) == 1 and durations[-1] > durations[0]
+
+
+@pytest.mark.skipif(MPI.COMM_WORLD.size > 1, reason="two runs on 2 ranks part at roundoff from "
+                    "the fold on (the snap amplifies it): test_dynamics_outputs_and_resume "
+                    "continues copies of one run on any rank count")
+def test_an_interrupted_dynamics_run_continues_where_it_stopped(dynamics_run, shared_tmp,
+                                                               monkeypatch):
+    """Killed 50 steps after its checkpoint at step 100, the run's rerun continues from step
+    100 (no fold followed again) and ends where the uninterrupted run ends: the same series, the
+    same frames, the same rest and landing energies (1e-9)."""
+    dyn, ref = dynamics_run
+    d0 = dyn["dynamics"]
+    for name, value in _STEPS:
+        monkeypatch.setattr(snap, name, value)
+    cfg = snap.SnapConfig(**_CAP, method="dynamics", damping=2.0)
+    _interrupted(monkeypatch, cfg, shared_tmp, 150)
+    assert _stage(shared_tmp) == "dynamics 100"
+    assert not (shared_tmp / "snap_series.csv").exists()
+    res = snap.run(cfg, shared_tmp, render=False)
+    assert res["critical_points"] == dyn["critical_points"]
+    d = res["dynamics"]
+    assert (d["steps"], d["reason"], d["frames"], d["frame_every"]) == (
+        d0["steps"], d0["reason"], d0["frames"], d0["frame_every"])
+    assert d["rest_energy"] == pytest.approx(d0["rest_energy"], rel=1e-9)
+    assert res["landing"]["energy"] == pytest.approx(dyn["landing"]["energy"], rel=1e-9)
+    a, b = _series(ref), _series(shared_tmp)
+    assert _same_series(a, b), np.abs(a - b).max(axis=0) if a.shape == b.shape else b.shape
+    times, _ = _vtx_times(shared_tmp / "snap.bp")
+    np.testing.assert_allclose(times, _vtx_times(ref / "snap.bp")[0], rtol=1e-12)
+    assert "animation" not in res["files"] and not (shared_tmp / "snap.gif").exists()
+
+
+@pytest.mark.parametrize("step_tol, t_max", [(None, 2.0), (3e-3, 3.0)])
+def test_dynamics_outputs_and_resume(shared_tmp, monkeypatch, step_tol, t_max):
+    """A short integration (fixed steps to t = 2: 20 steps; adaptive ones to t = 3; checkpointed
+    every 5; at most 4 frames, 3 in the animation; then polished), killed after 7 steps and
+    continued from step 5 twice from copies of its folder: once to the end, once killed again
+    at step 14 and continued from step 10. Both end alike to the last digit: the same series,
+    the same landing; the frames' stride doubled (fixed steps: to 8, steps 0, 8, 16 and the
+    last, 20), ``snap.bp`` holds them at their CSV times, ``snap.gif`` 3 of them. The same on
+    every rank."""
+    import shutil
+
+    comm = MPI.COMM_WORLD
+    for name, value in (("DT_STEP", 0.1), ("STEP_TOL", step_tol), ("T_MAX", t_max),
+                        ("DYNAMICS_SAVE_EVERY", 5), ("FRAMES_MAX", 4), ("ANIMATION_FRAMES", 3)):
+        monkeypatch.setattr(snap, name, value)
+    cfg = snap.SnapConfig(**_CAP, method="dynamics", damping=2.0)
+    a, b = shared_tmp / "a", shared_tmp / "b"
+    _interrupted(monkeypatch, cfg, a, 7)
+    assert _stage(a) == "dynamics 5"
+    if comm.rank == 0:
+        shutil.copytree(a, b)
+    comm.barrier()
+    res = snap.run(cfg, a)
+    d = res["dynamics"]
+    assert d["reason"] == "time" and d["steps"] >= 15 and d["animation_frames"] == 3
+    frames = _expected_frames(d["steps"], d["frame_every"])
+    assert d["frames"] == len(frames) <= snap.FRAMES_MAX + 1
+    if step_tol is None:
+        assert (d["steps"], d["frame_every"], frames) == (20, 8, [0, 8, 16, 20])
+    _interrupted(monkeypatch, cfg, b, 8)
+    assert _stage(b) == "dynamics 10"
+    res2 = snap.run(cfg, b)
+    assert res2["dynamics"] == pytest.approx(d, rel=1e-12)
+    assert res2["landing"]["energy"] == pytest.approx(res["landing"]["energy"], rel=1e-12)
+    assert res2["files"] == res["files"] and {"fields", "animation"} <= set(res["files"])
+    comm.barrier()
+    rows, rows2 = _series(a), _series(b)
+    times, times2 = _vtx_times(a / "snap.bp")[0], _vtx_times(b / "snap.bp")[0]
+    assert _same_series(rows, rows2)
+    np.testing.assert_allclose(times, rows[frames, 0], rtol=1e-11, atol=1e-12)  # the CSV: 12 digits
+    np.testing.assert_allclose(times, times2, rtol=1e-12)  # 2 ranks: adaptive steps to 1e-13
+    assert _gif_frames(a / "snap.gif")[0] == 3

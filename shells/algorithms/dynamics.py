@@ -50,6 +50,9 @@ class DynamicsResult:
         reason: "time" (reached t_end), "rest" (kinetic energy below ``rest_tol``),
             "monitor" (the monitor asked to stop), or "diverged".
         steps: the accepted steps.
+        velocity: the velocity at the end (a state-shaped PETSc vector, the caller's; with the
+            final state and time, what a later ``integrate`` continues from).
+        dt: the step the stepper would take next (adaptive: its proposal).
     """
 
     times: list[float] = field(default_factory=list)
@@ -57,6 +60,8 @@ class DynamicsResult:
     elastic: list[float] = field(default_factory=list)
     reason: str = "time"
     steps: int = 0
+    velocity: Any = None
+    dt: float = 0.0
 
 
 class _LowRank:
@@ -169,8 +174,8 @@ class _Jacobian:
 
 def integrate(problem: Any, settings: DynamicsSettings, velocity: Any = None,
               block: Any = None,
-              monitor: Callable[[float, Any, float], bool | None] | None = None
-              ) -> DynamicsResult:
+              monitor: Callable[[float, Any, float], bool | None] | None = None, *,
+              t0: float = 0.0) -> DynamicsResult:
     """Integrate the equations of motion from the problem's state at its κ.
 
     Args:
@@ -182,6 +187,11 @@ def integrate(problem: Any, settings: DynamicsSettings, velocity: Any = None,
         monitor: called as ``monitor(t, problem, kinetic)`` at the start and after every
             accepted step, the problem holding the state at t (synced), ``kinetic`` the kinetic
             energy there; a true return stops the run (reason "monitor").
+        t0: the start time: a run continued from where an earlier one stopped, from its
+            final state, ``velocity`` and time (the settings' ``t_end`` stays the end). It
+            starts afresh there (the kinetic mass assembled at that state, TSALPHA2's start
+            acceleration computed from it), so two runs continued from one (state, velocity,
+            t0) take the same steps, which one run through t0 does not quite.
 
     Returns:
         The ``DynamicsResult``; the problem holds the final state.
@@ -193,7 +203,7 @@ def integrate(problem: Any, settings: DynamicsSettings, velocity: Any = None,
         raise InputError("this problem has no kinetic mass (assemble_kinetic_mass)")
     run = _Integration(problem, settings, block, monitor)
     try:
-        return run.solve(velocity)
+        return run.solve(velocity, t0)
     finally:
         run.destroy()
 
@@ -336,8 +346,8 @@ class _Integration:
             out.reason = "monitor"
             ts.setConvergedReason(PETSc.TS.ConvergedReason.CONVERGED_USER)
 
-    def solve(self, velocity: Any) -> DynamicsResult:
-        """Integrate from the problem's state with ``velocity`` (None: at rest)."""
+    def solve(self, velocity: Any, t0: float = 0.0) -> DynamicsResult:
+        """Integrate from the problem's state with ``velocity`` (None: at rest) at ``t0``."""
         if velocity is None:
             self.v0.set(0.0)
         else:
@@ -345,17 +355,20 @@ class _Integration:
             self.problem.zero_constrained(self.v0)
         self.ts = self.make_ts()
         self.ts.setSolution2(self.u0, self.v0)
-        self.record(0.0, self.u0, self.v0)
+        self.ts.setTime(t0)
+        self.record(t0, self.u0, self.v0)
         if self.monitor is not None:
-            self.monitor(0.0, self.problem, self.out.kinetic[-1])
+            self.monitor(float(t0), self.problem, self.out.kinetic[-1])
         self.ts.setPostStep(self.post_step)
         try:
             self.ts.solve(self.u0)
         finally:
             if int(self.ts.getConvergedReason()) < 0:
                 self.out.reason = "diverged"
-            u, _ = self.ts.getSolution2()
+            u, v = self.ts.getSolution2()
             self.set_state(u)
+            self.out.velocity = v.copy()
+            self.out.dt = float(self.ts.getTimeStep())
         return self.out
 
     def destroy(self) -> None:

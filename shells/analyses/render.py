@@ -1,11 +1,12 @@
 """Off-screen pictures of surface meshes and of the surface model's states, deformed and coloured
-by a field, with pyvista (PNG; the state also as VTU for ParaView) (output layer).
+by a field, with pyvista (PNG; the state also as VTU for ParaView), and of a surface deforming
+over time (``render_animation``: an animated GIF, written with Pillow) (output layer).
 
 One style for every 3D figure (``render_surface``; the benchmarks' renders use it too): the
 deformed shape itself, lit and smooth-shaded, the camera fitted to the whole shape and to the
 reference shape (drawn as a thin grey outline: its silhouette and rim), the white margins
 cropped, and a matplotlib colour bar beside it whose label names the field and its unit
-(``FIELD_LABELS``).
+(``FIELD_LABELS``). An animation's frames share one camera, colour range and crop.
 
 VTK needs an X display for OpenGL here; without one, a private Xvfb is started once per process
 (``xvfb`` is in the package list). Rendering happens on rank 0 from data gathered to it.
@@ -25,8 +26,8 @@ import numpy as np
 if TYPE_CHECKING:
     from shells.surface.mesh import ShellMesh
 
-__all__ = ["FIELD_LABELS", "ensure_display", "gather_vtk_mesh", "render_mesh", "render_state",
-           "render_surface"]
+__all__ = ["FIELD_LABELS", "ensure_display", "gather_fields", "gather_vtk_mesh",
+           "render_animation", "render_mesh", "render_state", "render_surface"]
 
 #: the colour bar's label of each field a state is coloured by: the quantity and its unit.
 #: Energies are the paper's dimensionless ones, 8(1-ν²)/(Eh) times the energy (the scaling of
@@ -45,6 +46,13 @@ DPI = 150
 SURFACE_COLOUR = "#8fb8de"
 REFERENCE_COLOUR = "#7f7f7f"
 REFERENCE_OPACITY = 0.15
+#: animations (``render_animation``): the window (pixels), the resolution (the figure's width
+#: as above) and speed
+ANIMATION_WINDOW = (800, 640)
+ANIMATION_DPI = 100
+ANIMATION_FPS = 10.0
+#: how long an animation's last frame stays, in seconds
+ANIMATION_HOLD = 1.5
 
 _xvfb: subprocess.Popen | None = None
 
@@ -274,6 +282,15 @@ def _figure(img: np.ndarray, png: str | os.PathLike, *, scalars: str | None,
             clim: tuple[float, float] | None, cmap: str, title: str | None,
             label: str | None) -> None:
     """The rendered image in a matplotlib figure with its colour bar and title, as PNG."""
+    fig = _compose(img, scalars=scalars, clim=clim, cmap=cmap, title=title, label=label,
+                   dpi=DPI)
+    fig.savefig(png, dpi=DPI, facecolor="white")
+
+
+def _compose(img: np.ndarray, *, scalars: str | None, clim: tuple[float, float] | None,
+             cmap: str, title: str | None, label: str | None, dpi: float,
+             interpolation: str = "lanczos") -> Any:
+    """The matplotlib figure of ``_figure``: its size depends on the image's aspect only."""
     import matplotlib.colors as mcolors
     from matplotlib import cm
     from matplotlib.figure import Figure
@@ -282,9 +299,9 @@ def _figure(img: np.ndarray, png: str | os.PathLike, *, scalars: str | None,
     bar = 0.9 if scalars is not None else 0.0
     width = FIGURE_WIDTH
     height = min(max((width - bar) * h_px / w_px + (0.45 if title else 0.15), 2.5), 7.5)
-    fig = Figure(figsize=(width, height), dpi=DPI, layout="constrained")
+    fig = Figure(figsize=(width, height), dpi=dpi, layout="constrained")
     ax = fig.add_subplot()
-    ax.imshow(img, interpolation="lanczos")
+    ax.imshow(img, interpolation=interpolation)
     ax.set_axis_off()
     if scalars is not None and clim is not None:
         mappable = cm.ScalarMappable(mcolors.Normalize(*clim), cmap)
@@ -295,7 +312,7 @@ def _figure(img: np.ndarray, png: str | os.PathLike, *, scalars: str | None,
         cb.update_ticks()
     if title:
         fig.suptitle(title, fontsize=10)
-    fig.savefig(png, dpi=DPI, facecolor="white")
+    return fig
 
 
 def render_mesh(sm: ShellMesh, png: str | os.PathLike, *, title: str | None = None) -> None:
@@ -312,6 +329,35 @@ def render_mesh(sm: ShellMesh, png: str | os.PathLike, *, title: str | None = No
     grid = _unstructured(data)
     render_surface(grid, png, edges=grid.extract_all_edges(), title=title, view="iso",
                    elevation=15.0, azimuth=0.0)
+
+
+def gather_fields(funcs: dict[str, Any]) -> Any:
+    """Functions on one Lagrange space (``FieldWriter.update``'s) as a pyvista grid on rank 0
+    (collective).
+
+    Args:
+        funcs: name -> dolfinx Function, all on the same mesh and nodes (vector ones of any
+            block size).
+
+    Returns:
+        On rank 0 an unstructured grid of the whole mesh, its points the nodes at their
+        reference positions, each function a point array of its name; None elsewhere.
+    """
+    local = {k: f.x.array.reshape(-1, f.function_space.dofmap.index_map_bs)
+             for k, f in funcs.items()}
+    V = next(iter(funcs.values())).function_space
+    n = next(iter(local.values())).shape[0]
+    stacked = np.concatenate([local[k].reshape(n, -1) for k in funcs], axis=1)
+    data = gather_vtk_mesh(V, stacked)
+    if data is None:
+        return None
+    grid, vals = _unstructured(data), data[3]
+    col = 0
+    for k in funcs:
+        width = local[k].reshape(n, -1).shape[1]
+        grid.point_data[k] = vals[:, col:col + width] if width > 1 else vals[:, col]
+        col += width
+    return grid
 
 
 def render_state(model: Any, png: str | os.PathLike | None, *, vtu: str | os.PathLike | None = None,
@@ -332,21 +378,9 @@ def render_state(model: Any, png: str | os.PathLike | None, *, vtu: str | os.Pat
     """
     from shells.surface.fields import FieldWriter
 
-    funcs = FieldWriter(model, None).update()
-    V = funcs["displacement"].function_space
-    local = {k: f.x.array.reshape(-1, f.function_space.dofmap.index_map_bs)
-             for k, f in funcs.items()}
-    n = local["displacement"].shape[0]
-    stacked = np.concatenate([local[k].reshape(n, -1) for k in funcs], axis=1)
-    data = gather_vtk_mesh(V, stacked)
-    if data is None:
+    grid = gather_fields(FieldWriter(model, None).update())
+    if grid is None:
         return
-    grid, vals = _unstructured(data), data[3]
-    col = 0
-    for k in funcs:
-        width = local[k].reshape(n, -1).shape[1]
-        grid.point_data[k] = vals[:, col:col + width] if width > 1 else vals[:, col]
-        col += width
     warped = grid.warp_by_vector("displacement", factor=1.0)
     if vtu is not None:
         Path(vtu).parent.mkdir(parents=True, exist_ok=True)
@@ -355,3 +389,115 @@ def render_state(model: Any, png: str | os.PathLike | None, *, vtu: str | os.Pat
         return
     render_surface(warped, png, scalars=color_by, title=title, view=view,
                    reference=grid if reference else None)
+
+
+def render_animation(grid: Any, frames: list[tuple[np.ndarray, np.ndarray, str]],
+                     path: str | os.PathLike, *, scalars: str, label: str | None = None,
+                     cmap: str | None = None, view: str = "xz", elevation: float = 25.0,
+                     azimuth: float = 30.0, fps: float = ANIMATION_FPS) -> int:
+    """Draw a deforming surface as an animated GIF in the renders' style (on the calling
+    process).
+
+    Every frame is drawn alike: the same camera (as ``render_surface``'s, fitted to the shape
+    in all the frames and to the reference), the same colour range (the field's over all the
+    frames), the reference shape as a thin grey outline, the same crop (the white margins of
+    all the frames), the frame's title above and the colour bar beside. The last frame stays
+    ``ANIMATION_HOLD`` seconds; the colours are one palette for all frames.
+
+    Args:
+        grid: the reference shape (a pyvista dataset; its points the reference positions).
+        frames: per frame (the displacement of each of ``grid``'s points, n × 3; the values
+            of the colouring field at them, n; the title), at least one.
+        path: the GIF file.
+        scalars: the colouring field's name (its label: ``FIELD_LABELS``).
+        label: the colour bar's label (default from ``scalars``).
+        cmap: a matplotlib colour map (default viridis).
+        view, elevation, azimuth: the camera, as ``render_surface``'s.
+        fps: frames per second.
+
+    Returns:
+        The number of frames written.
+    """
+    import io
+
+    import pyvista
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from PIL import Image
+
+    ensure_display()
+    pyvista.OFF_SCREEN = True
+    cmap = cmap or "viridis"
+    label = label or FIELD_LABELS.get(scalars, scalars.replace("_", " "))
+    clim = _colour_range(np.concatenate([np.ravel(c) for _, c, _ in frames]), False)
+    ref = _surface(grid)
+    x0 = np.asarray(grid.points)
+    lo = np.min([np.min(x0 + u, axis=0) for u, _, _ in frames], axis=0)
+    hi = np.max([np.max(x0 + u, axis=0) for u, _, _ in frames], axis=0)
+    bounds = np.column_stack([lo, hi]).ravel()
+    look = {"smooth_shading": True, "ambient": 0.2, "diffuse": 0.8, "specular": 0.15,
+            "specular_power": 20}
+
+    def shape(u: np.ndarray, c: np.ndarray) -> Any:
+        g = grid.copy()
+        g.points = x0 + u
+        g.point_data[scalars] = c
+        return _surface(g)
+
+    pl = pyvista.Plotter(off_screen=True, window_size=ANIMATION_WINDOW)
+    pl.set_background("white")
+    lines: list[tuple[Any, str, float]] = []
+    actor = pl.add_mesh(shape(*frames[0][:2]), scalars=scalars, cmap=cmap, clim=clim,
+                        show_scalar_bar=False, **look)
+    bounds = _with_reference(pl, ref, bounds, False, lines)
+    pl.camera_position = view
+    pl.camera.elevation = elevation
+    pl.camera.azimuth = azimuth
+    pl.reset_camera(bounds=bounds)
+    _add_silhouette(pl, ref, lines)
+    _add_lines(pl, lines, bounds)
+    # the screenshots (kept compressed), and the box holding the ink of them all
+    shots, box = [], None
+    for k, (u, c, _) in enumerate(frames):
+        if k:
+            pl.remove_actor(actor, render=False)
+            actor = pl.add_mesh(shape(u, c), scalars=scalars, cmap=cmap, clim=clim,
+                                show_scalar_bar=False, reset_camera=False, render=False,
+                                **look)
+        img = pl.screenshot(return_img=True)
+        ink = np.any(img[..., :3] < 250, axis=-1)
+        rows, cols = np.flatnonzero(ink.any(axis=1)), np.flatnonzero(ink.any(axis=0))
+        if rows.size:
+            b = (rows[0], rows[-1], cols[0], cols[-1])
+            box = b if box is None else (min(box[0], b[0]), max(box[1], b[1]),
+                                         min(box[2], b[2]), max(box[3], b[3]))
+        buf = io.BytesIO()
+        Image.fromarray(img[..., :3]).save(buf, format="PNG", compress_level=1)
+        shots.append(buf.getvalue())
+    pl.close()
+    images = []
+    for shot, (_, _, title) in zip(shots, frames, strict=True):
+        img = np.asarray(Image.open(io.BytesIO(shot)).convert("RGB"))
+        if box is not None:
+            pad = int(0.03 * max(img.shape[:2]))
+            img = img[max(box[0] - pad, 0):box[1] + pad + 1, max(box[2] - pad, 0):box[3] + pad + 1]
+        fig = _compose(img, scalars=scalars, clim=clim, cmap=cmap, title=title, label=label,
+                       dpi=ANIMATION_DPI, interpolation="antialiased")
+        canvas = FigureCanvasAgg(fig)
+        fig.set_facecolor("white")
+        canvas.draw()
+        images.append(Image.fromarray(np.asarray(canvas.buffer_rgba())[..., :3].copy()))
+    # one palette for all frames (from a strip of up to 8 of them): colours stay put
+    sample = images[:: max(1, len(images) // 8)][:8]
+    strip = Image.new("RGB", (sample[0].width, sample[0].height * len(sample)))
+    for k, im in enumerate(sample):
+        strip.paste(im, (0, k * im.height))
+    palette = strip.quantize(colors=256)
+    colours = np.array(palette.getpalette()[:768], dtype=int).reshape(-1, 3)
+    colours[np.argmin(np.abs(colours - 255).sum(axis=1))] = 255  # the background white
+    palette.putpalette(colours.astype(np.uint8).ravel().tolist())
+    frames_p = [im.quantize(palette=palette, dither=Image.Dither.NONE) for im in images]
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    step_ms = int(round(1000.0 / fps))
+    frames_p[0].save(path, save_all=True, append_images=frames_p[1:], loop=0,
+                     duration=[step_ms] * (len(frames_p) - 1) + [int(1000 * ANIMATION_HOLD)])
+    return len(frames_p)

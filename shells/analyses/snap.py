@@ -13,17 +13,26 @@ axisymmetric everted state at the same κ (Newton from the shell mirrored throug
 continued in κ from half the fold's κ).
 
 With ``method="dynamics"`` the start is integrated in time instead (``snap_dynamics``: the
-equations of motion with mass-proportional damping, TSALPHA2, fixed steps) until the kinetic
+equations of motion with mass-proportional damping, TSALPHA2, adaptive steps no shorter than
+``DT_STEP``) until the kinetic
 energy has fallen to ``REST_FRACTION`` of its peak; the rest state is then polished by the same
 minimiser (it lies in the minimum's basin: the polish changes its energy by the residual motion
 only), and ``snap_time`` is when the pole's displacement crosses halfway from the start's to
 the rest state's.
 
-Output folder (rank 0 writes): ``snap.json`` (the result), ``snap_series.csv`` (dynamics),
-``landing.png`` and ``landing.vtu`` (the landing shape coloured by the bending energy density),
-``everted.png``, and
-``checkpoint/`` (the fold's state, the rest state of the dynamics, then the minimiser's iterate
-every ``SAVE_EVERY`` iterations): a rerun of the same configuration resumes from the latest.
+The dynamics run in segments of ``DYNAMICS_SAVE_EVERY`` steps, each checkpointed (state,
+velocity, time, the series so far): a rerun continues from the latest and takes the very steps
+the run would have taken. Every k-th step's state is kept as a frame (k doubled whenever more
+than ``FRAMES_MAX`` would be kept), and the last step's.
+
+Output folder (rank 0 writes): ``snap.json`` (the result), ``landing.png`` and ``landing.vtu``
+(the landing shape coloured by the bending energy density), ``everted.png``, with dynamics
+``snap_series.csv`` (one row per step), ``snap.bp`` (VTX, the ``FieldWriter`` fields at each
+frame, time in units of R √(ρ/E)) and ``snap.gif`` (at most ``ANIMATION_FRAMES`` of the
+frames, one colour range for all), and ``checkpoint/`` (the fold's state, the dynamics' state
+every ``DYNAMICS_SAVE_EVERY`` steps with their frames so far, the rest state of the dynamics,
+then the minimiser's iterate every ``SAVE_EVERY`` iterations): a rerun of the same
+configuration resumes from the latest.
 """
 
 from __future__ import annotations
@@ -31,8 +40,10 @@ from __future__ import annotations
 import json
 import logging
 import math
+import shutil
 import time
-from dataclasses import asdict, dataclass
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -43,8 +54,10 @@ from shells.errors import InputError
 from shells.files import json_default, write_atomic
 from shells.parameters import check_h_over_r, check_nu
 
-__all__ = ["DAMPING", "METHODS", "REST_FRACTION", "SAVE_EVERY", "SERIES_COLUMNS",
-           "SYMMETRY_TOL", "SnapConfig", "classify_landing", "run", "snap_dynamics"]
+__all__ = ["ANIMATION_FIELD", "ANIMATION_FRAMES", "DAMPING", "DYNAMICS_SAVE_EVERY",
+           "FRAMES_MAX", "METHODS", "REST_FRACTION", "SAVE_EVERY", "SERIES_COLUMNS",
+           "SYMMETRY_TOL", "DynamicsProgress", "SnapConfig", "classify_landing", "run",
+           "snap_dynamics"]
 
 log = logging.getLogger("shells")
 
@@ -70,6 +83,17 @@ DT_STEP = 0.05
 STEP_TOL: float | None = 1.0e-4  # None: fixed steps of DT_STEP
 RHO_INF = 0.5
 T_MAX = 5000.0
+#: dynamics: the run's progress is checkpointed every this many steps (state, velocity, time,
+#: the series so far), and its time stepper starts afresh there (``integrate`` in segments), so
+#: a rerun that continues from a checkpoint takes the very steps of a run that was never stopped
+DYNAMICS_SAVE_EVERY = 100
+#: dynamics: at most this many frames of the motion go into ``snap.bp`` (every k-th step from
+#: the start, k doubled whenever more would be kept), and the last step
+FRAMES_MAX = 200
+#: dynamics: at most this many of those frames (evenly spaced, and the last) go into ``snap.gif``
+ANIMATION_FRAMES = 100
+#: the field that colours ``snap.gif`` (as ``landing.png``)
+ANIMATION_FIELD = "bending_energy_density"
 
 
 @dataclass(frozen=True)
@@ -184,61 +208,156 @@ SERIES_COLUMNS = ("time", "kinetic", "elastic", "psi3_pole_over_h", "rim_rotatio
                   "amp_m1", "amp_m2", "amp_m3", "amp_m4")
 
 
-def snap_dynamics(model: Any, damping: float, t_max: float = T_MAX,
+@dataclass
+class DynamicsProgress:
+    """A dynamics run so far (``snap_dynamics``): with the model's state, what its checkpoint
+    holds and a continued run starts from.
+
+    Attributes:
+        rows: the series so far (``SERIES_COLUMNS``), one row per accepted step from the start
+            (step 0); the last row is the current state's.
+        t: the time reached, in the model's units (the last row's time, unrounded).
+        dt: the time step the run takes next, in the model's units (the adaptive step's
+            proposal; None: ``DT_STEP``).
+        velocity: the velocity at ``t``, this rank's owned values (None: at rest).
+        frames: the steps kept as frames so far (multiples of ``frame_every``, at most
+            ``FRAMES_MAX``).
+        frame_every: the frames' stride k (a power of 2).
+    """
+
+    rows: list[list[float]] = field(default_factory=list)
+    t: float = 0.0
+    dt: float | None = None
+    velocity: np.ndarray | None = None
+    frames: list[int] = field(default_factory=list)
+    frame_every: int = 1
+
+    @property
+    def steps(self) -> int:
+        """The accepted steps so far."""
+        return max(len(self.rows) - 1, 0)
+
+    def take_frame(self, step: int) -> bool:
+        """Whether ``step`` (the next accepted one) is kept as a frame: a multiple of the
+        stride, the stride doubled first (and the frames off it dropped) when the frames are
+        full. Records it when so."""
+        if step % self.frame_every:
+            return False
+        if len(self.frames) >= FRAMES_MAX:
+            self.frame_every *= 2
+            self.frames = [s for s in self.frames if s % self.frame_every == 0]
+            if step % self.frame_every:
+                return False
+        self.frames.append(step)
+        return True
+
+
+def snap_dynamics(model: Any, damping: float, t_max: float | None = None, *,
+                  resume: DynamicsProgress | None = None,
+                  save: Callable[[DynamicsProgress], None] | None = None,
+                  keep_frame: Callable[[int, Any], None] | None = None,
                   step_tol: float | None = None) -> dict[str, Any]:
     """Integrate the equations of motion from the model's state at its κ, at rest, to rest
     (collective).
 
     Mass-proportional damping C = α M (``damping``), TSALPHA2 with ρ∞ = ``RHO_INF``, adaptive
-    steps (the least ``DT_STEP``, tolerance ``STEP_TOL``). At rest: the kinetic energy below
-    ``REST_FRACTION`` of its peak, after the peak.
+    steps (the least ``DT_STEP``, tolerance ``STEP_TOL``), in segments of
+    ``DYNAMICS_SAVE_EVERY`` steps (each a fresh ``integrate`` from the last one's state,
+    velocity, time and next step: the kinetic mass and the start acceleration computed there).
+    At rest: the kinetic energy below ``REST_FRACTION`` of its peak, after the peak.
 
     Args:
-        model: the surface model, its state the (perturbed) start; left at the final state.
+        model: the surface model, its state the (perturbed) start, or ``resume``'s state;
+            left at the final state.
         damping: α, in units √(E/ρ)/R (0: none).
-        t_max: the run stops at this time if not at rest before.
+        t_max: the run stops at this time if not at rest before (None: ``T_MAX``).
+        resume: the progress of a run to continue (its checkpoint's; the model at its state):
+            the run goes on as if it had never stopped. None: from the start, at rest.
+        save: called with the progress at the end of every segment that does not end the run
+            (the model at its state): a checkpoint.
+        keep_frame: called as ``keep_frame(step, model)`` at each step kept as a frame (the
+            model at its state; ``DynamicsProgress.take_frame``).
         step_tol: the adaptive steps' tolerance (None: ``STEP_TOL``).
 
     Returns:
-        ``series`` (one row per accepted step, ``SERIES_COLUMNS``), ``reason`` ("rest" or
+        ``series`` (one row per accepted step, ``SERIES_COLUMNS``), ``frame_steps`` (the
+        steps kept as frames, and the last step), ``frame_every``, ``reason`` ("rest" or
         "time"), ``steps``, ``snap_time`` (the time at which Ψ3 at the pole crosses halfway
         from its start value to its final one, linearly interpolated; None where it does not
         move by 1e-3 h), ``kinetic_peak_time``, ``rest_energy`` (the elastic energy at the
         end), ``damping``.
+
+    Raises:
+        RuntimeError: the time integration diverged.
     """
     from shells.algorithms.dynamics import integrate
     from shells.algorithms.settings import DynamicsSettings
     from shells.geometry.shapes import kappa_length
 
     tscale = kappa_length(model.shape)  # R √(ρ/E) in the model's units (E = ρ = 1)
-    rows: list[list[float]] = []
+    prog = resume if resume is not None else DynamicsProgress()
+    if prog.dt is None:
+        prog.dt = DT_STEP * tscale
+    rows = prog.rows
     peak = {"k": 0.0, "passed": False}
 
-    def monitor(t: float, p: Any, kinetic: float) -> bool:
-        s = p.scalars()
-        power = p.azimuthal_spectrum(p.state, m_max=4)
-        amp = np.sqrt(power / max(float(power[0]), 1e-300))
-        rows.append([t / tscale, kinetic, s["energy"], s.get("psi3_pole_over_h", math.nan),
-                     s.get("rim_rotation_deg", math.nan), *(float(a) for a in amp[1:5])])
-        if len(rows) % 100 == 0:
-            log.info("snap: dynamics step %d, t = %.5g, kinetic %.3g, psi3(pole)/h %.4f",
-                     len(rows) - 1, rows[-1][0], kinetic, rows[-1][3])
+    def at_rest(kinetic: float) -> bool:
         if kinetic > peak["k"]:
             peak["k"] = kinetic
         elif kinetic < 0.5 * peak["k"]:
             peak["passed"] = True
         return peak["passed"] and kinetic < REST_FRACTION * peak["k"]
 
+    for r in rows:  # a continued run's peak, as the run so far had it
+        at_rest(r[1])
+    segment_start = {"skip": False}
+
+    def monitor(t: float, p: Any, kinetic: float) -> bool:
+        if segment_start["skip"]:  # a continued segment's start: the last row's state
+            segment_start["skip"] = False
+            return False
+        s = p.scalars()
+        power = p.azimuthal_spectrum(p.state, m_max=4)
+        amp = np.sqrt(power / max(float(power[0]), 1e-300))
+        rows.append([t / tscale, kinetic, s["energy"], s.get("psi3_pole_over_h", math.nan),
+                     s.get("rim_rotation_deg", math.nan), *(float(a) for a in amp[1:5])])
+        step = len(rows) - 1
+        if prog.take_frame(step) and keep_frame is not None:
+            keep_frame(step, p)
+        if len(rows) % 100 == 0:
+            log.info("snap: dynamics step %d, t = %.5g, kinetic %.3g, psi3(pole)/h %.4f",
+                     step, rows[-1][0], kinetic, rows[-1][3])
+        return at_rest(kinetic)
+
+    t_max = T_MAX if t_max is None else t_max
     tol = step_tol if step_tol is not None else STEP_TOL
-    st = DynamicsSettings(t_end=t_max * tscale, dt=DT_STEP * tscale, rho_inf=RHO_INF,
-                          adaptive=tol is not None, step_tol=tol or 1.0e-4,
-                          dt_min=DT_STEP * tscale,
-                          mass_damping=damping / tscale,
-                          max_steps=1000000)
-    res = integrate(model, st, monitor=monitor)
-    if res.reason == "diverged":
-        raise RuntimeError(f"the time integration diverged at t = {rows[-1][0]:.4g} R sqrt("
-                           "rho/E)")
+    dt_min = DT_STEP * tscale
+
+    def settings() -> Any:
+        """A segment's: from the step the last one would have taken next."""
+        return DynamicsSettings(t_end=t_max * tscale, dt=max(prog.dt, dt_min), rho_inf=RHO_INF,
+                                adaptive=tol is not None, step_tol=tol or 1.0e-4,
+                                dt_min=dt_min, mass_damping=damping / tscale,
+                                max_steps=DYNAMICS_SAVE_EVERY)
+
+    velocity = None
+    if prog.velocity is not None:
+        velocity = model.create_vector()
+        velocity.array_w[:] = prog.velocity[:velocity.getLocalSize()]
+    while True:
+        segment_start["skip"] = bool(rows)
+        st = settings()
+        res = integrate(model, st, velocity=velocity, monitor=monitor, t0=prog.t)
+        if res.reason == "diverged":
+            raise RuntimeError(f"the time integration diverged at t = {rows[-1][0]:.4g} R "
+                               "sqrt(rho/E)")
+        prog.t, prog.dt = res.times[-1], res.dt
+        velocity = res.velocity
+        if res.reason == "monitor" or prog.t >= st.t_end * (1 - 1e-12):
+            break
+        prog.velocity = velocity.array_r.copy()
+        if save is not None:
+            save(prog)
     a = np.array(rows)
     t, x = a[:, 0], a[:, 3]
     half = 0.5 * (x[0] + x[-1])
@@ -247,8 +366,11 @@ def snap_dynamics(model: Any, damping: float, t_max: float = T_MAX,
         side = np.sign(x - half) != np.sign(x[0] - half)
         i = int(np.argmax(side))
         snap_time = float(t[i - 1] + (half - x[i - 1]) / (x[i] - x[i - 1]) * (t[i] - t[i - 1]))
-    return {"series": rows, "reason": "rest" if res.reason == "monitor" else res.reason,
-            "steps": res.steps, "snap_time": snap_time,
+    steps = len(rows) - 1
+    frames = prog.frames + ([steps] if not prog.frames or prog.frames[-1] != steps else [])
+    return {"series": rows, "frame_steps": frames, "frame_every": prog.frame_every,
+            "reason": "rest" if res.reason == "monitor" else res.reason,
+            "steps": steps, "snap_time": snap_time,
             "kinetic_peak_time": float(t[int(np.argmax(a[:, 1]))]),
             "rest_energy": float(a[-1, 2]), "damping": damping, "step_tol": tol}
 
@@ -361,14 +483,21 @@ class _SnapRun:
         self.header = json.loads(json.dumps(cfg.describe(), default=json_default))
         self.meta: dict[str, Any] = {}
         self.unstable: list[dict[str, Any]] | None = None
+        # a resumed dynamics checkpoint's velocity and series (``DynamicsProgress``)
+        self.resumed: dict[str, np.ndarray] = {}
+        self.files: dict[str, str] = {}
+        self.kappa = 0.0
 
-    def save(self, index: int, w: np.ndarray, stage: str, **extra: Any) -> None:
-        """Checkpoint the state ``w`` at ``stage`` (with the run's meta and ``extra``)."""
+    def save(self, index: int, w: np.ndarray, stage: str, states: dict[str, np.ndarray]
+             | None = None, scalars: dict[str, np.ndarray] | None = None,
+             **extra: Any) -> None:
+        """Checkpoint the state ``w`` at ``stage`` (with the run's meta and ``extra``; other
+        ``states`` beside it, this rank's ``scalars``: rank 0's are the ones read back)."""
         from shells.analyses.store import save_state_checkpoint
 
         if self.ck is not None:
-            save_state_checkpoint(self.ck, self.model, index, {"w": w},
-                                  meta={**self.meta, "stage": stage, **extra})
+            save_state_checkpoint(self.ck, self.model, index, {"w": w, **(states or {})},
+                                  scalars=scalars, meta={**self.meta, "stage": stage, **extra})
 
     def start(self, resume: bool) -> float:
         """The start: the checkpoint's state, or the fold's (followed to); sets the state and
@@ -384,10 +513,13 @@ class _SnapRun:
             # the checkpoint's own bookkeeping (its index, its ranks) is not carried forward
             self.meta = {k: v for k, v in got[0].items() if k not in ("index", "ranks")}
             w = got[1]["w"]
+            self.resumed = {k: v for k, v in {**got[1], **got[2]}.items() if k != "w"}
+            self.files = dict(self.meta.get("files", {}))
             log.info("snap: resuming from the checkpoint (%s)", self.meta["stage"])
         else:
             log.info("snap: %s, %d DOFs: following the fundamental branch to its snap fold",
                      cfg.shape.describe(), self.model.num_dofs())
+            self._clear_frames()
             kappa_fold, w, cps = _to_fold(self.model, cfg, R)
             self.meta = {"header": self.header, "kappa_fold": kappa_fold,
                          "critical_points": cps, "stage": "fold"}
@@ -408,22 +540,160 @@ class _SnapRun:
         return kappa
 
     def integrate(self, kappa: float) -> dict[str, Any] | None:
-        """The dynamics to rest (``method`` "dynamics", unless a checkpoint has them)."""
+        """The dynamics to rest (``method`` "dynamics", unless a checkpoint has them), from
+        the start or from the checkpoint of a run under way; then ``snap_series.csv``,
+        ``snap.bp`` and ``snap.gif``."""
         dyn = self.meta.get("dynamics")
         if self.cfg.method != "dynamics" or dyn is not None:
             return dyn
+        self.kappa = kappa
         damping = DAMPING if self.cfg.damping is None else self.cfg.damping
-        log.info("snap: integrating in time from kappa R = %.6f, damping %g", kappa * self.R,
-                 damping)
-        dyn = snap_dynamics(self.model, damping, step_tol=self.cfg.step_tol)
-        rows = dyn.pop("series")
-        if self.out is not None and self.comm.rank == 0:
-            _write_series(self.out / "snap_series.csv", rows)
+        prog = self._progress()
+        if prog is None:
+            log.info("snap: integrating in time from kappa R = %.6f, damping %g",
+                     kappa * self.R, damping)
+        else:
+            log.info("snap: integrating in time from step %d (t = %.5g), damping %g",
+                     prog.steps, prog.rows[-1][0], damping)
+        dyn = snap_dynamics(self.model, damping, resume=prog, save=self._save_progress,
+                            keep_frame=self._keep_frame if self.ck is not None else None,
+                            step_tol=self.cfg.step_tol)
+        rows, frames = dyn.pop("series"), dyn.pop("frame_steps")
+        dyn["frames"], dyn["animation_frames"] = 0, 0
+        if self.out is not None:
+            if self.comm.rank == 0:
+                _write_series(self.out / "snap_series.csv", rows)
+            self.files["series"] = "snap_series.csv"
+            dyn["frames"], dyn["animation_frames"] = self._motion(rows, frames)
         log.info("snap: %s after %d steps, snap time %s, rest energy %.10g", dyn["reason"],
                  dyn["steps"], dyn["snap_time"], dyn["rest_energy"])
-        self.meta = {**self.meta, "dynamics": dyn, "unstable": self.unstable}
+        self.meta = {k: v for k, v in self.meta.items() if k != "progress"}
+        self.meta.update(dynamics=dyn, unstable=self.unstable, files=self.files)
         self.save(1, self.model.state.array_r.copy(), "dynamics")
+        self._clear_frames()
         return dyn
+
+    def _progress(self) -> DynamicsProgress | None:
+        """The progress of the checkpoint's dynamics under way (None: none, or not whole)."""
+        p = self.meta.get("progress")
+        if p is None:
+            return None
+        series, v = self.resumed.get("series"), self.resumed.get("v")
+        if series is None or v is None:
+            log.info("snap: the checkpoint's dynamics lack their series or velocity: "
+                     "integrating from the start")
+            return None
+        rows = np.asarray(series, dtype=float).reshape(-1, len(SERIES_COLUMNS)).tolist()
+        return DynamicsProgress(rows=rows, t=p["t"], dt=p["dt"], velocity=v,
+                                frames=list(p["frames"]), frame_every=p["frame_every"])
+
+    def _save_progress(self, prog: DynamicsProgress) -> None:
+        """Checkpoint the dynamics under way (``snap_dynamics``' ``save``), then remove the
+        frames it no longer keeps."""
+        progress = {"t": prog.t, "dt": prog.dt, "frames": prog.frames,
+                    "frame_every": prog.frame_every, "steps": prog.steps}
+        self.save(prog.steps, self.model.state.array_r.copy(), f"dynamics {prog.steps}",
+                  states={"v": prog.velocity},
+                  scalars={"series": np.asarray(prog.rows, dtype=float).ravel()}
+                  if self.comm.rank == 0 else None,
+                  progress=progress, unstable=self.unstable)
+        self._clear_frames(keep=prog.frames)
+
+    def _frames_dir(self) -> Path | None:
+        """Where the frames of the dynamics under way are kept (in the checkpoint)."""
+        return self.ck / "frames" if self.ck is not None else None
+
+    def _keep_frame(self, step: int, model: Any) -> None:
+        """Keep the model's state as the frame of ``step`` (``snap_dynamics``' ``keep_frame``):
+        a checkpoint of its own, read back on any partition."""
+        from shells.analyses.store import save_state_checkpoint
+
+        save_state_checkpoint(self._frames_dir() / str(step), model, step,
+                              {"w": model.state.array_r})
+
+    def _clear_frames(self, keep: list[int] | None = None) -> None:
+        """Remove the kept frames but those of the steps ``keep`` (collective; rank 0 does)."""
+        d = self._frames_dir()
+        if d is None:
+            return
+        if self.comm.rank == 0 and d.is_dir():
+            names = {str(s) for s in keep or ()}
+            for f in d.iterdir():
+                if f.name in names:
+                    continue
+                if f.is_dir():
+                    shutil.rmtree(f, ignore_errors=True)
+                else:
+                    f.unlink(missing_ok=True)
+        self.comm.barrier()
+
+    def _motion(self, rows: list[list[float]], frames: list[int]) -> tuple[int, int]:
+        """``snap.bp`` (the fields at each frame, time in units of R √(ρ/E)) and, where asked,
+        ``snap.gif`` (at most ``ANIMATION_FRAMES`` of them, and the last); the model is left at
+        its (final) state. Returns the frame counts of the two (collective)."""
+        from shells.analyses.store import load_state_checkpoint
+        from shells.problem.interface import set_state
+        from shells.surface.fields import FieldWriter
+
+        final = self.model.state.array_r.copy()
+        bp = self.out / "snap.bp"
+        if self.comm.rank == 0 and bp.exists():
+            shutil.rmtree(bp)
+        self.comm.barrier()
+        every = max(1, math.ceil(len(frames) / ANIMATION_FRAMES))
+        drawn = set(frames[::every]) | {frames[-1]} if self.render else set()
+        writer = FieldWriter(self.model, bp)
+        reference, animation = None, []
+        written = 0
+        try:
+            for step in frames:
+                if step == frames[-1]:
+                    w = final
+                else:
+                    got = load_state_checkpoint(self._frames_dir() / str(step), self.model,
+                                                ("w",))
+                    if got is None:
+                        log.info("snap: the frame of step %d is missing: left out", step)
+                        continue
+                    w = got[1]["w"]
+                set_state(self.model, w)
+                t = rows[step][0]
+                funcs = writer.write(t)
+                written += 1
+                if step in drawn:
+                    grid, frame = self._gather_frame(funcs, t)
+                    reference = reference if reference is not None else grid
+                    animation.append(frame)
+        finally:
+            writer.close()
+            set_state(self.model, final)
+        self.files["fields"] = "snap.bp"
+        log.info("snap: %d frames of the motion in %s", written, bp)
+        if not self.render:
+            return written, 0
+        if self.comm.rank == 0:
+            from shells.analyses.render import render_animation
+
+            render_animation(reference, animation, self.out / "snap.gif",
+                             scalars=ANIMATION_FIELD)
+        self.comm.barrier()
+        self.files["animation"] = "snap.gif"
+        return written, len(animation)
+
+    def _gather_frame(self, funcs: dict[str, Any], t: float
+                      ) -> tuple[Any, tuple[np.ndarray, np.ndarray, str]]:
+        """The fields ``funcs`` of the frame at ``t``, gathered to rank 0 for the animation:
+        (the reference grid, (the displacement, ``ANIMATION_FIELD``, the title)); (None, empty
+        arrays) elsewhere (collective)."""
+        from shells.analyses.render import gather_fields
+
+        grid = gather_fields(funcs)
+        if grid is None:
+            return None, (np.empty(0), np.empty(0), "")
+        title = (f"snap, $\\kappa R$ = {self.kappa * self.R:.4f}: $t$ = {t:.4g} "
+                 "$R\\sqrt{\\rho/E}$")
+        return grid, (np.array(grid.point_data["displacement"]),
+                      np.array(grid.point_data[ANIMATION_FIELD]), title)
 
     def monitor(self, tao: Any) -> None:
         """The minimiser's progress and checkpoints, every ``SAVE_EVERY`` iterations."""
@@ -474,6 +744,9 @@ class _SnapRun:
 
         render_state(model, self.out / f"{name}.png",
                      vtu=self.out / f"{name}.vtu" if vtu else None, title=title)
+        self.files[f"{name}_image"] = f"{name}.png"
+        if vtu:
+            self.files[f"{name}_fields"] = f"{name}.vtu"
 
     def result(self, kappa: float, landing: dict[str, Any], ev: dict[str, Any],
                dyn: dict[str, Any] | None) -> dict[str, Any]:
@@ -485,7 +758,9 @@ class _SnapRun:
                   "snap_time": None if dyn is None else dyn["snap_time"], "dynamics": dyn,
                   "critical_points": self.meta["critical_points"],
                   "dofs": self.model.num_dofs(), "mesh": self.mesh, "config": self.header,
-                  "wall_time": time.perf_counter() - self.t0}
+                  "wall_time": time.perf_counter() - self.t0,
+                  "files": {"result": "snap.json", **self.files} if self.out is not None
+                  else {}}
         if self.out is not None and self.comm.rank == 0:
             write_atomic(self.out / "snap.json",
                          json.dumps(result, indent=1, default=json_default))
@@ -499,7 +774,8 @@ def run(cfg: SnapConfig, outdir: str | Path | None = None, *, render: bool = Tru
     Args:
         cfg: the shell and the run's settings.
         outdir: the output folder (None: nothing written or resumed).
-        render: draw ``landing.png`` and ``everted.png`` (needs pyvista).
+        render: draw ``landing.png``, ``everted.png`` and (dynamics) ``snap.gif`` (needs
+            pyvista).
         resume: resume from ``outdir/checkpoint`` when it is of the same configuration.
 
     Returns:
@@ -508,9 +784,13 @@ def run(cfg: SnapConfig, outdir: str | Path | None = None, *, render: bool = Tru
         ``iterations``, ``converged``), ``axisymmetric_everted`` ({"energy",
         "negative_count", "rim_rotation_deg"}), ``snap_time`` (None: minimisation has no
         time; dynamics: ``snap_dynamics``' in units of R √(ρ/E)), ``dynamics``
-        (``snap_dynamics``' result without its series; None for minimisation; the landing then
-        carries ``rest_energy``, the energy at rest before the polish), ``critical_points``,
-        ``dofs``, ``mesh``, ``wall_time``.
+        (``snap_dynamics``' result without its series and frame steps, with ``frames`` and
+        ``animation_frames``, the frame counts of ``snap.bp`` and ``snap.gif``, 0 where not
+        written; None for minimisation; the landing then carries ``rest_energy``, the energy
+        at rest before the polish), ``critical_points``, ``dofs``, ``mesh``, ``wall_time``,
+        ``files`` (the output folder's files of this run by what they are: "result",
+        "series", "fields" (``snap.bp``), "animation" (``snap.gif``), "landing_image",
+        "landing_fields", "everted_image"; empty without a folder).
 
     Raises:
         InputError: no fold in the range, or κ_start not past the fold.

@@ -208,8 +208,10 @@ def snap(shell: Shell, *, past: float = 0.01, kappa_R: float | None = None,
         kappa_R: κR of the landing instead (past the fold).
         method: ``"minimise"`` or ``"dynamics"``.
         outdir: a folder for ``snap.json``, the renders, the checkpoint and (dynamics)
-            ``snap_series.csv`` (None: none).
-        render: draw the landing and everted states (with ``outdir``).
+            ``snap_series.csv``, ``snap.bp`` (the fields over time for ParaView) and
+            ``snap.gif`` (None: none).
+        render: draw the landing and everted states and (dynamics) the animation (with
+            ``outdir``).
         **options: ``SnapConfig`` numerics (``amplitude``, ``kappa_R_max``, ``size``,
             ``degree``, ``layer_elements``, ``shear_penalty``, ``damping``: dynamics' α of
             C = α M in units √(E/ρ)/R, ``step_tol``: dynamics' adaptive step tolerance).

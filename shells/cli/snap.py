@@ -16,10 +16,13 @@ JSON (last line with --json): ``start`` {``kappa_R``, ``kind``, ``kappa_fold_R``
 {``energy``, ``negative_count``, ``rim_rotation_deg``}, ``snap_time`` (null for minimisation;
 in units of R √(ρ/E)), ``dynamics`` (null for minimisation; ``reason``, ``steps``,
 ``snap_time``, ``kinetic_peak_time``, ``rest_energy``, ``damping``; ``landing.rest_energy`` is
-the energy at rest before the polish), ``critical_points``, ``dofs``, ``mesh``. With -o DIR:
-snap.json, landing.png/.vtu, everted.png, snap_series.csv (dynamics: time, kinetic and elastic
-energy, Ψ3 at the pole, rim rotation, m = 1..4 amplitudes) and a checkpoint a rerun resumes
-from.
+the energy at rest before the polish; ``frames``, ``animation_frames``, ``frame_every``: what
+snap.bp and snap.gif hold), ``critical_points``, ``dofs``, ``mesh``, ``files`` (each file
+written, by what it is). With -o DIR: snap.json, landing.png/.vtu, everted.png, and with
+dynamics snap_series.csv (one row per time step: time, kinetic and elastic energy, Ψ3 at the
+pole, rim rotation, m = 1..4 amplitudes), snap.bp (the fields over time for ParaView, VTX:
+every k-th step, at most 200, and the last) and snap.gif (the animation, at most 100 frames;
+not with --no-render); and a checkpoint a rerun resumes from (the dynamics every 100 steps).
 """
 
 from __future__ import annotations
@@ -63,9 +66,11 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
                    default=None, help="search the fold up to this kappa R (default 2 thetabar + 6)")
     common.add_mesh_size_args(p, None, "bulk element size / R (default: as `shells critical`)")
     common.add_degree_arg(p)
-    p.add_argument("--no-render", action="store_true", help="no landing.png / everted.png")
+    p.add_argument("--no-render", action="store_true",
+                   help="no landing.png / everted.png / snap.gif")
     p.add_argument("-o", "--output", default=None,
-                   help="directory: snap.json, landing.png/.vtu, everted.png, checkpoint/")
+                   help="directory: snap.json, landing.png/.vtu, everted.png, checkpoint/; "
+                   "dynamics: snap_series.csv, snap.bp (fields over time, ParaView), snap.gif")
     common.add_json(p)
     p.set_defaults(func=_cmd_snap, model="surface")
     return p

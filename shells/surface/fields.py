@@ -70,10 +70,12 @@ class FieldWriter:
             f.interpolate(e)
         return {f.name: f for f, _ in self._exprs}
 
-    def write(self, t: float) -> None:
-        """Write the fields of the model's current state as the time step ``t``."""
-        self.update()
+    def write(self, t: float) -> dict[str, Any]:
+        """Write the fields of the model's current state as the time step ``t`` (collective);
+        returns them as ``update`` does."""
+        funcs = self.update()
         self.writer.write(t)
+        return funcs
 
     def close(self) -> None:
         """Close the file."""

@@ -6,7 +6,11 @@ after the other and are merged into the JSON as they finish (a rerun skips the f
 and resumes an unfinished one from its checkpoint). Prints a table.
 
     scripts/in-env python3 benchmarks/snap_landing.py [--ranks N] [--past P] [--size S]
-        [--layer-elements L] [THETABAR ...]   (default: 2.5 3 3.5 4 4.5 5 6)
+        [--layer-elements L] [--degree D] [THETABAR ...]   (default: 2.5 3 3.5 4 4.5 5 6)
+
+The shallowest caps need a finer mesh than the others: θ̄ = 2.5 lands with spurious m = 8
+rim wrinkles at size 0.35 R (P2) and 0.1 R (P2 or P3, 2 elements across √(Rh)), symmetric on
+the everted state at 0.05 R, P3, 4 elements (``--size 0.05 --layer-elements 4 --degree 3``).
 """
 
 from __future__ import annotations
@@ -32,6 +36,8 @@ def run_case(tb: float, a: argparse.Namespace) -> dict:
         cmd += ["--size", str(a.size)]
     if a.layer_elements is not None:
         cmd += ["--layer-elements", str(a.layer_elements)]
+    if a.degree is not None:
+        cmd += ["--degree", str(a.degree)]
     t0 = time.perf_counter()
     out = subprocess.run(cmd, capture_output=True, text=True)
     if out.returncode != 0:
@@ -66,6 +72,7 @@ def main() -> None:
     ap.add_argument("--past", type=float, default=0.01)
     ap.add_argument("--size", type=float, default=None)
     ap.add_argument("--layer-elements", type=float, default=None)
+    ap.add_argument("--degree", type=int, default=None)
     ap.add_argument("--out", default=str(OUT / "snap_landing.json"))
     a = ap.parse_args()
     path = Path(a.out)

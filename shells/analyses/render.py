@@ -421,7 +421,6 @@ def render_animation(grid: Any, frames: list[tuple[np.ndarray, np.ndarray, str]]
     import io
 
     import pyvista
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
     from PIL import Image
 
     ensure_display()
@@ -474,19 +473,40 @@ def render_animation(grid: Any, frames: list[tuple[np.ndarray, np.ndarray, str]]
         Image.fromarray(img[..., :3]).save(buf, format="PNG", compress_level=1)
         shots.append(buf.getvalue())
     pl.close()
-    images = []
-    for shot, (_, _, title) in zip(shots, frames, strict=True):
-        img = np.asarray(Image.open(io.BytesIO(shot)).convert("RGB"))
-        if box is not None:
-            pad = int(0.03 * max(img.shape[:2]))
-            img = img[max(box[0] - pad, 0):box[1] + pad + 1, max(box[2] - pad, 0):box[3] + pad + 1]
-        fig = _compose(img, scalars=scalars, clim=clim, cmap=cmap, title=title, label=label,
-                       dpi=ANIMATION_DPI, interpolation="antialiased")
-        canvas = FigureCanvasAgg(fig)
-        fig.set_facecolor("white")
-        canvas.draw()
-        images.append(Image.fromarray(np.asarray(canvas.buffer_rgba())[..., :3].copy()))
-    # one palette for all frames (from a strip of up to 8 of them): colours stay put
+    images = [_animation_frame(shot, box, title, scalars=scalars, clim=clim, cmap=cmap,
+                               label=label) for shot, (_, _, title) in zip(shots, frames,
+                                                                           strict=True)]
+    _write_gif(images, path, fps)
+    return len(images)
+
+
+def _animation_frame(shot: bytes, box: tuple[int, int, int, int] | None, title: str, *,
+                     scalars: str, clim: Any, cmap: str, label: str) -> Any:
+    """One frame of ``render_animation``: its screenshot cropped to ``box`` (the ink of all
+    the frames, padded) and composed with its title and colour bar, as a PIL image."""
+    import io
+
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from PIL import Image
+
+    img = np.asarray(Image.open(io.BytesIO(shot)).convert("RGB"))
+    if box is not None:
+        pad = int(0.03 * max(img.shape[:2]))
+        img = img[max(box[0] - pad, 0):box[1] + pad + 1, max(box[2] - pad, 0):box[3] + pad + 1]
+    fig = _compose(img, scalars=scalars, clim=clim, cmap=cmap, title=title, label=label,
+                   dpi=ANIMATION_DPI, interpolation="antialiased")
+    canvas = FigureCanvasAgg(fig)
+    fig.set_facecolor("white")
+    canvas.draw()
+    return Image.fromarray(np.asarray(canvas.buffer_rgba())[..., :3].copy())
+
+
+def _write_gif(images: list[Any], path: str | os.PathLike, fps: float) -> None:
+    """The frames as a looping GIF with one palette for all (taken from a strip of up to 8 of
+    them, so that colours stay put), the background pure white, the last frame held
+    ``ANIMATION_HOLD`` seconds."""
+    from PIL import Image
+
     sample = images[:: max(1, len(images) // 8)][:8]
     strip = Image.new("RGB", (sample[0].width, sample[0].height * len(sample)))
     for k, im in enumerate(sample):
@@ -500,4 +520,3 @@ def render_animation(grid: Any, frames: list[tuple[np.ndarray, np.ndarray, str]]
     step_ms = int(round(1000.0 / fps))
     frames_p[0].save(path, save_all=True, append_images=frames_p[1:], loop=0,
                      duration=[step_ms] * (len(frames_p) - 1) + [int(1000 * ANIMATION_HOLD)])
-    return len(frames_p)

@@ -252,6 +252,48 @@ class DynamicsProgress:
         return True
 
 
+def _snap_time(t: np.ndarray, x: np.ndarray) -> float | None:
+    """When Ψ3/h at the pole (``x`` at times ``t``) first crosses halfway from its start
+    value to its last, linearly interpolated; None where it moves by less than 1e-3."""
+    half = 0.5 * (x[0] + x[-1])
+    if abs(x[-1] - x[0]) <= 1e-3:
+        return None
+    i = int(np.argmax(np.sign(x - half) != np.sign(x[0] - half)))
+    return float(t[i - 1] + (half - x[i - 1]) / (x[i] - x[i - 1]) * (t[i] - t[i - 1]))
+
+
+class _Rest:
+    """At rest: the kinetic energy below ``REST_FRACTION`` of its peak so far, once it has
+    fallen below half of it (the snap's motion is past its peak).
+
+    Args:
+        kinetic: the kinetic energies so far (a continued run's), oldest first.
+    """
+
+    def __init__(self, kinetic: list[float]) -> None:
+        self.peak, self.passed = 0.0, False
+        for k in kinetic:
+            self(k)
+
+    def __call__(self, kinetic: float) -> bool:
+        """Record ``kinetic`` (the latest step's); whether the shell is at rest."""
+        if kinetic > self.peak:
+            self.peak = kinetic
+        elif kinetic < 0.5 * self.peak:
+            self.passed = True
+        return self.passed and kinetic < REST_FRACTION * self.peak
+
+
+def _series_row(t: float, p: Any, kinetic: float) -> list[float]:
+    """One row of ``SERIES_COLUMNS`` at time ``t`` (in R √(ρ/E)), the model ``p`` at its
+    state."""
+    s = p.scalars()
+    power = p.azimuthal_spectrum(p.state, m_max=4)
+    amp = np.sqrt(power / max(float(power[0]), 1e-300))
+    return [t, kinetic, s["energy"], s.get("psi3_pole_over_h", math.nan),
+            s.get("rim_rotation_deg", math.nan), *(float(a) for a in amp[1:5])]
+
+
 def snap_dynamics(model: Any, damping: float, t_max: float | None = None, *,
                   resume: DynamicsProgress | None = None,
                   save: Callable[[DynamicsProgress], None] | None = None,
@@ -299,28 +341,14 @@ def snap_dynamics(model: Any, damping: float, t_max: float | None = None, *,
     if prog.dt is None:
         prog.dt = DT_STEP * tscale
     rows = prog.rows
-    peak = {"k": 0.0, "passed": False}
-
-    def at_rest(kinetic: float) -> bool:
-        if kinetic > peak["k"]:
-            peak["k"] = kinetic
-        elif kinetic < 0.5 * peak["k"]:
-            peak["passed"] = True
-        return peak["passed"] and kinetic < REST_FRACTION * peak["k"]
-
-    for r in rows:  # a continued run's peak, as the run so far had it
-        at_rest(r[1])
+    at_rest = _Rest([r[1] for r in rows])  # a continued run's peak, as the run so far had it
     segment_start = {"skip": False}
 
     def monitor(t: float, p: Any, kinetic: float) -> bool:
         if segment_start["skip"]:  # a continued segment's start: the last row's state
             segment_start["skip"] = False
             return False
-        s = p.scalars()
-        power = p.azimuthal_spectrum(p.state, m_max=4)
-        amp = np.sqrt(power / max(float(power[0]), 1e-300))
-        rows.append([t / tscale, kinetic, s["energy"], s.get("psi3_pole_over_h", math.nan),
-                     s.get("rim_rotation_deg", math.nan), *(float(a) for a in amp[1:5])])
+        rows.append(_series_row(t / tscale, p, kinetic))
         step = len(rows) - 1
         if prog.take_frame(step) and keep_frame is not None:
             keep_frame(step, p)
@@ -333,20 +361,18 @@ def snap_dynamics(model: Any, damping: float, t_max: float | None = None, *,
     tol = step_tol if step_tol is not None else STEP_TOL
     dt_min = DT_STEP * tscale
 
-    def settings() -> Any:
-        """A segment's: from the step the last one would have taken next."""
-        return DynamicsSettings(t_end=t_max * tscale, dt=max(prog.dt, dt_min), rho_inf=RHO_INF,
-                                adaptive=tol is not None, step_tol=tol or 1.0e-4,
-                                dt_min=dt_min, mass_damping=damping / tscale,
-                                max_steps=DYNAMICS_SAVE_EVERY)
+    segment = dict(t_end=t_max * tscale, rho_inf=RHO_INF, adaptive=tol is not None,
+                   step_tol=tol or 1.0e-4, dt_min=dt_min, mass_damping=damping / tscale,
+                   max_steps=DYNAMICS_SAVE_EVERY)
 
     velocity = None
-    if prog.velocity is not None:
+    if prog.velocity is not None:  # a continued run's
         velocity = model.create_vector()
         velocity.array_w[:] = prog.velocity[:velocity.getLocalSize()]
     while True:
         segment_start["skip"] = bool(rows)
-        st = settings()
+        # each segment from the step the last one would have taken next
+        st = DynamicsSettings(dt=max(prog.dt, dt_min), **segment)
         res = integrate(model, st, velocity=velocity, monitor=monitor, t0=prog.t)
         if res.reason == "diverged":
             raise RuntimeError(f"the time integration diverged at t = {rows[-1][0]:.4g} R "
@@ -359,13 +385,8 @@ def snap_dynamics(model: Any, damping: float, t_max: float | None = None, *,
         if save is not None:
             save(prog)
     a = np.array(rows)
-    t, x = a[:, 0], a[:, 3]
-    half = 0.5 * (x[0] + x[-1])
-    snap_time = None
-    if abs(x[-1] - x[0]) > 1e-3:
-        side = np.sign(x - half) != np.sign(x[0] - half)
-        i = int(np.argmax(side))
-        snap_time = float(t[i - 1] + (half - x[i - 1]) / (x[i] - x[i - 1]) * (t[i] - t[i - 1]))
+    t = a[:, 0]
+    snap_time = _snap_time(t, a[:, 3])
     steps = len(rows) - 1
     frames = prog.frames + ([steps] if not prog.frames or prog.frames[-1] != steps else [])
     return {"series": rows, "frame_steps": frames, "frame_every": prog.frame_every,

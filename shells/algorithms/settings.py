@@ -211,8 +211,9 @@ class MinimiseSettings:
             definite, the minimisation has converged once the energy changes by less than
             ``ftol`` |E| over ten iterations: the iterates then creep along a neutral valley
             (a pattern's rotation about the axis, neutral in the continuum and nearly so on a
-            mesh), which Newton crosses only linearly; the state is the landing state to that
-            tolerance in energy.
+            mesh), which Newton crosses only linearly. The energy may then still lie above the
+            valley's floor by more than ``ftol`` |E|: the test stops a creep, it does not
+            bound the distance left.
         sigma0: the least nonzero shift of the Hessian by the mass (``ShiftedFactor``), in
             the units of its eigenvalues μ (H v = μ M v).
         options: further PETSc options under the prefix ``shells_minimise_`` (TAO, its KSP

@@ -14,11 +14,10 @@ continued in κ from half the fold's κ).
 
 With ``method="dynamics"`` the start is integrated in time instead (``snap_dynamics``: the
 equations of motion with mass-proportional damping, TSALPHA2, adaptive steps no shorter than
-``DT_STEP``) until the kinetic
-energy has fallen to ``REST_FRACTION`` of its peak; the rest state is then polished by the same
-minimiser (it lies in the minimum's basin: the polish changes its energy by the residual motion
-only), and ``snap_time`` is when the pole's displacement crosses halfway from the start's to
-the rest state's.
+``DT_STEP``) until the kinetic energy has fallen to ``REST_FRACTION`` of its peak; the rest
+state is then polished by the same minimiser (it lies in the minimum's basin: the polish
+changes its energy by the residual motion only), and ``snap_time`` is when the pole's
+displacement crosses halfway from the start's to the rest state's.
 
 The dynamics run in segments of ``DYNAMICS_SAVE_EVERY`` steps, each checkpointed (state,
 velocity, time, the series so far): a rerun continues from the latest and takes the very steps
@@ -77,8 +76,7 @@ REST_FRACTION = 1.0e-8
 #: which a run that has not come to rest stops (its state is polished all the same). Steps
 #: never shorter than DT_STEP: shorter ones would follow the ringing of those membrane modes,
 #: which the steps of DT_STEP dissipate, and crawl; longer ones where the local error allows
-#: (on a θ̄ = 3 cap the snap time at a tolerance of 1e-4 lies within 1e-3 of fixed steps,
-#: in a quarter of the steps: benchmarks/results/snap_dynamics_steps.json)
+#: (benchmarks/snap_dynamics_steps.py compares the tolerances with fixed steps)
 DT_STEP = 0.05
 STEP_TOL: float | None = 1.0e-4  # None: fixed steps of DT_STEP
 RHO_INF = 0.5
@@ -749,11 +747,11 @@ class _SnapRun:
                    "gradient_norm": res.gradient_norm, "minimiser_reason": res.reason}
         if res.reason == "CONVERGED_ENERGY_SETTLED":
             # a nearly flat valley: the energy still creeps down, slower than the settled test
-            # sees (the θ̄ = 5 cap of Fig. 1 d: 4.8e-5 above the dynamics' landing)
+            # sees (the Fig. 1 d cap: docs/paper-comparison.md)
             log.warning("snap: the minimiser stopped where its energy settled (|gradient| "
                         "%.2g), in a nearly flat valley: the landing's energy may lie above "
-                        "the valley's floor (by 4.8e-5 of it on the Fig. 1 d cap); --method "
-                        "dynamics goes further", res.gradient_norm)
+                        "the valley's floor; --method dynamics goes further",
+                        res.gradient_norm)
         if dyn is not None:  # the dynamic rest state's energy, before the polish
             landing["rest_energy"] = dyn["rest_energy"]
         log.info("snap: landed at energy %.10g: %s, %s, negative %d (orbit %d)",

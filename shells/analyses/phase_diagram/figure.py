@@ -162,7 +162,7 @@ def _draw_points(ax: Any, pts: list[dict[str, Any]], hs: list[float], colors: An
 
 def _draw_landings(ax: Any, landings: list[dict[str, Any]]) -> None:
     """Where snapped caps landed (``landings.read_landings``), at (θ̄, κR of the snap):
-    symmetric filled circles, broken symmetry stars labelled with their m."""
+    symmetric open circles, broken symmetry stars labelled with their m."""
     sym = [(r["thetabar"], r["kappa_R"]) for r in landings if r["symmetric"]]
     broken = [r for r in landings if not r["symmetric"]]
     hs = ", ".join(f"{h:g}" for h in sorted({r["h_over_R"] for r in landings}))

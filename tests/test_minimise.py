@@ -13,7 +13,8 @@ from shells.algorithms.minimise import minimise, minimise_to_stable, perturb_uns
 from shells.algorithms.settings import MinimiseSettings
 from shells.algorithms.stability import Stability
 from shells.errors import InputError
-from shells.problem.algebraic import PitchforkProblem
+from shells.algorithms.orbit import newton_modulo_orbit
+from shells.problem.algebraic import PitchforkProblem, RingValleyProblem
 
 
 def _saddle(lam: float) -> PitchforkProblem:
@@ -78,6 +79,58 @@ def test_an_unperturbed_saddle_stays_a_saddle():
     stab = Stability(p)
     assert stab.inertia()[0] == 1
     stab.destroy()
+
+
+def _ring(w: RingValleyProblem) -> tuple[float, float, float]:
+    """(r², φ, z) of the ring valley's state."""
+    x, y, z = w.gathered()
+    return x * x + y * y, math.atan2(y, x), z
+
+
+@pytest.mark.parametrize("eps", [1.0e-6, 0.0])
+def test_a_pinned_orbit_is_converged_modulo_the_orbit(eps):
+    """The ring valley: the minimiser hands over to Newton modulo the orbit, which ends where
+    the gradient lies along the orbit: r² = 1 / (1 + 4ε cos 4φ), z = r², and the gradient
+    left is the pinning force 4ε r³ |sin 4φ|, both exact at the angle reached. Stable modulo
+    the orbit (a negative eigenvalue there is the pinning's, counted as an orbit mode)."""
+    p = RingValleyProblem(eps=eps, comm=MPI.COMM_WORLD)
+    res = minimise_to_stable(p)
+    r2, phi, z = _ring(p)
+    assert res.converged and res.reason == "CONVERGED_MODULO_ORBIT" and res.rounds == 1
+    assert res.iterations < 100
+    assert r2 == pytest.approx(1 / (1 + 4 * eps * math.cos(4 * phi)), rel=1e-12)
+    assert z == pytest.approx(r2, rel=1e-12)
+    force = 4 * eps * r2**1.5 * abs(math.sin(4 * phi))
+    assert res.orbit_gradient == pytest.approx(force, rel=1e-9, abs=1e-15)
+    assert res.negative_count == res.orbit_modes
+
+
+def test_without_the_hand_over_the_minimiser_creeps_along_the_orbit():
+    """The reason for Newton modulo the orbit: TAO alone walks the weakly pinned orbit to the
+    pinning's minimum (φ = π/4) in over ten times the iterations."""
+    p = RingValleyProblem(eps=1.0e-6, comm=MPI.COMM_WORLD)
+    res = minimise(p, MinimiseSettings(newton_below=0.0))
+    assert res.converged and res.reason == "CONVERGED_GATOL"
+    assert _ring(p)[1] == pytest.approx(math.pi / 4, abs=1e-6)
+    q = RingValleyProblem(eps=1.0e-6, comm=MPI.COMM_WORLD)
+    assert minimise(q).iterations * 10 < res.iterations
+
+
+def test_newton_modulo_the_orbit_holds_the_orientation():
+    """From near the circle: quadratic convergence with the angle held (each step is
+    orthogonal to the orbit's tangent, so φ moves at second order only); from far, a failed
+    solve leaves the state as it was."""
+    p = RingValleyProblem(eps=1.0e-6, initial=(1.02, 0.3, 1.15), comm=MPI.COMM_WORLD)
+    phi0 = _ring(p)[1]
+    res = newton_modulo_orbit(p, atol=1e-10)
+    r2, phi, _ = _ring(p)
+    assert res.converged and res.iterations <= 8 and res.gradient_off_orbit <= 1e-10
+    assert abs(phi - phi0) < 5e-3
+    assert r2 == pytest.approx(1 / (1 + 4e-6 * math.cos(4 * phi)), rel=1e-12)
+    far = RingValleyProblem(eps=1.0e-6, initial=(40.0, 3.0, -50.0), comm=MPI.COMM_WORLD)
+    res = newton_modulo_orbit(far, atol=1e-10, max_it=2)
+    assert not res.converged and res.iterations == 2
+    assert np.array_equal(far.gathered(), [40.0, 3.0, -50.0])
 
 
 def test_settings_are_checked():

@@ -20,6 +20,13 @@ strong preconditioner, and an indefinite one gives Newton directions that lead b
   preconditioned by the shifted factor, which meets negative curvature at the trust region's
   boundary.
 
+A state with a symmetry orbit (a pattern that breaks the symmetry of a shell of revolution) lies
+in a valley that the mesh pins only weakly: the energy varies along the orbit by a
+discretisation error, and TAO's steps creep along it. There the hand-over is to Newton modulo
+the orbit (``shells.algorithms.orbit``), which holds the orientation and converges
+quadratically in every other direction: the end is ``CONVERGED_MODULO_ORBIT``, its gradient
+the mesh's pinning force along the orbit (``MinimiseResult.orbit_gradient``).
+
 A start on an exactly symmetric saddle stays on it (Newton's iterates keep the symmetry), so the
 caller perturbs the start along the unstable eigenvectors first (``perturb_unstable``); and
 ``minimise_to_stable`` checks each minimiser's end by the Hessian's inertia and leaves a saddle
@@ -43,6 +50,7 @@ from typing import Any
 import numpy as np
 
 from shells.algorithms.newton import apply_options
+from shells.algorithms.orbit import OrbitNewtonResult
 from shells.algorithms.settings import MinimiseSettings
 from shells.errors import InputError
 from shells.problem.interface import Energy
@@ -65,6 +73,10 @@ MAX_NEWTON_ATTEMPTS = 3
 NEWTON_RETRY_AFTER = 10
 #: the iterations over which the energy's change is compared with ``MinimiseSettings.ftol``
 FLAT_WINDOW = 10
+#: a state with an orbit is handed over to Newton modulo the orbit where the Hessian is
+#: definite up to a shift of this many ``MinimiseSettings.sigma0``: the mesh's pinning may
+#: turn the orbit's own curvature (a few sigma0) negative, which that Newton does not see
+ORBIT_SHIFT_MAX = 64.0
 #: the LDLᵀ that decides the shift's definiteness (its own prefix: ``shells_minimise_shift_``)
 SHIFT_PREFIX = MINIMISE_PREFIX + "shift_"
 SHIFT_OPTIONS: dict[str, Any] = {
@@ -162,6 +174,9 @@ class MinimiseResult:
         rounds: minimisations run (``minimise_to_stable``: one more per saddle left).
         negative_count: the Hessian's negative eigenvalues at the end (None: not computed).
         orbit_modes: how many of those lie along the state's symmetry orbit (neutral).
+        orbit_gradient: where the end was converged modulo the state's orbit
+            (``CONVERGED_MODULO_ORBIT``): the gradient's norm along the orbit, the mesh's
+            pinning force (``shells.algorithms.orbit``); else None.
     """
 
     converged: bool
@@ -174,6 +189,7 @@ class MinimiseResult:
     rounds: int = 1
     negative_count: int | None = None
     orbit_modes: int | None = None
+    orbit_gradient: float | None = None
 
     def as_dict(self) -> dict[str, Any]:
         """The record as a plain dict (for JSON)."""
@@ -226,6 +242,7 @@ class _TaoRun:
         self.after = 0
         self.energies: list[float] = []
         self.done = 0  # TAO iterations of earlier solves (a solve after a failed hand-over)
+        self.orbit: OrbitNewtonResult | None = None  # a converged Newton modulo the orbit
         self.tao = self._make_tao(monitor)
 
     def load(self, xv: Any) -> None:
@@ -271,12 +288,15 @@ class _TaoRun:
     def converged(self, tao: Any) -> None:
         """TAO's convergence test: its own tolerances, the hand-over to Newton (a small
         gradient where the Hessian is definite up to the least shift lies in the basin of a
-        minimum, where Newton converges quadratically and the shifted steps would creep), and
-        the energy settled where Newton failed (a neutral valley)."""
+        minimum, where Newton converges quadratically and the shifted steps would creep; on a
+        state with an orbit, definite up to ``ORBIT_SHIFT_MAX`` shifts), and the energy settled
+        where Newton failed (a neutral valley)."""
         st, R = self.st, self.R
         its, f, gnorm, *_ = tao.getSolutionStatus()
         self.energies.append(f)
-        definite = self.shifted.sigma <= st.sigma0
+        sigma = self.shifted.sigma
+        definite = gnorm <= st.newton_below and (
+            sigma <= st.sigma0 or (sigma <= ORBIT_SHIFT_MAX * st.sigma0 and self._has_orbit()))
         settled = (len(self.energies) > FLAT_WINDOW and gnorm <= st.newton_below and definite
                    and self.energies[-FLAT_WINDOW - 1] - f <= st.ftol * abs(f))
         if not math.isfinite(f) or not math.isfinite(gnorm):
@@ -293,19 +313,38 @@ class _TaoRun:
             reason = R.CONTINUE_ITERATING
         tao.setConvergedReason(reason)
 
+    def _has_orbit(self) -> bool:
+        """Whether TAO's iterate has a symmetry orbit (``shells.algorithms.orbit``)."""
+        from shells.algorithms.orbit import has_orbit
+
+        self.load(self.tao.getSolution())
+        return has_orbit(self.problem)
+
+    def _newton(self) -> tuple[bool, int]:
+        """Newton from the state: modulo its orbit where it has one (plain Newton does not
+        converge along a nearly neutral orbit), else SNES."""
+        from shells.algorithms.newton import NewtonSolver
+        from shells.algorithms.orbit import has_orbit, newton_modulo_orbit
+
+        if has_orbit(self.problem):
+            res = newton_modulo_orbit(self.problem, atol=self.st.gatol)
+            if res.converged:
+                self.orbit = res
+            return res.converged, res.iterations
+        return NewtonSolver(self.problem).solve(atol=self.st.gatol)
+
     def solve(self) -> int:
         """TAO, and Newton where TAO hands over; returns the converged reason."""
-        from shells.algorithms.newton import NewtonSolver
-
         while True:
             self.tao.solve()
             self.load(self.x)
             reason = self.tao.getConvergedReason()
             if reason != self.R.CONVERGED_USER:
                 return reason
-            ok, its = NewtonSolver(self.problem).solve(atol=self.st.gatol)
+            ok, its = self._newton()
             self.done += self.tao.getIterationNumber()
-            log.debug("minimise: Newton from TAO's iterate %d: %s in %d iterations", self.done,
+            log.debug("minimise: Newton%s from TAO's iterate %d: %s in %d iterations",
+                      " modulo the orbit" if self.orbit is not None else "", self.done,
                       "converged" if ok else "failed", its)
             if ok:
                 self.x.array_w[:] = self.problem.state.array_r[: self.x.getLocalSize()]
@@ -319,6 +358,8 @@ class _TaoRun:
         """TAO's name of a converged reason (the settled energy's own)."""
         if reason == self.R.CONVERGED_STEPTOL:
             return "CONVERGED_ENERGY_SETTLED"
+        if reason == self.R.CONVERGED_GATOL and self.orbit is not None:
+            return "CONVERGED_MODULO_ORBIT"
         names = {v: k for k, v in vars(self.R).items() if isinstance(v, int)}
         return names.get(reason, str(reason))
 
@@ -358,7 +399,9 @@ def minimise(problem: Any, settings: MinimiseSettings | None = None, *,
     out = MinimiseResult(converged=reason > 0, reason=run.reason_name(reason),
                          iterations=run.done + int(run.tao.getIterationNumber()),
                          energy=problem.total_energy(), energy_start=e0,
-                         gradient_norm=float(run.g.norm()), wall_time=time.perf_counter() - t0)
+                         gradient_norm=float(run.g.norm()), wall_time=time.perf_counter() - t0,
+                         orbit_gradient=(run.orbit.orbit_gradient if run.orbit is not None
+                                         and reason == run.R.CONVERGED_GATOL else None))
     run.destroy()
     log.debug("minimise: %s after %d iterations, E %.10g -> %.10g, |g| %.3g", out.reason,
               out.iterations, e0, out.energy, out.gradient_norm)

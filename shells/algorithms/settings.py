@@ -203,17 +203,18 @@ class MinimiseSettings:
             most ``gatol``.
         grtol: or the gradient's norm at most ``grtol`` times |E|.
         max_it: at most this many Newton iterations.
-        newton_below: TAO hands over to Newton (SNES, ``shells_newton_``) once the gradient's
-            norm is below ``newton_below`` where the Hessian is definite up to the least shift
-            ``sigma0``: in the basin of a minimum Newton converges quadratically (0: TAO to the
-            end; a failed Newton solve returns to TAO).
+        newton_below: TAO hands over to Newton once the gradient's norm is below
+            ``newton_below`` where the Hessian is definite up to the least shift ``sigma0``:
+            in the basin of a minimum Newton converges quadratically (0: TAO to the end; a
+            failed Newton solve returns to TAO). A state with a symmetry orbit (a pattern
+            turned about a shell's axis) goes to Newton modulo the orbit
+            (``shells.algorithms.orbit``, ``shells_orbit_``), any other to SNES
+            (``shells_newton_``).
         ftol: where Newton failed from a small gradient (``newton_below``) with the Hessian
             definite, the minimisation has converged once the energy changes by less than
-            ``ftol`` |E| over ten iterations: the iterates then creep along a neutral valley
-            (a pattern's rotation about the axis, neutral in the continuum and nearly so on a
-            mesh), which Newton crosses only linearly. The energy may then still lie above the
-            valley's floor by more than ``ftol`` |E|: the test stops a creep, it does not
-            bound the distance left.
+            ``ftol`` |E| over ten iterations: the iterates then creep along a nearly neutral
+            valley. The energy may then still lie above the valley's floor by more than
+            ``ftol`` |E|: the test stops a creep, it does not bound the distance left.
         sigma0: the least nonzero shift of the Hessian by the mass (``ShiftedFactor``), in
             the units of its eigenvalues μ (H v = μ M v).
         options: further PETSc options under the prefix ``shells_minimise_`` (TAO, its KSP

@@ -744,7 +744,8 @@ class _SnapRun:
                   else None)
         landing = {"kappa_R": kappa * self.R, **classify_landing(self.model, counts),
                    "iterations": res.iterations, "converged": res.converged,
-                   "gradient_norm": res.gradient_norm, "minimiser_reason": res.reason}
+                   "gradient_norm": res.gradient_norm, "minimiser_reason": res.reason,
+                   "orbit_gradient": res.orbit_gradient}
         if res.reason == "CONVERGED_ENERGY_SETTLED":
             # a nearly flat valley: the energy still creeps down, slower than the settled test
             # sees (the Fig. 1 d cap: docs/paper-comparison.md)

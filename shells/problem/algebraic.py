@@ -29,6 +29,14 @@ price of a parallel factorisation per solve).
   (x) has its fold at λ = 1, block 1 (z) a pitchfork at λ = c < 1 just before it, so that
   both fall in one continuation step.
 
+* ``RingValleyProblem`` (a neutral orbit that a discretisation pins weakly, like a pattern's
+  rotation about a shell's axis on a mesh): E = ¼ (r² - (1 + λ)²)² + ε (x⁴ - 6 x²y² + y⁴) +
+  ½ c (z - r²)², r² = x² + y². At ε = 0 every state turned about the origin has the same
+  energy, and the minima form the circle r = 1 + λ, z = r²; ε > 0 pins the angle φ weakly
+  (ε r⁴ cos 4φ: minima at φ = π/4 + kπ/2), c ≫ 1 is a stiff unknown. Orbit tangent
+  (-y, x, 0) (``OrbitTangents``); along it the gradient is -4 ε r⁴ sin 4φ / r per unit
+  length.
+
 L = 1 and the state scale is 1, so κ = λ.
 """
 
@@ -43,7 +51,7 @@ import numpy as np
 from shells.problem.interface import ModeInfo
 
 __all__ = ["AlgebraicProblem", "FoldProblem", "FoldPitchforkProblem", "PitchforkProblem",
-           "SubcriticalPitchforkProblem"]
+           "RingValleyProblem", "SubcriticalPitchforkProblem"]
 
 
 class AlgebraicProblem:
@@ -354,3 +362,64 @@ class FoldPitchforkProblem(AlgebraicProblem):
 
     def dgradient_dkappa(self, w: np.ndarray, k: float) -> np.ndarray:
         return np.array([1.0, -w[1]])
+
+
+class RingValleyProblem(AlgebraicProblem):
+    """The ring valley of the module docstring: unknowns (x, y, z).
+
+    Args:
+        eps: the pinning ε (0: an exactly neutral orbit).
+        c: the stiff unknown's stiffness.
+        initial: the start (x, y, z).
+        comm: the communicator.
+    """
+
+    def __init__(self, eps: float = 1.0e-6, c: float = 1.0e4,
+                 initial: tuple[float, float, float] = (1.3, 0.4, 1.0), comm: Any = None) -> None:
+        self.eps, self.c = float(eps), float(c)
+        super().__init__(3, np.asarray(initial, dtype=float), comm)
+
+    def energy(self, w: np.ndarray, k: float) -> float:
+        x, y, z = w
+        s = x * x + y * y
+        return (0.25 * (s - (1 + k) ** 2) ** 2 + self.eps * (x**4 - 6 * x * x * y * y + y**4)
+                + 0.5 * self.c * (z - s) ** 2)
+
+    def gradient(self, w: np.ndarray, k: float) -> np.ndarray:
+        x, y, z = w
+        s = x * x + y * y
+        a, e, c = s - (1 + k) ** 2, self.eps, self.c
+        return np.array([a * x + e * (4 * x**3 - 12 * x * y * y) - 2 * c * x * (z - s),
+                         a * y + e * (4 * y**3 - 12 * x * x * y) - 2 * c * y * (z - s),
+                         c * (z - s)])
+
+    def hessian(self, w: np.ndarray, k: float) -> np.ndarray:
+        x, y, z = w
+        s = x * x + y * y
+        a, e, c = s - (1 + k) ** 2, self.eps, self.c
+        hxx = 2 * x * x + a + e * (12 * x * x - 12 * y * y) + 4 * c * x * x - 2 * c * (z - s)
+        hyy = 2 * y * y + a + e * (12 * y * y - 12 * x * x) + 4 * c * y * y - 2 * c * (z - s)
+        hxy = 2 * x * y - 24 * e * x * y + 4 * c * x * y
+        return np.array([[hxx, hxy, -2 * c * x], [hxy, hyy, -2 * c * y],
+                         [-2 * c * x, -2 * c * y, c]])
+
+    def dgradient_dkappa(self, w: np.ndarray, k: float) -> np.ndarray:
+        x, y, _ = w
+        return np.array([-2 * (1 + k) * x, -2 * (1 + k) * y, 0.0])
+
+    def orbit_tangents(self) -> list[Any]:
+        """[(-y, x, 0)]: the state turned about the origin (``OrbitTangents``); [] at r = 0."""
+        x, y, _ = self.gathered()
+        if x == 0 and y == 0:
+            return []
+        t = self.create_vector()
+        self._set_rows(t, np.array([-y, x, 0.0]))
+        return [t]
+
+    def classify_mode(self, vec: Any, block: Hashable) -> ModeInfo:
+        """m = None; ``rayleigh["orbit"]``: the mode's |cos| with the orbit tangent."""
+        v = self.gathered(vec)
+        x, y, _ = self.gathered()
+        t = np.array([-y, x, 0.0])
+        cos = abs(float(v @ t)) / max(float(np.linalg.norm(v) * np.linalg.norm(t)), 1e-300)
+        return ModeInfo(rayleigh={"orbit": cos})

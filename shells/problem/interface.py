@@ -39,7 +39,7 @@ import numpy as np
 
 __all__ = ["BlockFactor", "BlockInertia", "BlockInertias", "CondensedHessian", "DefiniteBlocks",
            "Energy", "FactorOptions", "HessianQuadratic", "KineticMass", "ModeInfo",
-           "PoleFunctional", "Problem",
+           "OrbitTangents", "PoleFunctional", "Problem",
            "get_state", "orbit_cosine", "set_state"]
 
 
@@ -261,6 +261,21 @@ class Energy(Protocol):
     def total_energy(self) -> float:
         """E(w, κ) at the current state: the functional whose gradient ``assemble_residual``
         assembles (the same on every rank)."""
+
+
+@runtime_checkable
+class OrbitTangents(Protocol):
+    """The directions in which the state moves along its symmetry orbit, for minimisation
+    modulo the orbit (``shells.algorithms.orbit``)."""
+
+    def orbit_tangents(self) -> list[Any]:
+        """New state-shaped vectors, zero on the constrained DOFs: the derivatives of the
+        current state along the one-parameter symmetries of the reference shell that the
+        gauge leaves free (a shell of revolution: its rotation about the axis, which turns a
+        pattern). Neutral in the continuum, such a direction is nearly so on a mesh, which
+        pins the pattern's orientation weakly. Empty where the state has no orbit: a state
+        invariant under the symmetry (an axisymmetric one), up to the mesh's interpolation
+        error, or a shape without symmetry."""
 
 
 @runtime_checkable

@@ -78,6 +78,10 @@ CAP_SIZE_H_OVER_R = 0.04
 #: the error a spherical cap's default discretisation is meant to stay within, relative in κ
 #: (measured errors: docs/design-notes.md, "Surface model defaults")
 CAP_DEFAULT_ERROR = 5.0e-3
+#: a state has an orbit about the axis where its tangent along it is at least this fraction of
+#: the state (the Euclidean norms of their values): an axisymmetric state's tangent is the
+#: interpolation error of its gradient, 1e-4 of it on a coarse P3 cap, a pattern's of order 1
+ORBIT_MIN = 1.0e-2
 
 
 def default_discretisation(shape: Shape, h_over_r: float | None = None,
@@ -896,6 +900,38 @@ class ShellModel(FormProblem):
         if math.isfinite(R):
             out["x"] = vals["grad2"] / w2 * R * R
         return out
+
+    def orbit_tangents(self) -> list[Any]:
+        """The state's tangent along its rotation about the axis of a shell of revolution
+        (``shells.problem.interface.OrbitTangents``): d/dε of the state turned by ε, for u and
+        θ alike (Cartesian vector fields: e_z × w - (∇w)(e_z × x)), interpolated in the
+        state's space; [] where it is below ``ORBIT_MIN`` of the state (axisymmetric), on a
+        closed sphere (whose orbit also holds the rotations the gauge fixes) and on a surface
+        known only by its mesh."""
+        import ufl
+        from dolfinx import fem
+
+        from shells.geometry.shapes import Sphere
+
+        if not self.shape.of_revolution or isinstance(self.shape, Sphere):
+            return []
+        if not hasattr(self, "_tangent_expr"):
+            ez = ufl.as_vector((0.0, 0.0, 1.0))
+            a = ufl.cross(ez, self._x)
+            u, th = self.split(self.w)
+            tu, tt = (ufl.cross(ez, f) - ufl.grad(f) * a for f in (u, th))
+            self._tangent_expr = fem.Expression(
+                ufl.as_vector([tu[0], tu[1], tu[2], tt[0], tt[1], tt[2]]),
+                self.W.element.interpolation_points())
+            self._tangent_f = fem.Function(self.W)
+        self._tangent_f.interpolate(self._tangent_expr)
+        t = self.create_vector()
+        t.array_w[:] = self._tangent_f.x.array[: t.getLocalSize()]
+        self.zero_constrained(t)
+        if not t.norm() >= ORBIT_MIN * self.state.norm():
+            t.destroy()
+            return []
+        return [t]
 
     def orbit_overlap(self, vec: Any) -> float:
         """|cos| of the angle (L² of the normal components) between a mode and the tangent

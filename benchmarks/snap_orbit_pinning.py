@@ -1,0 +1,161 @@
+"""The mesh's pinning of a pattern's orientation, and the two methods' landings (issue 41).
+
+The θ̄ = 5 cap (h/R = 0.04, the paper's Fig. 1 d) lands in an m = 2 state by minimisation and by
+dynamics. In the continuum that state turned about the axis is the same state, of the same
+energy; a mesh pins its orientation weakly, so two landings at different orientations differ in
+energy by a discretisation error. This script takes the two landing states (the checkpoints of
+two `shells snap -o DIR` runs, `--method minimise` and `--method dynamics`, on one mesh),
+converges each on that mesh (``minimise_to_stable``: TAO, then Newton modulo the orbit), and
+then interpolates each onto finer meshes and converges it there, keeping its orientation. It
+reports on the first mesh how much of the two states' difference lies along the orbit (the
+Hessian's eigenvector that turns the pattern), and on every mesh the two energies and their
+relative difference: the pinning between the two orientations, as the mesh is refined.
+
+    scripts/in-env python3 benchmarks/snap_orbit_pinning.py MIN_DIR DYN_DIR
+        [--meshes SIZE:LAYER ...]   (default: the runs' own mesh, 0.25:3, 0.2:4)
+
+Writes benchmarks/results/snap_orbit_pinning.json and prints a table.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+
+OUT = Path("benchmarks/results/snap_orbit_pinning.json")
+
+
+def build(header: dict, size: float, layer: float):
+    """The surface model of a snap run's header on the mesh (size, layer elements)."""
+    from mpi4py import MPI
+
+    from shells.geometry.shapes import SphericalCap
+    from shells.surface.mesh import MeshSpec, generate
+    from shells.surface.model import ModelParameters, ShellModel, default_discretisation
+
+    sh = header["shape"]
+    shape = SphericalCap(radius=sh["R"], theta=sh["theta"])
+    degree, size = default_discretisation(shape, header["h_over_r"], header["degree"], size,
+                                          None, header["nu"])
+    h = header["h_over_r"] * shape.characteristic_size()
+    mesh = generate(MeshSpec(shape, h=h, size=size, layer_elements=layer), MPI.COMM_WORLD)
+    params = ModelParameters(h=h, nu=header["nu"], shear_penalty=header["shear_penalty"],
+                             degree=degree, quadrature_degree=2 * degree)
+    return ShellModel(mesh, params)
+
+
+def transfer(src, dst) -> None:
+    """dst's state = src's, interpolated (non-matching meshes of the same surface)."""
+    from dolfinx import fem
+
+    V = dst.W
+    cmap = V.mesh.topology.index_map(V.mesh.topology.dim)
+    cells = np.arange(cmap.size_local + cmap.num_ghosts, dtype=np.int32)
+    # the two meshes approximate the curved surface by different facets: points of one lie
+    # off the other by the geometry's error, well below this padding
+    data = fem.create_interpolation_data(V, src.W, cells, padding=1e-3)
+    dst.w.interpolate_nonmatching(src.w, cells, data)
+    dst.w.x.scatter_forward()
+
+
+def converge(model) -> dict:
+    from shells.algorithms.minimise import minimise_to_stable
+
+    t0 = time.perf_counter()
+    res = minimise_to_stable(model)
+    return {"energy": res.energy, "reason": res.reason, "iterations": res.iterations,
+            "gradient_norm": res.gradient_norm, "orbit_gradient": res.orbit_gradient,
+            "stable": res.negative_count == res.orbit_modes,
+            "negative_count": res.negative_count, "orbit_modes": res.orbit_modes,
+            "wall_s": time.perf_counter() - t0}
+
+
+def orbit_share(model, a: np.ndarray, b: np.ndarray) -> dict:
+    """The mass norm of b - a and of its part along the Hessian's orbit mode at a."""
+    from shells.algorithms.stability import Stability
+    from shells.problem.interface import set_state
+
+    set_state(model, a)
+    stab = Stability(model)
+    vals, vecs = stab.eigenpairs(4, modes=True)
+    M = model.assemble_mass(None)
+    d = model.create_vector()
+    d.array_w[:] = (b - a)[: d.getLocalSize()]
+    Md = d.duplicate()
+    M.mult(d, Md)
+    out = {"difference_mass_norm": math.sqrt(d.dot(Md))}
+    for mu, v in zip(vals, vecs, strict=True):
+        if model.classify_mode(v, None).rayleigh.get("orbit", 0.0) >= 0.7:
+            Mv = v.duplicate()
+            M.mult(v, Mv)
+            out.update(orbit_eigenvalue=mu, along_orbit_mode=abs(d.dot(Mv)) / math.sqrt(v.dot(Mv)))
+            break
+    stab.destroy()
+    return out
+
+
+def main() -> None:
+    from mpi4py import MPI
+
+    from shells.analyses.store import load_state_checkpoint
+    from shells.problem.interface import get_state, set_state
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("min_dir", type=Path)
+    ap.add_argument("dyn_dir", type=Path)
+    ap.add_argument("--meshes", nargs="*", default=None)
+    a = ap.parse_args()
+    runs = {"minimise": a.min_dir, "dynamics": a.dyn_dir}
+    metas = {k: json.loads((d / "checkpoint" / "meta.json").read_text()) for k, d in runs.items()}
+    header = metas["minimise"]["header"]
+    meshes = [(header["size"], header["layer_elements"])] + [
+        (float(s), float(L)) for s, L in (m.split(":") for m in (a.meshes or ["0.25:3", "0.2:4"]))]
+    first = build(header, *meshes[0])
+    states, kappas, rows = {}, {}, []
+    for name, d in runs.items():
+        meta, got, _ = load_state_checkpoint(d / "checkpoint", first, ("w",))
+        kappas[name] = (1 + header["past"]) * meta["kappa_fold"]
+        states[name] = got["w"]
+    comm = MPI.COMM_WORLD
+    for i, (size, layer) in enumerate(meshes):
+        model = first if i == 0 else build(header, size, layer)
+        row = {"size": size, "layer_elements": layer, "dofs": model.num_dofs()}
+        ends = {}
+        for name in runs:
+            model.set_kappa(kappas[name])
+            if i == 0:
+                set_state(model, states[name])
+            else:
+                set_state(first, states[name])
+                transfer(first, model)
+            row[name] = converge(model)
+            ends[name] = get_state(model)
+            if i == 0:
+                states[name] = ends[name]
+        e_min, e_dyn = row["minimise"]["energy"], row["dynamics"]["energy"]
+        row["relative_difference"] = (e_min - e_dyn) / abs(e_dyn)
+        if i == 0:
+            row["orbit_share"] = orbit_share(model, ends["minimise"], ends["dynamics"])
+        rows.append(row)
+        if comm.rank == 0:
+            OUT.write_text(json.dumps({"header": header, "meshes": rows}, indent=1) + "\n")
+    if comm.rank == 0:
+        print(f"{'size':>5} {'layer':>5} {'DOFs':>7} {'E minimise':>16} {'E dynamics':>16} "
+              f"{'rel. diff':>10} {'orbit grad.':>11}")
+        for r in rows:
+            og = max(r[n]["orbit_gradient"] or 0.0 for n in runs)
+            print(f"{r['size']:5.2f} {r['layer_elements']:5g} {r['dofs']:7d} "
+                  f"{r['minimise']['energy']:16.12f} {r['dynamics']['energy']:16.12f} "
+                  f"{r['relative_difference']:10.2e} {og:11.2e}")
+        share = rows[0]["orbit_share"]
+        print(f"first mesh: |difference|_M = {share['difference_mass_norm']:.4g}, along the "
+              f"orbit mode {share.get('along_orbit_mode', float('nan')):.4g}")
+
+
+if __name__ == "__main__":
+    main()

@@ -10,10 +10,10 @@ import pytest
 from mpi4py import MPI
 
 from shells.algorithms.minimise import minimise, minimise_to_stable, perturb_unstable, perturbed
+from shells.algorithms.orbit import newton_modulo_orbit
 from shells.algorithms.settings import MinimiseSettings
 from shells.algorithms.stability import Stability
 from shells.errors import InputError
-from shells.algorithms.orbit import newton_modulo_orbit
 from shells.problem.algebraic import PitchforkProblem, RingValleyProblem
 
 

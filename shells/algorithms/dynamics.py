@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from shells.algorithms.newton import apply_options, configure_factor, setup_factor
 from shells.algorithms.settings import DynamicsSettings
 from shells.errors import InputError
 from shells.problem.interface import Energy, KineticMass
@@ -89,8 +90,10 @@ class LowRankInverse:
 
         J⁻¹ = P⁻¹ - W (diag(1/(s c)) + UᵀW)⁻¹ Wᵀ,   W = P⁻¹ U,
 
-    with one LU of P (MUMPS; options prefix ``shells_dynamics_lowrank_``) and k extra solves
-    per factorisation (k the rank). GMRES around it (``integrate``) converges in one or two
+    with one LU of P (``LOWRANK_OPTIONS``: MUMPS, under the prefix
+    ``shells_dynamics_lowrank_``, set up and factored as the other solvers' factors are:
+    ``shells.algorithms.newton.configure_factor``, ``setup_factor``) and k extra solves per
+    factorisation (k the rank). GMRES around it (``integrate``) converges in one or two
     iterations; it mops up the rounding of the k×k system, which cancels when s M dominates K.
 
     Args:
@@ -99,6 +102,9 @@ class LowRankInverse:
     """
 
     PREFIX = "shells_dynamics_lowrank_"
+    #: the factorisation of P (options under ``PREFIX`` override them)
+    LOWRANK_OPTIONS: dict[str, Any] = {"ksp_type": "preonly", "pc_type": "lu",
+                                       "pc_factor_mat_solver_type": "mumps"}
 
     def __init__(self, M: Any, jacobian: Any) -> None:
         _, U, c, _ = M.getLRCMats()
@@ -113,6 +119,7 @@ class LowRankInverse:
         self.jacobian = jacobian
         self.Sinv: np.ndarray | None = None
         self._ksp: Any = None
+        self._options: dict[str, Any] = {}
 
     def setUp(self, pc: Any) -> None:  # noqa: N802 - petsc4py's name
         """Factor P, and W and the k×k system for the present scale."""
@@ -121,13 +128,11 @@ class LowRankInverse:
         P = pc.getOperators()[1]
         if self._ksp is None:
             self._ksp = PETSc.KSP().create(P.getComm())
-            self._ksp.setOptionsPrefix(self.PREFIX)
-            self._ksp.setType("preonly")
-            self._ksp.getPC().setType("lu")
-            self._ksp.getPC().setFactorSolverType("mumps")
-            self._ksp.setFromOptions()
+            self._options = apply_options(self._ksp, self.PREFIX, self.LOWRANK_OPTIONS)
+            configure_factor(self._ksp, P, self._options)
         self._ksp.setOperators(P)
-        self._ksp.setUp()
+        if not setup_factor(self._ksp, P, self._options):
+            raise RuntimeError("the time step's sparse matrix could not be factored")
         if not self.W:
             self.W = [u.duplicate() for u in self.U]
         for u, w in zip(self.U, self.W, strict=True):

@@ -14,7 +14,8 @@ bordered system
     [ Tᵀ  0 ] [ λ ] = [  0 ],
 
 T the orbit's tangents at the iterate (``OrbitTangents``), solved by the Schur complement on
-one factorisation of H: δ = x - Y S⁻¹ Tᵀ x with H x = -g, H Y = T, S = Tᵀ Y. It converges
+one factorisation of H: δ = x - Y S⁻¹ Tᵀ x with H x = -g, H Y = T, S = Tᵀ Y, with a
+backtracking line search on the energy (Armijo) where the problem has one. It converges
 quadratically to a state where the gradient lies along the orbit, g = T λ: an equilibrium in
 every direction but the orientation, where what is left is the mesh's pinning force. Its
 energy differs from that of another orientation by the mesh's pinning only, which vanishes as
@@ -48,6 +49,12 @@ ORBIT_OPTIONS: dict[str, Any] = {"ksp_type": "preonly", "pc_type": "lu",
 #: a step that raises the gradient off the orbit by more than this factor ends the solve
 #: (outside Newton's basin: the caller goes on with its globalised method)
 GROWTH_MAX = 10.0
+#: the line search on a problem with an energy: a step is halved at most this many times
+#: until the energy falls by ``ARMIJO`` of the step's first-order decrease (or stays within
+#: ``ENERGY_NOISE`` |E| of it, where the energy's round-off hides a converged Newton step)
+HALVINGS = 8
+ARMIJO = 1.0e-4
+ENERGY_NOISE = 1.0e-13
 
 
 @dataclass(frozen=True)
@@ -180,6 +187,29 @@ def _step(problem: Any, ksp: Any, H: Any, opts: dict[str, Any], g: Any, tangents
     finally:
         for v in ys:
             v.destroy()
-    problem.state.axpy(1.0, x)
-    problem.sync()
-    return True
+    return _line_search(problem, g, x)
+
+
+def _line_search(problem: Any, minus_g: Any, step: Any) -> bool:
+    """Add the step to the state, halved until the energy decreases enough (``ARMIJO``) where
+    the problem has one; else the whole step. False, with the state as it was, where no
+    halving decreases it (the slice's Hessian is not positive definite there)."""
+    from shells.problem.interface import Energy
+
+    if not isinstance(problem, Energy):
+        problem.state.axpy(1.0, step)
+        problem.sync()
+        return True
+    e0 = problem.total_energy()
+    slope = -minus_g.dot(step)  # dE along the step, negative for a descent direction
+    alpha = 1.0
+    for _ in range(HALVINGS + 1):
+        problem.state.axpy(alpha, step)
+        problem.sync()
+        e = problem.total_energy()
+        if e <= e0 + ARMIJO * alpha * min(slope, 0.0) + ENERGY_NOISE * abs(e0):
+            return True
+        problem.state.axpy(-alpha, step)
+        problem.sync()
+        alpha /= 2
+    return False

@@ -46,7 +46,9 @@ def build(header: dict, size: float, layer: float):
     mesh = generate(MeshSpec(shape, h=h, size=size, layer_elements=layer), MPI.COMM_WORLD)
     params = ModelParameters(h=h, nu=header["nu"], shear_penalty=header["shear_penalty"],
                              degree=degree, quadrature_degree=2 * degree)
-    return ShellModel(mesh, params)
+    model = ShellModel(mesh, params)
+    model.shell_size, model.shell_layer = size, layer
+    return model
 
 
 def transfer(src, dst, angle: float = 0.0) -> None:
@@ -70,6 +72,60 @@ def transfer(src, dst, angle: float = 0.0) -> None:
     dst.w.x.scatter_forward()
     src.shell.mesh.geometry.x[:] = x0
     src.w.x.array[:] = w0
+    if angle:
+        regauge(dst)
+
+
+def _rotation(w: np.ndarray) -> np.ndarray:
+    """exp([w]×) (Rodrigues)."""
+    a = float(np.linalg.norm(w))
+    K = np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
+    if a == 0.0:
+        return np.eye(3)
+    return np.eye(3) + math.sin(a) / a * K + (1 - math.cos(a)) / a**2 * (K @ K)
+
+
+def regauge(model) -> None:
+    """Meet the rigid-motion gauge again after the state was turned about the axis: turn the
+    deformed shell (and its director) rigidly about the pole until u_y = 0 at the gauge points
+    B and D and u_x = 0 at C (``ShellModel._supports``'s points). A rigid turn of the whole
+    configuration changes no strain, so the energy is that of the turned state; without it
+    the turned state's values at those points would be held wrong and strain the shell."""
+    from mpi4py import MPI
+
+    from shells.problem.interface import get_state, set_state
+
+    comm = model.shell.comm
+    X = model.owned_dof_coordinates()
+    w = get_state(model).reshape(-1, 6)
+    top, B, C, D = (np.asarray(q) for q in model.support_points)
+
+    def value_at(q: np.ndarray) -> np.ndarray:
+        d = np.linalg.norm(X - q, axis=1)
+        mine = np.zeros(3)
+        if d.size and d.min() < 1e-12:
+            mine = w[int(np.argmin(d)), :3].copy()
+        return comm.allreduce(mine, op=MPI.SUM)
+
+    YB, YC, YD = (q + value_at(q) - top for q in (B, C, D))
+
+    def residual(om: np.ndarray) -> np.ndarray:
+        P = _rotation(om)
+        return np.array([(P @ YB)[1] + top[1] - B[1], (P @ YD)[1] + top[1] - D[1],
+                         (P @ YC)[0] + top[0] - C[0]])
+
+    om = np.zeros(3)
+    for _ in range(20):
+        f = residual(om)
+        if np.abs(f).max() < 1e-15:
+            break
+        J = np.column_stack([(residual(om + 1e-7 * e) - f) / 1e-7 for e in np.eye(3)])
+        om = om - np.linalg.solve(J, f)
+    P = _rotation(om)
+    n0 = model.shape.normal(X.T).T
+    w[:, :3] = (X + w[:, :3] - top) @ P.T + top - X
+    w[:, 3:] = (n0 + w[:, 3:]) @ P.T - n0
+    set_state(model, w.ravel())
 
 
 def orientation(model) -> float:
@@ -158,6 +214,34 @@ def aligned(first, header: dict, ends: dict, kappa: float) -> dict:
     return out
 
 
+def landscape(model, header: dict, start: np.ndarray, kappa: float, samples: int) -> dict:
+    """The energy along the orbit: the landing ``start`` turned by k/``samples`` of the mesh's
+    period 2π/sectors (k = 1 ... samples - 1; the gauge met again, ``regauge``) and converged
+    (``minimise_to_stable``; it keeps the orientation but for a small drift, so each point is
+    recorded at the orientation ψ it ends at)."""
+    from shells.problem.interface import set_state
+    from shells.surface.mesh import MeshSpec
+
+    sectors = MeshSpec(model.shape, h=1.0).sectors
+    other = build(header, model.shell_size, model.shell_layer)
+    other.set_kappa(kappa)
+    set_state(other, start)
+    model.set_kappa(kappa)
+    points = [{"turn_deg": 0.0, "psi_deg": math.degrees(orientation(other)),
+               "energy": other.total_energy()}]
+    for k in range(1, samples):
+        angle = 2 * math.pi / sectors * k / samples
+        transfer(other, model, angle)
+        res = converge(model)
+        if res["stable"] and res["reason"].startswith("CONVERGED"):
+            points.append({"turn_deg": math.degrees(angle),
+                           "psi_deg": math.degrees(orientation(model)),
+                           "energy": res["energy"], "iterations": res["iterations"]})
+    e = np.array([q["energy"] for q in points])
+    return {"sectors": sectors, "points": points,
+            "amplitude": float((e.max() - e.min()) / abs(e.mean()))}
+
+
 def main() -> None:
     from mpi4py import MPI
 
@@ -168,6 +252,8 @@ def main() -> None:
     ap.add_argument("min_dir", type=Path)
     ap.add_argument("dyn_dir", type=Path)
     ap.add_argument("--meshes", nargs="*", default=None)
+    ap.add_argument("--samples", type=int, default=6,
+                    help="orientations over the mesh's period for the pinning landscape")
     a = ap.parse_args()
     runs = {"minimise": a.min_dir, "dynamics": a.dyn_dir}
     metas = {k: json.loads((d / "checkpoint" / "meta.json").read_text()) for k, d in runs.items()}
@@ -196,6 +282,9 @@ def main() -> None:
             ends[name] = get_state(model)
             if i == 0:
                 states[name] = ends[name]
+        if a.samples > 1:
+            row["landscape"] = landscape(model, header, ends["dynamics"], kappas["dynamics"],
+                                         a.samples)
         e_min, e_dyn = row["minimise"]["energy"], row["dynamics"]["energy"]
         row["relative_difference"] = (e_min - e_dyn) / abs(e_dyn)
         if i == 0:
@@ -208,12 +297,13 @@ def main() -> None:
             OUT.write_text(json.dumps({"header": header, "meshes": rows}, indent=1) + "\n")
     if comm.rank == 0:
         print(f"{'size':>5} {'layer':>5} {'DOFs':>7} {'E minimise':>16} {'E dynamics':>16} "
-              f"{'rel. diff':>10} {'orbit grad.':>11}")
+              f"{'rel. diff':>10} {'orbit grad.':>11} {'pinning':>9}")
         for r in rows:
             og = max(r[n]["orbit_gradient"] or 0.0 for n in runs)
+            pin = r.get("landscape", {}).get("amplitude", float("nan"))
             print(f"{r['size']:5.2f} {r['layer_elements']:5g} {r['dofs']:7d} "
                   f"{r['minimise']['energy']:16.12f} {r['dynamics']['energy']:16.12f} "
-                  f"{r['relative_difference']:10.2e} {og:11.2e}")
+                  f"{r['relative_difference']:10.2e} {og:11.2e} {pin:9.2e}")
         t = rows[0]["dynamics_turned"]
         print(f"first mesh: the dynamics' landing turned by {t['turn_deg']:.2f} deg to the "
               f"minimiser's orientation and converged: E {t['energy']:.12f}, relative "

@@ -166,7 +166,7 @@ class MinimiseResult:
     Attributes:
         converged: TAO met its gradient tolerance.
         reason: TAO's converged reason (its name).
-        iterations: Newton iterations.
+        iterations: TAO iterations (the steps of a Newton hand-over not counted).
         energy: E at the final state.
         energy_start: E at the start (after any perturbation).
         gradient_norm: the gradient's (residual's) norm at the final state.
@@ -342,13 +342,14 @@ class _TaoRun:
             if reason != self.R.CONVERGED_USER:
                 return reason
             ok, its = self._newton()
-            self.done += self.tao.getIterationNumber()
             log.debug("minimise: Newton%s from TAO's iterate %d: %s in %d iterations",
-                      " modulo the orbit" if self.orbit is not None else "", self.done,
+                      " modulo the orbit" if self.orbit is not None else "",
+                      self.done + self.tao.getIterationNumber(),
                       "converged" if ok else "failed", its)
             if ok:
                 self.x.array_w[:] = self.problem.state.array_r[: self.x.getLocalSize()]
                 return self.R.CONVERGED_GATOL
+            self.done += self.tao.getIterationNumber()
             # on with TAO from its iterate (a failed Newton solve leaves the state as it was)
             self.left -= 1
             self.after = NEWTON_RETRY_AFTER

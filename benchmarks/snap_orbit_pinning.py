@@ -14,7 +14,7 @@ relative difference: the pinning between the two orientations, as the mesh is re
     scripts/in-env python3 benchmarks/snap_orbit_pinning.py MIN_DIR DYN_DIR
         [--meshes SIZE:LAYER ...]   (default: the runs' own mesh, 0.25:3, 0.2:4)
 
-Writes benchmarks/results/snap_orbit_pinning.json and prints a table.
+Writes benchmarks/results/snap_orbit_pinning.json (``--out``) and prints a table.
 """
 
 from __future__ import annotations
@@ -252,6 +252,7 @@ def main() -> None:
     ap.add_argument("min_dir", type=Path)
     ap.add_argument("dyn_dir", type=Path)
     ap.add_argument("--meshes", nargs="*", default=None)
+    ap.add_argument("--out", type=Path, default=OUT, help="the JSON written")
     ap.add_argument("--samples", type=int, default=6,
                     help="orientations over the mesh's period for the pinning landscape")
     a = ap.parse_args()
@@ -294,7 +295,9 @@ def main() -> None:
                 (e_min - row["dynamics_turned"]["energy"]) / abs(e_min))
         rows.append(row)
         if comm.rank == 0:
-            OUT.write_text(json.dumps({"header": header, "meshes": rows}, indent=1) + "\n")
+            a.out.write_text(json.dumps({"header": header, "runs": {k: str(v) for k, v in
+                                                                   runs.items()},
+                                         "meshes": rows}, indent=1) + "\n")
     if comm.rank == 0:
         print(f"{'size':>5} {'layer':>5} {'DOFs':>7} {'E minimise':>16} {'E dynamics':>16} "
               f"{'rel. diff':>10} {'orbit grad.':>11} {'pinning':>9}")

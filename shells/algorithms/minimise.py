@@ -77,6 +77,10 @@ FLAT_WINDOW = 10
 #: definite up to a shift of this many ``MinimiseSettings.sigma0``: the mesh's pinning may
 #: turn the orbit's own curvature (a few sigma0) negative, which that Newton does not see
 ORBIT_SHIFT_MAX = 64.0
+#: the steps of one hand-over to Newton modulo the orbit: it converges in a few where it will
+#: at all; near a bifurcation (a pattern barely broken) its steps oscillate instead, and TAO
+#: goes on sooner
+ORBIT_NEWTON_MAX_IT = 12
 #: the LDLᵀ that decides the shift's definiteness (its own prefix: ``shells_minimise_shift_``)
 SHIFT_PREFIX = MINIMISE_PREFIX + "shift_"
 SHIFT_OPTIONS: dict[str, Any] = {
@@ -327,7 +331,8 @@ class _TaoRun:
         from shells.algorithms.orbit import has_orbit, newton_modulo_orbit
 
         if has_orbit(self.problem):
-            res = newton_modulo_orbit(self.problem, atol=self.st.gatol)
+            res = newton_modulo_orbit(self.problem, atol=self.st.gatol,
+                                      max_it=ORBIT_NEWTON_MAX_IT)
             if res.converged:
                 self.orbit = res
             return res.converged, res.iterations

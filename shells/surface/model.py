@@ -78,9 +78,9 @@ CAP_SIZE_H_OVER_R = 0.04
 #: the error a spherical cap's default discretisation is meant to stay within, relative in κ
 #: (measured errors: docs/design-notes.md, "Surface model defaults")
 CAP_DEFAULT_ERROR = 5.0e-3
-#: a state has an orbit about the axis where its tangent along it is at least this fraction of
-#: the state (the Euclidean norms of their values): an axisymmetric state's tangent is the
-#: interpolation error of its gradient, 1e-4 of it on a coarse P3 cap, a pattern's of order 1
+#: a state has an orbit about the axis where ‖∂w/∂φ‖ ≥ ORBIT_MIN ‖w‖ for its normal
+#: displacement w (L² norms by quadrature): a pattern of m lobes and relative amplitude a has
+#: about m a; an axisymmetric state only its discretisation's departure from symmetry
 ORBIT_MIN = 1.0e-2
 
 
@@ -905,11 +905,13 @@ class ShellModel(FormProblem):
         """The state's tangent along its rotation about the axis of a shell of revolution
         (``shells.problem.interface.OrbitTangents``): d/dε of the state turned by ε, for u and
         θ alike (Cartesian vector fields: e_z × w - (∇w)(e_z × x)), interpolated in the
-        state's space; [] where it is below ``ORBIT_MIN`` of the state (axisymmetric), on a
-        closed sphere (whose orbit also holds the rotations the gauge fixes) and on a surface
-        known only by its mesh."""
+        state's space; [] where the state is axisymmetric (``ORBIT_MIN``, decided by
+        quadrature, free of the interpolated gradient's error), on a closed sphere (whose
+        orbit also holds the rotations the gauge fixes) and on a surface known only by its
+        mesh."""
         import ufl
         from dolfinx import fem
+        from mpi4py import MPI
 
         from shells.geometry.shapes import Sphere
 
@@ -924,13 +926,18 @@ class ShellModel(FormProblem):
                 ufl.as_vector([tu[0], tu[1], tu[2], tt[0], tt[1], tt[2]]),
                 self.W.element.interpolation_points())
             self._tangent_f = fem.Function(self.W)
+            wn = ufl.dot(u, self.n0)
+            self._tangent_norms = [fem.form(ufl.dot(a, ufl.grad(wn)) ** 2 * self.dx),
+                                   fem.form(wn * wn * self.dx)]
+        comm = self.shell.comm
+        dphi2, w2 = (comm.allreduce(fem.assemble_scalar(f), op=MPI.SUM)
+                     for f in self._tangent_norms)
+        if not dphi2 >= ORBIT_MIN**2 * w2 or w2 == 0.0:
+            return []
         self._tangent_f.interpolate(self._tangent_expr)
         t = self.create_vector()
         t.array_w[:] = self._tangent_f.x.array[: t.getLocalSize()]
         self.zero_constrained(t)
-        if not t.norm() >= ORBIT_MIN * self.state.norm():
-            t.destroy()
-            return []
         return [t]
 
     def orbit_overlap(self, vec: Any) -> float:

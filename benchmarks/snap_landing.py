@@ -10,7 +10,8 @@ and resumes an unfinished one from its checkpoint). Prints a table.
 
 The shallowest caps need a finer mesh than the others: θ̄ = 2.5 lands with spurious m = 8
 rim wrinkles at size 0.35 R (P2) and 0.1 R (P2 or P3, 2 elements across √(Rh)), symmetric on
-the everted state at 0.05 R, P3, 4 elements (``--size 0.05 --layer-elements 4 --degree 3``).
+the everted state at 0.05 R, P3, 4 elements (``--size 0.05 --layer-elements 4 --degree 3``)
+and on the default mesh (no mesh options: P2, 0.1 R, 4 elements).
 """
 
 from __future__ import annotations

@@ -260,7 +260,8 @@ def main() -> None:
     metas = {k: json.loads((d / "checkpoint" / "meta.json").read_text()) for k, d in runs.items()}
     header = metas["minimise"]["header"]
     meshes = [(header["size"], header["layer_elements"])] + [
-        (float(s), float(L)) for s, L in (m.split(":") for m in (a.meshes or ["0.25:3", "0.2:4"]))]
+        (float(s), float(L)) for s, L in (m.split(":") for m in (
+            a.meshes if a.meshes is not None else ["0.25:3", "0.2:4"]))]
     first = build(header, *meshes[0])
     states, kappas, rows = {}, {}, []
     for name, d in runs.items():

@@ -271,7 +271,7 @@ def main() -> None:
     comm = MPI.COMM_WORLD
     for i, (size, layer) in enumerate(meshes):
         model = first if i == 0 else build(header, size, layer)
-        row = {"size": size, "layer_elements": layer, "dofs": model.num_dofs()}
+        row = {"size": model.shell_size, "layer_elements": layer, "dofs": model.num_dofs()}
         ends = {}
         for name in runs:
             model.set_kappa(kappas[name])

@@ -304,8 +304,9 @@ def test_dynamics_outputs_and_resume(shared_tmp, monkeypatch):
     """A short integration (adaptive steps to t = 3, checkpointed every 5; at most 4 frames,
     3 in the animation; then polished), killed after 7 steps and continued from step 5 twice
     from copies of its folder: once to the end, once killed again at step 14 and continued from
-    step 10. Both end alike to the last digit: the same series, the same landing; the frames'
-    stride doubled, ``snap.bp`` holds them at their CSV times, ``snap.gif`` 3 of them. The same
+    step 10. Both end alike to the last digit: the same series; the same landing up to the
+    orientation of its pattern; the frames' stride doubled, ``snap.bp`` holds them at their
+    CSV times, ``snap.gif`` 3 of them. The same
     on every rank."""
     import shutil
 
@@ -329,7 +330,10 @@ def test_dynamics_outputs_and_resume(shared_tmp, monkeypatch):
     assert _stage(b) == "dynamics 10"
     res2 = snap.run(cfg, b)
     assert res2["dynamics"] == pytest.approx(d, rel=1e-12)
-    assert res2["landing"]["energy"] == pytest.approx(res["landing"]["energy"], rel=1e-12)
+    # the polish from t = 3 (mid-snap) lands on this coarse mesh in a wrinkled m = 8 state,
+    # converged modulo its orbit: its orientation, and so its energy to the mesh's pinning
+    # (measured 3.6e-7 apart on 2 ranks), follows the round-off of the path there
+    assert res2["landing"]["energy"] == pytest.approx(res["landing"]["energy"], rel=1e-6)
     assert res2["files"] == res["files"] and {"fields", "animation"} <= set(res["files"])
     comm.barrier()
     rows, rows2 = _series(a), _series(b)

@@ -29,6 +29,8 @@ from shells.errors import InputError
 from shells.geometry.shapes import Sphere, SphericalCap
 
 
+@pytest.mark.skipif(MPI.COMM_WORLD.size > 1, reason="the gallery demo runs on one process; a "
+                    "snap resumed on 2 ranks: test_dynamics_outputs_and_resume")
 def test_the_fig1d_demo_quick_mode_and_a_resumed_rerun(shared_tmp, monkeypatch):
     """The gallery's Fig. 1 (d) demo in its quick mode (its own asserts: the θ̄ = 3 cap lands,
     stable and symmetric, on the everted state Newton finds from the mirrored cap), then the

@@ -295,7 +295,8 @@ class _Integration:
         for k, val in (("ts_alpha_radius", s.rho_inf),
                        ("ts_adapt_type", "basic" if s.adaptive else "none"),
                        ("ts_rtol", s.step_tol), ("ts_atol", s.step_tol),
-                       *((("ts_adapt_dt_min", s.dt_min),) if s.dt_min is not None else ())):
+                       *((("ts_adapt_dt_min", s.dt_min),) if s.dt_min is not None else ()),
+                       *((("ts_adapt_dt_max", s.dt_max),) if s.dt_max is not None else ())):
             if not opts.hasName(f"{DYNAMICS_PREFIX}{k}"):  # a user's option wins
                 opts[f"{DYNAMICS_PREFIX}{k}"] = val
                 ours.append(f"{DYNAMICS_PREFIX}{k}")

@@ -269,6 +269,9 @@ class DynamicsSettings:
         step_tol: the adaptive step's tolerance on the local error (TS's rtol and atol).
         dt_min: the adaptive step's least value (None: no bound); a step at it is accepted
             whatever its error estimate (TSAdapt's rule).
+        dt_max: the adaptive step's greatest value (None: no bound). Near a slowly left
+            saddle the error estimate lets the step grow past the basin of the stage's Newton
+            solve, which then crawls under its line search or fails and retries.
         rest_tol: stop once the kinetic energy falls below this (None: run to ``t_end``).
         max_steps: safety limit on the steps.
 
@@ -283,6 +286,7 @@ class DynamicsSettings:
     adaptive: bool = False
     step_tol: float = 1.0e-4
     dt_min: float | None = None
+    dt_max: float | None = None
     # damping C = mass_damping M + stiffness_damping K
     mass_damping: float = 0.0
     stiffness_damping: float = 0.0
@@ -304,6 +308,9 @@ class DynamicsSettings:
         if self.dt_min is not None and not (math.isfinite(self.dt_min)
                                             and 0 < self.dt_min <= self.dt):
             raise InputError(f"dt_min must lie in (0, dt], got {self.dt_min!r}")
+        if self.dt_max is not None and not (math.isfinite(self.dt_max)
+                                            and self.dt <= self.dt_max):
+            raise InputError(f"dt_max must be finite and at least dt, got {self.dt_max!r}")
         if not (math.isfinite(self.step_tol) and self.step_tol > 0):
             raise InputError(f"step_tol must be positive, got {self.step_tol!r}")
         if self.rest_tol is not None and not self.rest_tol > 0:

@@ -100,8 +100,25 @@ def test_adaptive_steps_keep_to_dt_min():
     assert steps[0.05].min() >= 0.05 * (1 - 1e-9)
 
 
+def test_adaptive_steps_keep_to_dt_max():
+    """A loose tolerance lets the adaptive steps of a damped vibration grow well past the first
+    one as it dies out; ``dt_max`` bounds them, and the run still comes to rest."""
+    steps = {}
+    for dt_max in (None, 0.5):
+        p = FoldProblem(comm=MPI.COMM_SELF)
+        p.state.array_w[:] += 1e-2 * (np.arange(p.lo, p.hi) == 0)
+        r = integrate(p, DynamicsSettings(t_end=200.0, dt=0.05, rho_inf=0.5, mass_damping=1.0,
+                                          adaptive=True, step_tol=1e-4, dt_max=dt_max,
+                                          rest_tol=1e-12))
+        assert r.reason == "rest"
+        steps[dt_max] = np.diff(r.times)
+    assert steps[None].max() > 1.0
+    assert steps[0.5].max() <= 0.5 * (1 + 1e-9)
+
+
 def test_settings_are_checked():
     for bad in ({"dt": 0.0}, {"rho_inf": 1.5}, {"mass_damping": -1.0}, {"rest_tol": 0.0},
-                {"t_end": -1.0}, {"dt_min": 0.0}, {"dt_min": 0.5}, {"step_tol": 0.0}):
+                {"t_end": -1.0}, {"dt_min": 0.0}, {"dt_min": 0.5}, {"step_tol": 0.0},
+                {"dt_max": 0.001}, {"dt_max": float("inf")}):
         with pytest.raises(InputError):
             DynamicsSettings(**bad)

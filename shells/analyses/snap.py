@@ -13,8 +13,8 @@ axisymmetric everted state at the same κ (Newton from the shell mirrored throug
 continued in κ from half the fold's κ).
 
 With ``method="dynamics"`` the start is integrated in time instead (``snap_dynamics``: the
-equations of motion with mass-proportional damping, TSALPHA2, adaptive steps no shorter than
-``DT_STEP``) until the kinetic energy has fallen to ``REST_FRACTION`` of its peak; the rest
+equations of motion with mass-proportional damping, TSALPHA2, adaptive steps between
+``DT_STEP`` and ``DT_MAX``) until the kinetic energy has fallen to ``REST_FRACTION`` of its peak; the rest
 state is then polished by the same minimiser (it lies in the minimum's basin: the polish
 changes its energy by the residual motion only), and ``snap_time`` is when the pole's
 displacement crosses halfway from the start's to the rest state's.

@@ -116,6 +116,44 @@ def test_adaptive_steps_keep_to_dt_max():
     assert steps[0.5].max() <= 0.5 * (1 + 1e-9)
 
 
+@pytest.mark.parametrize("alpha", [1.0, 0.1])
+def test_a_damped_saddle_is_left_at_the_root_of_its_characteristic_equation(alpha):
+    """The fold problem's unstable equilibrium near its fold (κ = 0.999, x = -√0.001; unit
+    mass; μ = -0.0212 the Hessian's negative eigenvalue), perturbed by 1e-9 along its
+    eigenvector: the departure grows as e^(s t), s² + α s + μ = 0, the rate at which a damped
+    shell leaves a saddle (docs/model.md, "Damping and the saddles a snap passes"). At α = 1
+    (α/(2√|μ|) = 3.4, overdamped) s is within 3 % of |μ|/α, at α = 0.1 five times that.
+    Trapezoidal steps of 0.1 (s Δt ≤ 0.01); the log-linear fit over the run's last half (the
+    decaying root's share below 1e-6) to a departure of 1e-5 (linear: a thirtieth of a
+    thousandth of the distance to the stable state)."""
+    p = FoldProblem(comm=MPI.COMM_SELF)
+    kappa = 0.999
+    p.set_kappa(kappa)
+    w0 = -math.sqrt(1 - kappa) * np.ones(p.n)
+    mu, vecs = np.linalg.eigh(p.hessian(w0, kappa))
+    assert mu[0] == pytest.approx(-0.02118, rel=1e-3) and mu[1] > 0
+    s = 0.5 * (-alpha + math.sqrt(alpha**2 - 4 * mu[0]))
+    t_end = math.log(1e4) / s
+    p.state.array_w[:] = (w0 + 1e-9 * vecs[:, 0])[p.lo:p.hi]
+    times, dist = [], []
+
+    def monitor(t, problem, kinetic):
+        times.append(t)
+        dist.append(float(np.linalg.norm(problem.gathered() - w0)))
+
+    integrate(p, DynamicsSettings(t_end=t_end, dt=0.1, mass_damping=alpha), monitor=monitor)
+    t, d = np.array(times), np.array(dist)
+    late = t >= t_end / 2
+    rate = np.polyfit(t[late], np.log(d[late]), 1)[0]
+    assert world_max(d.max()) < 2e-5
+    assert world_max(abs(rate / s - 1)) < 1e-4
+    overdamped = -mu[0] / alpha
+    if alpha == 1.0:
+        assert abs(s / overdamped - 1) < 0.03
+    else:
+        assert s > 4.5 * (-mu[0] / 1.0)
+
+
 def test_settings_are_checked():
     for bad in ({"dt": 0.0}, {"rho_inf": 1.5}, {"mass_damping": -1.0}, {"rest_tol": 0.0},
                 {"t_end": -1.0}, {"dt_min": 0.0}, {"dt_min": 0.5}, {"step_tol": 0.0},

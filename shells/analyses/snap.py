@@ -14,9 +14,9 @@ continued in κ from half the fold's κ).
 
 With ``method="dynamics"`` the start is integrated in time instead (``snap_dynamics``: the
 equations of motion with mass-proportional damping, TSALPHA2, adaptive steps between
-``DT_STEP`` and ``DT_MAX``) until the kinetic energy has fallen to ``REST_FRACTION`` of its peak; the rest
-state is then polished by the same minimiser (it lies in the minimum's basin: the polish
-changes its energy by the residual motion only), and ``snap_time`` is when the pole's
+``DT_STEP`` and ``DT_MAX``) until the kinetic energy has fallen to ``REST_FRACTION`` of its
+peak; the rest state is then polished by the same minimiser (it lies in the minimum's basin:
+the polish changes its energy by the residual motion only), and ``snap_time`` is when the pole's
 displacement crosses halfway from the start's to the rest state's.
 
 The dynamics run in segments of ``DYNAMICS_SAVE_EVERY`` steps, each checkpointed (state,

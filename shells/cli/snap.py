@@ -56,10 +56,11 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
                    "dynamics: the equations of motion integrated to rest, then polished")
     p.add_argument("--step-tol", type=common.positive_float("step-tol"), default=None,
                    help="dynamics: the adaptive time steps' tolerance on the local error "
-                        "(default 1e-4; the steps never fall below 0.05 R sqrt(rho/E))")
+                        "(default 1e-4; the steps stay between 0.05 and 1 R sqrt(rho/E))")
     p.add_argument("--damping", type=common.nonnegative_float("damping"), default=None,
                    help="dynamics: mass-proportional damping alpha in sqrt(E/rho)/R "
-                   "(default 1)")
+                   "(default 1; a saddle's unstable direction mu is left at the rate s, "
+                   "s^2 + alpha s + mu = 0)")
     p.add_argument("--amplitude", type=common.positive_float("amplitude"), default=0.1,
                    help="the perturbation along each unstable mode, RMS / h (default 0.1)")
     p.add_argument("--kappa-R-max", dest="kappa_R_max", type=common.positive_float("kappa-R-max"),

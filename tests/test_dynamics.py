@@ -84,36 +84,28 @@ def test_rest_stops_a_damped_vibration():
     assert r.reason == "rest" and r.times[-1] < 200.0 and r.kinetic[-1] < 1e-12
 
 
+def damped_steps(**settings) -> np.ndarray:
+    """The adaptive steps of the fold problem's damped vibration (ρ∞ = 0.5, α = 1) to rest."""
+    p = FoldProblem(comm=MPI.COMM_SELF)
+    p.state.array_w[:] += 1e-2 * (np.arange(p.lo, p.hi) == 0)
+    r = integrate(p, DynamicsSettings(t_end=200.0, dt=0.05, rho_inf=0.5, mass_damping=1.0,
+                                      adaptive=True, **settings))
+    assert r.reason == "rest"
+    return np.diff(r.times)
+
+
 def test_adaptive_steps_keep_to_dt_min():
     """A tight tolerance shortens the adaptive steps below the first one; ``dt_min`` bounds
     them (the steps at it are accepted), and the run still comes to rest."""
-    steps = {}
-    for dt_min in (None, 0.05):
-        p = FoldProblem(comm=MPI.COMM_SELF)
-        p.state.array_w[:] += 1e-2 * (np.arange(p.lo, p.hi) == 0)
-        r = integrate(p, DynamicsSettings(t_end=200.0, dt=0.05, rho_inf=0.5, mass_damping=1.0,
-                                          adaptive=True, step_tol=1e-6, dt_min=dt_min,
-                                          rest_tol=1e-8))
-        assert r.reason == "rest"
-        steps[dt_min] = np.diff(r.times)
-    assert steps[None].min() < 0.02
-    assert steps[0.05].min() >= 0.05 * (1 - 1e-9)
+    assert damped_steps(step_tol=1e-6, rest_tol=1e-8).min() < 0.02
+    assert damped_steps(step_tol=1e-6, rest_tol=1e-8, dt_min=0.05).min() >= 0.05 * (1 - 1e-9)
 
 
 def test_adaptive_steps_keep_to_dt_max():
     """A loose tolerance lets the adaptive steps of a damped vibration grow well past the first
     one as it dies out; ``dt_max`` bounds them, and the run still comes to rest."""
-    steps = {}
-    for dt_max in (None, 0.5):
-        p = FoldProblem(comm=MPI.COMM_SELF)
-        p.state.array_w[:] += 1e-2 * (np.arange(p.lo, p.hi) == 0)
-        r = integrate(p, DynamicsSettings(t_end=200.0, dt=0.05, rho_inf=0.5, mass_damping=1.0,
-                                          adaptive=True, step_tol=1e-4, dt_max=dt_max,
-                                          rest_tol=1e-12))
-        assert r.reason == "rest"
-        steps[dt_max] = np.diff(r.times)
-    assert steps[None].max() > 1.0
-    assert steps[0.5].max() <= 0.5 * (1 + 1e-9)
+    assert damped_steps(step_tol=1e-4, rest_tol=1e-12).max() > 1.0
+    assert damped_steps(step_tol=1e-4, rest_tol=1e-12, dt_max=0.5).max() <= 0.5 * (1 + 1e-9)
 
 
 @pytest.mark.parametrize("alpha", [1.0, 0.1])

@@ -363,13 +363,10 @@ def snap_dynamics(model: Any, damping: float, t_max: float | None = None, *,
 
     t_max = T_MAX if t_max is None else t_max
     tol = step_tol if step_tol is not None else STEP_TOL
-    dt_min = DT_STEP * tscale
-
-    dt_max = DT_MAX * tscale
+    dt_min, dt_max = DT_STEP * tscale, DT_MAX * tscale
     segment = dict(t_end=t_max * tscale, rho_inf=RHO_INF, adaptive=tol is not None,
                    step_tol=tol or 1.0e-4, dt_min=dt_min, dt_max=dt_max,
                    mass_damping=damping / tscale, max_steps=DYNAMICS_SAVE_EVERY)
-
     velocity = None
     if prog.velocity is not None:  # a continued run's
         velocity = model.create_vector()

@@ -32,11 +32,11 @@ from pathlib import Path
 
 import numpy as np
 
+from shells.analyses.snap import SERIES_COLUMNS as COLUMNS
+
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 OUT = Path("benchmarks/results/snap_dynamics_state.json")
-COLUMNS = ("time", "kinetic", "elastic", "psi3_pole_over_h", "rim_rotation_deg",
-           "amp_m1", "amp_m2", "amp_m3", "amp_m4")
 
 
 def growth(series: np.ndarray, window: float) -> dict[str, float]:

@@ -81,9 +81,9 @@ DT_STEP = 0.05
 STEP_TOL: float | None = 1.0e-4  # None: fixed steps of DT_STEP
 #: dynamics: the greatest adaptive step (units R √(ρ/E)), the damping time 1/α of ``DAMPING``.
 #: Where the shell creeps off a saddle (the everted state of a deep cap) the error estimate
-#: alone lets the step grow past the basin of the stage's Newton solve: at steps of 1.7 on the
-#: default mesh of the Fig. 1 (d) cap the line search cut the first Newton steps to 4 % and
-#: the solve took 23 iterations or failed; at 1.0 it takes three
+#: alone lets the step grow past the basin of each step's Newton solve, which then crawls
+#: under its line search or fails and retries (docs/design-notes.md, "Minimiser and snap
+#: landing")
 DT_MAX = 1.0
 RHO_INF = 0.5
 T_MAX = 5000.0

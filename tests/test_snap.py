@@ -68,7 +68,7 @@ def test_config_refusals():
     with pytest.raises(InputError, match="open shell"):
         snap.SnapConfig(shape=Sphere(1.0), h_over_r=0.01)
     for bad in ({"past": 0.0}, {"past": 2.0}, {"amplitude": -1.0}, {"method": "newton"},
-                {"damping": -1.0},
+                {"damping": -1.0}, {"settle": -1e-4}, {"settle": 1.0}, {"settle": math.nan},
                 {"step_tol": 0.0}, {"step_tol": 1.0}, {"h_over_r": 0.9}):
         with pytest.raises(InputError):
             snap.SnapConfig(**{"shape": cap, "h_over_r": 0.04, **bad})
@@ -78,7 +78,9 @@ def test_config_refusals():
                                   ["--shape", "cap", "--theta-deg", "30", "--h-over-r", "0.04",
                                    "--past", "2"],
                                   ["--shape", "cap", "--theta-deg", "30", "--h-over-r", "0.04",
-                                   "--amplitude", "-1"]])
+                                   "--amplitude", "-1"],
+                                  ["--shape", "cap", "--theta-deg", "30", "--h-over-r", "0.04",
+                                   "--method", "dynamics", "--settle", "2"]])
 def test_cli_refusals_are_one_line(args):
     if MPI.COMM_WORLD.rank != 0:
         return
@@ -93,8 +95,8 @@ _H = 0.04
 _CAP = dict(shape=SphericalCap(1.0, 3.0 * math.sqrt(_H)), h_over_r=_H, past=0.3, size=0.6,
             degree=2, layer_elements=1.0)
 #: the output tests' run to rest: adaptive steps of at least 0.1 (not 0.05: at rest in about
-#: 125 steps) at the default tolerance, checkpointed every 50
-_STEPS = (("DT_STEP", 0.1), ("DYNAMICS_SAVE_EVERY", 50))
+#: about 145 steps) at the default tolerance, checkpointed every 10
+_STEPS = (("DT_STEP", 0.1), ("DYNAMICS_SAVE_EVERY", 10))
 _STEP_TOL = 1e-4
 
 
@@ -196,7 +198,8 @@ def dynamics_run(tmp_path_factory):
         for name, value in (*_STEPS, ("ANIMATION_FRAMES", 10)):
             mp.setattr(snap, name, value)
         res = snap.run(snap.SnapConfig(**_CAP, method="dynamics", damping=2.0,
-                                       step_tol=_STEP_TOL), out, render=True, resume=False)
+                                       step_tol=_STEP_TOL, settle=0.0), out, render=True,
+                       resume=False)
     comm.barrier()  # snap.json written
     return res, out
 
@@ -215,6 +218,34 @@ def test_dynamics_comes_to_rest_where_minimisation_lands(dynamics_run):
     mini = snap.run(snap.SnapConfig(**_CAP), None, render=False)
     assert mini["snap_time"] is None and mini["dynamics"] is None
     assert ld["energy"] == pytest.approx(mini["landing"]["energy"], rel=1e-6)
+
+
+def test_a_settled_run_stops_early_and_lands_where_the_ring_down_does(dynamics_run,
+                                                                     monkeypatch):
+    """With ``settle`` = 1e-2, the fixture's run stops at the first segment's end (every 10
+    steps) where the kinetic energy is below 1e-2 of its peak and the Hessian is stable,
+    before rest, having taken the run to rest's steps so far: the polish from there lands
+    on the state of the run to rest, to 1e-6 of its energy, stable, with the same pattern; the
+    same on every rank."""
+    ref = dynamics_run[0]
+    for name, value in _STEPS:
+        monkeypatch.setattr(snap, name, value)
+    res = snap.run(snap.SnapConfig(**_CAP, method="dynamics", damping=2.0,
+                                   step_tol=_STEP_TOL, settle=1e-2), None, render=False)
+    d, d0 = res["dynamics"], ref["dynamics"]
+    assert d["reason"] == "settled" and d["settle"] == 1e-2 and d0["settle"] == 0.0
+    assert d["steps"] % 10 == 0 and d["steps"] < d0["steps"]
+    # the same steps up to the stop (on 2 ranks, two runs part at round-off)
+    assert d["kinetic_peak_time"] == pytest.approx(d0["kinetic_peak_time"], rel=1e-8)
+    # the halfway crossing of the pole's displacement, between the start and the end state
+    assert res["snap_time"] == pytest.approx(ref["snap_time"], rel=1e-3)
+    ld, ld0 = res["landing"], ref["landing"]
+    assert ld["stable"] and (ld["mode_m"], ld["symmetric"]) == (ld0["mode_m"], ld0["symmetric"])
+    assert ld["energy"] == pytest.approx(ld0["energy"], rel=1e-6)
+    assert ld["rest_energy"] - ld["energy"] > ld0["rest_energy"] - ld0["energy"]
+    for x in (d["steps"], ld["energy"]):
+        assert MPI.COMM_WORLD.allreduce(x, op=MPI.MAX) == MPI.COMM_WORLD.allreduce(
+            x, op=MPI.MIN)
 
 
 def test_dynamics_writes_its_files(dynamics_run):
@@ -277,15 +308,16 @@ def test_dynamics_animation(dynamics_run):
                     "continues copies of one run on any rank count")
 def test_an_interrupted_dynamics_run_continues_where_it_stopped(dynamics_run, shared_tmp,
                                                                monkeypatch):
-    """Killed 10 steps after its checkpoint at step 100, the run's rerun continues from step
+    """Killed 5 steps after its checkpoint at step 100, the run's rerun continues from step
     100 (no fold followed again) and ends where the uninterrupted run ends: the same series, the
     same frames, the same rest and landing energies (1e-9)."""
     dyn, ref = dynamics_run
     d0 = dyn["dynamics"]
     for name, value in _STEPS:
         monkeypatch.setattr(snap, name, value)
-    cfg = snap.SnapConfig(**_CAP, method="dynamics", damping=2.0, step_tol=_STEP_TOL)
-    _interrupted(monkeypatch, cfg, shared_tmp, 110)
+    cfg = snap.SnapConfig(**_CAP, method="dynamics", damping=2.0, step_tol=_STEP_TOL,
+                          settle=0.0)
+    _interrupted(monkeypatch, cfg, shared_tmp, 105)
     assert _stage(shared_tmp) == "dynamics 100"
     assert not (shared_tmp / "snap_series.csv").exists()
     res = snap.run(cfg, shared_tmp, render=False)

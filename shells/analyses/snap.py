@@ -15,9 +15,12 @@ continued in κ from half the fold's κ).
 With ``method="dynamics"`` the start is integrated in time instead (``snap_dynamics``: the
 equations of motion with mass-proportional damping, TSALPHA2, adaptive steps between
 ``DT_STEP`` and ``DT_MAX``) until the kinetic energy has fallen to ``REST_FRACTION`` of its
-peak; the rest state is then polished by the same minimiser (it lies in the minimum's basin:
-the polish changes its energy by the residual motion only), and ``snap_time`` is when the pole's
-displacement crosses halfway from the start's to the rest state's.
+peak, or until it has settled: at the end of a segment (below) the kinetic energy under
+``SETTLE_FRACTION`` of its peak and the Hessian without a negative eigenvalue but the
+symmetry orbit's. The rest state is then polished by the same minimiser (it lies in the
+minimum's basin: the polish takes it where the rest of the damped ring-down would), and
+``snap_time`` is when the pole's displacement crosses halfway from the start's to the rest
+state's.
 
 The dynamics run in segments of ``DYNAMICS_SAVE_EVERY`` steps, each checkpointed (state,
 velocity, time, the series so far): a rerun continues from the latest and takes the very steps
@@ -55,6 +58,7 @@ from shells.parameters import check_h_over_r, check_nu
 
 __all__ = ["ANIMATION_FIELD", "ANIMATION_FRAMES", "DAMPING", "DYNAMICS_SAVE_EVERY",
            "FRAMES_MAX", "METHODS", "REST_FRACTION", "SAVE_EVERY", "SERIES_COLUMNS",
+           "SETTLE_FRACTION",
            "SYMMETRY_TOL", "DynamicsProgress", "SnapConfig", "classify_landing", "run",
            "snap_dynamics"]
 
@@ -70,6 +74,13 @@ METHODS = ("minimise", "dynamics")
 DAMPING = 1.0
 #: dynamics: at rest once the kinetic energy has fallen below this fraction of its peak
 REST_FRACTION = 1.0e-8
+#: dynamics: settled, and stopped, at the end of a segment (every ``DYNAMICS_SAVE_EVERY``
+#: steps) where the kinetic energy is below this fraction of its peak and the Hessian has no
+#: negative eigenvalue but the symmetry orbit's. A shell that creeps off a saddle is slow but
+#: not settled (the Hessian's inertia tells the two apart); one that has settled lies in a
+#: minimum's basin, with too little energy left to leave it, and its last approach to the
+#: minimum, which the damping of the slow modes makes long, is the polish's work. 0: to rest
+SETTLE_FRACTION = 1.0e-4
 #: dynamics: the least time step (units R √(ρ/E)) and the adaptive step's tolerance on the
 #: local error, the spectral radius ρ∞ at infinite step (numerical dissipation, which removes
 #: the unresolved stiff membrane modes the start excites within a few steps) and the time after
@@ -121,6 +132,9 @@ class SnapConfig:
             (None: ``DAMPING``; 0: none, the run then stops at ``T_MAX``).
         step_tol: dynamics: the adaptive steps' tolerance on the local error (None:
             ``STEP_TOL``).
+        settle: dynamics: the run stops, settled, where the kinetic energy is below this
+            fraction of its peak at a segment's end and the Hessian is stable there (None:
+            ``SETTLE_FRACTION``; 0: it runs to rest, ``REST_FRACTION``).
 
     Raises:
         InputError: on construction, for a parameter out of range, a closed shape (which
@@ -143,6 +157,7 @@ class SnapConfig:
     shear_penalty: float = 1.0e3
     damping: float | None = None
     step_tol: float | None = None
+    settle: float | None = None
 
     def __post_init__(self) -> None:
         check_h_over_r(self.h_over_r)
@@ -159,6 +174,9 @@ class SnapConfig:
         if self.step_tol is not None and not (math.isfinite(self.step_tol)
                                               and 0 < self.step_tol < 1):
             raise InputError(f"step_tol must lie in (0, 1), got {self.step_tol!r}")
+        if self.settle is not None and not (math.isfinite(self.settle)
+                                            and 0 <= self.settle < 1):
+            raise InputError(f"settle must lie in [0, 1), got {self.settle!r}")
         if not (0 < self.past <= 1):
             raise InputError(f"past must lie in (0, 1], got {self.past!r}")
         if not (self.amplitude > 0 and math.isfinite(self.amplitude)):
@@ -170,6 +188,8 @@ class SnapConfig:
         d["shape"] = self.shape.describe()
         if self.method == "minimise":  # no bearing on it (and the header of earlier runs)
             d.pop("damping")
+        if self.settle is None:  # the default; a run checkpointed before the option continues
+            d.pop("settle")
         return d
 
 
@@ -287,6 +307,21 @@ class _Rest:
             self.passed = True
         return self.passed and kinetic < REST_FRACTION * self.peak
 
+    def below(self, kinetic: float, fraction: float) -> bool:
+        """Whether ``kinetic`` is below ``fraction`` of the peak, past it."""
+        return self.passed and kinetic < fraction * self.peak
+
+
+def _stable(model: Any) -> tuple[bool, int]:
+    """Whether the Hessian at the model's state has no negative eigenvalue but its symmetry
+    orbit's; the count of the others (collective)."""
+    from shells.algorithms.stability import Stability
+
+    stab = Stability(model)
+    neg, orbit = stab.negative_count_modulo_orbit()
+    stab.destroy()
+    return neg == orbit, int(neg - orbit)
+
 
 def _series_row(t: float, p: Any, kinetic: float) -> list[float]:
     """One row of ``SERIES_COLUMNS`` at time ``t`` (in R √(ρ/E)), the model ``p`` at its
@@ -302,15 +337,18 @@ def snap_dynamics(model: Any, damping: float, t_max: float | None = None, *,
                   resume: DynamicsProgress | None = None,
                   save: Callable[[DynamicsProgress], None] | None = None,
                   keep_frame: Callable[[int, Any], None] | None = None,
-                  step_tol: float | None = None) -> dict[str, Any]:
+                  step_tol: float | None = None, settle: float | None = None
+                  ) -> dict[str, Any]:
     """Integrate the equations of motion from the model's state at its κ, at rest, to rest
-    (collective).
+    or until it has settled (collective).
 
     Mass-proportional damping C = α M (``damping``), TSALPHA2 with ρ∞ = ``RHO_INF``, adaptive
     steps (between ``DT_STEP`` and ``DT_MAX``, tolerance ``STEP_TOL``), in segments of
     ``DYNAMICS_SAVE_EVERY`` steps (each a fresh ``integrate`` from the last one's state,
     velocity, time and next step: the kinetic mass and the start acceleration computed there).
-    At rest: the kinetic energy below ``REST_FRACTION`` of its peak, after the peak.
+    At rest: the kinetic energy below ``REST_FRACTION`` of its peak, after the peak. Settled:
+    at a segment's end, the kinetic energy below ``settle`` of its peak, after the peak, and
+    the Hessian without a negative eigenvalue but its symmetry orbit's (``SETTLE_FRACTION``).
 
     Args:
         model: the surface model, its state the (perturbed) start, or ``resume``'s state;
@@ -324,14 +362,16 @@ def snap_dynamics(model: Any, damping: float, t_max: float | None = None, *,
         keep_frame: called as ``keep_frame(step, model)`` at each step kept as a frame (the
             model at its state; ``DynamicsProgress.take_frame``).
         step_tol: the adaptive steps' tolerance (None: ``STEP_TOL``).
+        settle: the kinetic energy's fraction of its peak under which a segment's end is
+            checked for being settled (None: ``SETTLE_FRACTION``; 0: never).
 
     Returns:
         ``series`` (one row per accepted step, ``SERIES_COLUMNS``), ``frame_steps`` (the
-        steps kept as frames, and the last step), ``frame_every``, ``reason`` ("rest" or
-        "time"), ``steps``, ``snap_time`` (the time at which Ψ3 at the pole crosses halfway
-        from its start value to its final one, linearly interpolated; None where it does not
-        move by 1e-3 h), ``kinetic_peak_time``, ``rest_energy`` (the elastic energy at the
-        end), ``damping``.
+        steps kept as frames, and the last step), ``frame_every``, ``reason`` ("rest",
+        "settled" or "time"), ``steps``, ``snap_time`` (the time at which Ψ3 at the pole
+        crosses halfway from its start value to its final one, linearly interpolated; None
+        where it does not move by 1e-3 h), ``kinetic_peak_time``, ``rest_energy`` (the
+        elastic energy at the end), ``damping``, ``step_tol``, ``settle``.
 
     Raises:
         RuntimeError: the time integration diverged.
@@ -363,6 +403,7 @@ def snap_dynamics(model: Any, damping: float, t_max: float | None = None, *,
 
     t_max = T_MAX if t_max is None else t_max
     tol = step_tol if step_tol is not None else STEP_TOL
+    settle = SETTLE_FRACTION if settle is None else settle
     dt_min, dt_max = DT_STEP * tscale, DT_MAX * tscale
     segment = dict(t_end=t_max * tscale, rho_inf=RHO_INF, adaptive=tol is not None,
                    step_tol=tol or 1.0e-4, dt_min=dt_min, dt_max=dt_max,
@@ -381,8 +422,17 @@ def snap_dynamics(model: Any, damping: float, t_max: float | None = None, *,
                                "sqrt(rho/E)")
         prog.t, prog.dt = res.times[-1], res.dt
         velocity = res.velocity
+        reason = "rest" if res.reason == "monitor" else res.reason
         if res.reason == "monitor" or prog.t >= st.t_end * (1 - 1e-12):
             break
+        if settle and at_rest.below(rows[-1][1], settle):
+            stable, negative = _stable(model)
+            log.info("snap: dynamics step %d, kinetic %.3g of its peak: %s", len(rows) - 1,
+                     rows[-1][1] / at_rest.peak, "settled" if stable else
+                     f"{negative} negative eigenvalue(s) beyond the orbit's, going on")
+            if stable:
+                reason = "settled"
+                break
         prog.velocity = velocity.array_r.copy()
         if save is not None:
             save(prog)
@@ -392,10 +442,10 @@ def snap_dynamics(model: Any, damping: float, t_max: float | None = None, *,
     steps = len(rows) - 1
     frames = prog.frames + ([steps] if not prog.frames or prog.frames[-1] != steps else [])
     return {"series": rows, "frame_steps": frames, "frame_every": prog.frame_every,
-            "reason": "rest" if res.reason == "monitor" else res.reason,
-            "steps": steps, "snap_time": snap_time,
+            "reason": reason, "steps": steps, "snap_time": snap_time,
             "kinetic_peak_time": float(t[int(np.argmax(a[:, 1]))]),
-            "rest_energy": float(a[-1, 2]), "damping": damping, "step_tol": tol}
+            "rest_energy": float(a[-1, 2]), "damping": damping, "step_tol": tol,
+            "settle": settle}
 
 
 def _write_series(path: Path, rows: list[list[float]]) -> None:
@@ -580,7 +630,7 @@ class _SnapRun:
                      prog.steps, prog.rows[-1][0], damping)
         dyn = snap_dynamics(self.model, damping, resume=prog, save=self._save_progress,
                             keep_frame=self._keep_frame if self.ck is not None else None,
-                            step_tol=self.cfg.step_tol)
+                            step_tol=self.cfg.step_tol, settle=self.cfg.settle)
         rows, frames = dyn.pop("series"), dyn.pop("frame_steps")
         dyn["frames"], dyn["animation_frames"] = 0, 0
         if self.out is not None:

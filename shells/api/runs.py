@@ -214,7 +214,9 @@ def snap(shell: Shell, *, past: float = 0.01, kappa_R: float | None = None,
             ``outdir``).
         **options: ``SnapConfig`` numerics (``amplitude``, ``kappa_R_max``, ``size``,
             ``degree``, ``layer_elements``, ``shear_penalty``, ``damping``: dynamics' α of
-            C = α M in units √(E/ρ)/R, ``step_tol``: dynamics' adaptive step tolerance).
+            C = α M in units √(E/ρ)/R, ``step_tol``: dynamics' adaptive step tolerance,
+            ``settle``: the kinetic energy's fraction of its peak under which the dynamics
+            stop once the Hessian is stable, 0 to run to rest).
 
     Returns:
         The ``Result``: ``start``, ``method``, ``landing`` (``energy``, ``stable``,

@@ -3,19 +3,22 @@ run is ``shells.analyses.snap.run``.
 
     shells snap --shape cap --theta-deg T --h-over-r H [--nu NU] [--past P | --kappa-R K]
         [--amplitude A] [--method minimise|dynamics] [--damping ALPHA] [--step-tol T]
-        [--size S] [--degree D] [-o DIR] [--json]
+        [--settle F] [--size S] [--degree D] [-o DIR] [--json]
 
 Follows the fundamental branch (the surface model) to its snap fold, steps past it and
 minimises the energy there (TAO) from the fold's state perturbed along its unstable modes;
 with ``--method dynamics`` integrates the equations of motion from there to rest (damping
-C = ALPHA M, ALPHA in units of √(E/ρ)/R) and polishes the rest state by the same minimiser.
+C = ALPHA M, ALPHA in units of √(E/ρ)/R), or until the shell has settled in a minimum's basin
+(kinetic energy below F of its peak, the Hessian stable), and polishes that state by the same
+minimiser.
 JSON (last line with --json): ``start`` {``kappa_R``, ``kind``, ``kappa_fold_R``,
 ``unstable``}, ``method``, ``landing`` {``kappa_R``, ``energy``, ``stable``,
 ``negative_count``, ``orbit_modes``, ``mode_m``, ``symmetric``, ``spectrum``,
 ``rim_rotation_deg``, ``psi3_pole_over_h``, ``iterations``}, ``axisymmetric_everted``
 {``energy``, ``negative_count``, ``rim_rotation_deg``}, ``snap_time`` (null for minimisation;
 in units of R √(ρ/E)), ``dynamics`` (null for minimisation; ``reason``, ``steps``,
-``snap_time``, ``kinetic_peak_time``, ``rest_energy``, ``damping``; ``landing.rest_energy`` is
+``snap_time``, ``kinetic_peak_time``, ``rest_energy``, ``damping``, ``step_tol``, ``settle``;
+``reason`` "rest", "settled" or "time"; ``landing.rest_energy`` is
 the energy at rest before the polish; ``frames``, ``animation_frames``, ``frame_every``: what
 snap.bp and snap.gif hold), ``critical_points``, ``dofs``, ``mesh``, ``files`` (each file
 written, by what it is). With -o DIR: snap.json, landing.png/.vtu, everted.png, and with
@@ -57,6 +60,10 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
     p.add_argument("--step-tol", type=common.positive_float("step-tol"), default=None,
                    help="dynamics: the adaptive time steps' tolerance on the local error "
                         "(default 1e-4; the steps stay between 0.05 and 1 R sqrt(rho/E))")
+    p.add_argument("--settle", type=common.nonnegative_float("settle"), default=None,
+                   help="dynamics: stop once settled, where the kinetic energy is below this "
+                   "fraction of its peak (checked every 100 steps) and the Hessian is stable, "
+                   "and polish from there (default 1e-4; 0: integrate until at rest)")
     p.add_argument("--damping", type=common.nonnegative_float("damping"), default=None,
                    help="dynamics: mass-proportional damping alpha in sqrt(E/rho)/R "
                    "(default 1; a saddle's unstable direction mu is left at the rate s, "
@@ -87,7 +94,7 @@ def _cmd_snap(args: argparse.Namespace) -> int:
                           kappa_R=args.kappa_R, amplitude=args.amplitude,
                           kappa_R_max=args.kappa_R_max, size=args.size, degree=args.degree,
                           layer_elements=args.layer_elements, method=args.method,
-                          damping=args.damping, step_tol=args.step_tol)
+                          damping=args.damping, step_tol=args.step_tol, settle=args.settle)
     result = snap.run(cfg, args.output, render=not args.no_render)
     st, ld, ev = result["start"], result["landing"], result["axisymmetric_everted"]
 

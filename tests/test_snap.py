@@ -94,10 +94,10 @@ def test_cli_refusals_are_one_line(args):
 _H = 0.04
 _CAP = dict(shape=SphericalCap(1.0, 3.0 * math.sqrt(_H)), h_over_r=_H, past=0.3, size=0.6,
             degree=2, layer_elements=1.0)
-#: the output tests' run to rest: adaptive steps of at least 0.1 (not 0.05: at rest in about
-#: about 145 steps) at the default tolerance, checkpointed every 10
-_STEPS = (("DT_STEP", 0.1), ("DYNAMICS_SAVE_EVERY", 10))
-_STEP_TOL = 1e-4
+#: the output tests' run to rest: adaptive steps of at least 0.1 (not 0.05) at a tolerance of
+#: 1e-3 (at rest in about 80 steps; the landing is the same as at 1e-4), checkpointed every 50
+_STEPS = (("DT_STEP", 0.1), ("DYNAMICS_SAVE_EVERY", 50))
+_STEP_TOL = 1e-3
 
 
 def _series(folder):
@@ -222,23 +222,22 @@ def test_dynamics_comes_to_rest_where_minimisation_lands(dynamics_run):
 
 def test_a_settled_run_stops_early_and_lands_where_the_ring_down_does(dynamics_run,
                                                                      monkeypatch):
-    """With ``settle`` = 1e-2, the fixture's run stops at the first segment's end (every 10
-    steps) where the kinetic energy is below 1e-2 of its peak and the Hessian is stable,
-    before rest, having taken the run to rest's steps so far: the polish from there lands
-    on the state of the run to rest, to 1e-6 of its energy, stable, with the same pattern; the
-    same on every rank."""
+    """With ``settle`` = 1e-2 and checkpoints every 20 steps, the fixture's run stops at the
+    first segment's end where the kinetic energy is below 1e-2 of its peak and the Hessian is
+    stable, before the run to rest has come to rest: the polish from there lands on the rest
+    run's state, to 1e-6 of its energy, stable, with the same pattern; the same on every
+    rank."""
     ref = dynamics_run[0]
-    for name, value in _STEPS:
+    for name, value in (*_STEPS, ("DYNAMICS_SAVE_EVERY", 20)):
         monkeypatch.setattr(snap, name, value)
     res = snap.run(snap.SnapConfig(**_CAP, method="dynamics", damping=2.0,
                                    step_tol=_STEP_TOL, settle=1e-2), None, render=False)
     d, d0 = res["dynamics"], ref["dynamics"]
     assert d["reason"] == "settled" and d["settle"] == 1e-2 and d0["settle"] == 0.0
-    assert d["steps"] % 10 == 0 and d["steps"] < d0["steps"]
-    # the same steps up to the stop (on 2 ranks, two runs part at round-off)
-    assert d["kinetic_peak_time"] == pytest.approx(d0["kinetic_peak_time"], rel=1e-8)
-    # the halfway crossing of the pole's displacement, between the start and the end state
-    assert res["snap_time"] == pytest.approx(ref["snap_time"], rel=1e-3)
+    assert d["steps"] % 20 == 0 and d["end_time"] < d0["end_time"]
+    # the same motion (its steps part where a segment ends: the adaptive step starts afresh)
+    assert d["kinetic_peak_time"] == pytest.approx(d0["kinetic_peak_time"], rel=0.05)
+    assert res["snap_time"] == pytest.approx(ref["snap_time"], rel=1e-2)
     ld, ld0 = res["landing"], ref["landing"]
     assert ld["stable"] and (ld["mode_m"], ld["symmetric"]) == (ld0["mode_m"], ld0["symmetric"])
     assert ld["energy"] == pytest.approx(ld0["energy"], rel=1e-6)
@@ -308,8 +307,8 @@ def test_dynamics_animation(dynamics_run):
                     "continues copies of one run on any rank count")
 def test_an_interrupted_dynamics_run_continues_where_it_stopped(dynamics_run, shared_tmp,
                                                                monkeypatch):
-    """Killed 5 steps after its checkpoint at step 100, the run's rerun continues from step
-    100 (no fold followed again) and ends where the uninterrupted run ends: the same series, the
+    """Killed 10 steps after its checkpoint at step 50, the run's rerun continues from step
+    50 (no fold followed again) and ends where the uninterrupted run ends: the same series, the
     same frames, the same rest and landing energies (1e-9)."""
     dyn, ref = dynamics_run
     d0 = dyn["dynamics"]
@@ -317,8 +316,8 @@ def test_an_interrupted_dynamics_run_continues_where_it_stopped(dynamics_run, sh
         monkeypatch.setattr(snap, name, value)
     cfg = snap.SnapConfig(**_CAP, method="dynamics", damping=2.0, step_tol=_STEP_TOL,
                           settle=0.0)
-    _interrupted(monkeypatch, cfg, shared_tmp, 105)
-    assert _stage(shared_tmp) == "dynamics 100"
+    _interrupted(monkeypatch, cfg, shared_tmp, 60)
+    assert _stage(shared_tmp) == "dynamics 50"
     assert not (shared_tmp / "snap_series.csv").exists()
     res = snap.run(cfg, shared_tmp, render=False)
     assert res["critical_points"] == dyn["critical_points"]

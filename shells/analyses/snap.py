@@ -370,8 +370,9 @@ def snap_dynamics(model: Any, damping: float, t_max: float | None = None, *,
         steps kept as frames, and the last step), ``frame_every``, ``reason`` ("rest",
         "settled" or "time"), ``steps``, ``snap_time`` (the time at which Ψ3 at the pole
         crosses halfway from its start value to its final one, linearly interpolated; None
-        where it does not move by 1e-3 h), ``kinetic_peak_time``, ``rest_energy`` (the
-        elastic energy at the end), ``damping``, ``step_tol``, ``settle``.
+        where it does not move by 1e-3 h), ``kinetic_peak_time``, ``end_time`` (the time
+        reached), ``rest_energy`` (the elastic energy at the end), ``damping``, ``step_tol``,
+        ``settle``.
 
     Raises:
         RuntimeError: the time integration diverged.
@@ -444,7 +445,8 @@ def snap_dynamics(model: Any, damping: float, t_max: float | None = None, *,
     return {"series": rows, "frame_steps": frames, "frame_every": prog.frame_every,
             "reason": reason, "steps": steps, "snap_time": snap_time,
             "kinetic_peak_time": float(t[int(np.argmax(a[:, 1]))]),
-            "rest_energy": float(a[-1, 2]), "damping": damping, "step_tol": tol,
+            "end_time": float(t[-1]), "rest_energy": float(a[-1, 2]), "damping": damping,
+            "step_tol": tol,
             "settle": settle}
 
 

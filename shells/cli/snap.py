@@ -17,7 +17,8 @@ JSON (last line with --json): ``start`` {``kappa_R``, ``kind``, ``kappa_fold_R``
 ``rim_rotation_deg``, ``psi3_pole_over_h``, ``iterations``}, ``axisymmetric_everted``
 {``energy``, ``negative_count``, ``rim_rotation_deg``}, ``snap_time`` (null for minimisation;
 in units of R √(ρ/E)), ``dynamics`` (null for minimisation; ``reason``, ``steps``,
-``snap_time``, ``kinetic_peak_time``, ``rest_energy``, ``damping``, ``step_tol``, ``settle``;
+``snap_time``, ``kinetic_peak_time``, ``end_time``, ``rest_energy``, ``damping``,
+``step_tol``, ``settle``;
 ``reason`` "rest", "settled" or "time"; ``landing.rest_energy`` is
 the energy at rest before the polish; ``frames``, ``animation_frames``, ``frame_every``: what
 snap.bp and snap.gif hold), ``critical_points``, ``dofs``, ``mesh``, ``files`` (each file

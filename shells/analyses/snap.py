@@ -307,20 +307,22 @@ class _Rest:
             self.passed = True
         return self.passed and kinetic < REST_FRACTION * self.peak
 
-    def below(self, kinetic: float, fraction: float) -> bool:
-        """Whether ``kinetic`` is below ``fraction`` of the peak, past it."""
-        return self.passed and kinetic < fraction * self.peak
+    def settled(self, model: Any, step: int, kinetic: float, fraction: float) -> bool:
+        """Whether the shell has settled (collective): ``kinetic`` (the model's state's, at
+        ``step``) below ``fraction`` of the peak, past it, and the Hessian at the model's
+        state without a negative eigenvalue but its symmetry orbit's (``SETTLE_FRACTION``).
+        The inertia is computed only where the kinetic energy is that low."""
+        from shells.algorithms.stability import Stability
 
-
-def _stable(model: Any) -> tuple[bool, int]:
-    """Whether the Hessian at the model's state has no negative eigenvalue but its symmetry
-    orbit's; the count of the others (collective)."""
-    from shells.algorithms.stability import Stability
-
-    stab = Stability(model)
-    neg, orbit = stab.negative_count_modulo_orbit()
-    stab.destroy()
-    return neg == orbit, int(neg - orbit)
+        if not (fraction > 0 and self.passed and kinetic < fraction * self.peak):
+            return False
+        stab = Stability(model)
+        neg, orbit = stab.negative_count_modulo_orbit()
+        stab.destroy()
+        log.info("snap: dynamics step %d, kinetic %.3g of its peak: %s", step,
+                 kinetic / self.peak, "settled" if neg == orbit else
+                 f"{neg - orbit} negative eigenvalue(s) beyond the orbit's, going on")
+        return bool(neg == orbit)
 
 
 def _series_row(t: float, p: Any, kinetic: float) -> list[float]:
@@ -347,8 +349,7 @@ def snap_dynamics(model: Any, damping: float, t_max: float | None = None, *,
     ``DYNAMICS_SAVE_EVERY`` steps (each a fresh ``integrate`` from the last one's state,
     velocity, time and next step: the kinetic mass and the start acceleration computed there).
     At rest: the kinetic energy below ``REST_FRACTION`` of its peak, after the peak. Settled:
-    at a segment's end, the kinetic energy below ``settle`` of its peak, after the peak, and
-    the Hessian without a negative eigenvalue but its symmetry orbit's (``SETTLE_FRACTION``).
+    so at a segment's end for ``settle``, and the Hessian stable there (``SETTLE_FRACTION``).
 
     Args:
         model: the surface model, its state the (perturbed) start, or ``resume``'s state;
@@ -426,28 +427,26 @@ def snap_dynamics(model: Any, damping: float, t_max: float | None = None, *,
         reason = "rest" if res.reason == "monitor" else res.reason
         if res.reason == "monitor" or prog.t >= st.t_end * (1 - 1e-12):
             break
-        if settle and at_rest.below(rows[-1][1], settle):
-            stable, negative = _stable(model)
-            log.info("snap: dynamics step %d, kinetic %.3g of its peak: %s", len(rows) - 1,
-                     rows[-1][1] / at_rest.peak, "settled" if stable else
-                     f"{negative} negative eigenvalue(s) beyond the orbit's, going on")
-            if stable:
-                reason = "settled"
-                break
+        if at_rest.settled(model, len(rows) - 1, rows[-1][1], settle):
+            reason = "settled"
+            break
         prog.velocity = velocity.array_r.copy()
         if save is not None:
             save(prog)
-    a = np.array(rows)
-    t = a[:, 0]
-    snap_time = _snap_time(t, a[:, 3])
-    steps = len(rows) - 1
-    frames = prog.frames + ([steps] if not prog.frames or prog.frames[-1] != steps else [])
-    return {"series": rows, "frame_steps": frames, "frame_every": prog.frame_every,
-            "reason": reason, "steps": steps, "snap_time": snap_time,
-            "kinetic_peak_time": float(t[int(np.argmax(a[:, 1]))]),
-            "end_time": float(t[-1]), "rest_energy": float(a[-1, 2]), "damping": damping,
-            "step_tol": tol,
+    return {**_dynamics_summary(prog, reason), "damping": damping, "step_tol": tol,
             "settle": settle}
+
+
+def _dynamics_summary(prog: DynamicsProgress, reason: str) -> dict[str, Any]:
+    """``snap_dynamics``' result but its settings, from the progress at the run's end."""
+    a = np.array(prog.rows)
+    t = a[:, 0]
+    steps = len(prog.rows) - 1
+    frames = prog.frames + ([steps] if not prog.frames or prog.frames[-1] != steps else [])
+    return {"series": prog.rows, "frame_steps": frames, "frame_every": prog.frame_every,
+            "reason": reason, "steps": steps, "snap_time": _snap_time(t, a[:, 3]),
+            "kinetic_peak_time": float(t[int(np.argmax(a[:, 1]))]),
+            "end_time": float(t[-1]), "rest_energy": float(a[-1, 2])}
 
 
 def _write_series(path: Path, rows: list[list[float]]) -> None:

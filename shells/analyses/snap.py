@@ -77,9 +77,9 @@ REST_FRACTION = 1.0e-8
 #: dynamics: settled, and stopped, at the end of a segment (every ``DYNAMICS_SAVE_EVERY``
 #: steps) where the kinetic energy is below this fraction of its peak and the Hessian has no
 #: negative eigenvalue but the symmetry orbit's. A shell that creeps off a saddle is slow but
-#: not settled (the Hessian's inertia tells the two apart); one that has settled lies in a
-#: minimum's basin, with too little energy left to leave it, and its last approach to the
-#: minimum, which the damping of the slow modes makes long, is the polish's work. 0: to rest
+#: not settled (the Hessian's inertia tells the two apart); one that has settled is taken to
+#: lie in that minimum's basin, and its last approach to the minimum, which the damping of the
+#: slow modes makes long, is the polish's work. 0: to rest
 SETTLE_FRACTION = 1.0e-4
 #: dynamics: the least time step (units R √(ρ/E)) and the adaptive step's tolerance on the
 #: local error, the spectral radius ρ∞ at infinite step (numerical dissipation, which removes
@@ -193,6 +193,19 @@ class SnapConfig:
         return d
 
 
+def _counts_modulo_orbit(model: Any) -> tuple[int, int]:
+    """The Hessian's negative count at the model's state, and how many of those lie along its
+    symmetry orbit (``Stability.negative_count_modulo_orbit``; collective)."""
+    from shells.algorithms.stability import Stability
+
+    stab = Stability(model)
+    try:
+        neg, orbit = stab.negative_count_modulo_orbit()
+    finally:
+        stab.destroy()
+    return int(neg), int(orbit)
+
+
 def classify_landing(model: Any, counts: tuple[int, int] | None = None) -> dict[str, Any]:
     """The landing state's stability, symmetry and shape (collective).
 
@@ -207,13 +220,7 @@ def classify_landing(model: Any, counts: tuple[int, int] | None = None) -> dict[
         the orbit's), ``symmetric``, ``mode_m`` (0 when symmetric), ``spectrum`` (the amplitude
         of each m over that of m = 0), ``rim_rotation_deg``, ``psi3_pole_over_h``.
     """
-    from shells.algorithms.stability import Stability
-
-    if counts is None:
-        stab = Stability(model)
-        counts = stab.negative_count_modulo_orbit()
-        stab.destroy()
-    neg, orbit = counts
+    neg, orbit = counts if counts is not None else _counts_modulo_orbit(model)
     power = model.azimuthal_spectrum(model.state)
     amp = np.sqrt(power / max(power[0], 1e-300))
     symmetric = bool(np.max(amp[1:]) < SYMMETRY_TOL)
@@ -312,17 +319,13 @@ class _Rest:
         ``step``) below ``fraction`` of the peak, past it, and the Hessian at the model's
         state without a negative eigenvalue but its symmetry orbit's (``SETTLE_FRACTION``).
         The inertia is computed only where the kinetic energy is that low."""
-        from shells.algorithms.stability import Stability
-
         if not (fraction > 0 and self.passed and kinetic < fraction * self.peak):
             return False
-        stab = Stability(model)
-        neg, orbit = stab.negative_count_modulo_orbit()
-        stab.destroy()
+        neg, orbit = _counts_modulo_orbit(model)
         log.info("snap: dynamics step %d, kinetic %.3g of its peak: %s", step,
                  kinetic / self.peak, "settled" if neg == orbit else
                  f"{neg - orbit} negative eigenvalue(s) beyond the orbit's, going on")
-        return bool(neg == orbit)
+        return neg == orbit
 
 
 def _series_row(t: float, p: Any, kinetic: float) -> list[float]:

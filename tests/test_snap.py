@@ -221,19 +221,23 @@ def test_dynamics_comes_to_rest_where_minimisation_lands(dynamics_run):
 
 
 def test_a_settled_run_stops_early_and_lands_where_the_ring_down_does(dynamics_run,
-                                                                     monkeypatch):
-    """With ``settle`` = 1e-2 and checkpoints every 20 steps, the fixture's run stops at the
-    first segment's end where the kinetic energy is below 1e-2 of its peak and the Hessian is
-    stable, before the run to rest has come to rest: the polish from there lands on the rest
-    run's state, to 1e-6 of its energy, stable, with the same pattern; the same on every
-    rank."""
+                                                                     shared_tmp, monkeypatch):
+    """The fixture's run (``settle`` 0: to rest) with checkpoints every 20 steps, killed
+    after step 21 and continued from step 20 with ``settle`` = 1e-2 (a run under way goes on
+    under another ``settle``): it stops at the first segment's end where the kinetic energy is
+    below 1e-2 of its peak and the Hessian is stable, before the run to rest has come to rest;
+    the polish from there lands on the rest run's state, to 1e-6 of its energy, stable, with
+    the same pattern; the same on every rank."""
     ref = dynamics_run[0]
     for name, value in (*_STEPS, ("DYNAMICS_SAVE_EVERY", 20)):
         monkeypatch.setattr(snap, name, value)
-    res = snap.run(snap.SnapConfig(**_CAP, method="dynamics", damping=2.0,
-                                   step_tol=_STEP_TOL, settle=1e-2), None, render=False)
+    cfg = dict(_CAP, method="dynamics", damping=2.0, step_tol=_STEP_TOL)
+    _interrupted(monkeypatch, snap.SnapConfig(**cfg, settle=0.0), shared_tmp, 21)
+    assert _stage(shared_tmp) == "dynamics 20"
+    res = snap.run(snap.SnapConfig(**cfg, settle=1e-2), shared_tmp, render=False)
     d, d0 = res["dynamics"], ref["dynamics"]
     assert d["reason"] == "settled" and d["settle"] == 1e-2 and d0["settle"] == 0.0
+    assert res["config"]["settle"] == 1e-2 and res["critical_points"] == ref["critical_points"]
     assert d["steps"] % 20 == 0 and d["end_time"] < d0["end_time"]
     # the same motion (its steps part where a segment ends: the adaptive step starts afresh)
     assert d["kinetic_peak_time"] == pytest.approx(d0["kinetic_peak_time"], rel=0.05)

@@ -193,6 +193,21 @@ class SnapConfig:
         return d
 
 
+def _continues(meta: dict[str, Any], header: dict[str, Any]) -> bool:
+    """Whether a checkpoint (its ``meta``) continues the run of ``header``: the same
+    configuration, or dynamics under way under another ``settle``. ``settle`` decides only
+    where the motion stops, not the motion: a run creeping towards its minimum can go on
+    under a larger fraction (stopping at the next segment's end that passes it) or a smaller
+    one (0: to rest), and takes the steps it would have taken either way."""
+    saved = meta.get("header")
+    if saved == header:
+        return True
+    if saved is None or not str(meta.get("stage", "")).startswith("dynamics "):
+        return False
+    return ({k: v for k, v in saved.items() if k != "settle"}
+            == {k: v for k, v in header.items() if k != "settle"})
+
+
 def _counts_modulo_orbit(model: Any) -> tuple[int, int]:
     """The Hessian's negative count at the model's state, and how many of those lie along its
     symmetry orbit (``Stability.negative_count_modulo_orbit``; collective)."""
@@ -586,9 +601,10 @@ class _SnapRun:
         cfg, R = self.cfg, self.R
         got = (load_state_checkpoint(self.ck, self.model, ("w",))
                if self.ck is not None and resume else None)
-        if got is not None and got[0].get("header") == self.header:
+        if got is not None and _continues(got[0], self.header):
             # the checkpoint's own bookkeeping (its index, its ranks) is not carried forward
             self.meta = {k: v for k, v in got[0].items() if k not in ("index", "ranks")}
+            self.meta["header"] = self.header
             w = got[1]["w"]
             self.resumed = {k: v for k, v in {**got[1], **got[2]}.items() if k != "w"}
             self.files = dict(self.meta.get("files", {}))

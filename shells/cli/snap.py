@@ -64,7 +64,8 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
     p.add_argument("--settle", type=common.nonnegative_float("settle"), default=None,
                    help="dynamics: stop once settled, where the kinetic energy is below this "
                    "fraction of its peak (checked every 100 steps) and the Hessian is stable, "
-                   "and polish from there (default 1e-4; 0: integrate until at rest)")
+                   "and polish from there (default 1e-4; 0: integrate until at rest; a run "
+                   "under way continues under another value)")
     p.add_argument("--damping", type=common.nonnegative_float("damping"), default=None,
                    help="dynamics: mass-proportional damping alpha in sqrt(E/rho)/R "
                    "(default 1; a saddle's unstable direction mu is left at the rate s, "

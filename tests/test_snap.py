@@ -168,24 +168,25 @@ def _interrupted(monkeypatch, cfg, folder, steps):
     On every rank alike."""
     from shells.algorithms import dynamics
 
-    real, done = dynamics.integrate, {"steps": 0}
+    real, done = dynamics.Integrator, {"steps": 0}
 
-    def interrupted(*args, monitor, **kwargs):
-        start = {"call": True}
+    class Interrupted(real):
+        def __init__(self, *args, monitor, **kwargs):
+            start = {"call": True}
 
-        def stop(t, p, kinetic):
-            if not start.pop("call", False):
-                done["steps"] += 1
-                if done["steps"] > steps:
-                    raise _InterruptedError(t)
-            return monitor(t, p, kinetic)
+            def stop(t, p, kinetic):
+                if not start.pop("call", False):
+                    done["steps"] += 1
+                    if done["steps"] > steps:
+                        raise _InterruptedError(t)
+                return monitor(t, p, kinetic)
 
-        return real(*args, monitor=stop, **kwargs)
+            super().__init__(*args, monitor=stop, **kwargs)
 
-    monkeypatch.setattr(dynamics, "integrate", interrupted)
+    monkeypatch.setattr(dynamics, "Integrator", Interrupted)
     with pytest.raises(_STOPPED):
         snap.run(cfg, folder)
-    monkeypatch.setattr(dynamics, "integrate", real)
+    monkeypatch.setattr(dynamics, "Integrator", real)
 
 
 @pytest.fixture(scope="module")
@@ -237,7 +238,8 @@ def test_a_settled_run_stops_early_and_lands_where_the_ring_down_does(dynamics_r
     res = snap.run(snap.SnapConfig(**cfg, settle=1e-2), shared_tmp, render=False)
     d, d0 = res["dynamics"], ref["dynamics"]
     assert d["reason"] == "settled" and d["settle"] == 1e-2 and d0["settle"] == 0.0
-    assert res["config"]["settle"] == 1e-2 and res["critical_points"] == ref["critical_points"]
+    assert res["config"]["settle"] == 1e-2
+    assert res["start"]["kappa_R"] == pytest.approx(ref["start"]["kappa_R"], rel=1e-9)
     assert d["steps"] % 20 == 0 and d["end_time"] < d0["end_time"]
     # the same motion (its steps part where a segment ends: the adaptive step starts afresh)
     assert d["kinetic_peak_time"] == pytest.approx(d0["kinetic_peak_time"], rel=0.05)
@@ -312,8 +314,10 @@ def test_dynamics_animation(dynamics_run):
 def test_an_interrupted_dynamics_run_continues_where_it_stopped(dynamics_run, shared_tmp,
                                                                monkeypatch):
     """Killed 10 steps after its checkpoint at step 50, the run's rerun continues from step
-    50 (no fold followed again) and ends where the uninterrupted run ends: the same series, the
-    same frames, the same rest and landing energies (1e-9)."""
+    50 (no fold followed again): its series up to there is the uninterrupted run's (the CSV's
+    digits); from there its time stepper starts afresh, so its steps differ, but it comes to
+    rest in the same state (rest energy 1e-8, landing 1e-9), its frames (``snap.bp``) at its
+    CSV's times."""
     dyn, ref = dynamics_run
     d0 = dyn["dynamics"]
     for name, value in _STEPS:
@@ -326,25 +330,30 @@ def test_an_interrupted_dynamics_run_continues_where_it_stopped(dynamics_run, sh
     res = snap.run(cfg, shared_tmp, render=False)
     assert res["critical_points"] == dyn["critical_points"]
     d = res["dynamics"]
-    assert (d["steps"], d["reason"], d["frames"], d["frame_every"]) == (
-        d0["steps"], d0["reason"], d0["frames"], d0["frame_every"])
-    assert d["rest_energy"] == pytest.approx(d0["rest_energy"], rel=1e-9)
+    assert d["reason"] == d0["reason"] == "rest" and d["steps"] > 50
+    # crossed before step 50, at the level halfway to the rest state's Ψ3 (which moved)
+    assert d["snap_time"] == pytest.approx(d0["snap_time"], rel=1e-6)
+    assert d["rest_energy"] == pytest.approx(d0["rest_energy"], rel=1e-8)
     assert res["landing"]["energy"] == pytest.approx(dyn["landing"]["energy"], rel=1e-9)
     a, b = _series(ref), _series(shared_tmp)
-    assert _same_series(a, b), np.abs(a - b).max(axis=0) if a.shape == b.shape else b.shape
+    assert _same_series(a[:51], b[:51]), np.abs(a[:51] - b[:51]).max(axis=0)
+    assert b[-1, 0] == pytest.approx(a[-1, 0], rel=0.1)  # at rest at about the same time
     times, _ = _vtx_times(shared_tmp / "snap.bp")
-    np.testing.assert_allclose(times, _vtx_times(ref / "snap.bp")[0], rtol=1e-12)
+    steps = _expected_frames(d["steps"], d["frame_every"])
+    assert d["frames"] == len(steps) == len(times)
+    np.testing.assert_allclose(times, b[steps, 0], rtol=1e-11, atol=1e-12)
     assert "animation" not in res["files"] and not (shared_tmp / "snap.gif").exists()
 
 
 def test_dynamics_outputs_and_resume(shared_tmp, monkeypatch):
     """A short integration (adaptive steps to t = 3, checkpointed every 5; at most 4 frames,
     3 in the animation; then polished), killed after 7 steps and continued from step 5 twice
-    from copies of its folder: once to the end, once killed again at step 14 and continued from
-    step 10. Both end alike to the last digit: the same series; the same landing up to the
-    orientation of its pattern; the frames' stride doubled, ``snap.bp`` holds them at their
-    CSV times, ``snap.gif`` 3 of them. The same
-    on every rank."""
+    from copies of its folder: once to the end (a), once killed again at step 14 and
+    continued from step 10 (b). Up to step 10 both are one run to the CSV's digits (a
+    continued run's steps are decided by its checkpoint); from there b's time stepper starts
+    afresh, and both reach t = 3 with the same landing up to the orientation of its pattern;
+    in each the frames' stride doubled, ``snap.bp`` holds them at their CSV times,
+    ``snap.gif`` 3 of them. The same on every rank."""
     import shutil
 
     comm = MPI.COMM_WORLD
@@ -359,26 +368,29 @@ def test_dynamics_outputs_and_resume(shared_tmp, monkeypatch):
         shutil.copytree(a, b)
     comm.barrier()
     res = snap.run(cfg, a)
-    d = res["dynamics"]
-    assert d["reason"] == "time" and d["steps"] >= 15 and d["animation_frames"] == 3
-    frames = _expected_frames(d["steps"], d["frame_every"])
-    assert d["frames"] == len(frames) <= snap.FRAMES_MAX + 1
     _interrupted(monkeypatch, cfg, b, 8)
     assert _stage(b) == "dynamics 10"
     res2 = snap.run(cfg, b)
-    assert res2["dynamics"] == pytest.approx(d, rel=1e-12)
+    comm.barrier()
+    for r, folder in ((res, a), (res2, b)):
+        d = r["dynamics"]
+        assert d["reason"] == "time" and d["steps"] >= 15 and d["animation_frames"] == 3
+        frames = _expected_frames(d["steps"], d["frame_every"])
+        assert d["frames"] == len(frames) <= snap.FRAMES_MAX + 1 and d["frame_every"] >= 4
+        rows = _series(folder)
+        assert rows[-1, 0] == pytest.approx(3.0, rel=1e-12)
+        times = _vtx_times(folder / "snap.bp")[0]
+        np.testing.assert_allclose(times, rows[frames, 0], rtol=1e-11, atol=1e-12)  # 12 digits
+        assert _gif_frames(folder / "snap.gif")[0] == 3
+        for x in (d["steps"], times[-1]):  # 2 ranks: the same steps to round-off
+            assert comm.allreduce(x, op=MPI.MAX) - comm.allreduce(x, op=MPI.MIN) <= 1e-12 * x
+    rows, rows2 = _series(a), _series(b)
+    assert _same_series(rows[:11], rows2[:11])
     # the polish from t = 3 (mid-snap) lands on this coarse mesh in a wrinkled m = 8 state,
     # converged modulo its orbit: its orientation, and so its energy to the mesh's pinning
     # (measured 3.6e-7 apart on 2 ranks), follows the round-off of the path there
     assert res2["landing"]["energy"] == pytest.approx(res["landing"]["energy"], rel=1e-6)
     assert res2["files"] == res["files"] and {"fields", "animation"} <= set(res["files"])
-    comm.barrier()
-    rows, rows2 = _series(a), _series(b)
-    times, times2 = _vtx_times(a / "snap.bp")[0], _vtx_times(b / "snap.bp")[0]
-    assert _same_series(rows, rows2)
-    np.testing.assert_allclose(times, rows[frames, 0], rtol=1e-11, atol=1e-12)  # the CSV: 12 digits
-    np.testing.assert_allclose(times, times2, rtol=1e-12)  # 2 ranks: adaptive steps to 1e-13
-    assert _gif_frames(a / "snap.gif")[0] == 3
 
 
 def test_frames_stride_doubles_when_full(monkeypatch):

@@ -15,7 +15,13 @@ The gauge's constrained DOFs keep zero (unit rows of K, zero residual). A free s
 centre of mass thus keeps its momentum (zero in this frame): the gauged coordinates describe
 the motion relative to it, and the rigid motion that the gauge removes is never accelerated
 by a reaction. The rigid motions are those of the start state
-(exact for translations; rotations linearised there).
+(exact for translations; rotations linearised there), or of the state where
+``Integrator.refresh_mass`` last took them.
+
+``Integrator`` is an integration that goes on: each ``advance`` continues the same TS (no
+restart: TSALPHA2 restarts only at its first step, where it estimates the start acceleration
+from two backward-Euler half steps, whose error excites the stiff membrane modes and holds the
+adaptive step down for some steps). ``integrate`` is one ``advance`` to the end.
 """
 
 from __future__ import annotations
@@ -32,7 +38,7 @@ from shells.algorithms.settings import DynamicsSettings
 from shells.errors import InputError
 from shells.problem.interface import Energy, KineticMass
 
-__all__ = ["DYNAMICS_PREFIX", "DynamicsResult", "LowRankInverse", "integrate"]
+__all__ = ["DYNAMICS_PREFIX", "DynamicsResult", "Integrator", "LowRankInverse", "integrate"]
 
 log = logging.getLogger("shells")
 
@@ -48,9 +54,10 @@ class DynamicsResult:
         times: t in units of L √(ρ/E).
         kinetic: ½ u̇ᵀ M u̇.
         elastic: the energy E(u, κ) (NaN where the problem has no ``Energy``).
-        reason: "time" (reached t_end), "rest" (kinetic energy below ``rest_tol``),
-            "monitor" (the monitor asked to stop), or "diverged".
-        steps: the accepted steps.
+        reason: "time" (reached t_end), "steps" (reached an ``advance``'s step limit or
+            ``max_steps``), "rest" (kinetic energy below ``rest_tol``), "monitor" (the
+            monitor asked to stop), or "diverged".
+        steps: the accepted steps (of all ``advance`` calls).
         velocity: the velocity at the end (a state-shaped PETSc vector, the caller's; with the
             final state and time, what a later ``integrate`` continues from).
         dt: the step the stepper would take next (adaptive: its proposal).
@@ -107,20 +114,27 @@ class LowRankInverse:
                                        "pc_factor_mat_solver_type": "mumps"}
 
     def __init__(self, M: Any, jacobian: Any) -> None:
-        _, U, c, _ = M.getLRCMats()
-        self._Ud = U
-        self.c = c.getArray().copy()
-        dense = U.getDenseArray()
-        self.U = []
-        for j in range(dense.shape[1]):
-            u = U.createVecLeft()
-            u.array_w[:] = dense[:, j]
-            self.U.append(u)
+        self.U: list[Any] = []
         self.W: list[Any] = []
+        self.set_mass(M)
         self.jacobian = jacobian
         self.Sinv: np.ndarray | None = None
         self._ksp: Any = None
         self._options: dict[str, Any] = {}
+
+    def set_mass(self, M: Any) -> None:
+        """Take the low-rank part of the MATLRC mass ``M`` (used from the next set-up on)."""
+        _, U, c, _ = M.getLRCMats()
+        self._Ud = U
+        self.c = c.getArray().copy()
+        dense = U.getDenseArray()
+        for o in (*self.U, *self.W):
+            o.destroy()
+        self.U, self.W = [], []
+        for j in range(dense.shape[1]):
+            u = U.createVecLeft()
+            u.array_w[:] = dense[:, j]
+            self.U.append(u)
 
     def setUp(self, pc: Any) -> None:  # noqa: N802 - petsc4py's name
         """Factor P, and W and the k×k system for the present scale."""
@@ -198,7 +212,8 @@ def integrate(problem: Any, settings: DynamicsSettings, velocity: Any = None,
               block: Any = None,
               monitor: Callable[[float, Any, float], bool | None] | None = None, *,
               t0: float = 0.0) -> DynamicsResult:
-    """Integrate the equations of motion from the problem's state at its κ.
+    """Integrate the equations of motion from the problem's state at its κ (one
+    ``Integrator``'s ``advance`` to the end).
 
     Args:
         problem: a ``Problem`` with ``KineticMass``; its state is the start (and on return the
@@ -221,38 +236,72 @@ def integrate(problem: Any, settings: DynamicsSettings, velocity: Any = None,
     Raises:
         InputError: a problem without a kinetic mass.
     """
-    if not isinstance(problem, KineticMass):
-        raise InputError("this problem has no kinetic mass (assemble_kinetic_mass)")
-    run = _Integration(problem, settings, block, monitor)
+    run = Integrator(problem, settings, velocity, block, monitor, t0=t0)
     try:
-        return run.solve(velocity, t0)
+        return run.advance()
     finally:
         run.destroy()
 
 
+class Integrator:
+    """An integration of the equations of motion that goes on: ``advance`` takes the next
+    steps of the same TS, as one uninterrupted run would.
+
+    Args:
+        problem, settings, velocity, block, monitor, t0: as ``integrate``'s; the monitor is
+            called at the start on construction.
+
+    Raises:
+        InputError: a problem without a kinetic mass.
+    """
+
+    def __init__(self, problem: Any, settings: DynamicsSettings, velocity: Any = None,
+                 block: Any = None,
+                 monitor: Callable[[float, Any, float], bool | None] | None = None, *,
+                 t0: float = 0.0) -> None:
+        if not isinstance(problem, KineticMass):
+            raise InputError("this problem has no kinetic mass (assemble_kinetic_mass)")
+        self._run = _Integration(problem, settings, block, monitor)
+        try:
+            self._run.start(velocity, t0)
+        except BaseException:
+            self._run.destroy()
+            raise
+
+    def advance(self, steps: int | None = None) -> DynamicsResult:
+        """Up to ``steps`` more accepted steps (None: until ``t_end``, at rest, the monitor's
+        stop or ``max_steps``).
+
+        Returns:
+            The ``DynamicsResult`` of the whole integration so far (its ``reason`` this
+            call's); the problem holds the state reached.
+        """
+        return self._run.advance(steps)
+
+    def refresh_mass(self) -> None:
+        """Assemble the kinetic mass at the problem's state (the free body's rigid motions
+        taken there) for the steps that follow, without restarting the time stepper."""
+        self._run.refresh_mass()
+
+    def destroy(self) -> None:
+        """Free the time stepper, matrices and vectors."""
+        self._run.destroy()
+
+
 class _Integration:
-    """One ``integrate``: the mass, damping and Jacobian matrices, the residual and Jacobian
+    """One ``Integrator``: the mass, damping and Jacobian matrices, the residual and Jacobian
     of M ü + C u̇ + R(u), the TS, and the record of each step. Arguments as ``integrate``'s."""
 
     def __init__(self, problem: Any, s: DynamicsSettings, block: Any,
                  monitor: Callable[[float, Any, float], bool | None] | None) -> None:
         from petsc4py import PETSc
 
-        from shells.problem.kinetic import sparse_part
-
-        self.problem, self.s, self.monitor = problem, s, monitor
+        self.problem, self.s, self.monitor, self.block = problem, s, monitor, block
         self.comm = problem.state.getComm()
-        self.M = problem.assemble_kinetic_mass(block)
-        self.Ms = sparse_part(self.M)
-        self.lowrank = _LowRank(self.M, self.Ms) if self.M.getType() == "lrc" else None
         self.K0 = problem.create_jacobian()
         problem.assemble_jacobian(self.K0)
-        self.Cs = None
-        if s.mass_damping or s.stiffness_damping:
-            self.Cs = self.K0.copy()
-            self.Cs.scale(s.stiffness_damping)
-            self.Cs.axpy(s.mass_damping, self.Ms,
-                         structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
+        self.M = self.Ms = self.lowrank = self.Cs = None
+        self.assemble_mass()
         self.P = problem.create_jacobian()
         self.ctx = _Jacobian(self.P, self.lowrank)
         n_loc, n = problem.state.getLocalSize(), problem.state.getSize()
@@ -265,6 +314,36 @@ class _Integration:
         self.pc_ctx: LowRankInverse | None = None
         self.out = DynamicsResult()
         self.energy = isinstance(problem, Energy)
+
+    def assemble_mass(self) -> None:
+        """The kinetic mass at the problem's state, its sparse and low-rank parts and the
+        damping matrix C = α M_sparse + β K₀ (the old ones freed)."""
+        from petsc4py import PETSc
+
+        from shells.problem.kinetic import sparse_part
+
+        s = self.s
+        for o in (self.M, self.Cs):
+            if o is not None:
+                o.destroy()
+        self.M = self.problem.assemble_kinetic_mass(self.block)
+        self.Ms = sparse_part(self.M)
+        self.lowrank = _LowRank(self.M, self.Ms) if self.M.getType() == "lrc" else None
+        self.Cs = None
+        if s.mass_damping or s.stiffness_damping:
+            self.Cs = self.K0.copy()
+            self.Cs.scale(s.stiffness_damping)
+            self.Cs.axpy(s.mass_damping, self.Ms,
+                         structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
+
+    def refresh_mass(self) -> None:
+        """``Integrator.refresh_mass``: the mass at the present state, for the next steps."""
+        u, _ = self.ts.getSolution2()
+        self.set_state(u)
+        self.assemble_mass()
+        self.ctx.lowrank = self.lowrank
+        if self.pc_ctx is not None:
+            self.pc_ctx.set_mass(self.M)
 
     def set_state(self, u: Any) -> None:
         """The problem's state from ``u``."""
@@ -369,8 +448,9 @@ class _Integration:
             out.reason = "monitor"
             ts.setConvergedReason(PETSc.TS.ConvergedReason.CONVERGED_USER)
 
-    def solve(self, velocity: Any, t0: float = 0.0) -> DynamicsResult:
-        """Integrate from the problem's state with ``velocity`` (None: at rest) at ``t0``."""
+    def start(self, velocity: Any, t0: float = 0.0) -> None:
+        """The TS at the problem's state with ``velocity`` (None: at rest) at ``t0``; the
+        start recorded (and shown to the monitor)."""
         if velocity is None:
             self.v0.set(0.0)
         else:
@@ -383,14 +463,30 @@ class _Integration:
         if self.monitor is not None:
             self.monitor(float(t0), self.problem, self.out.kinetic[-1])
         self.ts.setPostStep(self.post_step)
+
+    def advance(self, steps: int | None) -> DynamicsResult:
+        """Up to ``steps`` more accepted steps of the same TS (None: to its end)."""
+        from petsc4py import PETSc
+
+        limit = self.s.max_steps
+        if steps is not None:
+            limit = min(int(self.ts.getStepNumber()) + steps, limit)
+        self.ts.setMaxSteps(limit)
+        self.out.reason = "time"
         try:
             self.ts.solve(self.u0)
         finally:
-            if int(self.ts.getConvergedReason()) < 0:
+            reason = int(self.ts.getConvergedReason())
+            if reason < 0:
                 self.out.reason = "diverged"
+            elif reason == PETSc.TS.ConvergedReason.CONVERGED_ITS:
+                self.out.reason = "steps"
             u, v = self.ts.getSolution2()
             self.set_state(u)
-            self.out.velocity = v.copy()
+            if self.out.velocity is None:
+                self.out.velocity = v.copy()
+            else:  # in place: the caller's vector holds the latest velocity
+                v.copy(self.out.velocity)
             self.out.dt = float(self.ts.getTimeStep())
         return self.out
 

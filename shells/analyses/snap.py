@@ -22,10 +22,11 @@ minimum's basin: the polish takes it where the rest of the damped ring-down woul
 ``snap_time`` is when the pole's displacement crosses halfway from the start's to the rest
 state's.
 
-The dynamics run in segments of ``DYNAMICS_SAVE_EVERY`` steps, each checkpointed (state,
-velocity, time, the series so far): a rerun continues from the latest and takes the very steps
-the run would have taken. Every k-th step's state is kept as a frame (k doubled whenever more
-than ``FRAMES_MAX`` would be kept), and the last step's.
+The dynamics run in segments of ``DYNAMICS_SAVE_EVERY`` steps of one time stepper, each
+checkpointed (state, velocity, time, the series so far): a rerun continues from the latest,
+its time stepper started afresh there (two reruns from one checkpoint take the same steps; an
+uninterrupted run's differ within the step tolerance). Every k-th step's state is kept as a
+frame (k doubled whenever more than ``FRAMES_MAX`` would be kept), and the last step's.
 
 Output folder (rank 0 writes): ``snap.json`` (the result), ``landing.png`` and ``landing.vtu``
 (the landing shape coloured by the bending energy density), ``everted.png``, with dynamics
@@ -99,8 +100,9 @@ DT_MAX = 1.0
 RHO_INF = 0.5
 T_MAX = 5000.0
 #: dynamics: the run's progress is checkpointed every this many steps (state, velocity, time,
-#: the series so far), and its time stepper starts afresh there (``integrate`` in segments), so
-#: a rerun that continues from a checkpoint takes the very steps of a run that was never stopped
+#: the series so far), the kinetic mass taken afresh there, and a settled run is looked for;
+#: the time stepper goes on (a restart would estimate the acceleration afresh, exciting the
+#: stiff membrane modes that hold the adaptive step down for some steps)
 DYNAMICS_SAVE_EVERY = 100
 #: dynamics: at most this many frames of the motion go into ``snap.bp`` (every k-th step from
 #: the start, k doubled whenever more would be kept), and the last step
@@ -364,8 +366,8 @@ def snap_dynamics(model: Any, damping: float, t_max: float | None = None, *,
 
     Mass-proportional damping C = α M (``damping``), TSALPHA2 with ρ∞ = ``RHO_INF``, adaptive
     steps (between ``DT_STEP`` and ``DT_MAX``, tolerance ``STEP_TOL``), in segments of
-    ``DYNAMICS_SAVE_EVERY`` steps (each a fresh ``integrate`` from the last one's state,
-    velocity, time and next step: the kinetic mass and the start acceleration computed there).
+    ``DYNAMICS_SAVE_EVERY`` steps of one ``Integrator`` (at each segment's end a checkpoint and
+    the kinetic mass taken afresh at that state; the time stepper goes on without a restart).
     At rest: the kinetic energy below ``REST_FRACTION`` of its peak, after the peak. Settled:
     so at a segment's end for ``settle``, and the Hessian stable there (``SETTLE_FRACTION``).
 
@@ -375,7 +377,9 @@ def snap_dynamics(model: Any, damping: float, t_max: float | None = None, *,
         damping: α, in units √(E/ρ)/R (0: none).
         t_max: the run stops at this time if not at rest before (None: ``T_MAX``).
         resume: the progress of a run to continue (its checkpoint's; the model at its state):
-            the run goes on as if it had never stopped. None: from the start, at rest.
+            the run goes on from there, its time stepper started afresh (TSALPHA2's start
+            acceleration estimated there, so its steps differ from an uninterrupted run's
+            within the step tolerance). None: from the start, at rest.
         save: called with the progress at the end of every segment that does not end the run
             (the model at its state): a checkpoint.
         keep_frame: called as ``keep_frame(step, model)`` at each step kept as a frame (the
@@ -396,7 +400,7 @@ def snap_dynamics(model: Any, damping: float, t_max: float | None = None, *,
     Raises:
         RuntimeError: the time integration diverged.
     """
-    from shells.algorithms.dynamics import integrate
+    from shells.algorithms.dynamics import Integrator
     from shells.algorithms.settings import DynamicsSettings
     from shells.geometry.shapes import kappa_length
 
@@ -406,10 +410,11 @@ def snap_dynamics(model: Any, damping: float, t_max: float | None = None, *,
         prog.dt = DT_STEP * tscale
     rows = prog.rows
     at_rest = _Rest([r[1] for r in rows])  # a continued run's peak, as the run so far had it
-    segment_start = {"skip": False}
+    # a continued run's first monitor call is at its checkpoint's step, the last row's
+    segment_start = {"skip": bool(rows)}
 
     def monitor(t: float, p: Any, kinetic: float) -> bool:
-        if segment_start["skip"]:  # a continued segment's start: the last row's state
+        if segment_start["skip"]:
             segment_start["skip"] = False
             return False
         rows.append(_series_row(t / tscale, p, kinetic))
@@ -425,32 +430,37 @@ def snap_dynamics(model: Any, damping: float, t_max: float | None = None, *,
     tol = step_tol if step_tol is not None else STEP_TOL
     settle = SETTLE_FRACTION if settle is None else settle
     dt_min, dt_max = DT_STEP * tscale, DT_MAX * tscale
-    segment = dict(t_end=t_max * tscale, rho_inf=RHO_INF, adaptive=tol is not None,
-                   step_tol=tol or 1.0e-4, dt_min=dt_min, dt_max=dt_max,
-                   mass_damping=damping / tscale, max_steps=DYNAMICS_SAVE_EVERY)
+    # the run from the step the last one would have taken next
+    st = DynamicsSettings(t_end=t_max * tscale, rho_inf=RHO_INF, adaptive=tol is not None,
+                          step_tol=tol or 1.0e-4, dt_min=dt_min, dt_max=dt_max,
+                          dt=min(max(prog.dt, dt_min), dt_max), mass_damping=damping / tscale)
     velocity = None
     if prog.velocity is not None:  # a continued run's
         velocity = model.create_vector()
         velocity.array_w[:] = prog.velocity[:velocity.getLocalSize()]
-    while True:
-        segment_start["skip"] = bool(rows)
-        # each segment from the step the last one would have taken next
-        st = DynamicsSettings(dt=min(max(prog.dt, dt_min), dt_max), **segment)
-        res = integrate(model, st, velocity=velocity, monitor=monitor, t0=prog.t)
-        if res.reason == "diverged":
-            raise RuntimeError(f"the time integration diverged at t = {rows[-1][0]:.4g} R "
-                               "sqrt(rho/E)")
-        prog.t, prog.dt = res.times[-1], res.dt
-        velocity = res.velocity
-        reason = "rest" if res.reason == "monitor" else res.reason
-        if res.reason == "monitor" or prog.t >= st.t_end * (1 - 1e-12):
-            break
-        if at_rest.settled(model, len(rows) - 1, rows[-1][1], settle):
-            reason = "settled"
-            break
-        prog.velocity = velocity.array_r.copy()
-        if save is not None:
-            save(prog)
+    run = Integrator(model, st, velocity=velocity, monitor=monitor, t0=prog.t)
+    try:
+        while True:
+            res = run.advance(DYNAMICS_SAVE_EVERY)
+            if res.reason == "diverged":
+                raise RuntimeError(f"the time integration diverged at t = {rows[-1][0]:.4g} R "
+                                   "sqrt(rho/E)")
+            prog.t, prog.dt = res.times[-1], res.dt
+            reason = "rest" if res.reason == "monitor" else "time"
+            if res.reason in ("monitor", "rest", "time"):
+                break
+            if at_rest.settled(model, len(rows) - 1, rows[-1][1], settle):
+                reason = "settled"
+                break
+            prog.velocity = res.velocity.array_r.copy()
+            if save is not None:
+                save(prog)
+            # the free body's rigid motions taken afresh, as a continued run takes them
+            run.refresh_mass()
+    finally:
+        run.destroy()
+        if velocity is not None:
+            velocity.destroy()
     return {**_dynamics_summary(prog, reason), "damping": damping, "step_tol": tol,
             "settle": settle}
 

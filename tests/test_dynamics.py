@@ -47,6 +47,46 @@ def test_algebraic_energy_conserved():
     assert world_max(np.max(np.abs(e - e[0])) / max(r.kinetic)) < 1e-4
 
 
+def test_an_integration_advanced_in_pieces_is_one_run():
+    """``Integrator.advance`` continues the same time stepper: the fold problem's damped
+    motion with adaptive steps, advanced 7 steps at a time, takes the steps of one advance to
+    the end (the same times and energies to round-off); one restarted from a piece's end (a
+    fresh ``integrate`` from its state, velocity and time: the start acceleration estimated
+    afresh) takes other steps (``shells.analyses.snap`` checkpoints without restarting for
+    that reason)."""
+    from shells.algorithms.dynamics import Integrator
+
+    s = DynamicsSettings(t_end=30.0, dt=0.1, rho_inf=0.5, mass_damping=0.3, adaptive=True,
+                         step_tol=1e-4)
+
+    def start():
+        p = FoldProblem(comm=MPI.COMM_SELF)
+        p.state.array_w[:] += 0.3 * (np.arange(p.lo, p.hi) == 0)
+        return p
+
+    one = integrate(start(), s)
+    p = start()
+    run = Integrator(p, s)
+    pieces = []
+    try:
+        while not pieces or pieces[-1] == "steps":
+            r = run.advance(7)
+            pieces.append(r.reason)
+            if len(pieces) == 2:
+                t_mid, u_mid, v_mid = r.times[-1], p.state.copy(), r.velocity.copy()
+    finally:
+        run.destroy()
+    assert pieces[-1] == "time" and len(pieces) > 3 and r.steps == one.steps
+    np.testing.assert_allclose(r.times, one.times, rtol=1e-13, atol=1e-14)
+    np.testing.assert_allclose(r.kinetic, one.kinetic, rtol=1e-10, atol=1e-16)
+    q = start()
+    u_mid.copy(q.state)
+    q.sync()
+    again = integrate(q, s, velocity=v_mid, t0=t_mid)
+    assert again.times[0] == one.times[14] and again.times[-1] == pytest.approx(30.0)
+    assert abs(again.times[1] - one.times[15]) > 1e-6 * one.times[15]
+
+
 def test_sphere_vibration_energy_and_period():
     """The 1D model's free sphere (h/R = 0.05) started on its n = 2 mode: energy conserved to
     1e-4 of the kinetic peak over ten periods, the period that of ω² (elongation removed) to

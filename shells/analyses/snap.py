@@ -401,7 +401,6 @@ def snap_dynamics(model: Any, damping: float, t_max: float | None = None, *,
         RuntimeError: the time integration diverged.
     """
     from shells.algorithms.dynamics import Integrator
-    from shells.algorithms.settings import DynamicsSettings
     from shells.geometry.shapes import kappa_length
 
     tscale = kappa_length(model.shape)  # R √(ρ/E) in the model's units (E = ρ = 1)
@@ -426,19 +425,14 @@ def snap_dynamics(model: Any, damping: float, t_max: float | None = None, *,
                      step, rows[-1][0], kinetic, rows[-1][3])
         return at_rest(kinetic)
 
-    t_max = T_MAX if t_max is None else t_max
     tol = step_tol if step_tol is not None else STEP_TOL
     settle = SETTLE_FRACTION if settle is None else settle
-    dt_min, dt_max = DT_STEP * tscale, DT_MAX * tscale
-    # the run from the step the last one would have taken next
-    st = DynamicsSettings(t_end=t_max * tscale, rho_inf=RHO_INF, adaptive=tol is not None,
-                          step_tol=tol or 1.0e-4, dt_min=dt_min, dt_max=dt_max,
-                          dt=min(max(prog.dt, dt_min), dt_max), mass_damping=damping / tscale)
-    velocity = None
-    if prog.velocity is not None:  # a continued run's
-        velocity = model.create_vector()
-        velocity.array_w[:] = prog.velocity[:velocity.getLocalSize()]
+    st = _dynamics_settings(prog.dt, tscale, damping, T_MAX if t_max is None else t_max, tol)
+    velocity = model.create_vector()  # a continued run's, else at rest
+    velocity.array_w[:] = 0.0 if prog.velocity is None else prog.velocity[
+        :velocity.getLocalSize()]
     run = Integrator(model, st, velocity=velocity, monitor=monitor, t0=prog.t)
+    velocity.destroy()  # the integrator holds its own copy
     try:
         while True:
             res = run.advance(DYNAMICS_SAVE_EVERY)
@@ -446,8 +440,8 @@ def snap_dynamics(model: Any, damping: float, t_max: float | None = None, *,
                 raise RuntimeError(f"the time integration diverged at t = {rows[-1][0]:.4g} R "
                                    "sqrt(rho/E)")
             prog.t, prog.dt = res.times[-1], res.dt
-            reason = "rest" if res.reason == "monitor" else "time"
-            if res.reason in ("monitor", "rest", "time"):
+            if res.reason != "steps":  # at rest (the monitor's stop) or at t_max
+                reason = "rest" if res.reason == "monitor" else "time"
                 break
             if at_rest.settled(model, len(rows) - 1, rows[-1][1], settle):
                 reason = "settled"
@@ -459,10 +453,21 @@ def snap_dynamics(model: Any, damping: float, t_max: float | None = None, *,
             run.refresh_mass()
     finally:
         run.destroy()
-        if velocity is not None:
-            velocity.destroy()
     return {**_dynamics_summary(prog, reason), "damping": damping, "step_tol": tol,
             "settle": settle}
+
+
+def _dynamics_settings(dt: float, tscale: float, damping: float, t_max: float,
+                       tol: float | None) -> Any:
+    """The ``DynamicsSettings`` of ``snap_dynamics`` (times in the model's units, ``tscale``
+    = R √(ρ/E) in them): the first step ``dt`` (the one the run would take next) kept
+    between ``DT_STEP`` and ``DT_MAX``; ``tol`` None: fixed steps."""
+    from shells.algorithms.settings import DynamicsSettings
+
+    dt_min, dt_max = DT_STEP * tscale, DT_MAX * tscale
+    return DynamicsSettings(t_end=t_max * tscale, rho_inf=RHO_INF, adaptive=tol is not None,
+                            step_tol=tol or 1.0e-4, dt_min=dt_min, dt_max=dt_max,
+                            dt=min(max(dt, dt_min), dt_max), mass_damping=damping / tscale)
 
 
 def _dynamics_summary(prog: DynamicsProgress, reason: str) -> dict[str, Any]:

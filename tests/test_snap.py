@@ -205,7 +205,13 @@ def dynamics_run(tmp_path_factory):
     return res, out
 
 
-def test_dynamics_comes_to_rest_where_minimisation_lands(dynamics_run):
+@pytest.fixture(scope="module")
+def minimise_run():
+    """``--method minimise`` on ``_CAP`` without an output folder (the same on every rank)."""
+    return snap.run(snap.SnapConfig(**_CAP), None, render=False)
+
+
+def test_dynamics_comes_to_rest_where_minimisation_lands(dynamics_run, minimise_run):
     """``--method dynamics`` on a coarse cap (``_CAP``: it wrinkles at m = 8 on this mesh, a
     discretisation artefact, but both methods must find the same state): the damped motion
     comes to rest, the polish changes the rest state's energy by less than 1e-6 of it, and the
@@ -216,7 +222,7 @@ def test_dynamics_comes_to_rest_where_minimisation_lands(dynamics_run):
     assert dyn["snap_time"] == d["snap_time"] and d["snap_time"] > 0
     assert ld["stable"] and ld["minimiser_reason"].startswith("CONVERGED")
     assert abs(ld["rest_energy"] - ld["energy"]) < 1e-6 * abs(ld["energy"])
-    mini = snap.run(snap.SnapConfig(**_CAP), None, render=False)
+    mini = minimise_run
     assert mini["snap_time"] is None and mini["dynamics"] is None
     assert ld["energy"] == pytest.approx(mini["landing"]["energy"], rel=1e-6)
 
@@ -253,7 +259,7 @@ def test_a_settled_run_stops_early_and_lands_where_the_ring_down_does(dynamics_r
             x, op=MPI.MIN)
 
 
-def test_dynamics_writes_its_files(dynamics_run):
+def test_dynamics_writes_its_files(dynamics_run, minimise_run):
     """A run to rest (adaptive steps) with an output folder: one CSV row per step, ``files``
     names what the folder holds, the checkpoint keeps the rest state, not the frames; the same
     on every rank."""
@@ -274,7 +280,7 @@ def test_dynamics_writes_its_files(dynamics_run):
                             "everted_image": "everted.png"}
     assert all((out / f).exists() for f in dyn["files"].values())
     assert not any((out / "checkpoint" / "frames").iterdir())
-    assert snap.run(snap.SnapConfig(**_CAP), None, render=False)["files"] == {}
+    assert minimise_run["files"] == {}
 
 
 def test_dynamics_fields_over_time_for_paraview(dynamics_run):

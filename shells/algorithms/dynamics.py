@@ -15,8 +15,7 @@ The gauge's constrained DOFs keep zero (unit rows of K, zero residual). A free s
 centre of mass thus keeps its momentum (zero in this frame): the gauged coordinates describe
 the motion relative to it, and the rigid motion that the gauge removes is never accelerated
 by a reaction. The rigid motions are those of the start state
-(exact for translations; rotations linearised there), or of the state where
-``Integrator.refresh_mass`` last took them.
+(exact for translations; rotations linearised there).
 
 ``Integrator`` is an integration that goes on: each ``advance`` continues the same TS (no
 restart: TSALPHA2 restarts only at its first step, where it estimates the start acceleration
@@ -114,27 +113,20 @@ class LowRankInverse:
                                        "pc_factor_mat_solver_type": "mumps"}
 
     def __init__(self, M: Any, jacobian: Any) -> None:
-        self.U: list[Any] = []
-        self.W: list[Any] = []
-        self.set_mass(M)
-        self.jacobian = jacobian
-        self.Sinv: np.ndarray | None = None
-        self._ksp: Any = None
-        self._options: dict[str, Any] = {}
-
-    def set_mass(self, M: Any) -> None:
-        """Take the low-rank part of the MATLRC mass ``M`` (used from the next set-up on)."""
         _, U, c, _ = M.getLRCMats()
         self._Ud = U
         self.c = c.getArray().copy()
         dense = U.getDenseArray()
-        for o in (*self.U, *self.W):
-            o.destroy()
-        self.U, self.W = [], []
+        self.U = []
         for j in range(dense.shape[1]):
             u = U.createVecLeft()
             u.array_w[:] = dense[:, j]
             self.U.append(u)
+        self.W: list[Any] = []
+        self.jacobian = jacobian
+        self.Sinv: np.ndarray | None = None
+        self._ksp: Any = None
+        self._options: dict[str, Any] = {}
 
     def setUp(self, pc: Any) -> None:  # noqa: N802 - petsc4py's name
         """Factor P, and W and the k×k system for the present scale."""
@@ -278,11 +270,6 @@ class Integrator:
         """
         return self._run.advance(steps)
 
-    def refresh_mass(self) -> None:
-        """Assemble the kinetic mass at the problem's state (the free body's rigid motions
-        taken there) for the steps that follow, without restarting the time stepper."""
-        self._run.refresh_mass()
-
     def destroy(self) -> None:
         """Free the time stepper, matrices and vectors."""
         self._run.destroy()
@@ -317,15 +304,15 @@ class _Integration:
 
     def assemble_mass(self) -> None:
         """The kinetic mass at the problem's state, its sparse and low-rank parts and the
-        damping matrix C = α M_sparse + β K₀ (the old ones freed)."""
+        damping matrix C = α M_sparse + β K₀. Once per integration: a mass changed under a
+        running TS (the rigid motions taken at a later state) makes the acceleration it
+        carries inconsistent, which excites the stiff membrane modes and holds the adaptive
+        step at its least for tens of steps."""
         from petsc4py import PETSc
 
         from shells.problem.kinetic import sparse_part
 
         s = self.s
-        for o in (self.M, self.Cs):
-            if o is not None:
-                o.destroy()
         self.M = self.problem.assemble_kinetic_mass(self.block)
         self.Ms = sparse_part(self.M)
         self.lowrank = _LowRank(self.M, self.Ms) if self.M.getType() == "lrc" else None
@@ -335,15 +322,6 @@ class _Integration:
             self.Cs.scale(s.stiffness_damping)
             self.Cs.axpy(s.mass_damping, self.Ms,
                          structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
-
-    def refresh_mass(self) -> None:
-        """``Integrator.refresh_mass``: the mass at the present state, for the next steps."""
-        u, _ = self.ts.getSolution2()
-        self.set_state(u)
-        self.assemble_mass()
-        self.ctx.lowrank = self.lowrank
-        if self.pc_ctx is not None:
-            self.pc_ctx.set_mass(self.M)
 
     def set_state(self, u: Any) -> None:
         """The problem's state from ``u``."""

@@ -100,9 +100,10 @@ DT_MAX = 1.0
 RHO_INF = 0.5
 T_MAX = 5000.0
 #: dynamics: the run's progress is checkpointed every this many steps (state, velocity, time,
-#: the series so far), the kinetic mass taken afresh there, and a settled run is looked for;
-#: the time stepper goes on (a restart would estimate the acceleration afresh, exciting the
-#: stiff membrane modes that hold the adaptive step down for some steps)
+#: the series so far) and a settled run is looked for; the time stepper goes on unchanged (a
+#: restart, or a kinetic mass taken afresh, would make the acceleration it carries
+#: inconsistent, exciting the stiff membrane modes that hold the adaptive step down for tens
+#: of steps)
 DYNAMICS_SAVE_EVERY = 100
 #: dynamics: at most this many frames of the motion go into ``snap.bp`` (every k-th step from
 #: the start, k doubled whenever more would be kept), and the last step
@@ -366,8 +367,8 @@ def snap_dynamics(model: Any, damping: float, t_max: float | None = None, *,
 
     Mass-proportional damping C = α M (``damping``), TSALPHA2 with ρ∞ = ``RHO_INF``, adaptive
     steps (between ``DT_STEP`` and ``DT_MAX``, tolerance ``STEP_TOL``), in segments of
-    ``DYNAMICS_SAVE_EVERY`` steps of one ``Integrator`` (at each segment's end a checkpoint and
-    the kinetic mass taken afresh at that state; the time stepper goes on without a restart).
+    ``DYNAMICS_SAVE_EVERY`` steps of one ``Integrator`` (a checkpoint at each segment's end;
+    the time stepper, and its kinetic mass, go on unchanged).
     At rest: the kinetic energy below ``REST_FRACTION`` of its peak, after the peak. Settled:
     so at a segment's end for ``settle``, and the Hessian stable there (``SETTLE_FRACTION``).
 
@@ -449,8 +450,6 @@ def snap_dynamics(model: Any, damping: float, t_max: float | None = None, *,
             prog.velocity = res.velocity.array_r.copy()
             if save is not None:
                 save(prog)
-            # the free body's rigid motions taken afresh, as a continued run takes them
-            run.refresh_mass()
     finally:
         run.destroy()
     return {**_dynamics_summary(prog, reason), "damping": damping, "step_tol": tol,

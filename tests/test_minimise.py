@@ -69,6 +69,16 @@ def test_a_saddle_reached_is_left_until_the_end_is_stable():
     assert res.energy_start == pytest.approx(0.0, abs=1e-15)
 
 
+def test_the_last_round_ends_where_its_result_says():
+    """Out of rounds at a saddle (``rounds`` = 1 from the exact saddle), the problem holds the
+    saddle the result describes, not the saddle left along its unstable direction."""
+    p = _saddle(1.3)
+    res = minimise_to_stable(p, MinimiseSettings(gatol=1e-12), amplitude=1e-3, rounds=1)
+    assert res.rounds == 1 and res.negative_count == 1 and res.converged
+    np.testing.assert_allclose(p.gathered(), [1.3, 0.0, 0.0], atol=1e-15)
+    assert res.energy == pytest.approx(0.0, abs=1e-15)
+
+
 def test_an_unperturbed_saddle_stays_a_saddle():
     """The contract's reason for ``perturbed``: from the exact saddle the gradient is zero and
     the minimiser stops there; the inertia says it is unstable."""

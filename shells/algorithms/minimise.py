@@ -463,7 +463,8 @@ def minimise_to_stable(problem: Any, settings: MinimiseSettings | None = None, *
 
     Returns:
         The last ``MinimiseResult``, with ``rounds``, ``negative_count`` and ``orbit_modes``;
-        the end is stable when ``converged`` and ``negative_count == orbit_modes``.
+        the end is stable when ``converged`` and ``negative_count == orbit_modes``. The
+        problem holds that end (after the last round a saddle is not left).
     """
     from dataclasses import replace
 
@@ -481,7 +482,7 @@ def minimise_to_stable(problem: Any, settings: MinimiseSettings | None = None, *
         stab.destroy()
         res = replace(res, rounds=r, energy_start=e0, negative_count=int(neg),
                       orbit_modes=int(orbit))
-        if neg == orbit:
+        if neg == orbit or r == rounds:  # the last round's end stays: what ``res`` describes
             break
         left = perturb_unstable(problem, amplitude)
         log.info("minimise: a saddle with %d negative eigenvalue(s) (m = %s), left along them",

@@ -69,6 +69,17 @@ def test_a_saddle_reached_is_left_until_the_end_is_stable():
     assert res.energy_start == pytest.approx(0.0, abs=1e-15)
 
 
+def test_a_saddle_returned_to_is_left_twice_as_far():
+    """A step off the saddle too small for the minimiser to move (its gradient under
+    ``gatol``: the minimiser ends where it started) is doubled each round: from the exact
+    saddle with a first step of 1e-13, the steps add up to 3.1e-12 before round 6, which
+    lands on the minimum (steps of 1e-13 would add up to 5e-13, still on the saddle)."""
+    p = _saddle(1.3)
+    res = minimise_to_stable(p, MinimiseSettings(gatol=1e-12), amplitude=1e-13, rounds=6)
+    assert res.rounds == 6 and res.negative_count == 0 and res.converged
+    assert res.energy == pytest.approx(-0.045, rel=1e-10)
+
+
 def test_the_last_round_ends_where_its_result_says():
     """Out of rounds at a saddle (``rounds`` = 1 from the exact saddle), the problem holds the
     saddle the result describes, not the saddle left along its unstable direction."""

@@ -447,7 +447,11 @@ def minimise_to_stable(problem: Any, settings: MinimiseSettings | None = None, *
                        amplitude: float = 0.1, rounds: int = 6,
                        monitor: Callable[[Any], None] | None = None) -> MinimiseResult:
     """``minimise``, then confirm the end by the Hessian's inertia; from a saddle, perturb
-    along its unstable eigenvectors (``perturb_unstable``) and minimise again.
+    along its unstable eigenvectors (``perturb_unstable``) and minimise again, each round
+    twice as far as the last: a nearly neutral unstable direction (a pattern sliding off a
+    cap's pole) gives its saddle a basin of Newton's iteration wider than a small step, and
+    the minimiser, which hands over to Newton once its shifted Hessian is nearly definite,
+    comes back to the saddle it left.
 
     The negative eigenvalues along the state's symmetry orbit (a pattern's rotation about the
     axis: neutral in the continuum, of either sign on a mesh) do not count
@@ -457,7 +461,8 @@ def minimise_to_stable(problem: Any, settings: MinimiseSettings | None = None, *
         problem: the problem (an ``Energy``), its state the start (perturbed by the caller
             where the start is a symmetric saddle).
         settings: as for ``minimise``.
-        amplitude: the perturbation off a saddle, RMS over the state scale.
+        amplitude: the first perturbation off a saddle, RMS over the state scale (doubled
+            each further round).
         rounds: at most this many minimisations.
         monitor: as for ``minimise``.
 
@@ -484,7 +489,7 @@ def minimise_to_stable(problem: Any, settings: MinimiseSettings | None = None, *
                       orbit_modes=int(orbit))
         if neg == orbit or r == rounds:  # the last round's end stays: what ``res`` describes
             break
-        left = perturb_unstable(problem, amplitude)
+        left = perturb_unstable(problem, amplitude * 2.0 ** (r - 1))
         log.info("minimise: a saddle with %d negative eigenvalue(s) (m = %s), left along them",
                  neg - orbit, [d["mode_m"] for d in left])
     assert res is not None

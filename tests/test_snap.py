@@ -69,6 +69,7 @@ def test_config_refusals():
         snap.SnapConfig(shape=Sphere(1.0), h_over_r=0.01)
     for bad in ({"past": 0.0}, {"past": 2.0}, {"amplitude": -1.0}, {"method": "newton"},
                 {"damping": -1.0}, {"settle": -1e-4}, {"settle": 1.0}, {"settle": math.nan},
+                {"t_max": 0.0}, {"t_max": math.inf},
                 {"step_tol": 0.0}, {"step_tol": 1.0}, {"h_over_r": 0.9}):
         with pytest.raises(InputError):
             snap.SnapConfig(**{"shape": cap, "h_over_r": 0.04, **bad})
@@ -80,7 +81,9 @@ def test_config_refusals():
                                   ["--shape", "cap", "--theta-deg", "30", "--h-over-r", "0.04",
                                    "--amplitude", "-1"],
                                   ["--shape", "cap", "--theta-deg", "30", "--h-over-r", "0.04",
-                                   "--method", "dynamics", "--settle", "2"]])
+                                   "--method", "dynamics", "--settle", "2"],
+                                  ["--shape", "cap", "--theta-deg", "30", "--h-over-r", "0.04",
+                                   "--method", "dynamics", "--t-max", "-1"]])
 def test_cli_refusals_are_one_line(args):
     if MPI.COMM_WORLD.rank != 0:
         return
@@ -352,7 +355,7 @@ def test_an_interrupted_dynamics_run_continues_where_it_stopped(dynamics_run, sh
 
 
 def test_dynamics_outputs_and_resume(shared_tmp, monkeypatch):
-    """A short integration (adaptive steps to t = 3, checkpointed every 5; at most 4 frames,
+    """A short integration (adaptive steps to ``t_max`` = 3, checkpointed every 5; at most 4 frames,
     3 in the animation; then polished), killed after 7 steps and continued from step 5 twice
     from copies of its folder: once to the end (a), once killed again at step 14 and
     continued from step 10 (b). Up to step 10 both are one run to the CSV's digits (a
@@ -363,10 +366,10 @@ def test_dynamics_outputs_and_resume(shared_tmp, monkeypatch):
     import shutil
 
     comm = MPI.COMM_WORLD
-    for name, value in (("DT_STEP", 0.1), ("STEP_TOL", 3e-3), ("T_MAX", 3.0),
-                        ("DYNAMICS_SAVE_EVERY", 5), ("FRAMES_MAX", 4), ("ANIMATION_FRAMES", 3)):
+    for name, value in (("DT_STEP", 0.1), ("STEP_TOL", 3e-3), ("DYNAMICS_SAVE_EVERY", 5),
+                        ("FRAMES_MAX", 4), ("ANIMATION_FRAMES", 3)):
         monkeypatch.setattr(snap, name, value)
-    cfg = snap.SnapConfig(**_CAP, method="dynamics", damping=2.0)
+    cfg = snap.SnapConfig(**_CAP, method="dynamics", damping=2.0, t_max=3.0)
     a, b = shared_tmp / "a", shared_tmp / "b"
     _interrupted(monkeypatch, cfg, a, 7)
     assert _stage(a) == "dynamics 5"
@@ -380,7 +383,8 @@ def test_dynamics_outputs_and_resume(shared_tmp, monkeypatch):
     comm.barrier()
     for r, folder in ((res, a), (res2, b)):
         d = r["dynamics"]
-        assert d["reason"] == "time" and d["steps"] >= 15 and d["animation_frames"] == 3
+        assert d["reason"] == "time" and d["t_max"] == 3.0 and d["steps"] >= 15
+        assert d["animation_frames"] == 3
         frames = _expected_frames(d["steps"], d["frame_every"])
         assert d["frames"] == len(frames) <= snap.FRAMES_MAX + 1 and d["frame_every"] >= 4
         rows = _series(folder)

@@ -135,6 +135,8 @@ class SnapConfig:
             (None: ``DAMPING``; 0: none, the run then stops at ``T_MAX``).
         step_tol: dynamics: the adaptive steps' tolerance on the local error (None:
             ``STEP_TOL``).
+        t_max: dynamics: the run stops at this time, in units of R √(ρ/E), if it has not come
+            to rest or settled before (None: ``T_MAX``); its state is polished all the same.
         settle: dynamics: the run stops, settled, where the kinetic energy is below this
             fraction of its peak at a segment's end and the Hessian is stable there (None:
             ``SETTLE_FRACTION``; 0: it runs to rest, ``REST_FRACTION``).
@@ -161,6 +163,7 @@ class SnapConfig:
     damping: float | None = None
     step_tol: float | None = None
     settle: float | None = None
+    t_max: float | None = None
 
     def __post_init__(self) -> None:
         check_h_over_r(self.h_over_r)
@@ -180,6 +183,8 @@ class SnapConfig:
         if self.settle is not None and not (math.isfinite(self.settle)
                                             and 0 <= self.settle < 1):
             raise InputError(f"settle must lie in [0, 1), got {self.settle!r}")
+        if self.t_max is not None and not (math.isfinite(self.t_max) and self.t_max > 0):
+            raise InputError(f"t_max must be a positive number, got {self.t_max!r}")
         if not (0 < self.past <= 1):
             raise InputError(f"past must lie in (0, 1], got {self.past!r}")
         if not (self.amplitude > 0 and math.isfinite(self.amplitude)):
@@ -191,24 +196,29 @@ class SnapConfig:
         d["shape"] = self.shape.describe()
         if self.method == "minimise":  # no bearing on it (and the header of earlier runs)
             d.pop("damping")
-        if self.settle is None:  # the default; a run checkpointed before the option continues
-            d.pop("settle")
+        for k in _STOPS:  # the defaults; a run checkpointed before the options continues
+            if d[k] is None:
+                d.pop(k)
         return d
+
+
+#: the settings that decide only where a dynamics run stops, not its motion
+_STOPS = ("settle", "t_max")
 
 
 def _continues(meta: dict[str, Any], header: dict[str, Any]) -> bool:
     """Whether a checkpoint (its ``meta``) continues the run of ``header``: the same
-    configuration, or dynamics under way under another ``settle``. ``settle`` decides only
-    where the motion stops, not the motion: a run creeping towards its minimum can go on
-    under a larger fraction (stopping at the next segment's end that passes it) or a smaller
-    one (0: to rest), and takes the steps it would have taken either way."""
+    configuration, or dynamics under way under another ``settle`` or ``t_max``. These decide
+    only where the motion stops, not the motion: a run creeping towards its minimum can go on
+    under a larger fraction (stopping at the next segment's end that passes it), a smaller one
+    (0: to rest) or another time limit, and takes the steps it would have taken either way."""
     saved = meta.get("header")
     if saved == header:
         return True
     if saved is None or not str(meta.get("stage", "")).startswith("dynamics "):
         return False
-    return ({k: v for k, v in saved.items() if k != "settle"}
-            == {k: v for k, v in header.items() if k != "settle"})
+    return ({k: v for k, v in saved.items() if k not in _STOPS}
+            == {k: v for k, v in header.items() if k not in _STOPS})
 
 
 def _counts_modulo_orbit(model: Any) -> tuple[int, int]:
@@ -396,7 +406,7 @@ def snap_dynamics(model: Any, damping: float, t_max: float | None = None, *,
         crosses halfway from its start value to its final one, linearly interpolated; None
         where it does not move by 1e-3 h), ``kinetic_peak_time``, ``end_time`` (the time
         reached), ``rest_energy`` (the elastic energy at the end), ``damping``, ``step_tol``,
-        ``settle``.
+        ``settle``, ``t_max``.
 
     Raises:
         RuntimeError: the time integration diverged.
@@ -453,7 +463,7 @@ def snap_dynamics(model: Any, damping: float, t_max: float | None = None, *,
     finally:
         run.destroy()
     return {**_dynamics_summary(prog, reason), "damping": damping, "step_tol": tol,
-            "settle": settle}
+            "settle": settle, "t_max": st.t_end / tscale}
 
 
 def _dynamics_settings(dt: float, tscale: float, damping: float, t_max: float,
@@ -664,7 +674,8 @@ class _SnapRun:
                      prog.steps, prog.rows[-1][0], damping)
         dyn = snap_dynamics(self.model, damping, resume=prog, save=self._save_progress,
                             keep_frame=self._keep_frame if self.ck is not None else None,
-                            step_tol=self.cfg.step_tol, settle=self.cfg.settle)
+                            step_tol=self.cfg.step_tol, settle=self.cfg.settle,
+                            t_max=self.cfg.t_max)
         rows, frames = dyn.pop("series"), dyn.pop("frame_steps")
         dyn["frames"], dyn["animation_frames"] = 0, 0
         if self.out is not None:

@@ -216,7 +216,8 @@ def snap(shell: Shell, *, past: float = 0.01, kappa_R: float | None = None,
             ``degree``, ``layer_elements``, ``shear_penalty``, ``damping``: dynamics' α of
             C = α M in units √(E/ρ)/R, ``step_tol``: dynamics' adaptive step tolerance,
             ``settle``: the kinetic energy's fraction of its peak under which the dynamics
-            stop once the Hessian is stable, 0 to run to rest).
+            stop once the Hessian is stable, 0 to run to rest, ``t_max``: the time at which
+            the dynamics stop if they have not before, in units R √(ρ/E)).
 
     Returns:
         The ``Result``: ``start``, ``method``, ``landing`` (``energy``, ``stable``,

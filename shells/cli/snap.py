@@ -3,14 +3,14 @@ run is ``shells.analyses.snap.run``.
 
     shells snap --shape cap --theta-deg T --h-over-r H [--nu NU] [--past P | --kappa-R K]
         [--amplitude A] [--method minimise|dynamics] [--damping ALPHA] [--step-tol T]
-        [--settle F] [--size S] [--degree D] [-o DIR] [--json]
+        [--settle F] [--t-max T] [--size S] [--degree D] [-o DIR] [--json]
 
 Follows the fundamental branch (the surface model) to its snap fold, steps past it and
 minimises the energy there (TAO) from the fold's state perturbed along its unstable modes;
 with ``--method dynamics`` integrates the equations of motion from there to rest (damping
-C = ALPHA M, ALPHA in units of √(E/ρ)/R), or until the shell has settled in a minimum's basin
-(kinetic energy below F of its peak, the Hessian stable), and polishes that state by the same
-minimiser.
+C = ALPHA M, ALPHA in units of √(E/ρ)/R), until the shell has settled in a minimum's basin
+(kinetic energy below F of its peak, the Hessian stable) or until the time T, and polishes
+that state by the same minimiser.
 JSON (last line with --json): ``start`` {``kappa_R``, ``kind``, ``kappa_fold_R``,
 ``unstable``}, ``method``, ``landing`` {``kappa_R``, ``energy``, ``stable``,
 ``negative_count``, ``orbit_modes``, ``mode_m``, ``symmetric``, ``spectrum``,
@@ -18,7 +18,7 @@ JSON (last line with --json): ``start`` {``kappa_R``, ``kind``, ``kappa_fold_R``
 {``energy``, ``negative_count``, ``rim_rotation_deg``}, ``snap_time`` (null for minimisation;
 in units of R √(ρ/E)), ``dynamics`` (null for minimisation; ``reason``, ``steps``,
 ``snap_time``, ``kinetic_peak_time``, ``end_time``, ``rest_energy``, ``damping``,
-``step_tol``, ``settle``;
+``step_tol``, ``settle``, ``t_max``;
 ``reason`` "rest", "settled" or "time"; ``landing.rest_energy`` is
 the energy at rest before the polish; ``frames``, ``animation_frames``, ``frame_every``: what
 snap.bp and snap.gif hold), ``critical_points``, ``dofs``, ``mesh``, ``files`` (each file
@@ -66,6 +66,10 @@ def add_subcommand(sub: Any) -> argparse.ArgumentParser:
                    "fraction of its peak (checked every 100 steps) and the Hessian is stable, "
                    "and polish from there (default 1e-4; 0: integrate until at rest; a run "
                    "under way continues under another value)")
+    p.add_argument("--t-max", dest="t_max", type=common.positive_float("t-max"), default=None,
+                   help="dynamics: stop at this time in R sqrt(rho/E) if not at rest or settled "
+                   "before, and polish from there (default 5000; a run under way continues "
+                   "under another value)")
     p.add_argument("--damping", type=common.nonnegative_float("damping"), default=None,
                    help="dynamics: mass-proportional damping alpha in sqrt(E/rho)/R "
                    "(default 1; a saddle's unstable direction mu is left at the rate s, "
@@ -96,7 +100,8 @@ def _cmd_snap(args: argparse.Namespace) -> int:
                           kappa_R=args.kappa_R, amplitude=args.amplitude,
                           kappa_R_max=args.kappa_R_max, size=args.size, degree=args.degree,
                           layer_elements=args.layer_elements, method=args.method,
-                          damping=args.damping, step_tol=args.step_tol, settle=args.settle)
+                          damping=args.damping, step_tol=args.step_tol, settle=args.settle,
+                          t_max=args.t_max)
     result = snap.run(cfg, args.output, render=not args.no_render)
     st, ld, ev = result["start"], result["landing"], result["axisymmetric_everted"]
 

@@ -283,12 +283,24 @@ class _Integration:
                  monitor: Callable[[float, Any, float], bool | None] | None) -> None:
         from petsc4py import PETSc
 
-        self.problem, self.s, self.monitor, self.block = problem, s, monitor, block
+        from shells.problem.kinetic import sparse_part
+
+        self.problem, self.s, self.monitor = problem, s, monitor
         self.comm = problem.state.getComm()
+        # the mass once per integration: one changed under the running TS (the rigid motions
+        # taken at a later state) leaves the acceleration it carries inconsistent, which
+        # excites the stiff membrane modes and holds the adaptive step at its least
+        self.M = problem.assemble_kinetic_mass(block)
+        self.Ms = sparse_part(self.M)
+        self.lowrank = _LowRank(self.M, self.Ms) if self.M.getType() == "lrc" else None
         self.K0 = problem.create_jacobian()
         problem.assemble_jacobian(self.K0)
-        self.M = self.Ms = self.lowrank = self.Cs = None
-        self.assemble_mass()
+        self.Cs = None
+        if s.mass_damping or s.stiffness_damping:
+            self.Cs = self.K0.copy()
+            self.Cs.scale(s.stiffness_damping)
+            self.Cs.axpy(s.mass_damping, self.Ms,
+                         structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
         self.P = problem.create_jacobian()
         self.ctx = _Jacobian(self.P, self.lowrank)
         n_loc, n = problem.state.getLocalSize(), problem.state.getSize()
@@ -301,27 +313,6 @@ class _Integration:
         self.pc_ctx: LowRankInverse | None = None
         self.out = DynamicsResult()
         self.energy = isinstance(problem, Energy)
-
-    def assemble_mass(self) -> None:
-        """The kinetic mass at the problem's state, its sparse and low-rank parts and the
-        damping matrix C = α M_sparse + β K₀. Once per integration: a mass changed under a
-        running TS (the rigid motions taken at a later state) makes the acceleration it
-        carries inconsistent, which excites the stiff membrane modes and holds the adaptive
-        step at its least for tens of steps."""
-        from petsc4py import PETSc
-
-        from shells.problem.kinetic import sparse_part
-
-        s = self.s
-        self.M = self.problem.assemble_kinetic_mass(self.block)
-        self.Ms = sparse_part(self.M)
-        self.lowrank = _LowRank(self.M, self.Ms) if self.M.getType() == "lrc" else None
-        self.Cs = None
-        if s.mass_damping or s.stiffness_damping:
-            self.Cs = self.K0.copy()
-            self.Cs.scale(s.stiffness_damping)
-            self.Cs.axpy(s.mass_damping, self.Ms,
-                         structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
 
     def set_state(self, u: Any) -> None:
         """The problem's state from ``u``."""

@@ -8,7 +8,9 @@ stay symmetric) and minimises the energy at κ_start (``shells.algorithms.minimi
 Newton with negative curvature). The minimum it reaches is the landing state: confirmed by the
 Hessian's inertia (no negative eigenvalue beyond the symmetry orbit's), classified by the
 azimuthal spectrum of its normal displacement (``symmetric`` when no m ≥ 1 carries more than
-``SYMMETRY_TOL`` of the m = 0 amplitude; else ``mode_m``, the strongest), and compared with the
+``SYMMETRY_TOL`` of the m = 0 amplitude; else ``mode_m``, the strongest), read with the rim's
+rotation and Ψ3 at the pole in the shell's best-fit rigid frame (``shells.surface.frame``: the
+gauge would tilt a pattern by an amount that depends on its orientation), and compared with the
 axisymmetric everted state at the same κ (Newton from the shell mirrored through its rim plane,
 continued in κ from half the fold's κ).
 
@@ -246,18 +248,26 @@ def classify_landing(model: Any, counts: tuple[int, int] | None = None) -> dict[
         ``energy``, ``negative_count`` (all negative eigenvalues), ``orbit_modes`` (those along
         the symmetry orbit, neutral in the continuum), ``stable`` (no negative eigenvalue but
         the orbit's), ``symmetric``, ``mode_m`` (0 when symmetric), ``spectrum`` (the amplitude
-        of each m over that of m = 0), ``rim_rotation_deg``, ``psi3_pole_over_h``.
+        of each m over that of m = 0), ``rim_rotation_deg``, ``psi3_pole_over_h`` (these
+        four read in the shell's best-fit rigid frame, ``RigidFrame.aligned``), and
+        ``frame_rotation_deg``, the angle of the rigid rotation that took the gauge's
+        representative there.
     """
     neg, orbit = counts if counts is not None else _counts_modulo_orbit(model)
-    power = model.azimuthal_spectrum(model.state)
+    energy = model.total_energy()
+    # the aligned state's energy differs from the state's by the nodal interpolation of the
+    # turned reference normal: the state's own is reported
+    with model.rigid_frame().aligned() as Q:
+        power = model.azimuthal_spectrum(model.state)
+        s = model.scalars()
+    turned = math.degrees(math.acos(min(1.0, max(-1.0, (float(np.trace(Q)) - 1) / 2))))
     amp = np.sqrt(power / max(power[0], 1e-300))
     symmetric = bool(np.max(amp[1:]) < SYMMETRY_TOL)
-    s = model.scalars()
-    return {"energy": s["energy"], "negative_count": int(neg), "orbit_modes": int(orbit),
+    return {"energy": energy, "negative_count": int(neg), "orbit_modes": int(orbit),
             "stable": bool(neg - orbit == 0), "symmetric": symmetric,
             "mode_m": 0 if symmetric else int(1 + np.argmax(amp[1:])),
             "spectrum": [float(a) for a in amp], "rim_rotation_deg": s.get("rim_rotation_deg"),
-            "psi3_pole_over_h": s.get("psi3_pole_over_h")}
+            "psi3_pole_over_h": s.get("psi3_pole_over_h"), "frame_rotation_deg": turned}
 
 
 #: the columns of ``snap_series.csv`` (``snap_dynamics``): time in units of R √(ρ/E),
@@ -359,8 +369,9 @@ class _Rest:
 def _series_row(t: float, p: Any, kinetic: float) -> list[float]:
     """One row of ``SERIES_COLUMNS`` at time ``t`` (in R √(ρ/E)), the model ``p`` at its
     state."""
-    s = p.scalars()
-    power = p.azimuthal_spectrum(p.state, m_max=4)
+    with p.rigid_frame().aligned():
+        s = p.scalars()
+        power = p.azimuthal_spectrum(p.state, m_max=4)
     amp = np.sqrt(power / max(float(power[0]), 1e-300))
     return [t, kinetic, s["energy"], s.get("psi3_pole_over_h", math.nan),
             s.get("rim_rotation_deg", math.nan), *(float(a) for a in amp[1:5])]

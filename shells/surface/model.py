@@ -985,6 +985,16 @@ class ShellModel(FormProblem):
         vals = np.array([comm.allreduce(fem.assemble_scalar(f), op=MPI.SUM) for f in forms])
         return orbit_cosine(vals[:nb], vals[nb:-2], vals[-2], vals[-1], tangents)
 
+    def rigid_frame(self) -> Any:
+        """The state's rigid rotation against the reference (``shells.surface.frame``): read
+        material-frame quantities of a state without axial symmetry in its ``aligned()``
+        block, where they do not depend on the gauge's choice of rotation. Built once."""
+        from shells.surface.frame import RigidFrame
+
+        if not hasattr(self, "_rigid_frame"):
+            self._rigid_frame = RigidFrame(self)
+        return self._rigid_frame
+
     def azimuthal_spectrum(self, vec: Any, m_max: int = 12, radial: int = 8) -> np.ndarray:
         """The power of a mode's normal component w = u·n° in each azimuthal wavenumber m =
         0..m_max: P_m = Σ_j |∫ w e^{-imφ} cos(jπ s) dω|² (j < ``radial``; s ∈ [0, 1] the

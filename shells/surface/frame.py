@@ -1,0 +1,170 @@
+"""The rigid frame of a deformed shell (the model layer): the state turned rigidly into the
+orientation that best fits the reference surface.
+
+The surface model fixes the free shell's rigid motion by a gauge: six point values held at zero
+(``ShellModel._supports``' docstring: the pole's displacement, and one displacement component
+at each of three points of a parallel). The gauge picks one representative of each class of
+states equal up to a rigid motion, and any such choice leaves the energy and the strains alone;
+but quantities read in the material frame (the azimuthal spectrum of u·n°, the rim's rotation
+from its reference normal, the pole's normal displacement) also see the representative's
+rotation. A pattern without axial symmetry (a snapped cap's m = 2 state) meets the three
+rotation conditions only tilted, by an angle that depends on how the pattern is turned against
+the gauge points: the same state turned about the axis then reads with odd m in its spectrum
+and with another rim rotation and Ψ3 at the pole (``benchmarks/snap_landing_shapes.py``).
+
+``RigidFrame`` removes that rotation: the proper rotation Q that carries the deformed shell
+closest to the reference in the area-weighted least-squares sense (the Kabsch solution:
+minimise ∫ |Q (y - c_y) - (x - c_x)|² dA over rotations, y = x + u the deformed point, c the
+centroids) is applied to the state about the point the gauge holds fixed (the pole, where the
+surface has one; else the deformed centroid), so that u there stays as the gauge has it. A
+shell turned inside out (an everted cap: its heights fall where the reference's rise) fits the
+reference best turned over, which would read it upside down; the fit is therefore made against
+the reference and against its mirror image through a horizontal plane, and the closer of the
+two is taken (``frame_rotation``). Both targets are axisymmetric: an axisymmetric state is its
+own best fit (Q = I) and reads as before, and a state with a two-fold symmetry about a deformed
+axis through the pole is turned so that this axis is the reference axis, whatever its
+orientation about it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from contextlib import contextmanager
+from typing import Any
+
+import numpy as np
+
+__all__ = ["RigidFrame", "best_fit_rotation", "frame_rotation"]
+
+
+def best_fit_rotation(H: np.ndarray) -> np.ndarray:
+    """The proper rotation Q that maximises tr(Q H) (Kabsch).
+
+    Args:
+        H: the 3 x 3 correlation ∫ (y - c_y)(x - c_x)ᵀ dA of the points to turn (y) with their
+            targets (x).
+
+    Returns:
+        Q (det Q = 1) minimising ∫ |Q (y - c_y) - (x - c_x)|² dA.
+    """
+    U, _, Vt = np.linalg.svd(H)
+    d = 1.0 if np.linalg.det(Vt.T @ U.T) > 0 else -1.0
+    return Vt.T @ np.diag([1.0, 1.0, d]) @ U.T
+
+
+def frame_rotation(H: np.ndarray) -> np.ndarray:
+    """The rotation into the best-fit frame: ``best_fit_rotation`` against the reference (H)
+    or against its mirror image through a horizontal plane (H diag(1, 1, -1)), whichever fits
+    closer (the larger tr(Q H)).
+
+    Args:
+        H: as ``best_fit_rotation``'s, against the reference.
+
+    Returns:
+        Q (det Q = 1).
+    """
+    D = np.diag([1.0, 1.0, -1.0])
+    Q, Qm = best_fit_rotation(H), best_fit_rotation(H @ D)
+    return Q if np.trace(Q @ H) >= np.trace(Qm @ H @ D) else Qm
+
+
+class RigidFrame:
+    """The rigid rotation of a surface model's state against its reference (collective).
+
+    Args:
+        model: the surface model (``shells.surface.model.ShellModel``) with the free director
+            chart (``ModelParameters.director = "free"``, where any rigid rotation of the
+            director is a state).
+
+    Raises:
+        ValueError: the model uses the tangent director chart.
+    """
+
+    def __init__(self, model: Any) -> None:
+        import ufl
+        from dolfinx import fem
+        from mpi4py import MPI
+
+        if model.params.director != "free":
+            raise ValueError("a rigid rotation of the state needs the free director chart")
+        self.model = model
+        comm = model.shell.comm
+        x = ufl.SpatialCoordinate(model.shell.mesh)
+        u, _ = model.split(model.w)
+        self._u_forms = [fem.form(u[i] * model.dx) for i in range(3)]
+        self._ux_forms = [[fem.form(u[i] * x[j] * model.dx) for j in range(3)]
+                          for i in range(3)]
+
+        def integral(e: Any) -> float:
+            return float(comm.allreduce(fem.assemble_scalar(fem.form(e * model.dx)),
+                                        op=MPI.SUM))
+
+        self._area = integral(fem.Constant(model.shell.mesh, 1.0))
+        self._x = np.array([integral(x[j]) for j in range(3)])
+        self._xx = np.array([[integral(x[i] * x[j]) for j in range(3)] for i in range(3)])
+        # the reference normal at the state's nodes (u and θ share them), for the director
+        normal = fem.Function(model.W)
+        n0 = model.n0
+        zero = fem.Constant(model.shell.mesh, 0.0)
+        normal.interpolate(fem.Expression(ufl.as_vector([n0[0], n0[1], n0[2], zero, zero, zero]),
+                                          model.W.element.interpolation_points()))
+        self._nodes = model.owned_dof_coordinates()
+        self._n0 = normal.x.array.reshape(-1, 6)[: len(self._nodes), :3].copy()
+        self._pivot = (np.asarray(model.support_points[0], dtype=float)
+                       if getattr(model.shape, "has_pole", False) else None)
+
+    def _assemble(self, form: Any) -> float:
+        from dolfinx import fem
+        from mpi4py import MPI
+
+        return float(self.model.shell.comm.allreduce(fem.assemble_scalar(form), op=MPI.SUM))
+
+    def rotation(self) -> np.ndarray:
+        """Q, the rotation that carries the current deformed shell closest to the reference
+        or to its mirror image (``frame_rotation`` of ``correlation()``)."""
+        return frame_rotation(self.correlation())
+
+    def correlation(self) -> np.ndarray:
+        """H = ∫ (y - c_y)(x - c_x)ᵀ dA of the current deformed points y = x + u with the
+        reference points x (c: the centroids; collective)."""
+        iu = np.array([self._assemble(f) for f in self._u_forms])
+        iux = np.array([[self._assemble(f) for f in row] for row in self._ux_forms])
+        c_x = self._x / self._area
+        c_y = (self._x + iu) / self._area
+        # ∫ (y - c_y)(x - c_x)ᵀ dA with y = x + u: the ∫ x xᵀ and ∫ u xᵀ parts less A c_y c_xᵀ
+        return self._xx + iux - self._area * np.outer(c_y, c_x)
+
+    def aligned_state(self, Q: np.ndarray | None = None) -> np.ndarray:
+        """This rank's owned values of the current state turned by Q (default ``rotation()``)
+        about the gauge's fixed point (the pole, else the deformed centroid):
+        u' = Q (x + u - p) + p - x and, with v = A n° + θ the director's vector (A the model's
+        director base), θ' = Q v - A n°. Energy and strains are those of the state."""
+        from shells.problem.interface import get_state
+
+        model = self.model
+        Q = self.rotation() if Q is None else Q
+        w = get_state(model).reshape(-1, 6).copy()
+        y = self._nodes + w[:, :3]
+        if self._pivot is not None:
+            p = self._pivot
+        else:
+            iu = np.array([self._assemble(f) for f in self._u_forms])
+            p = (self._x + iu) / self._area
+        base = self._n0 @ np.asarray(model.director_base.value, dtype=float).T
+        w[:, :3] = (y - p) @ Q.T + p - self._nodes
+        w[:, 3:] = (base + w[:, 3:]) @ Q.T - base
+        return w.ravel()
+
+    @contextmanager
+    def aligned(self) -> Iterator[np.ndarray]:
+        """Hold the aligned state in the model for the block (yields Q), then restore the
+        state exactly."""
+        from shells.problem.interface import get_state, set_state
+
+        saved = get_state(self.model)
+        Q = self.rotation()
+        set_state(self.model, self.aligned_state(Q))
+        try:
+            yield Q
+        finally:
+            set_state(self.model, saved)

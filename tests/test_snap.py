@@ -218,7 +218,9 @@ def test_dynamics_comes_to_rest_where_minimisation_lands(dynamics_run, minimise_
     """``--method dynamics`` on a coarse cap (``_CAP``: it wrinkles at m = 8 on this mesh, a
     discretisation artefact, but both methods must find the same state): the damped motion
     comes to rest, the polish changes the rest state's energy by less than 1e-6 of it, and the
-    landing is the minimiser's to 1e-6, on 1 and 2 ranks (the same on every rank)."""
+    landing is the minimiser's to 1e-6, on 1 and 2 ranks (the same on every rank). Read in the
+    shell's best-fit rigid frame, the two landings have the same shape: spectrum, rim rotation
+    and Ψ3 at the pole, whatever their patterns' orientations."""
     dyn, _ = dynamics_run
     d, ld = dyn["dynamics"], dyn["landing"]
     assert dyn["method"] == "dynamics" and d["reason"] == "rest" and d["damping"] == 2.0
@@ -228,6 +230,11 @@ def test_dynamics_comes_to_rest_where_minimisation_lands(dynamics_run, minimise_
     mini = minimise_run
     assert mini["snap_time"] is None and mini["dynamics"] is None
     assert ld["energy"] == pytest.approx(mini["landing"]["energy"], rel=1e-6)
+    ml = mini["landing"]
+    assert ld["mode_m"] == ml["mode_m"]
+    assert np.abs(np.subtract(ld["spectrum"], ml["spectrum"])).max() < 2e-4
+    assert ld["rim_rotation_deg"] == pytest.approx(ml["rim_rotation_deg"], abs=1e-3)
+    assert ld["psi3_pole_over_h"] == pytest.approx(ml["psi3_pole_over_h"], abs=1e-4)
 
 
 def test_a_settled_run_stops_early_and_lands_where_the_ring_down_does(dynamics_run,

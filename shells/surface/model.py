@@ -622,7 +622,9 @@ class ShellModel(FormProblem):
         return self.assemble("total")
 
     def scalars(self) -> dict[str, float]:
-        """Rigid-motion-free scalar indicators of the current state."""
+        """Scalar indicators of the current state, free of its translation; the rotation is
+        the gauge's (a state without axial symmetry reads otherwise in its best-fit frame:
+        evaluate them inside ``rigid_frame().aligned()``, as the snap's landing does)."""
         out = {k: self.assemble(k) for k in ("total", "stretching", "bending",
                                              "curvature_potential", "shear")}
         out["energy"] = out.pop("total")

@@ -44,11 +44,11 @@ def readings(model) -> dict:
                 "rim_rotation_deg": s["rim_rotation_deg"],
                 "psi3_pole_over_h": s["psi3_pole_over_h"]}
 
-    out = {"energy": model.total_energy(), "psi_gauge_deg": math.degrees(orientation(model)),
-           "gauge": read()}
+    out = {"energy": model.total_energy(),
+           "psi_gauge_deg": math.degrees(orientation(model, frame=False)), "gauge": read()}
     with model.rigid_frame().aligned():
         out["frame"] = read()
-        out["psi_frame_deg"] = math.degrees(orientation(model))
+        out["psi_frame_deg"] = math.degrees(orientation(model, frame=False))
     return out
 
 
@@ -83,7 +83,7 @@ def main() -> None:
     def psi_after(turn: float) -> float:
         set_state(other, w0)
         transfer(other, model, turn)
-        d = orientation(model) - target
+        d = orientation(model, frame=False) - target
         return (d + math.pi / 2) % math.pi - math.pi / 2  # ψ is defined modulo π
 
     t0 = (target - math.radians(at_start["psi_gauge_deg"]) + math.pi / 2) % math.pi - math.pi / 2

@@ -128,13 +128,17 @@ def regauge(model) -> None:
     set_state(model, w.ravel())
 
 
-def orientation(model) -> float:
+def orientation(model, frame: bool = True) -> float:
     """ψ of the state's m = 2 pattern, w·n° ∝ cos 2(φ - ψ): ½ atan2 of its moments against
-    2xy and x² - y² (collective)."""
+    2xy and x² - y², read in the shell's best-fit rigid frame (``frame``; else in the gauge's
+    representative, whose tilt biases it by an amount that depends on ψ itself; collective)."""
     import ufl
     from dolfinx import fem
     from mpi4py import MPI
 
+    if frame:
+        with model.rigid_frame().aligned():
+            return orientation(model, frame=False)
     x = ufl.SpatialCoordinate(model.shell.mesh)
     wn = ufl.dot(model.split(model.w)[0], model.n0)
     m = [model.shell.comm.allreduce(fem.assemble_scalar(fem.form(wn * f * model.dx)),

@@ -10,20 +10,20 @@ from its reference normal, the pole's normal displacement) also see the represen
 rotation. A pattern without axial symmetry (a snapped cap's m = 2 state) meets the three
 rotation conditions only tilted, by an angle that depends on how the pattern is turned against
 the gauge points: the same state turned about the axis then reads with odd m in its spectrum
-and with another rim rotation and Ψ3 at the pole (``benchmarks/snap_landing_shapes.py``).
+and with another rim rotation and Ψ3 at the pole (``benchmarks/snap_landing_reading.py``).
 
 ``RigidFrame`` removes that rotation: the proper rotation Q that carries the deformed shell
 closest to the reference in the area-weighted least-squares sense (the Kabsch solution:
 minimise ∫ |Q (y - c_y) - (x - c_x)|² dA over rotations, y = x + u the deformed point, c the
-centroids) is applied to the state about the point the gauge holds fixed (the pole, where the
-surface has one; else the deformed centroid), so that u there stays as the gauge has it. A
-shell turned inside out (an everted cap: its heights fall where the reference's rise) fits the
-reference best turned over, which would read it upside down; the fit is therefore made against
-the reference and against its mirror image through a horizontal plane, and the closer of the
-two is taken (``frame_rotation``). Both targets are axisymmetric: an axisymmetric state is its
-own best fit (Q = I) and reads as before, and a state with a two-fold symmetry about a deformed
-axis through the pole is turned so that this axis is the reference axis, whatever its
-orientation about it.
+centroids; the integral by the nodal quadrature of the state's space) is applied to the state
+about the point the gauge holds fixed (the pole, where the surface has one; else the deformed
+centroid), so that u there stays as the gauge has it. A shell turned inside out (an everted
+cap: its heights fall where the reference's rise) fits the reference best turned over, which
+would read it upside down; the fit is therefore made against the reference and against its
+mirror image through a horizontal plane, and the closer of the two is taken
+(``frame_rotation``). Both targets are axisymmetric: an axisymmetric state is its own best fit
+(Q = I) and reads as before, and a state with a two-fold symmetry about a deformed axis through
+the pole is turned so that this axis is the reference axis, whatever its orientation about it.
 """
 
 from __future__ import annotations
@@ -82,42 +82,44 @@ class RigidFrame:
 
     def __init__(self, model: Any) -> None:
         import ufl
-        from dolfinx import fem
-        from mpi4py import MPI
+        from dolfinx import fem, la
 
         if model.params.director != "free":
             raise ValueError("a rigid rotation of the state needs the free director chart")
         self.model = model
-        comm = model.shell.comm
-        x = ufl.SpatialCoordinate(model.shell.mesh)
-        u, _ = model.split(model.w)
-        self._u_forms = [fem.form(u[i] * model.dx) for i in range(3)]
-        self._ux_forms = [[fem.form(u[i] * x[j] * model.dx) for j in range(3)]
-                          for i in range(3)]
-
-        def integral(e: Any) -> float:
-            return float(comm.allreduce(fem.assemble_scalar(fem.form(e * model.dx)),
-                                        op=MPI.SUM))
-
-        self._area = integral(fem.Constant(model.shell.mesh, 1.0))
-        self._x = np.array([integral(x[j]) for j in range(3)])
-        self._xx = np.array([[integral(x[i] * x[j]) for j in range(3)] for i in range(3)])
+        self._nodes = model.owned_dof_coordinates()
+        n = len(self._nodes)
+        # the nodal quadrature of the state's space: weight ∫ φ_i dA at node i (row sums of
+        # the mass; one form, where integrals of u x would compile nine)
+        ones = ufl.as_vector([1.0] * 6)
+        lumped = fem.assemble_vector(fem.form(ufl.dot(ufl.TestFunction(model.W), ones)
+                                              * model.dx))
+        lumped.scatter_reverse(la.InsertMode.add)
+        self._weight = lumped.array.reshape(-1, 6)[:n, 0].copy()
+        self._area = self._sum(self._weight)
+        self._cx = self._sum(self._weight[:, None] * self._nodes) / self._area
         # the reference normal at the state's nodes (u and θ share them), for the director
         normal = fem.Function(model.W)
         n0 = model.n0
         zero = fem.Constant(model.shell.mesh, 0.0)
         normal.interpolate(fem.Expression(ufl.as_vector([n0[0], n0[1], n0[2], zero, zero, zero]),
                                           model.W.element.interpolation_points()))
-        self._nodes = model.owned_dof_coordinates()
-        self._n0 = normal.x.array.reshape(-1, 6)[: len(self._nodes), :3].copy()
+        self._n0 = normal.x.array.reshape(-1, 6)[:n, :3].copy()
         self._pivot = (np.asarray(model.support_points[0], dtype=float)
                        if getattr(model.shape, "has_pole", False) else None)
 
-    def _assemble(self, form: Any) -> float:
-        from dolfinx import fem
+    def _sum(self, a: np.ndarray) -> Any:
+        """The sum over the nodes of all ranks of a (an array over this rank's nodes)."""
         from mpi4py import MPI
 
-        return float(self.model.shell.comm.allreduce(fem.assemble_scalar(form), op=MPI.SUM))
+        return self.model.shell.comm.allreduce(np.sum(a, axis=0), op=MPI.SUM)
+
+    def _deformed(self) -> tuple[np.ndarray, np.ndarray]:
+        """The current state's owned values (nodes x 6) and deformed nodes y = x + u."""
+        from shells.problem.interface import get_state
+
+        w = get_state(self.model).reshape(-1, 6).copy()
+        return w, self._nodes + w[:, :3]
 
     def rotation(self) -> np.ndarray:
         """Q, the rotation that carries the current deformed shell closest to the reference
@@ -126,30 +128,22 @@ class RigidFrame:
 
     def correlation(self) -> np.ndarray:
         """H = ∫ (y - c_y)(x - c_x)ᵀ dA of the current deformed points y = x + u with the
-        reference points x (c: the centroids; collective)."""
-        iu = np.array([self._assemble(f) for f in self._u_forms])
-        iux = np.array([[self._assemble(f) for f in row] for row in self._ux_forms])
-        c_x = self._x / self._area
-        c_y = (self._x + iu) / self._area
-        # ∫ (y - c_y)(x - c_x)ᵀ dA with y = x + u: the ∫ x xᵀ and ∫ u xᵀ parts less A c_y c_xᵀ
-        return self._xx + iux - self._area * np.outer(c_y, c_x)
+        reference points x (c: the centroids), by the nodal quadrature (collective)."""
+        _, y = self._deformed()
+        # Σ w (y - c_y)(x - c_x)ᵀ = Σ w y (x - c_x)ᵀ, as Σ w (x - c_x) = 0
+        return self._sum((self._weight[:, None] * y)[:, :, None]
+                         * (self._nodes - self._cx)[:, None, :])
 
     def aligned_state(self, Q: np.ndarray | None = None) -> np.ndarray:
         """This rank's owned values of the current state turned by Q (default ``rotation()``)
         about the gauge's fixed point (the pole, else the deformed centroid):
         u' = Q (x + u - p) + p - x and, with v = A n° + θ the director's vector (A the model's
         director base), θ' = Q v - A n°. Energy and strains are those of the state."""
-        from shells.problem.interface import get_state
-
         model = self.model
         Q = self.rotation() if Q is None else Q
-        w = get_state(model).reshape(-1, 6).copy()
-        y = self._nodes + w[:, :3]
-        if self._pivot is not None:
-            p = self._pivot
-        else:
-            iu = np.array([self._assemble(f) for f in self._u_forms])
-            p = (self._x + iu) / self._area
+        w, y = self._deformed()
+        p = (self._pivot if self._pivot is not None
+             else self._sum(self._weight[:, None] * y) / self._area)
         base = self._n0 @ np.asarray(model.director_base.value, dtype=float).T
         w[:, :3] = (y - p) @ Q.T + p - self._nodes
         w[:, 3:] = (base + w[:, 3:]) @ Q.T - base

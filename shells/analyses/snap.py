@@ -31,9 +31,10 @@ uninterrupted run's differ within the step tolerance). Every k-th step's state i
 frame (k doubled whenever more than ``FRAMES_MAX`` would be kept), and the last step's.
 
 Output folder (rank 0 writes): ``snap.json`` (the result), ``landing.png`` and ``landing.vtu``
-(the landing shape coloured by the bending energy density), ``everted.png``, with dynamics
-``snap_series.csv`` (one row per step), ``snap.bp`` (VTX, the ``FieldWriter`` fields at each
-frame, time in units of R √(ρ/E)) and ``snap.gif`` (at most ``ANIMATION_FRAMES`` of the
+(the landing shape coloured by the bending energy density, in its best-fit rigid frame),
+``everted.png``, with dynamics ``snap_series.csv`` (one row per step), ``snap.bp`` (VTX, the
+``FieldWriter`` fields at each frame, each state in its best-fit rigid frame, time in units of
+R √(ρ/E)) and ``snap.gif`` (at most ``ANIMATION_FRAMES`` of the
 frames, one colour range for all), and ``checkpoint/`` (the fold's state, the dynamics' state
 every ``DYNAMICS_SAVE_EVERY`` steps with their frames so far, the rest state of the dynamics,
 then the minimiser's iterate every ``SAVE_EVERY`` iterations): a rerun of the same
@@ -787,7 +788,8 @@ class _SnapRun:
                     w = got[1]["w"]
                 set_state(self.model, w)
                 t = rows[step][0]
-                funcs = writer.write(t)
+                with self.model.rigid_frame().aligned():
+                    funcs = writer.write(t)
                 written += 1
                 if step in drawn:
                     grid, frame = self._gather_frame(funcs, t)
@@ -869,8 +871,10 @@ class _SnapRun:
                  landing["energy"], "stable" if landing["stable"] else "UNSTABLE",
                  "symmetric" if landing["symmetric"] else f"m = {landing['mode_m']}",
                  landing["negative_count"], landing["orbit_modes"])
-        self.draw(self.model, "landing", f"landing state, kappa R = {kappa * self.R:.4f}"
-                  + ("" if landing["symmetric"] else f", m = {landing['mode_m']}"), vtu=True)
+        with self.model.rigid_frame().aligned():  # drawn as read: axis up, untilted
+            self.draw(self.model, "landing", f"landing state, kappa R = {kappa * self.R:.4f}"
+                      + ("" if landing["symmetric"] else f", m = {landing['mode_m']}"),
+                      vtu=True)
         return landing
 
     def draw(self, model: Any, name: str, title: str, vtu: bool = False) -> None:

@@ -121,20 +121,12 @@ def main() -> None:
               f"{at_turn['psi_gauge_deg']:.3f} (recorded {a.psi_deg:.3f})")
         print(f"{'':18} {'m1':>7} {'m2':>7} {'m3':>7} {'rim deg':>9} {'Psi3/h':>9} "
               f"{'energy':>14}")
-        rows = (("recorded", rec_spec, rec["rim_rotation_deg"], rec["psi3_pole_over_h"],
-                 rec["energy"]),
-                ("turned, gauge", at_turn["gauge"]["spectrum"],
-                 at_turn["gauge"]["rim_rotation_deg"], at_turn["gauge"]["psi3_pole_over_h"],
-                 at_turn["energy"]),
-                ("start, gauge", at_start["gauge"]["spectrum"],
-                 at_start["gauge"]["rim_rotation_deg"], at_start["gauge"]["psi3_pole_over_h"],
-                 at_start["energy"]),
-                ("turned, frame", at_turn["frame"]["spectrum"],
-                 at_turn["frame"]["rim_rotation_deg"], at_turn["frame"]["psi3_pole_over_h"],
-                 at_turn["energy"]),
-                ("start, frame", at_start["frame"]["spectrum"],
-                 at_start["frame"]["rim_rotation_deg"], at_start["frame"]["psi3_pole_over_h"],
-                 at_start["energy"]))
+        rows = [("recorded", rec_spec, rec["rim_rotation_deg"], rec["psi3_pole_over_h"],
+                 rec["energy"])]
+        rows += [(f"{where}, {how}", r[how]["spectrum"], r[how]["rim_rotation_deg"],
+                  r[how]["psi3_pole_over_h"], r["energy"])
+                 for how in ("gauge", "frame") for where, r in (("turned", at_turn),
+                                                                ("start", at_start))]
         for name, sp, rim, psi3, e in rows:
             print(f"{name:18} {sp[1]:7.4f} {sp[2]:7.4f} {sp[3]:7.4f} {rim:9.4f} {psi3:9.4f} "
                   f"{e:14.10f}")

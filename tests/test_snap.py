@@ -368,7 +368,8 @@ def test_dynamics_outputs_and_resume(shared_tmp, monkeypatch):
     continued from step 10 (b). Up to step 10 both are one run to the CSV's digits (a
     continued run's steps are decided by its checkpoint); from there b's time stepper starts
     afresh, and both reach t = 3 in the same state within the steps' tolerance and land in
-    the same wrinkled m = 8 state;
+    the same wrinkled m = 8 state; b, run without rendering, keeps its frames, and its rerun
+    draws the animation from them;
     in each the frames' stride doubled, ``snap.bp`` holds them at their CSV times,
     ``snap.gif`` 3 of them. The same on every rank."""
     import shutil
@@ -387,8 +388,17 @@ def test_dynamics_outputs_and_resume(shared_tmp, monkeypatch):
     res = snap.run(cfg, a)
     _interrupted(monkeypatch, cfg, b, 8)
     assert _stage(b) == "dynamics 10"
+    # b without rendering: no animation, its frames kept; a rerun that renders draws it
+    quiet = snap.run(cfg, b, render=False)
+    comm.barrier()
+    assert quiet["dynamics"]["animation_frames"] == 0 and "animation" not in quiet["files"]
+    assert not (b / "snap.gif").exists()
+    kept = _expected_frames(quiet["dynamics"]["steps"], quiet["dynamics"]["frame_every"])
+    assert sorted(int(f.name) for f in (b / "checkpoint" / "frames").iterdir()) == kept
     res2 = snap.run(cfg, b)
     comm.barrier()
+    assert not any((b / "checkpoint" / "frames").iterdir())
+    assert res2["dynamics"]["steps"] == quiet["dynamics"]["steps"]
     for r, folder in ((res, a), (res2, b)):
         d = r["dynamics"]
         assert d["reason"] == "time" and d["t_max"] == 3.0 and d["steps"] >= 15

@@ -28,7 +28,9 @@ The dynamics run in segments of ``DYNAMICS_SAVE_EVERY`` steps of one time steppe
 checkpointed (state, velocity, time, the series so far): a rerun continues from the latest,
 its time stepper started afresh there (two reruns from one checkpoint take the same steps; an
 uninterrupted run's differ within the step tolerance). Every k-th step's state is kept as a
-frame (k doubled whenever more than ``FRAMES_MAX`` would be kept), and the last step's.
+frame (k doubled whenever more than ``FRAMES_MAX`` would be kept), and the last step's. Once
+the motion is written the frames are removed; a run without rendering keeps them (in
+``checkpoint/frames``) until a rerun that renders has drawn ``snap.gif`` from them.
 
 Output folder (rank 0 writes): ``snap.json`` (the result), ``landing.png`` and ``landing.vtu``
 (the landing shape coloured by the bending energy density, in its best-fit rigid frame),
@@ -673,9 +675,11 @@ class _SnapRun:
         the start or from the checkpoint of a run under way; then ``snap_series.csv``,
         ``snap.bp`` and ``snap.gif``."""
         dyn = self.meta.get("dynamics")
+        self.kappa = kappa
+        if dyn is not None and self.render and self.meta.get("kept_frames"):
+            self._draw_kept(dyn)
         if self.cfg.method != "dynamics" or dyn is not None:
             return dyn
-        self.kappa = kappa
         damping = DAMPING if self.cfg.damping is None else self.cfg.damping
         prog = self._progress()
         if prog is None:
@@ -694,14 +698,33 @@ class _SnapRun:
             if self.comm.rank == 0:
                 _write_series(self.out / "snap_series.csv", rows)
             self.files["series"] = "snap_series.csv"
-            dyn["frames"], dyn["animation_frames"] = self._motion(rows, frames)
+            times = [rows[k][0] for k in frames]
+            dyn["frames"], dyn["animation_frames"] = self._motion(frames, times)
+            if not self.render and self.ck is not None:
+                # kept, the last step's too, for a rerun that draws the animation
+                self._keep_frame(frames[-1], self.model)
+                self.meta["kept_frames"] = [[k, t] for k, t in zip(frames, times, strict=True)]
         log.info("snap: %s after %d steps, snap time %s, rest energy %.10g", dyn["reason"],
                  dyn["steps"], dyn["snap_time"], dyn["rest_energy"])
         self.meta = {k: v for k, v in self.meta.items() if k != "progress"}
         self.meta.update(dynamics=dyn, unstable=self.unstable, files=self.files)
         self.save(1, self.model.state.array_r.copy(), "dynamics")
-        self._clear_frames()
+        if "kept_frames" not in self.meta:
+            self._clear_frames()
         return dyn
+
+    def _draw_kept(self, dyn: dict[str, Any]) -> None:
+        """``snap.bp`` and ``snap.gif`` from the frames a run without rendering kept (a rerun
+        that renders); the counts in ``dyn`` and the checkpoint's meta updated, the frames
+        removed (collective)."""
+        from shells.problem.interface import get_state
+
+        kept = self.meta.pop("kept_frames")
+        dyn["frames"], dyn["animation_frames"] = self._motion([int(k) for k, _ in kept],
+                                                              [float(t) for _, t in kept])
+        self.meta.update(dynamics=dyn, files=self.files)
+        self.save(0, get_state(self.model), self.meta["stage"])
+        self._clear_frames()
 
     def _progress(self) -> DynamicsProgress | None:
         """The progress of the checkpoint's dynamics under way (None: none, or not whole)."""
@@ -757,10 +780,12 @@ class _SnapRun:
                     f.unlink(missing_ok=True)
         self.comm.barrier()
 
-    def _motion(self, rows: list[list[float]], frames: list[int]) -> tuple[int, int]:
-        """``snap.bp`` (the fields at each frame, time in units of R √(ρ/E)) and, where asked,
-        ``snap.gif`` (at most ``ANIMATION_FRAMES`` of them, and the last); the model is left at
-        its (final) state. Returns the frame counts of the two (collective)."""
+    def _motion(self, frames: list[int], times: list[float]) -> tuple[int, int]:
+        """``snap.bp`` (the fields at each frame ``frames[i]`` at ``times[i]``, in units of
+        R √(ρ/E)) and, where asked, ``snap.gif`` (at most ``ANIMATION_FRAMES`` of them, and the
+        last); each frame's state is read from its kept frame, the last step's, where none is
+        kept, is the model's. The model is left at its state. Returns the frame counts of the
+        two (collective)."""
         from shells.analyses.store import load_state_checkpoint
         from shells.problem.interface import set_state
         from shells.surface.fields import FieldWriter
@@ -776,18 +801,16 @@ class _SnapRun:
         reference, animation = None, []
         written = 0
         try:
-            for step in frames:
-                if step == frames[-1]:
+            for step, t in zip(frames, times, strict=True):
+                got = load_state_checkpoint(self._frames_dir() / str(step), self.model, ("w",))
+                if got is not None:
+                    w = got[1]["w"]
+                elif step == frames[-1]:
                     w = final
                 else:
-                    got = load_state_checkpoint(self._frames_dir() / str(step), self.model,
-                                                ("w",))
-                    if got is None:
-                        log.info("snap: the frame of step %d is missing: left out", step)
-                        continue
-                    w = got[1]["w"]
+                    log.info("snap: the frame of step %d is missing: left out", step)
+                    continue
                 set_state(self.model, w)
-                t = rows[step][0]
                 with self.model.rigid_frame().aligned():
                     funcs = writer.write(t)
                 written += 1

@@ -6,7 +6,11 @@ after the other and are merged into the JSON as they finish (a rerun skips the f
 and resumes an unfinished one from its checkpoint). Prints a table.
 
     scripts/in-env python3 benchmarks/snap_landing.py [--ranks N] [--past P] [--size S]
-        [--layer-elements L] [--degree D] [THETABAR ...]   (default: 2.5 3 3.5 4 4.5 5 6)
+        [--layer-elements L] [--degree D] [--h-over-r H] [--name NAME]
+        [THETABAR ...]   (default: 2.5 3 3.5 4 4.5 5 6)
+
+``--name NAME``: another set of runs (another mesh or h/R) beside the first, its folders in
+benchmarks/results/snap/NAME/ and its JSON benchmarks/results/snap_landing_NAME.json.
 
 The shallowest caps need a finer mesh than the others: θ̄ = 2.5 lands with spurious m = 8
 rim wrinkles at size 0.35 R (P2) and 0.1 R (P2 or P3, 2 elements across √(Rh)), symmetric on
@@ -28,11 +32,11 @@ H_OVER_R = 0.04
 
 
 def run_case(tb: float, a: argparse.Namespace) -> dict:
-    folder = OUT / "snap" / f"thetabar_{tb:g}"
+    folder = OUT / "snap" / (a.name or "") / f"thetabar_{tb:g}"
     cmd = (["mpirun", "-n", str(a.ranks)] if a.ranks > 1 else []) + [
         "shells", "snap", "--shape", "cap", "--theta-deg", repr(math.degrees(tb * math.sqrt(
-            H_OVER_R))), "--h-over-r", str(H_OVER_R), "--past", str(a.past), "-o", str(folder),
-        "--json"]
+            a.h_over_r))), "--h-over-r", str(a.h_over_r), "--past", str(a.past), "-o",
+        str(folder), "--json"]
     if a.size is not None:
         cmd += ["--size", str(a.size)]
     if a.layer_elements is not None:
@@ -74,10 +78,13 @@ def main() -> None:
     ap.add_argument("--size", type=float, default=None)
     ap.add_argument("--layer-elements", type=float, default=None)
     ap.add_argument("--degree", type=int, default=None)
-    ap.add_argument("--out", default=str(OUT / "snap_landing.json"))
+    ap.add_argument("--h-over-r", type=float, default=H_OVER_R)
+    ap.add_argument("--name", default=None, help="another set of runs (folders, JSON)")
+    ap.add_argument("--out", default=None, help="the JSON (default: by --name)")
     a = ap.parse_args()
-    path = Path(a.out)
-    data = json.loads(path.read_text()) if path.exists() else {"h_over_R": H_OVER_R,
+    path = Path(a.out or OUT / ("snap_landing.json" if a.name is None
+                                else f"snap_landing_{a.name}.json"))
+    data = json.loads(path.read_text()) if path.exists() else {"h_over_R": a.h_over_r,
                                                                  "cases": {}}
     for tb in a.thetabar:
         key = f"{tb:g}"

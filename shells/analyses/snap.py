@@ -939,7 +939,8 @@ def run(cfg: SnapConfig, outdir: str | Path | None = None, *, render: bool = Tru
         cfg: the shell and the run's settings.
         outdir: the output folder (None: nothing written or resumed).
         render: draw ``landing.png``, ``everted.png`` and (dynamics) ``snap.gif`` (needs
-            pyvista).
+            pyvista); without it a dynamics run keeps its frames in ``checkpoint/frames`` for
+            a rerun that renders to draw ``snap.gif`` from.
         resume: resume from ``outdir/checkpoint`` when it is of the same configuration.
 
     Returns:

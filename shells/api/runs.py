@@ -211,7 +211,8 @@ def snap(shell: Shell, *, past: float = 0.01, kappa_R: float | None = None,
             ``snap_series.csv``, ``snap.bp`` (the fields over time for ParaView) and
             ``snap.gif`` (None: none).
         render: draw the landing and everted states and (dynamics) the animation (with
-            ``outdir``).
+            ``outdir``); without it a dynamics run keeps its frames, and a rerun with it
+            draws the animation from them.
         **options: ``SnapConfig`` numerics (``amplitude``, ``kappa_R_max``, ``size``,
             ``degree``, ``layer_elements``, ``shear_penalty``, ``damping``: dynamics' α of
             C = α M in units √(E/ρ)/R, ``step_tol``: dynamics' adaptive step tolerance,

@@ -138,7 +138,9 @@ class RigidFrame:
         """This rank's owned values of the current state turned by Q (default ``rotation()``)
         about the gauge's fixed point (the pole, else the deformed centroid):
         u' = Q (x + u - p) + p - x and, with v = A n° + θ the director's vector (A the model's
-        director base), θ' = Q v - A n°. Energy and strains are those of the state."""
+        director base), θ' = Q v - A n°. Energy and strains are those of the state up to the
+        nodal interpolation of Q A n° - A n° in θ' (the reference normal is not in the
+        state's space)."""
         model = self.model
         Q = self.rotation() if Q is None else Q
         w, y = self._deformed()

@@ -175,9 +175,9 @@ def test_cli_contract_and_bad_input(diagram, capsys):
 
 def test_landings_of_snap_runs_in_the_figure_and_the_result(diagram, capsys, tmp_path):
     """``--landings``: the snap runs kept in benchmarks/results/snap (surface model, h/R =
-    0.04) are read, sorted by θ̄ (θ/√(h/R): the θ̄ their folders are named by), listed in the
-    JSON as their snap.json has them and drawn; a folder without snap.json and a file that is
-    not one are refused."""
+    0.04 and 0.01) are read, sorted by h/R and θ̄ (θ/√(h/R): the θ̄ their folders are named
+    by), listed in the JSON as their snap.json has them and drawn; a folder without snap.json
+    and a file that is not one are refused."""
     from pathlib import Path
 
     from shells.cli.common import Parser as _Parser
@@ -197,14 +197,15 @@ def test_landings_of_snap_runs_in_the_figure_and_the_result(diagram, capsys, tmp
     if MPI.COMM_WORLD.rank == 0:
         res = json.loads(lines[-1])
         marks = res["landings"]
-        tbs = [r["thetabar"] for r in marks]
-        ok = tbs == sorted(tbs) and len(marks) >= 7
+        keys = [(r["h_over_R"], r["thetabar"]) for r in marks]
+        ok = keys == sorted(keys) and sum(r["h_over_R"] == 0.04 for r in marks) >= 7
         for r in marks:
             src = json.loads(Path(r["source"]).read_text())
             named = Path(r["source"]).parent.name.removeprefix("thetabar_")
             ok = ok and (r["symmetric"], r["mode_m"], r["kappa_R"]) == (
                 src["landing"]["symmetric"], src["landing"]["mode_m"], src["start"]["kappa_R"])
-            ok = ok and r["kappa_R"] > r["kappa_fold_R"] and r["h_over_R"] == 0.04
+            ok = ok and r["kappa_R"] > r["kappa_fold_R"]
+            ok = ok and r["h_over_R"] == src["config"]["h_over_r"]
             if named != Path(r["source"]).parent.name:
                 ok = ok and r["thetabar"] == pytest.approx(float(named), rel=1e-9)
         ok = ok and (Path(out) / "phase_diagram.png").stat().st_size > 0

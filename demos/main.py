@@ -106,13 +106,13 @@ def run(outdir: str | Path = "results/demo", quick: bool = False) -> dict:
 
     # 3. shapes for ParaView
     cap = SphericalCap(1.0, math.radians(30))
-    size, layer = (0.25, 4.0) if quick else (0.15, 4.0)
+    size, layer = (0.35, 3.0) if quick else (0.15, 4.0)
     # natural-parameter steps: the shell just before its snap-through fold (κR ≈ 1.39 here), and
     # past the m = 2 loss of symmetry at κR ≈ -0.66 (the mesh is exactly 8-fold symmetric, so
     # the path stays axisymmetric there: the unstable fundamental state)
     kr_buckled = -0.72 if quick else -1.2
-    # the buckled shell and its axisymmetric comparison on one mesh (quick: a coarser one)
-    size_b, layer_b = (0.35, 3.0) if quick else (size, layer)
+    # the buckled shell and its axisymmetric comparison on one mesh (quick: the coarse one)
+    size_b, layer_b = (size, layer)
     runs = (("snap_onset", 1.35, (0.5, 1.0), size, layer),
             ("axisymmetric", kr_buckled, (-0.4, -0.8), size_b, layer_b))
     out["snapped"] = snapped_shape(cap, 0.04, 2.0, size, layer,

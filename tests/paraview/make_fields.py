@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import json
 import shutil
-import subprocess
 import sys
 from pathlib import Path
 
@@ -43,7 +42,7 @@ def main(out: Path) -> None:
     comm = MPI.COMM_WORLD
     assert comm.size == 1, "run serially: the expected point count is that of one rank"
     run = out / "run"
-    subprocess.run([sys.executable, "-m", "shells", *RUN, "-o", str(run)], check=True)
+    _shells(*RUN, "-o", str(run))
 
     header, points = read_branch(run / "branch.jsonl")
     last = points[-1]
@@ -65,6 +64,16 @@ def main(out: Path) -> None:
     (out / "expected.json").write_text(json.dumps(expected, indent=1) + "\n")
     print(f"make_fields: {expected['file']}: {expected['points']} points, {expected['cells']} "
           f"cells, kappa h = {last['kappa_h']:.3g}; expected ranges in {out / 'expected.json'}")
+
+
+def _shells(*argv: str) -> None:
+    """``shells ARGV`` run in this process (``shells.cli.main``: the command line's own code,
+    without a second interpreter's start-up)."""
+    from shells.cli import main
+
+    rc = main(list(argv))
+    if rc != 0:
+        raise SystemExit(f"make_fields: shells {' '.join(argv)} exited with {rc}")
 
 
 def _field_ranges(model, funcs) -> dict:
@@ -127,7 +136,7 @@ def postbuckled_shape(out: Path) -> dict:
     from shells.axisym.revolve import revolve
 
     run = out / "postbuckle"
-    subprocess.run([sys.executable, "-m", "shells", *PB_RUN, "-o", str(run)], check=True)
+    _shells(*PB_RUN, "-o", str(run))
     vts = sorted((run / "shapes").glob("*.vts"))[-1]
     rows = list(csv.DictReader(open(vts.with_suffix(".csv"))))
     h = 0.05

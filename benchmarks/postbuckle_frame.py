@@ -33,6 +33,7 @@ def main() -> None:
 
     from shells.analyses.postbuckle import PostbuckleConfig, postbuckle
     from shells.geometry.shapes import SphericalCap
+    from shells.surface.frame import rotation_angle_deg
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--theta-deg", type=float, default=30.0)
@@ -51,7 +52,7 @@ def main() -> None:
         frame = model.rigid_frame()
         Q = frame.rotation()
         row = {"kappa_R": rec["kappa_R"], "mode_amplitude": rec.get("mode_amplitude"),
-               "tilt_deg": math.degrees(math.acos(min(1.0, max(-1.0, (np.trace(Q) - 1) / 2))))}
+               "tilt_deg": rotation_angle_deg(Q)}
         for where in ("gauge", "frame"):
             if where == "frame":
                 with frame.aligned():

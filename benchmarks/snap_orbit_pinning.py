@@ -121,11 +121,8 @@ def regauge(model) -> None:
             break
         J = np.column_stack([(residual(om + 1e-7 * e) - f) / 1e-7 for e in np.eye(3)])
         om = om - np.linalg.solve(J, f)
-    P = _rotation(om)
-    n0 = model.shape.normal(X.T).T
-    w[:, :3] = (X + w[:, :3] - top) @ P.T + top - X
-    w[:, 3:] = (n0 + w[:, 3:]) @ P.T - n0
-    set_state(model, w.ravel())
+    # the turn about the pole, the director with it: the frame's own
+    set_state(model, model.rigid_frame().aligned_state(_rotation(om)))
 
 
 def orientation(model, frame: bool = True) -> float:

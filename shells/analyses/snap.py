@@ -256,6 +256,8 @@ def classify_landing(model: Any, counts: tuple[int, int] | None = None) -> dict[
         ``frame_rotation_deg``, the angle of the rigid rotation that took the gauge's
         representative there.
     """
+    from shells.surface.frame import rotation_angle_deg
+
     neg, orbit = counts if counts is not None else _counts_modulo_orbit(model)
     energy = model.total_energy()
     # the aligned state's energy differs from the state's by the nodal interpolation of the
@@ -263,7 +265,7 @@ def classify_landing(model: Any, counts: tuple[int, int] | None = None) -> dict[
     with model.rigid_frame().aligned() as Q:
         power = model.azimuthal_spectrum(model.state)
         s = model.scalars()
-    turned = math.degrees(math.acos(min(1.0, max(-1.0, (float(np.trace(Q)) - 1) / 2))))
+    turned = rotation_angle_deg(Q)
     amp = np.sqrt(power / max(power[0], 1e-300))
     symmetric = bool(np.max(amp[1:]) < SYMMETRY_TOL)
     return {"energy": energy, "negative_count": int(neg), "orbit_modes": int(orbit),

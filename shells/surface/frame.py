@@ -28,13 +28,14 @@ the pole is turned so that this axis is the reference axis, whatever its orienta
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Any
 
 import numpy as np
 
-__all__ = ["RigidFrame", "best_fit_rotation", "frame_rotation"]
+__all__ = ["RigidFrame", "best_fit_rotation", "frame_rotation", "rotation_angle_deg"]
 
 
 def best_fit_rotation(H: np.ndarray) -> np.ndarray:
@@ -66,6 +67,12 @@ def frame_rotation(H: np.ndarray) -> np.ndarray:
     D = np.diag([1.0, 1.0, -1.0])
     Q, Qm = best_fit_rotation(H), best_fit_rotation(H @ D)
     return Q if np.trace(Q @ H) >= np.trace(Qm @ H @ D) else Qm
+
+
+def rotation_angle_deg(Q: np.ndarray) -> float:
+    """The angle of the rotation Q, in degrees (acos((tr Q - 1) / 2), clipped to its domain
+    against round-off)."""
+    return math.degrees(math.acos(min(1.0, max(-1.0, (float(np.trace(Q)) - 1.0) / 2.0))))
 
 
 class RigidFrame:
@@ -121,6 +128,11 @@ class RigidFrame:
         w = get_state(self.model).reshape(-1, 6).copy()
         return w, self._nodes + w[:, :3]
 
+    def _correlation(self, y: np.ndarray) -> np.ndarray:
+        # Σ w (y - c_y)(x - c_x)ᵀ = Σ w y (x - c_x)ᵀ, as Σ w (x - c_x) = 0
+        return self._sum((self._weight[:, None] * y)[:, :, None]
+                         * (self._nodes - self._cx)[:, None, :])
+
     def rotation(self) -> np.ndarray:
         """Q, the rotation that carries the current deformed shell closest to the reference
         or to its mirror image (``frame_rotation`` of ``correlation()``)."""
@@ -129,10 +141,7 @@ class RigidFrame:
     def correlation(self) -> np.ndarray:
         """H = ∫ (y - c_y)(x - c_x)ᵀ dA of the current deformed points y = x + u with the
         reference points x (c: the centroids), by the nodal quadrature (collective)."""
-        _, y = self._deformed()
-        # Σ w (y - c_y)(x - c_x)ᵀ = Σ w y (x - c_x)ᵀ, as Σ w (x - c_x) = 0
-        return self._sum((self._weight[:, None] * y)[:, :, None]
-                         * (self._nodes - self._cx)[:, None, :])
+        return self._correlation(self._deformed()[1])
 
     def aligned_state(self, Q: np.ndarray | None = None) -> np.ndarray:
         """This rank's owned values of the current state turned by Q (default ``rotation()``)
@@ -141,15 +150,18 @@ class RigidFrame:
         director base), θ' = Q v - A n°. Energy and strains are those of the state up to the
         nodal interpolation of Q A n° - A n° in θ' (the reference normal is not in the
         state's space)."""
-        model = self.model
-        Q = self.rotation() if Q is None else Q
+        return self._turned(Q)[0]
+
+    def _turned(self, Q: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+        """(``aligned_state(Q)``, Q), the state read once."""
         w, y = self._deformed()
+        Q = frame_rotation(self._correlation(y)) if Q is None else Q
         p = (self._pivot if self._pivot is not None
              else self._sum(self._weight[:, None] * y) / self._area)
-        base = self._n0 @ np.asarray(model.director_base.value, dtype=float).T
+        base = self._n0 @ np.asarray(self.model.director_base.value, dtype=float).T
         w[:, :3] = (y - p) @ Q.T + p - self._nodes
         w[:, 3:] = (base + w[:, 3:]) @ Q.T - base
-        return w.ravel()
+        return w.ravel(), Q
 
     @contextmanager
     def aligned(self) -> Iterator[np.ndarray]:
@@ -158,8 +170,8 @@ class RigidFrame:
         from shells.problem.interface import get_state, set_state
 
         saved = get_state(self.model)
-        Q = self.rotation()
-        set_state(self.model, self.aligned_state(Q))
+        aligned, Q = self._turned(None)
+        set_state(self.model, aligned)
         try:
             yield Q
         finally:

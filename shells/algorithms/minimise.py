@@ -448,10 +448,10 @@ def minimise_to_stable(problem: Any, settings: MinimiseSettings | None = None, *
                        monitor: Callable[[Any], None] | None = None) -> MinimiseResult:
     """``minimise``, then confirm the end by the Hessian's inertia; from a saddle, perturb
     along its unstable eigenvectors (``perturb_unstable``) and minimise again, each round
-    twice as far as the last: a nearly neutral unstable direction (a pattern sliding off a
-    cap's pole) gives its saddle a basin of Newton's iteration wider than a small step, and
-    the minimiser, which hands over to Newton once its shifted Hessian is nearly definite,
-    comes back to the saddle it left.
+    twice as far as the last: a nearly neutral unstable direction (an m = 1 direction of a
+    snapped cap's m = 2 saddle) gives its saddle a basin of Newton's iteration wider than a
+    small step, and the minimiser, which hands over to Newton once its shifted Hessian is
+    nearly definite, comes back to the saddle it left.
 
     The negative eigenvalues along the state's symmetry orbit (a pattern's rotation about the
     axis: neutral in the continuum, of either sign on a mesh) do not count

@@ -20,6 +20,7 @@ import argparse
 import json
 import math
 import time
+from contextlib import nullcontext
 from pathlib import Path
 
 import numpy as np
@@ -53,11 +54,8 @@ def main() -> None:
         Q = frame.rotation()
         row = {"kappa_R": rec["kappa_R"], "mode_amplitude": rec.get("mode_amplitude"),
                "tilt_deg": rotation_angle_deg(Q)}
-        for where in ("gauge", "frame"):
-            if where == "frame":
-                with frame.aligned():
-                    s, p = model.scalars(), model.azimuthal_spectrum(model.state)
-            else:
+        for where, held in (("gauge", nullcontext()), ("frame", frame.aligned())):
+            with held:
                 s, p = model.scalars(), model.azimuthal_spectrum(model.state)
             amp = np.sqrt(p / p[0])
             row[where] = {**{k: s.get(k) for k in KEYS}, "amp_m1": float(amp[1]),

@@ -111,21 +111,19 @@ def run(outdir: str | Path = "results/demo", quick: bool = False) -> dict:
     # past the m = 2 loss of symmetry at κR ≈ -0.66 (the mesh is exactly 8-fold symmetric, so
     # the path stays axisymmetric there: the unstable fundamental state)
     kr_buckled = -0.72 if quick else -1.2
-    # the buckled shell and its axisymmetric comparison on one mesh (quick: the coarse one)
-    size_b, layer_b = (size, layer)
-    runs = (("snap_onset", 1.35, (0.5, 1.0), size, layer),
-            ("axisymmetric", kr_buckled, (-0.4, -0.8), size_b, layer_b))
+    # every shape on one mesh: the buckled shell and its axisymmetric comparison among them
+    runs = (("snap_onset", 1.35, (0.5, 1.0)), ("axisymmetric", kr_buckled, (-0.4, -0.8)))
     out["snapped"] = snapped_shape(cap, 0.04, 2.0, size, layer,
                                    outdir / "snapped" / "fields.bp")
     say(f"snapped: kappa R = +2.000, everted shell (stable: {out['snapped']['stable']}), apex "
         f"displacement {out['snapped']['apex_uz_over_h']:+.2f} h -> "
         f"{outdir / 'snapped' / 'fields.bp'}")
-    for name, kr, stops, run_size, run_layer in runs:
+    for name, kr, stops in runs:
         # steps of at most 0.4 in κR, grown while Newton needs at most 5 iterations
         st = ContinuationSettings(method="natural", ds=0.4, ds_max=0.4, kappa_stops=stops,
                                   target_newton_its=5, max_newton_its=25)
-        bc = BranchConfig(shape=cap, h_over_r=0.04, kappa_end=kr, size=run_size,
-                          layer_elements=run_layer, continuation=st)
+        bc = BranchConfig(shape=cap, h_over_r=0.04, kappa_end=kr, size=size,
+                          layer_elements=layer, continuation=st)
         pts = list(run_branch(bc, outdir / name, fields="last", resume=False, label=name))
         out[name] = pts[-1]
         say(f"{name}: kappa R = {pts[-1]['kappa_R']:+.3f}, apex displacement "
@@ -133,7 +131,7 @@ def run(outdir: str | Path = "results/demo", quick: bool = False) -> dict:
     # the buckled shell: the m = 2 branch switched onto at the located bifurcation
     pb = postbuckle.run(PostbuckleConfig(cap, 0.04, model="surface", direction="down",
                                          kappa_end=kr_buckled, sides=(1,),
-                                         size=size_b, layer_elements=layer_b,
+                                         size=size, layer_elements=layer,
                                          kappa_min_ratio=0.1),
                         outdir / "buckled", fields="last")
     bif = [p for p in pb["points"] if p["branch"] == "bifurcated"]

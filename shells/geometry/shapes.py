@@ -155,7 +155,7 @@ class Shape:
     #: rigid-motion gauge, which then uses points of one parallel only
     has_pole = True
     #: False: not a surface of revolution about z (``surface_fit.MeshSurface``): no meridian,
-    #: parallels or azimuthal mode numbers; the surface model only, with a 3-2-1 gauge
+    #: parallels or azimuthal mode numbers; the surface model only, with a gauge from its nodes
     of_revolution = True
 
     def normal_ufl(self, x: Any) -> Any:

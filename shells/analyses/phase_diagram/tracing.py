@@ -171,6 +171,7 @@ def _trace_surface(task: Task, cfg: PhaseDiagramConfig) -> dict[str, Any]:
 
     from shells.algorithms.following import follow
     from shells.algorithms.settings import ContinuationSettings, CriticalSettings
+    from shells.analyses.critical import REUSE_SURFACE
     from shells.geometry.shapes import SphericalCap
     from shells.surface.mesh import generate
     from shells.surface.model import ModelParameters, ShellModel
@@ -185,7 +186,7 @@ def _trace_surface(task: Task, cfg: PhaseDiagramConfig) -> dict[str, Any]:
         bound = -(1.3 * min(buckling_kappa_R(tb, h), -1.0) - 0.3)
     sign = 1.0 if task.direction == "up" else -1.0
     st = ContinuationSettings(ds=bound / 16, ds_max=bound / 10, ds_min=1e-7 * bound,
-                              ds_unit="kappa")
+                              ds_unit="kappa", factor_reuse=REUSE_SURFACE)
     crit = CriticalSettings(rel_tol=max(cfg.rel_tol, 1e-4), stop_at_first=task.direction == "down")
     found, n = [], 0
     for _, _, cps in follow(model, st, sign * bound, crit):

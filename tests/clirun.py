@@ -19,6 +19,11 @@ from mpi4py import MPI
 
 REPO = Path(__file__).resolve().parent.parent
 
+#: for a test that runs the command line: on more than one rank it is skipped before its own
+#: work (a reference computed first would be computed for nothing), as ``shells`` skips it
+one_process_child = pytest.mark.skipif(
+    MPI.COMM_WORLD.size > 1, reason="a one-process child of rank 0: the serial pass runs it")
+
 
 def shells(*args: str, timeout: float = 240.0) -> dict:
     """``python3 -m shells ARGS`` on rank 0: {"rc", "stdout", "stderr", "json"} on every rank

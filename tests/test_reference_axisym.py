@@ -8,7 +8,8 @@ of kappa along the branch parametrised by the cap's height, no eigenvalues). Its
 the change from degree n - 10 to n, is below 1e-8 on these caps.
 
 The 1D model is run as a user runs it (``python3 -m shells critical --model axisym ... --json``),
-on rank 0; the result is broadcast so that every rank asserts the same.
+in one process: the serial pass runs these tests, the 2-rank pass skips them before computing
+the reference.
 
 The reference also has the block m of the Hessian of the full 2D energy at its axisymmetric
 states (Fourier mode m of all three displacement components, a Ritz basis regular at the pole,
@@ -69,6 +70,7 @@ def test_the_reference_converges_and_its_fold_is_singular():
     assert abs(r["kappa_R"] - 1.393415) < 2e-5
 
 
+@clirun.one_process_child
 def test_30_degree_cap_fold_of_the_1d_model():
     """θ = 30°, h/R = 0.04, κ > 0: the snap-through fold. Reference: κR = 1.3934264."""
     ref, acc = fold_kappa(math.radians(30), 0.04, n=30)
@@ -80,6 +82,7 @@ def test_30_degree_cap_fold_of_the_1d_model():
     assert f["kappa_R"] == pytest.approx(ref, rel=REL_1D)
 
 
+@clirun.one_process_child
 def test_thetabar_5_cap_fold_of_the_1d_model():
     """θ̄ = 5 (θ = 1 rad), h/R = 0.04, κ > 0: the fold that follows the m = 2 bifurcation
     (9e-4 below it; the bifurcation is the peer's and the surface model's business:
@@ -100,6 +103,7 @@ def test_thetabar_5_cap_fold_of_the_1d_model():
     assert 3.382022 < bif < ref and bif - 3.382022 < 1e-4 * ref
 
 
+@clirun.one_process_child
 def test_ring_field_fold_of_the_1d_model():
     """The 30° cap under the ring field f = step(θ - 0.2, 0.05) step(0.4 - θ, 0.05)
     (step(s, w) = (1 + tanh(s/w))/2): its fold. Reference: κR = 2.2884944."""
@@ -128,6 +132,7 @@ def test_the_reference_m0_block_is_singular_at_its_fold():
     assert at_one > 1.0 and abs(block.lowest(x, kf)) < 1e-5 * at_one
 
 
+@clirun.one_process_child
 def test_30_degree_cap_m2_bifurcation_of_the_1d_model():
     """θ = 30°, h/R = 0.04, κ < 0: the loss of symmetry into m = 2. Reference: κR = -0.6622066
     (degrees 24/20, 30/28 and 36/32 agree to 3e-7); the peer code's finest meshes give
@@ -142,6 +147,7 @@ def test_30_degree_cap_m2_bifurcation_of_the_1d_model():
     assert d["kappa_R"] == pytest.approx(ref, rel=REL_1D_BIF)
 
 
+@clirun.one_process_child
 def test_thetabar_5_cap_m2_bifurcation_of_the_1d_model():
     """θ̄ = 5 (θ = 1 rad), h/R = 0.04, κ > 0: the first critical point, the m = 2 bifurcation
     just below the fold. Reference: κR = 3.3822474 (degrees 30/24 and 40/30 agree to 5e-10);
@@ -158,6 +164,7 @@ def test_thetabar_5_cap_m2_bifurcation_of_the_1d_model():
     assert first["kappa_R"] == pytest.approx(ref, rel=REL_1D_BIF)
 
 
+@clirun.one_process_child
 def test_disk_m2_bifurcation_of_the_1d_model():
     """The free disk, h/r = 0.02, κ > 0: the loss of symmetry into m = 2 (the plate limit).
     Reference: κr = 0.0920740 (degrees 24/20 and 36/30 agree to 1e-8); the paper's reduced

@@ -569,69 +569,15 @@ class ShellModel(FormProblem):
         return self._point_bcs(constraints, tol)
 
     def _general_supports(self, node: Any, tol: float) -> list[Any]:
-        """The gauge of a surface known only by its mesh.
+        """The gauge of a surface known only by its mesh (``shells.surface.gauge.mesh_gauge``:
+        the caps' azimuthal gauge about the vertical through the highest node where it fixes
+        the rotations well, else a 3-2-1 gauge)."""
+        from shells.surface.gauge import mesh_gauge
 
-        Preferably the surfaces of revolution's gauge about the vertical through the highest
-        node A: u = 0 at A, and the azimuthal components about that vertical (u_y, u_y, u_x)
-        at the nodes B, D, C nearest the azimuths 0, π, π/2 of the ring at half the mesh's
-        largest horizontal distance from A. A state that is axisymmetric about that vertical
-        meets it with a translation only. Any six independent constraints cost no energy in
-        this geometrically exact model (a finite rigid motion satisfies them), but a gauge
-        that a state meets only turned makes Newton find that finite rotation from a
-        predictor that extrapolates linearly: on a cap's mesh the steps it converges from
-        shrink by an order of magnitude (``tests/test_surface_fit.py``).
-
-        Where that gauge fixes the rotations poorly (a nearly flat mesh: the ring's height
-        below A is what fixes the tilts), the 3-2-1 gauge instead: u = 0 at A, two
-        components of u at the node B farthest from A and one at the node C farthest from the
-        line AB, the components chosen (of the 9 choices) so that the constraints fix the three
-        rotations best conditioned (the largest smallest singular value of the map from the
-        rotation ω to the constrained components of ω × (B - A), ω × (C - A))."""
-        x = self.shape.nodes
-        a = x[int(np.argmax(x[:, 2]))]
-        d = x - a
-        rho = np.hypot(d[:, 0], d[:, 1])
-        ring = 0.5 * float(rho.max())
-
-        def cross_matrix(r: np.ndarray) -> np.ndarray:  # ω ↦ ω × r
-            return -np.array([[0, -r[2], r[1]], [r[2], 0, -r[0]], [-r[1], r[0], 0]])
-
-        def smallest_sv(rows: list[np.ndarray]) -> float:
-            return float(np.linalg.svd(np.vstack(rows), compute_uv=False)[-1])
-
-        # the ring's nodes nearest each azimuth: least angular offset from it, then nearest
-        # the ring (the constraint on u_y at azimuth δ reads the radial displacement by sin δ)
-        near = (rho > 0.5 * ring) & (rho < 1.5 * ring)
-        ring_nodes = []
-        for ax, side in ((0, 1.0), (1, 1.0), (0, -1.0)):  # azimuths 0, π/2, π
-            ok = near & (side * d[:, ax] > 0)
-            if not ok.any():
-                break
-            offset = np.abs(d[:, 1 - ax]) / np.maximum(rho, 1e-300)
-            score = np.where(ok, offset + 0.1 * np.abs(rho / ring - 1.0), np.inf)
-            ring_nodes.append(x[int(np.argmin(score))])
-        b = x[int(np.argmax(np.linalg.norm(d, axis=1)))]
-        e = (b - a) / np.linalg.norm(b - a)
-        c = x[int(np.argmax(np.linalg.norm(d - np.outer(d @ e, e), axis=1)))]
-        MB, MC = cross_matrix(b - a), cross_matrix(c - a)
-        best = max(((drop, k) for drop in range(3) for k in range(3)),
-                   key=lambda q: smallest_sv([np.delete(MB, q[0], axis=0), MC[q[1]]]))
-        sv_321 = smallest_sv([np.delete(MB, best[0], axis=0), MC[best[1]]])
-        if len(ring_nodes) == 3:
-            pb, pc, pd = ring_nodes
-            sv_ring = smallest_sv([cross_matrix(pb - a)[1], cross_matrix(pd - a)[1],
-                                   cross_matrix(pc - a)[0]])
-            # the built-in caps' gauge is this one at a conditioning of about a third of the
-            # 3-2-1's (30° cap); far below, the tilts are nearly free: a near-zero eigenvalue
-            if sv_ring >= 0.05 * sv_321:
-                A, B, C, D = (node(p, "gauge point") for p in (a, pb, pc, pd))
-                self.support_points = [A, B, C, D]
-                return self._point_bcs([(A, 0), (A, 1), (A, 2), (B, 1), (D, 1), (C, 0)], tol)
-        A, B, C = (node(p, "gauge point") for p in (a, b, c))
-        constraints = [(A, 0), (A, 1), (A, 2)]
-        constraints += [(B, i) for i in range(3) if i != best[0]] + [(C, best[1])]
-        self.support_points = [A, B, C]
-        return self._point_bcs(constraints, tol)
+        gauge = mesh_gauge(self.shape.nodes)
+        pts = [node(p, "gauge point") for p in gauge.points]
+        self.support_points = pts
+        return self._point_bcs([(pts[i], comp) for i, comp in gauge.constraints], tol)
 
     def _point_bcs(self, constraints: list[tuple[np.ndarray, int]], tol: float) -> list[Any]:
         """u_comp = 0 at each (point, comp) of ``constraints`` (a DOF node at each point)."""

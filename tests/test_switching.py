@@ -70,7 +70,7 @@ def test_switch_onto_the_buckled_branch_of_a_cap():
     model.w.x.array[:] = w_past
     model.w.x.scatter_forward()
     far = max(at) if max(at) > p_past.kappa else min(at)
-    nat = ContinuationSettings(method="natural", ds=0.01, ds_max=0.01,
+    nat = ContinuationSettings(method="natural", ds=0.05, ds_max=0.05,
                                kappa_stops=tuple(k * L for k in at))
     diff = model.w.x.petsc_vec.duplicate()
     compared = []

@@ -62,16 +62,16 @@ def test_phase_diagram_on_the_surface_model(shared_tmp):
     """Two caps at h/R = 0.04, size 0.3 (P2, 4 elements across √(Rh)). Source: the spectral
     reference (tests/reference/axisym_reference.py: the fold, and the m = 2 block of the 2D
     energy's Hessian): θ̄ = 1.5: inversion, then m = 2 at κR = 3.5575994 going up, m = 2 at
-    -1.5575993 going down; θ̄ = 3: the fold at 1.7600799, m = 2 at -0.6030949 going down (the
-    1D model: 3.557593, -1.557593, 1.760080, -0.603094). Measured on this mesh: snap +1.2 %,
-    inversion's m = 2 -0.43 %, down -0.28 % and +0.02 %."""
+    -1.5575993 going down; θ̄ = 2.5: the fold at 1.2766767, m = 2 at -0.6893489 going down (the
+    1D model: 3.557593, -1.557593, 1.276677, -0.689348). Measured on this mesh: inversion's
+    m = 2 -0.43 %, snap -0.23 %, down -0.28 % and -0.22 %."""
     d = _ok(clirun.shells("phase-diagram", "--model", "surface", "--h-over-r", "0.04",
-                          "--thetabar-range", "1.5", "3.0", "--points", "2", "--size", "0.3",
+                          "--thetabar-range", "1.5", "2.5", "--points", "2", "--size", "0.3",
                           "--layer-elements", "4", "--refine", "0", "--no-figure", "-o",
                           str(shared_tmp / "pd"), "--json"))
     pts = {round(p["thetabar"], 6): p for p in d["points"] if p["tag"] == "grid"}
-    assert sorted(pts) == [1.5, 3.0]
-    shallow, deep = pts[1.5], pts[3.0]
+    assert sorted(pts) == [1.5, 2.5]
+    shallow, deep = pts[1.5], pts[2.5]
     # θ̄ = 1.5 < θ̄_s: smooth inversion, then the loss of symmetry of the inverted cap
     assert shallow["up_kind"] == "inversion" and shallow["kappa_snap_R"] is None
     assert shallow["mode_up"] == 2 and shallow["kappa_up_R"] == pytest.approx(3.5575994,
@@ -79,10 +79,10 @@ def test_phase_diagram_on_the_surface_model(shared_tmp):
     # mirror symmetry of the inverted branch (exact for the energy): up at 2 - κ_down, each
     # computed on its own with the mesh's error
     assert shallow["kappa_up_R"] == pytest.approx(2 - shallow["kappa_down_R"], rel=0.01)
-    # θ̄ = 3 > θ̄_s: the snap-through fold
+    # θ̄ = 2.5 > θ̄_s: the snap-through fold
     assert deep["up_kind"] == "snap" and deep["mode_up"] == 0
-    assert deep["kappa_snap_R"] == pytest.approx(1.7600799, rel=0.025)
-    for p, ref in ((shallow, -1.5575993), (deep, -0.6030949)):
+    assert deep["kappa_snap_R"] == pytest.approx(1.2766767, rel=0.01)
+    for p, ref in ((shallow, -1.5575993), (deep, -0.6893489)):
         assert p["mode_down"] == 2 and p["kappa_down_R"] == pytest.approx(ref, rel=0.006)
     # θ̄_s lies in the grid's bracket, which holds the paper's 2.09
     assert d["fits"]["thetabar_s"] - d["fits_error"]["thetabar_s"] <= 2.09 \

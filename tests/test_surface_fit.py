@@ -172,7 +172,8 @@ def test_a_mesh_not_of_revolution_runs_with_a_fixed_gauge(meshes):
     assert len(m.bcs) == 6
     neg, zero, pos = Stability(m).inertia(None, test=False)
     assert (neg, zero) == (0, 0)
-    st = ContinuationSettings(method="natural", ds=0.5, ds_max=0.5)
+    # the stretched cap converges from steps of 0.24 at first: a first step of 0.5 only fails
+    st = ContinuationSettings(method="natural", ds=0.25, ds_max=0.5)
     last = list(continuation(m, st, kappa_end=1.0 / sm.shape.R))[-1]
     assert last.scalars["apex_uz_over_h"] < 0
     # source: the unstretched cap's energy at κR = 1 (h/R = 0.04), 6.7612e-4 by the spectral

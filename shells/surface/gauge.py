@@ -11,13 +11,14 @@ from typing import NamedTuple
 
 import numpy as np
 
-__all__ = ["MeshGauge", "RING_CONDITIONING_MIN", "mesh_gauge", "rotation_conditioning"]
+__all__ = ["MeshGauge", "RING_CONDITIONING_MIN", "mesh_gauge", "rotation_conditioning",
+           "three_two_one_gauge"]
 
 #: the azimuthal gauge is taken where its constraints fix the rigid motions with a smallest
 #: singular value at least this fraction of the best 3-2-1 gauge's. The ring's height below A
-#: is what fixes the tilts: on caps the fraction grows with the depth (0.011 at 5°, 0.075 at
-#: 30°, 0.14 at 90°), on a flat mesh it is 0. The surfaces of revolution's gauge, the same
-#: constraints, serves caps of any depth; this bound only refuses the nearly flat.
+#: is what fixes the tilts: on caps the fraction grows with the depth, on a flat mesh it is 0
+#: (docs/kappa-fields.md). The surfaces of revolution's gauge, the same constraints, serves
+#: caps of any depth; this bound only refuses the nearly flat.
 RING_CONDITIONING_MIN = 1.0e-3
 
 
@@ -54,6 +55,31 @@ def rotation_conditioning(points: list[np.ndarray], constraints: list[tuple[int,
     return float(np.linalg.svd(np.array(rows), compute_uv=False)[-1])
 
 
+def three_two_one_gauge(x: np.ndarray) -> MeshGauge:
+    """The 3-2-1 gauge of the surface whose nodes are ``x`` (n × 3): u = 0 at the highest node
+    A, two components of u at the node B farthest from A and one at the node C farthest from
+    the line AB, the components chosen (of the 9 choices) whose ``rotation_conditioning`` is
+    largest. It fixes every rigid motion of any mesh that is not a straight line, but a state
+    symmetric about the vertical through A meets it only turned (``mesh_gauge``).
+
+    Args:
+        x: the mesh's node coordinates (every node, the same on every rank).
+
+    Returns:
+        The ``MeshGauge`` (kind "3-2-1", points A, B, C).
+    """
+    a = x[int(np.argmax(x[:, 2]))]
+    d = x - a
+    b = x[int(np.argmax(np.linalg.norm(d, axis=1)))]
+    e = (b - a) / np.linalg.norm(b - a)
+    c = x[int(np.argmax(np.linalg.norm(d - np.outer(d @ e, e), axis=1)))]
+    translation = [(0, 0), (0, 1), (0, 2)]
+    options = [translation + [(1, i) for i in range(3) if i != drop] + [(2, k)]
+               for drop in range(3) for k in range(3)]
+    best = max(options, key=lambda o: rotation_conditioning([a, b, c], o))
+    return MeshGauge("3-2-1", [a, b, c], best)
+
+
 def mesh_gauge(x: np.ndarray) -> MeshGauge:
     """The gauge of the surface whose nodes are ``x`` (n × 3).
 
@@ -69,10 +95,7 @@ def mesh_gauge(x: np.ndarray) -> MeshGauge:
     magnitude (``tests/test_surface_fit.py``).
 
     Where that gauge cannot fix the tilts (``RING_CONDITIONING_MIN``: a nearly flat mesh), the
-    3-2-1 gauge:
-    u = 0 at A, two components of u at the node B farthest from A and one at the node C
-    farthest from the line AB, the components chosen (of the 9 choices) to fix the rotations
-    best conditioned.
+    ``three_two_one_gauge``.
 
     Args:
         x: the mesh's node coordinates (every node, the same on every rank).
@@ -84,14 +107,7 @@ def mesh_gauge(x: np.ndarray) -> MeshGauge:
     d = x - a
     rho = np.hypot(d[:, 0], d[:, 1])
     ring = 0.5 * float(rho.max())
-    b = x[int(np.argmax(np.linalg.norm(d, axis=1)))]
-    e = (b - a) / np.linalg.norm(b - a)
-    c = x[int(np.argmax(np.linalg.norm(d - np.outer(d @ e, e), axis=1)))]
-    options = [[(1, i) for i in range(3) if i != drop] + [(2, k)]
-               for drop in range(3) for k in range(3)]
-    translation = [(0, 0), (0, 1), (0, 2)]
-    best = max(options, key=lambda o: rotation_conditioning([a, b, c], translation + o))
-    fallback = MeshGauge("3-2-1", [a, b, c], translation + best)
+    fallback = three_two_one_gauge(x)
     near = (rho > 0.5 * ring) & (rho < 1.5 * ring)
     ring_nodes = []
     for ax, side in ((0, 1.0), (1, 1.0), (0, -1.0)):  # azimuths 0, π/2, π
@@ -101,7 +117,8 @@ def mesh_gauge(x: np.ndarray) -> MeshGauge:
         offset = np.abs(d[:, 1 - ax]) / np.maximum(rho, 1e-300)
         score = np.where(ok, offset + 0.1 * np.abs(rho / ring - 1.0), np.inf)
         ring_nodes.append(x[int(np.argmin(score))])
-    azimuthal = MeshGauge("azimuthal", [a, *ring_nodes], translation + [(1, 1), (2, 0), (3, 1)])
+    azimuthal = MeshGauge("azimuthal", [a, *ring_nodes],
+                          [(0, 0), (0, 1), (0, 2), (1, 1), (2, 0), (3, 1)])
     if (rotation_conditioning(azimuthal.points, azimuthal.constraints)
             >= RING_CONDITIONING_MIN * rotation_conditioning(fallback.points,
                                                              fallback.constraints)):

@@ -29,8 +29,8 @@ def surface_first(theta_deg: float, direction: str) -> CriticalPoint | None:
     model = ShellModel(sm, ModelParameters(h=H, nu=0.5))
     end = END[direction] * (1 if direction == "up" else -1)
     # chord steps from the quadratic predictor, as the critical-point runs take them
-    # (docs/design-notes.md, "Chord steps"): on the 45° cap going up 4 iterations a step
-    # instead of 6, the fold the same to 3e-8
+    # (docs/design-notes.md, "Chord steps"): fewer factorisations, the located points the same
+    # to the Newton tolerance
     fast = dict(ds_unit="kappa", factor_reuse=REUSE_SURFACE, predictor="quadratic")
     if direction == "up":  # to the fold: steps grow while Newton needs up to 6 iterations
         st = ContinuationSettings(ds=0.2, ds_max=0.5, target_newton_its=6, **fast)

@@ -127,8 +127,8 @@ def test_surface_model_on_a_fitted_cap_matches_the_cap(meshes):
     meridian: P2, natural steps to κR = 1, h/R = 0.04: stretching and bending energies and Ψ3
     within 3e-3 of the built-in cap's (the meshes differ; measured 5.7e-4 for Ψ3). The gauge
     of a MeshSurface is the cap's own here (the azimuthal components about the vertical
-    through the apex), met by a translation: Newton takes the 0.5 steps in κR (a gauge met
-    only turned, such as a 3-2-1 one, needed 20 steps, Ψ3 read 0.0094 instead of 0.0174).
+    through the apex), met by a translation: Ψ3 needs no rotation fitted out, and Newton takes
+    the 0.5 steps in κR (docs/kappa-fields.md, "Rigid motions").
     (At P3 its fold, `critical` with the default settings, is κR = 1.393448 with the fitted
     R = 1.0000019, against 1.393434 for the meridian table: 1.0e-5.)"""
     from shells.algorithms.continuation import continuation
